@@ -1,0 +1,95 @@
+// Measured data: CSV files (CONTRACT section 3) read once into an immutable Dataset, and the
+// binding of a Dataset's columns to a model's inputs and outputs.
+//
+// File format
+//   - Lines starting with '#' (after optional spaces) are comments; blank lines are skipped.
+//   - The first other line is the header. The separator is ',', ';' or TAB, detected from the
+//     header (the candidate occurring most often outside double quotes; ',' when none occurs).
+//   - Fields may be wrapped in double quotes ("t","Ps"); "" inside quotes is a literal quote.
+//   - A UTF-8 byte-order mark at the start, CRLF or CR line ends, and spaces around fields are
+//     accepted. The decimal point is '.'.
+//   - The time column is the first column whose trimmed name is `t` or `time` (case-insensitive).
+//     Every row must have a finite time, strictly greater than the previous row's.
+//   - Every data row must have as many fields as the header.
+//   - A cell that is empty, `NA` or `NaN` (case-insensitive) is missing (stored as quiet NaN).
+//     Any other cell that does not parse completely as a finite number is "not a number": this is
+//     recorded (first such cell per column), not an error at read time, because extra columns
+//     (a date, a comment) are allowed and ignored; it is an error when the column is bound.
+//   - Duplicated column names are recorded; binding a duplicated name is an error.
+// Errors name the file, the 1-based line and 1-based column (field number) and what is wrong,
+// e.g. `run1.csv:14:1: time 0.25 does not increase (previous row, line 13, has 0.25)`.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/util/result.h"
+
+namespace gb::data {
+
+struct Column {
+  std::string name;               // trimmed, quotes removed
+  int field = 0;                  // 1-based field number in the file
+  std::vector<double> values;     // one per row; NaN where missing or not a number
+  // The first cell that is neither a number nor a missing marker (0 = none).
+  int bad_line = 0;
+  std::string bad_text;
+  // The first missing cell (0 = none), for messages about a missing input.
+  int first_missing_line = 0;
+  int n_missing = 0;
+};
+
+// Immutable once read.
+struct Dataset {
+  std::string source;              // the path as the user gave it (used in messages)
+  int header_line = 0;             // 1-based line of the header
+  std::string time_name;           // as written in the header
+  int time_field = 0;
+  std::vector<double> time;        // strictly increasing
+  std::vector<int> row_line;       // 1-based file line of each row
+  std::vector<Column> columns;     // every column except the time column, in file order
+
+  std::size_t rows() const { return time.size(); }
+  // Index into `columns` of the column named `name`, or -1. If the name occurs twice: -2.
+  int Find(std::string_view name) const;
+};
+
+// Reads a CSV file. `source` names it in messages (normally the path itself).
+Result<std::shared_ptr<const Dataset>> ReadCsvFile(const std::string& path);
+// Parses CSV text already in memory; `source` is used in messages.
+Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::string source);
+
+// Sample intervals grouped so each distinct interval is discretised once.
+// Intervals whose relative difference is below kIntervalRelTol belong to one group; the group's
+// value is the interval of its first member. For N rows there are N-1 intervals.
+struct Intervals {
+  static constexpr double kIntervalRelTol = 1e-10;
+  std::vector<double> distinct;    // the groups' intervals
+  std::vector<int> group;          // group of interval k (between rows k and k+1), size N-1
+};
+Intervals GroupIntervals(std::span<const double> time);
+
+// A dataset's columns bound to a model's inputs and outputs, laid out for the filter.
+// Immutable once built.
+struct Series {
+  std::string source;
+  std::vector<double> time;        // size N
+  Eigen::MatrixXd U;               // n_inputs x N, every entry finite
+  Eigen::MatrixXd Y;               // n_outputs x N, NaN = missing observation
+  Intervals intervals;
+  std::size_t size() const { return time.size(); }
+};
+
+// Binds columns by name. Errors (file:line:col): an input or output column that is absent
+// ("column 'mfi' (an input of the model) is not in the file; its columns are t, u, y") or
+// duplicated, a bound column holding a cell that is not a number, a missing input cell
+// ("input 'mfi' is missing at line 14"). Fewer than 2 rows is an error.
+Result<std::shared_ptr<const Series>> Bind(const Dataset& data, std::span<const std::string> inputs,
+                                           std::span<const std::string> outputs);
+
+}  // namespace gb::data
