@@ -1,0 +1,141 @@
+#include "core/project/project.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+namespace gb::project {
+namespace fs = std::filesystem;
+
+namespace {
+
+Error FileError(const std::string& file, std::string message, std::string path = "") {
+  Error e = InputError(std::move(message));
+  e.file = file;
+  e.path = std::move(path);
+  return e;
+}
+
+// 1-based line and column of byte offset `pos` in `text`.
+void LineCol(const std::string& text, std::size_t pos, int* line, int* col) {
+  *line = 1;
+  *col = 1;
+  for (std::size_t i = 0; i < pos && i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      ++*line;
+      *col = 1;
+    } else {
+      ++*col;
+    }
+  }
+}
+
+std::string Resolve(const std::string& base_dir, const std::string& p) {
+  fs::path path(p);
+  if (path.is_absolute() || base_dir.empty()) return path.lexically_normal().string();
+  return (fs::path(base_dir) / path).lexically_normal().string();
+}
+
+}  // namespace
+
+Result<nlohmann::json> ReadJsonFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return FileError(path, "cannot open the file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false,
+                                           /*ignore_comments=*/false);
+  if (j.is_discarded()) {
+    // Re-parse with exceptions to learn where it failed.
+    try {
+      (void)nlohmann::json::parse(text);
+    } catch (const nlohmann::json::parse_error& ex) {
+      Error e = FileError(path, "JSON syntax error");
+      LineCol(text, ex.byte > 0 ? ex.byte - 1 : 0, &e.line, &e.col);
+      std::string what = ex.what();
+      // nlohmann's message: "[json.exception.parse_error.101] parse error at line 1, column 5:
+      // syntax error while parsing value - invalid literal; last read: 'x'". Keep the tail.
+      const auto colon = what.find("syntax error");
+      e.message += colon == std::string::npos ? "" : ": " + what.substr(colon + 13);
+      return e;
+    }
+    return FileError(path, "JSON syntax error");
+  }
+  return j;
+}
+
+Result<Project> LoadProject(const std::string& path) {
+  auto json = ReadJsonFile(path);
+  if (!json) return json.error();
+  const nlohmann::json& j = *json;
+  if (!j.is_object()) return FileError(path, "a project file holds a JSON object");
+  if (!j.contains("greybench_project"))
+    return FileError(path, "not a greybench project: the key \"greybench_project\": 1 is missing");
+  if (!j["greybench_project"].is_number_integer() || j["greybench_project"].get<int>() != 1)
+    return FileError(path, "unsupported project version (this greybench reads version 1)",
+                     "greybench_project");
+
+  Project p;
+  p.path = path;
+  p.base_dir = fs::path(path).parent_path().string();
+  if (j.contains("name")) {
+    if (!j["name"].is_string()) return FileError(path, "expected a string", "name");
+    p.name = j["name"].get<std::string>();
+  }
+  if (!j.contains("model")) return FileError(path, "the project names no model", "model");
+  const auto& m = j["model"];
+  if (m.is_string()) {
+    p.model_path = Resolve(p.base_dir, m.get<std::string>());
+    auto model = ReadJsonFile(p.model_path);
+    if (!model) return model.error();
+    p.model_json = *model;
+  } else if (m.is_object()) {
+    p.model_json = m;
+  } else {
+    return FileError(path, "expected a model file name or an inline model object", "model");
+  }
+  if (j.contains("datasets")) {
+    const auto& d = j["datasets"];
+    if (!d.is_array()) return FileError(path, "expected a list of data file names", "datasets");
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      if (!d[i].is_string())
+        return FileError(path, "expected a file name (a string)", fmt::format("datasets[{}]", i));
+      p.datasets.push_back(Resolve(p.base_dir, d[i].get<std::string>()));
+    }
+  }
+  if (p.name.empty()) p.name = fs::path(path).stem().string();
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    if (it.key() != "greybench_project" && it.key() != "name" && it.key() != "model" &&
+        it.key() != "datasets")
+      p.extra[it.key()] = it.value();
+  }
+  return p;
+}
+
+Status WriteFileAtomic(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp-greybench";
+  {
+    std::FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) return FileError(path, "cannot write the file (cannot create " + tmp + ")");
+    const bool written = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+    const bool flushed = std::fflush(f) == 0;
+    const bool closed = std::fclose(f) == 0;
+    if (!written || !flushed || !closed) {
+      std::remove(tmp.c_str());
+      return FileError(path, "cannot write the file (disk full or no permission?)");
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    std::remove(tmp.c_str());
+    return FileError(path, "cannot replace the file: " + ec.message());
+  }
+  return Ok{};
+}
+
+}  // namespace gb::project

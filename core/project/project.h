@@ -1,0 +1,40 @@
+// Project files (CONTRACT section 7): a name, a model (a path or an inline model object) and
+// datasets, with paths relative to the project file.
+//
+//   {"greybench_project": 1, "name": "Fuel film f1",
+//    "model": "models/fuel_film.json" | { inline model },
+//    "datasets": ["data/f1.csv", ...],
+//    ... other keys are kept untouched in `extra` (views, layout, diagram) }
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/util/result.h"
+
+namespace gb::project {
+
+struct Project {
+  std::string path;                   // the project file as given ("" for an unsaved project)
+  std::string base_dir;               // directory that relative paths are resolved against
+  std::string name;
+  std::string model_path;             // resolved path of the model file; "" when inline
+  nlohmann::json model_json;          // the model object (read from model_path, or inline)
+  std::vector<std::string> datasets;  // resolved paths
+  nlohmann::json extra;               // every other top-level key, preserved on save
+};
+
+// Reads a project file and the model file it names (the model is only read as JSON here;
+// core/model validates it). Errors name the file and JSON path, e.g.
+// `case.json: datasets[1]: expected a file name (a string)`.
+Result<Project> LoadProject(const std::string& path);
+
+// Reads a JSON file with errors of the form `FILE:LINE:COL: JSON syntax error: ...`.
+Result<nlohmann::json> ReadJsonFile(const std::string& path);
+
+// Writes `text` to `path` atomically (a temporary file beside it, flushed, then renamed).
+Status WriteFileAtomic(const std::string& path, const std::string& text);
+
+}  // namespace gb::project
