@@ -6,12 +6,15 @@
 //   - The first other line is the header. The separator is ',', ';' or TAB, detected from the
 //     header (the candidate occurring most often outside double quotes; ',' when none occurs).
 //   - Fields may be wrapped in double quotes ("t","Ps"); "" inside quotes is a literal quote.
+//     A quoted field ends on its own line (a quote still open at the end of a line is an error).
 //   - A UTF-8 byte-order mark at the start, CRLF or CR line ends, and spaces around fields are
 //     accepted. The decimal point is '.'.
 //   - The time column is the first column whose trimmed name is `t` or `time` (case-insensitive).
 //     Every row must have a finite time, strictly greater than the previous row's.
 //   - Every data row must have as many fields as the header.
 //   - A cell that is empty, `NA` or `NaN` (case-insensitive) is missing (stored as quiet NaN).
+//     A number is a decimal such as `-1.5`, `+2`, `.5`, `1e-3`; hexadecimal, `inf` and a decimal
+//     comma are not numbers. Values too small for a double read as 0.
 //     Any other cell that does not parse completely as a finite number is "not a number": this is
 //     recorded (first such cell per column), not an error at read time, because extra columns
 //     (a date, a comment) are allowed and ignored; it is an error when the column is bound.
@@ -59,14 +62,22 @@ struct Dataset {
   int Find(std::string_view name) const;
 };
 
-// Reads a CSV file. `source` names it in messages (normally the path itself).
+// Reads a CSV file in one go; `path` names it in messages and becomes `Dataset::source`.
+// A file that cannot be read is an Error with `file` set and no line.
 Result<std::shared_ptr<const Dataset>> ReadCsvFile(const std::string& path);
 // Parses CSV text already in memory; `source` is used in messages.
 Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::string source);
 
+// Why a cell that is neither a number nor a missing marker (Column::bad_text) was refused, in
+// words: "'abc' is not a number", "'inf' is not finite",
+// "'1,5' is not a number (the decimal point must be '.')".
+std::string NotANumberReason(std::string_view text);
+
 // Sample intervals grouped so each distinct interval is discretised once.
 // Intervals whose relative difference is below kIntervalRelTol belong to one group; the group's
 // value is the interval of its first member. For N rows there are N-1 intervals.
+// Precondition: `time` strictly increasing. Cost O(N) when consecutive intervals mostly repeat,
+// O(N log G) for G groups otherwise.
 struct Intervals {
   static constexpr double kIntervalRelTol = 1e-10;
   std::vector<double> distinct;    // the groups' intervals
@@ -89,6 +100,8 @@ struct Series {
 // ("column 'mfi' (an input of the model) is not in the file; its columns are t, u, y") or
 // duplicated, a bound column holding a cell that is not a number, a missing input cell
 // ("input 'mfi' is missing at line 14"). Fewer than 2 rows is an error.
+// The column of an Error is the offending column's field number (0 for an absent column, whose
+// Error points at the header line).
 Result<std::shared_ptr<const Series>> Bind(const Dataset& data, std::span<const std::string> inputs,
                                            std::span<const std::string> outputs);
 
