@@ -56,16 +56,21 @@ ExprPtr Variable(std::string name, int column = 0);
 // "expected ')' to close '(' at column 3", "unknown function 'expp'", "'min' takes 2 arguments",
 // "unexpected character '#'", "empty expression". `file`/`path` are left empty for the caller.
 // The `sign` function is internal (it appears in derivatives of abs) and is not accepted by Parse.
+// Nesting deeper than 256 levels (parentheses, unary minus, a^b^c...) is refused.
 Result<ExprPtr> Parse(std::string_view text);
 
-// Text that parses back to an equal tree; minimal parentheses; numbers with up to 17 significant
-// digits (round-trip exact).
+// Text that parses back to an equal tree (except that a negative constant reads back as a negated
+// positive one, the same value); minimal parentheses; each number in the shortest form that reads
+// back exactly (at most 17 significant digits, integers as "2"). A non-finite constant, which only
+// a caller can construct, prints as (1/0), (-1/0) or (0/0).
 std::string ToString(const ExprPtr& e);
 
 // Constant folding and algebraic identities: 0+a=a, a*1=a, a*0=0, 0/a=0, a^1=a, a^0=1, -(-a)=a,
 // a-0=a, 0-a=-a, a/1=a, and any call or operator whose arguments are all constants. Like other
-// symbolic tools it folds a*0 to 0 (this only differs where a is infinite or NaN). It never folds a
-// division by a constant zero (c/0 is left as it is, so evaluation reports it).
+// symbolic tools it folds a*0 to 0 (this only differs where a is infinite or NaN). It folds only
+// to finite values: c/0, log(0) or an overflow are left as they are, so evaluation reports them.
+// It also writes pow(a,b) as a^b, moves a constant factor to the left (x*2 -> 2*x) and minus signs
+// outwards (a*-b -> -(a*b), a + -b -> a - b, -(2*x) -> -2*x); these never change a value.
 ExprPtr Simplify(const ExprPtr& e);
 
 // d e / d var, simplified. Rules: d(a^b) = b*a^(b-1)*a' when b does not depend on var, otherwise
@@ -82,7 +87,7 @@ void CollectNames(const ExprPtr& e, std::set<std::string>* names);
 // The first (leftmost in source order) variable node of `e` whose name is in `names`, or nullptr.
 const Node* FindFirstVariable(const ExprPtr& e, const std::set<std::string>& names);
 
-// True if e is a constant node (after Simplify a constant-valued expression is one).
+// True if e is a constant node (after Simplify a constant expression with a finite value is one).
 bool IsConstant(const ExprPtr& e, double* value = nullptr);
 
 // Evaluates directly (slow path: for tests and one-off values). `lookup(name)` gives a variable's
@@ -92,10 +97,16 @@ double EvaluateTree(const ExprPtr& e, const std::function<double(const std::stri
 // A list of expressions compiled to one flat program.
 //   Tape tape = Tape::Compile(exprs, slot_of).value();   // slot_of(name) -> slot index or -1
 //   tape.Eval(slots, out);                                // out[i] = value of exprs[i]
-// `slots` holds variable values by slot index. Compile fails (Error with expr_col = the column of
-// the variable) when slot_of returns -1 for a name used. Eval does no allocation.
+// `slots` holds variable values by slot index (at least as many as the highest slot used + 1).
+// Compile fails (Error with expr_col = the column of the variable) when slot_of returns -1 for a
+// name used. Eval does no allocation: it works on a stack array of kMaxStack values, and Compile
+// fails (Error with expr_col = the column of the operand that would overflow it) for an expression
+// that needs more (only pathological nesting does: a-(b-(c-...)) with over 255 operands).
+// Values are bit-for-bit those of EvaluateTree.
 class Tape {
  public:
+  static constexpr int kMaxStack = 256;
+
   Tape() = default;
   static Result<Tape> Compile(std::span<const ExprPtr> exprs,
                               const std::function<int(const std::string&)>& slot_of);
@@ -104,12 +115,13 @@ class Tape {
 
  private:
   struct Instr {
-    int code;     // opcode
-    int arg;      // slot index, constant index, or output index
+    int code;  // opcode
+    int arg;   // slot index, constant index, or output index
   };
   std::vector<Instr> code_;
   std::vector<double> constants_;
   std::size_t n_outputs_ = 0;
+  std::size_t n_slots_ = 0;  // highest slot used + 1
   int max_stack_ = 0;
 };
 
