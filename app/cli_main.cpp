@@ -1,7 +1,68 @@
-// greybench-cli: see CONTRACT section 4.
+// greybench-cli: the command line of CONTRACT section 4. This file only parses arguments and
+// dispatches; the commands live in app/cli/, the work in core/.
 #include <cstdio>
+#include <functional>
 
-int main() {
-  std::fprintf(stderr, "greybench-cli: error: no command yet\n");
-  return 2;
+#include <CLI/CLI.hpp>
+
+#include "app/cli/cli.h"
+
+int main(int argc, char** argv) {
+  using namespace gb::cli;
+  CLI::App app{"greybench-cli: identify continuous-time stochastic grey-box models"};
+  app.require_subcommand(1);
+  std::function<int()> run;
+
+  LoglikArgs loglik;
+  auto* c_loglik = app.add_subcommand("loglik", "log-likelihood at the model's parameter values");
+  c_loglik->add_option("model", loglik.model, "model file (JSON)")->required();
+  c_loglik->add_option("data", loglik.data, "data files (CSV); their log-likelihoods add up")
+      ->required();
+  c_loglik->add_option("--set", loglik.sets, "NAME=VALUE: override a parameter's value");
+  c_loglik->callback([&] { run = [&] { return RunLoglik(loglik); }; });
+
+  BenchArgs bench;
+  auto* c_bench = app.add_subcommand("bench", "time one log-likelihood evaluation (median)");
+  c_bench->add_option("model", bench.model, "model file (JSON)")->required();
+  c_bench->add_option("data", bench.data, "data files (CSV)")->required();
+  c_bench->add_option("--set", bench.sets, "NAME=VALUE: override a parameter's value");
+  c_bench->add_option("--repeat", bench.repeat, "timed evaluations (default 21)");
+  c_bench->callback([&] { run = [&] { return RunBench(bench); }; });
+
+  SimulateArgs simulate;
+  auto* c_sim = app.add_subcommand("simulate", "a sample path of the SDE at the input times");
+  c_sim->add_option("model", simulate.model, "model file (JSON)")->required();
+  c_sim->add_option("--inputs", simulate.inputs, "CSV with t and the model's inputs")->required();
+  c_sim->add_option("--set", simulate.sets, "NAME=VALUE: override a parameter's value");
+  c_sim->add_option("--seed", simulate.seed, "random seed (default 1)");
+  c_sim->add_option("--out", simulate.out, "output CSV")->required();
+  c_sim->callback([&] { run = [&] { return RunSimulate(simulate); }; });
+
+  PrbsArgs prbs;
+  auto* c_prbs = app.add_subcommand("prbs", "a maximal-length PRBS input signal");
+  c_prbs->add_option("--order", prbs.order, "register length n (period 2^n - 1 bits)")->required();
+  c_prbs->add_option("--period", prbs.period, "bit period T_prbs")->required();
+  c_prbs->add_option("--ts", prbs.ts, "sample time")->required();
+  c_prbs->add_option("--duration", prbs.duration, "length of the signal")->required();
+  c_prbs->add_option("--low", prbs.low, "level of a 0 bit")->required();
+  c_prbs->add_option("--high", prbs.high, "level of a 1 bit")->required();
+  c_prbs->add_option("--name", prbs.name, "column name (default u)");
+  c_prbs->add_option("--seed", prbs.seed, "initial register state (default 1)");
+  c_prbs->add_option("--out", prbs.out, "output CSV")->required();
+  c_prbs->callback([&] { run = [&] { return RunPrbs(prbs); }; });
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    std::printf("%s", app.help().c_str());
+    return 0;
+  } catch (const CLI::CallForAllHelp&) {
+    std::printf("%s", app.help("", CLI::AppFormatMode::All).c_str());
+    return 0;
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "greybench-cli: error: %s\nRun 'greybench-cli --help' for usage.\n",
+                 e.what());
+    return 2;
+  }
+  return run();
 }

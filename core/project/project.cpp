@@ -41,29 +41,24 @@ std::string Resolve(const std::string& base_dir, const std::string& p) {
 
 }  // namespace
 
-Result<nlohmann::json> ReadJsonFile(const std::string& path) {
+Result<Json> ReadJsonFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return FileError(path, "cannot open the file");
   std::stringstream buffer;
   buffer << in.rdbuf();
   const std::string text = buffer.str();
-  nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false,
-                                           /*ignore_comments=*/false);
-  if (j.is_discarded()) {
-    // Re-parse with exceptions to learn where it failed.
-    try {
-      (void)nlohmann::json::parse(text);
-    } catch (const nlohmann::json::parse_error& ex) {
-      Error e = FileError(path, "JSON syntax error");
-      LineCol(text, ex.byte > 0 ? ex.byte - 1 : 0, &e.line, &e.col);
-      std::string what = ex.what();
-      // nlohmann's message: "[json.exception.parse_error.101] parse error at line 1, column 5:
-      // syntax error while parsing value - invalid literal; last read: 'x'". Keep the tail.
-      const auto colon = what.find("syntax error");
-      e.message += colon == std::string::npos ? "" : ": " + what.substr(colon + 13);
-      return e;
-    }
-    return FileError(path, "JSON syntax error");
+  Json j;
+  try {
+    j = Json::parse(text);
+  } catch (const Json::parse_error& ex) {
+    Error e = FileError(path, "JSON syntax error");
+    LineCol(text, ex.byte > 0 ? ex.byte - 1 : 0, &e.line, &e.col);
+    // nlohmann's message: "[json.exception.parse_error.101] parse error at line 1, column 5:
+    // syntax error while parsing value - invalid literal; last read: 'x'". Keep the tail.
+    const std::string what = ex.what();
+    const auto at = what.find("syntax error while parsing ");
+    if (at != std::string::npos) e.message += ": " + what.substr(at + 27);
+    return e;
   }
   return j;
 }
@@ -71,7 +66,7 @@ Result<nlohmann::json> ReadJsonFile(const std::string& path) {
 Result<Project> LoadProject(const std::string& path) {
   auto json = ReadJsonFile(path);
   if (!json) return json.error();
-  const nlohmann::json& j = *json;
+  const Json& j = *json;
   if (!j.is_object()) return FileError(path, "a project file holds a JSON object");
   if (!j.contains("greybench_project"))
     return FileError(path, "not a greybench project: the key \"greybench_project\": 1 is missing");

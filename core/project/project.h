@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
+#include "core/util/json.h"
 
 #include "core/util/result.h"
 
@@ -21,9 +21,9 @@ struct Project {
   std::string base_dir;               // directory that relative paths are resolved against
   std::string name;
   std::string model_path;             // resolved path of the model file; "" when inline
-  nlohmann::json model_json;          // the model object (read from model_path, or inline)
+  Json model_json;          // the model object (read from model_path, or inline)
   std::vector<std::string> datasets;  // resolved paths
-  nlohmann::json extra;               // every other top-level key, preserved on save
+  Json extra;               // every other top-level key, preserved on save
 };
 
 // Reads a project file and the model file it names (the model is only read as JSON here;
@@ -32,7 +32,7 @@ struct Project {
 Result<Project> LoadProject(const std::string& path);
 
 // Reads a JSON file with errors of the form `FILE:LINE:COL: JSON syntax error: ...`.
-Result<nlohmann::json> ReadJsonFile(const std::string& path);
+Result<Json> ReadJsonFile(const std::string& path);
 
 // Writes `text` to `path` atomically (a temporary file beside it, flushed, then renamed).
 Status WriteFileAtomic(const std::string& path, const std::string& text);

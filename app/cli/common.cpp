@@ -1,0 +1,35 @@
+#include <charconv>
+#include <cstdio>
+
+#include <fmt/format.h>
+
+#include "app/cli/cli.h"
+
+namespace gb::cli {
+
+int Fail(const Error& e) {
+  std::fprintf(stderr, "greybench-cli: error: %s\n", e.ToString().c_str());
+  return e.kind == ErrorKind::kNumerical ? 1 : 2;
+}
+
+Result<model::ModelSpec> LoadModelWithOverrides(const std::string& path,
+                                                const std::vector<std::string>& sets) {
+  auto spec = model::LoadModelFile(path);
+  if (!spec) return spec.error();
+  for (const auto& s : sets) {
+    const auto eq = s.find('=');
+    if (eq == std::string::npos || eq == 0)
+      return InputError(fmt::format("--set '{}': expected NAME=VALUE", s));
+    const std::string name = s.substr(0, eq);
+    const std::string text = s.substr(eq + 1);
+    double value = 0;
+    const char* end = text.data() + text.size();
+    auto [ptr, ec] = std::from_chars(text.data(), end, value);
+    if (ec != std::errc() || ptr != end || text.empty())
+      return InputError(fmt::format("--set {}: '{}' is not a number", name, text));
+    if (auto st = model::SetParameter(&*spec, name, value); !st) return st.error();
+  }
+  return spec;
+}
+
+}  // namespace gb::cli

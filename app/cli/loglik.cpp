@@ -1,0 +1,80 @@
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+
+#include "app/cli/cli.h"
+#include "core/project/problem.h"
+#include "core/util/json.h"
+
+namespace gb::cli {
+
+int RunLoglik(const LoglikArgs& args) {
+  auto spec = LoadModelWithOverrides(args.model, args.sets);
+  if (!spec) return Fail(spec.error());
+  const std::vector<double> theta = spec->Values();
+  auto problem = project::LoadProblem(std::move(*spec), args.data);
+  if (!problem) return Fail(problem.error());
+  auto lik = project::MakeLikelihood(*problem);
+  if (!lik) return Fail(lik.error());
+
+  Json out;
+  const auto& model = lik->model().spec();
+  if (!model.HasDelayScan()) {
+    auto l = lik->Evaluate(theta);
+    if (!l) return Fail(l.error());
+    out["loglik"] = l->loglik;
+    out["n_obs"] = l->n_obs;
+  } else {
+    // At fixed θ the delay is chosen by profile likelihood over the model's ranges, every
+    // candidate scored on the same observations.
+    auto profile = lik->Profile(theta);
+    if (!profile) return Fail(profile.error());
+    if (profile->best < 0) return Fail(NumericalError(profile->candidates.front().message));
+    const auto& best = profile->candidates[profile->best];
+    out["loglik"] = best.loglik;
+    out["n_obs"] = best.n_obs;
+    Json delays = Json::object();
+    for (std::size_t o = 0; o < model.outputs.size(); ++o) {
+      Json prof = Json::array();
+      for (const auto& c : profile->candidates) {
+        Json entry = {{"delay", c.delay[o]}};
+        entry["loglik"] = c.ok ? Json(c.loglik) : Json(nullptr);
+        prof.push_back(entry);
+      }
+      delays[model.outputs[o]] = {{"estimate", best.delay[o]}, {"profile", prof}};
+    }
+    out["output_delay"] = delays;
+  }
+  std::printf("%s\n", out.dump().c_str());
+  return 0;
+}
+
+int RunBench(const BenchArgs& args) {
+  auto spec = LoadModelWithOverrides(args.model, args.sets);
+  if (!spec) return Fail(spec.error());
+  const std::vector<double> theta = spec->Values();
+  auto problem = project::LoadProblem(std::move(*spec), args.data);
+  if (!problem) return Fail(problem.error());
+  auto lik = project::MakeLikelihood(*problem);
+  if (!lik) return Fail(lik.error());
+  if (args.repeat < 1) return Fail(InputError("--repeat must be at least 1"));
+
+  std::vector<double> seconds;
+  long n_obs = 0;
+  for (int r = 0; r < args.repeat + 1; ++r) {  // the first run warms caches and is not counted
+    const auto start = std::chrono::steady_clock::now();
+    auto l = lik->Evaluate(theta);
+    const auto stop = std::chrono::steady_clock::now();
+    if (!l) return Fail(l.error());
+    n_obs = l->n_obs;
+    if (r > 0) seconds.push_back(std::chrono::duration<double>(stop - start).count());
+  }
+  std::nth_element(seconds.begin(), seconds.begin() + seconds.size() / 2, seconds.end());
+  Json out;
+  out["loglik_eval_s"] = seconds[seconds.size() / 2];
+  out["n_obs"] = n_obs;
+  std::printf("%s\n", out.dump().c_str());
+  return 0;
+}
+
+}  // namespace gb::cli

@@ -1,0 +1,116 @@
+// Log-likelihood evaluation speed (issue 2). Run:
+//   build/bench/loglik_bench --benchmark_counters_tabular=true
+// Reported: time per evaluation and ns per sample. Data are simulated from each model with
+// greybench's own exact simulator (PRBS inputs), so every benchmark is self-contained.
+#include <benchmark/benchmark.h>
+
+#include <fmt/format.h>
+
+#include "core/design/prbs.h"
+#include "core/filter/likelihood.h"
+#include "core/model/linear_model.h"
+#include "core/sim/simulate.h"
+#include "core/util/json.h"
+
+namespace {
+
+using namespace gb;
+
+// The fuel-film model of CONTRACT section 2 at the paper's point f1, fixed delay of 5 samples.
+const char* kFuelFilm = R"json({
+  "greybench_model": 1, "states": ["mfv", "mff"], "inputs": ["mfi"], "outputs": ["ilambda"],
+  "parameters": {"tau_fv": 0.075, "tau_ff": 0.375, "X": 0.175, "Kb": 0.8421,
+                 "s11": 0.1098e-2, "s12": 0.3910e-3, "s2": 1.2570e-4},
+  "drift": {"mfv": "(-mfv + (1 - X)*mfi)/tau_fv", "mff": "(-mff + X*mfi)/tau_ff"},
+  "diffusion": {"mfv": "sqrt(s11)", "mff": "sqrt(s12)"},
+  "observation": {"ilambda": "Kb*(mfv + mff)"},
+  "measurement_variance": {"ilambda": "s2"},
+  "output_delay": {"ilambda": 5}, "robust_huber": 3
+})json";
+
+// A chain of n thermal masses: T1 heated by u, each coupled to its neighbours, the last to the
+// ambient 0; the first is measured.
+std::string ChainModel(int n) {
+  Json j;
+  j["greybench_model"] = 1;
+  std::vector<std::string> states;
+  for (int i = 1; i <= n; ++i) states.push_back(fmt::format("T{}", i));
+  j["states"] = states;
+  j["inputs"] = {"u"};
+  j["outputs"] = {"y"};
+  j["parameters"] = {{"R", 0.5}, {"C", 2.0}, {"s", 0.1}, {"r", 0.01}};
+  for (int i = 1; i <= n; ++i) {
+    std::string left = i == 1 ? "u" : fmt::format("(T{} - T{})/R", i - 1, i);
+    std::string right = i == n ? fmt::format("T{}/R", i) : fmt::format("(T{} - T{})/R", i, i + 1);
+    j["drift"][states[i - 1]] = fmt::format("({} - {})/C", left, right);
+    j["diffusion"][states[i - 1]] = "s";
+  }
+  j["observation"]["y"] = "T1";
+  j["measurement_variance"]["y"] = "r";
+  return j.dump();
+}
+
+struct Fixture {
+  std::shared_ptr<const model::LinearModel> model;
+  std::shared_ptr<const data::Series> series;
+  std::vector<double> theta;
+};
+
+Fixture Make(const std::string& model_json, int n_samples, double ts, double bit_period,
+             double low, double high) {
+  auto spec = model::ParseModel(Json::parse(model_json), "bench.json");
+  auto lm = std::make_shared<const model::LinearModel>(*model::LinearModel::Compile(*spec));
+  design::PrbsOptions o;
+  o.order = 6;
+  o.bit_period = bit_period;
+  o.sample_time = ts;
+  o.duration = n_samples * ts;
+  o.low = low;
+  o.high = high;
+  auto u = *design::MakePrbs(o);
+  data::Series s;
+  s.source = "bench";
+  s.time = u.t;
+  s.U = Eigen::Map<const Eigen::MatrixXd>(u.u.data(), 1, static_cast<Eigen::Index>(u.u.size()));
+  s.Y.setZero(lm->n_outputs(), static_cast<Eigen::Index>(u.t.size()));
+  s.intervals = data::GroupIntervals(s.time);
+  const std::vector<double> theta = lm->spec().Values();
+  auto ss = *lm->Evaluate(theta);
+  auto sim = *sim::Simulate(ss, s, filter::FilterSettings::FromModel(lm->spec()), {});
+  s.Y = sim.Y;
+  return {lm, std::make_shared<const data::Series>(std::move(s)), theta};
+}
+
+void RunLoglik(benchmark::State& state, const Fixture& f) {
+  auto lik = *filter::Likelihood::Create(f.model, {f.series});
+  for (auto _ : state) {
+    auto l = lik.Evaluate(f.theta);
+    benchmark::DoNotOptimize(l);
+  }
+  const double n = static_cast<double>(f.series->size());
+  state.counters["ns_per_sample"] = benchmark::Counter(
+      n * 1e9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["samples"] = n;
+}
+
+void BM_FuelFilm2State(benchmark::State& state) {
+  static const Fixture f = Make(kFuelFilm, 200000, 0.0125, 0.5, 0.9, 1.1);
+  RunLoglik(state, f);
+}
+BENCHMARK(BM_FuelFilm2State)->Unit(benchmark::kMillisecond);
+
+void BM_Chain4State(benchmark::State& state) {
+  static const Fixture f = Make(ChainModel(4), 200000, 0.1, 2.0, -1, 1);
+  RunLoglik(state, f);
+}
+BENCHMARK(BM_Chain4State)->Unit(benchmark::kMillisecond);
+
+void BM_Chain10State(benchmark::State& state) {
+  static const Fixture f = Make(ChainModel(10), 200000, 0.1, 2.0, -1, 1);
+  RunLoglik(state, f);
+}
+BENCHMARK(BM_Chain10State)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,54 @@
+// Exact discretisation of  dx = (A x + B u(t) + c) dt + diag(σ) dω  over one sample interval Δ
+// (Δ in the data's time unit, > 0):
+//
+//   x_{k+1} = Φ x_k + Γ0 u_k + Γ1 u_{k+1} + g + v_k,     v_k ~ N(0, Q)
+//
+//   Φ  = e^{AΔ}
+//   g  = ∫_0^Δ e^{As} ds c
+//   ZOH (u held at u_k):          Γ0 = ∫_0^Δ e^{As} ds B,                 Γ1 = 0
+//   FOH (u linear from u_k to u_{k+1}):
+//                                 Γ1 = ∫_0^Δ e^{A(Δ-s)} (s/Δ) ds B,       Γ0 = ∫_0^Δ e^{As} ds B - Γ1
+//   Q  = ∫_0^Δ e^{As} σσ' e^{A's} ds                                      (Van Loan)
+//
+// Φ, Γ0, Γ1 and g come from one matrix exponential of the augmented matrix
+//   ZOH: [[A, B, c], [0, 0, 0]] Δ          FOH: [[A, B, c, 0], [0, 0, 0, I/Δ], [0, 0, 0, 0]] Δ
+// (for FOH the block of v = u_{k+1} - u_k gives Γ1; see the .cpp), by a Taylor series on a
+// short interval δ = Δ/2^s (‖M‖δ ≤ 1/4) and s squarings. The squarings also carry E = e^M - I
+// (E <- 2E + E²), so that the slow modes of a stiff model stay exact to rounding (squaring e^M
+// alone loses ~s·log10(2) digits of 1 - tiny). Q is computed by Van Loan's method on the short
+// interval and then doubled s times,
+//   Q(2δ) = Φ(δ) Q(δ) Φ(δ)' + Q(δ),   Φ(2δ) = Φ(δ)²,
+// which never forms e^{-AΔ} (it overflows for stiff A over long intervals) and only adds
+// positive semi-definite terms, so Q stays symmetric PSD to rounding for any Δ and any A
+// (stable or not, symmetric or not).
+#pragma once
+
+#include <Eigen/Core>
+
+#include "core/model/model.h"
+
+namespace gb::filter {
+
+struct Discrete {
+  Eigen::MatrixXd Phi;      // n x n
+  Eigen::MatrixXd Gamma0;   // n x m
+  Eigen::MatrixXd Gamma1;   // n x m (zero for ZOH)
+  Eigen::VectorXd g;        // n
+  Eigen::MatrixXd Q;        // n x n, symmetric
+};
+
+// `sigma2` is the diagonal of σσ' (σ_i²). Preconditions: dt > 0; sizes consistent.
+Discrete Discretize(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::VectorXd& c,
+                    const Eigen::VectorXd& sigma2, double dt, model::InputHold hold);
+
+// Q(Δ) alone (the `ctsm` initial covariance is Q over the first sample interval).
+Eigen::MatrixXd IntegratedDiffusion(const Eigen::MatrixXd& A, const Eigen::VectorXd& sigma2,
+                                    double dt);
+
+// The stationary covariance: the solution P of A P + P A' + diag(sigma2) = 0.
+// Requires every eigenvalue of A to have a negative real part; otherwise returns false and
+// writes the offending eigenvalue to *bad_eigenvalue.
+bool StationaryCovariance(const Eigen::MatrixXd& A, const Eigen::VectorXd& sigma2,
+                          Eigen::MatrixXd* P, std::complex<double>* bad_eigenvalue);
+
+}  // namespace gb::filter

@@ -1,0 +1,299 @@
+// Sections: 1. settings and P0  2. the filter loop (templated on the state dimension)
+//           3. dispatch
+#include "core/filter/kalman.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "core/filter/discretize.h"
+
+namespace gb::filter {
+namespace {
+
+constexpr double kLog2Pi = 1.8378770664093454835606594728112;  // log(2π)
+
+// Largest state dimension with a fixed-size instantiation of the loop.
+constexpr int kMaxFixedStates = 8;
+
+}  // namespace
+
+// ---- 1. settings and P0 ----------------------------------------------------------------------
+
+FilterSettings FilterSettings::FromModel(const model::ModelSpec& spec) {
+  FilterSettings s;
+  s.hold = spec.input_hold;
+  s.initial_covariance = spec.initial_covariance;
+  s.huber = spec.robust_huber;
+  for (const auto& d : spec.output_delay) s.delay.push_back(d.min);
+  return s;
+}
+
+namespace {
+
+std::vector<Discrete> DiscretizeAll(const model::StateSpace& ss, const data::Series& series,
+                                    model::InputHold hold) {
+  const Eigen::VectorXd sigma2 = ss.sigma.array().square();
+  std::vector<Discrete> out;
+  out.reserve(series.intervals.distinct.size());
+  for (double dt : series.intervals.distinct)
+    out.push_back(Discretize(ss.A, ss.B, ss.c, sigma2, dt, hold));
+  return out;
+}
+
+Result<Eigen::MatrixXd> InitialCovarianceFrom(const model::StateSpace& ss,
+                                              const data::Series& series,
+                                              const FilterSettings& settings,
+                                              const std::vector<Discrete>* disc) {
+  switch (settings.initial_covariance) {
+    case model::InitialCovariance::kCtsm: {
+      if (disc && !disc->empty()) return (*disc)[series.intervals.group[0]].Q;
+      const Eigen::VectorXd sigma2 = ss.sigma.array().square();
+      return IntegratedDiffusion(ss.A, sigma2, series.time[1] - series.time[0]);
+    }
+    case model::InitialCovariance::kStationary: {
+      Eigen::MatrixXd P;
+      std::complex<double> bad;
+      const Eigen::VectorXd sigma2 = ss.sigma.array().square();
+      if (!StationaryCovariance(ss.A, sigma2, &P, &bad))
+        return NumericalError(fmt::format(
+            "initial_covariance \"stationary\" needs a stable A, but A has the eigenvalue "
+            "{:.6g}{:+.6g}i (real part not negative); use \"ctsm\" or explicit variances",
+            bad.real(), bad.imag()));
+      return P;
+    }
+    case model::InitialCovariance::kExplicit:
+      return Eigen::MatrixXd(ss.P0_diag.asDiagonal());
+  }
+  return NumericalError("unknown initial covariance");
+}
+
+}  // namespace
+
+Result<Eigen::MatrixXd> InitialCovariance(const model::StateSpace& ss, const data::Series& series,
+                                          const FilterSettings& settings) {
+  return InitialCovarianceFrom(ss, series, settings, nullptr);
+}
+
+// ---- 2. the filter loop ----------------------------------------------------------------------
+
+namespace {
+
+struct Context {
+  const model::StateSpace& ss;
+  const data::Series& series;
+  const FilterSettings& settings;
+  const std::vector<Discrete>& disc;
+  const Eigen::MatrixXd& P0;
+  std::vector<int> delay;
+  std::vector<int> first_obs;
+  int last_j;  // last state index that some observation sees
+};
+
+template <int NX>
+struct FixedDiscrete {
+  using Mat = Eigen::Matrix<double, NX, NX>;
+  using Vec = Eigen::Matrix<double, NX, 1>;
+  using InMat = Eigen::Matrix<double, NX, Eigen::Dynamic>;
+  Mat Phi, Q;
+  InMat Gamma0, Gamma1;
+  Vec g;
+};
+
+template <int NX, bool kTrace>
+Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
+  using Mat = Eigen::Matrix<double, NX, NX>;
+  using Vec = Eigen::Matrix<double, NX, 1>;
+  using Row = Eigen::Matrix<double, 1, NX>;
+
+  const model::StateSpace& ss = ctx.ss;
+  const data::Series& series = ctx.series;
+  const int n = ss.n_states();
+  const int p = ss.n_outputs();
+  const int N = static_cast<int>(series.size());
+  const bool foh = ctx.settings.hold == model::InputHold::kFoh;
+  const bool has_inputs = ss.n_inputs() > 0;
+
+  std::vector<FixedDiscrete<NX>> disc(ctx.disc.size());
+  for (std::size_t i = 0; i < disc.size(); ++i) {
+    disc[i].Phi = ctx.disc[i].Phi;
+    disc[i].Q = ctx.disc[i].Q;
+    disc[i].Gamma0 = ctx.disc[i].Gamma0;
+    disc[i].Gamma1 = ctx.disc[i].Gamma1;
+    disc[i].g = ctx.disc[i].g;
+  }
+  // Rows of C and the output offsets, fixed-size for the inner loop.
+  std::vector<Row> C(p);
+  for (int o = 0; o < p; ++o) C[o] = ss.C.row(o);
+  const Eigen::MatrixXd& D = ss.D;
+  const bool has_D = has_inputs && D.cwiseAbs().maxCoeff() != 0.0;
+
+  Vec x = ss.x0;
+  Mat P = ctx.P0;
+  Vec PCt, x_next;
+  Mat PhiP;
+  if constexpr (NX == Eigen::Dynamic) {
+    PCt.resize(n);
+    x_next.resize(n);
+    PhiP.resize(n, n);
+  }
+
+  const double huber = ctx.settings.huber.value_or(0.0);
+  const bool robust = ctx.settings.huber.has_value();
+  double loglik = 0.0;
+  long n_obs = 0;
+  const int* group = series.intervals.group.data();
+  const double* Y = series.Y.data();
+  const double* U = series.U.data();
+  const int m = ss.n_inputs();
+
+  if constexpr (kTrace) {
+    trace->y_pred.setConstant(p, N, std::numeric_limits<double>::quiet_NaN());
+    trace->y_var.setConstant(p, N, std::numeric_limits<double>::quiet_NaN());
+    trace->x_pred.setConstant(n, N, std::numeric_limits<double>::quiet_NaN());
+    trace->x_filt.setConstant(n, N, std::numeric_limits<double>::quiet_NaN());
+    trace->P_pred.assign(N, Eigen::MatrixXd());
+    trace->P_filt.assign(N, Eigen::MatrixXd());
+  }
+
+  const int j_end = kTrace ? N - 1 : ctx.last_j;
+  for (int j = 0; j <= j_end; ++j) {
+    if constexpr (kTrace) {
+      trace->x_pred.col(j) = x;
+      trace->P_pred[j] = Eigen::Map<const Eigen::MatrixXd>(P.data(), n, n);
+      for (int o = 0; o < p; ++o) {
+        const int k = j + ctx.delay[o];
+        if (k >= N) continue;
+        double yhat = C[o].dot(x) + ss.d(o);
+        if (has_D) yhat += D.row(o).dot(series.U.col(j));
+        trace->y_pred(o, k) = yhat;
+        trace->y_var(o, k) = (C[o] * P * C[o].transpose()).value() + ss.S(o);
+      }
+    }
+    // Measurement update: the observations that see x_j, one scalar at a time.
+    double r2 = 0.0;
+    double logdet = 0.0;
+    int p_j = 0;
+    for (int o = 0; o < p; ++o) {
+      const int k = j + ctx.delay[o];
+      if (k >= N || k < ctx.first_obs[o]) continue;
+      const double y = Y[static_cast<std::size_t>(k) * p + o];
+      if (std::isnan(y)) continue;
+      double yhat = C[o].dot(x) + ss.d(o);
+      if (has_D) {
+        const double* u = U + static_cast<std::size_t>(j) * m;
+        for (int i = 0; i < m; ++i) yhat += D(o, i) * u[i];
+      }
+      PCt.noalias() = P * C[o].transpose();
+      const double R = C[o].dot(PCt) + ss.S(o);
+      if (!(R > 0.0)) {
+        return NumericalError(fmt::format(
+            "{}: the innovation variance of output {} at row {} (t = {:g}) is {:g}, not positive "
+            "(a zero measurement variance with a degenerate state covariance?)",
+            series.source, o + 1, k + 1, series.time[k], R));
+      }
+      const double eps = y - yhat;
+      logdet += std::log(R);
+      r2 += eps * eps / R;
+      ++p_j;
+      x.noalias() += PCt * (eps / R);
+      P.noalias() -= (PCt / R) * PCt.transpose();
+    }
+    if (p_j > 0) {
+      double rho = 0.5 * r2;
+      if (robust) {
+        const double r = std::sqrt(r2);
+        if (r > huber) rho = huber * r - 0.5 * huber * huber;
+      }
+      loglik -= 0.5 * (logdet + p_j * kLog2Pi) + rho;
+      n_obs += p_j;
+    }
+    if constexpr (kTrace) {
+      trace->x_filt.col(j) = x;
+      trace->P_filt[j] = Eigen::Map<const Eigen::MatrixXd>(P.data(), n, n);
+    }
+    if (j == N - 1) break;
+    // Time update to t_{j+1}.
+    const FixedDiscrete<NX>& dd = disc[group[j]];
+    x_next.noalias() = dd.Phi * x;
+    x_next += dd.g;
+    if (has_inputs) {
+      const double* u0 = U + static_cast<std::size_t>(j) * m;
+      x_next.noalias() += dd.Gamma0 * Eigen::Map<const Eigen::VectorXd>(u0, m);
+      if (foh) x_next.noalias() += dd.Gamma1 * Eigen::Map<const Eigen::VectorXd>(u0 + m, m);
+    }
+    x = x_next;
+    PhiP.noalias() = dd.Phi * P;
+    P.noalias() = PhiP * dd.Phi.transpose();
+    P += dd.Q;
+    if constexpr (NX != 1) P = 0.5 * (P + P.transpose()).eval();
+  }
+  if (!std::isfinite(loglik))
+    return NumericalError(fmt::format("{}: the log-likelihood is not finite at these parameter "
+                                      "values", series.source));
+  return Loglik{loglik, n_obs};
+}
+
+template <bool kTrace>
+Result<Loglik> Dispatch(const Context& ctx, FilterTrace* trace) {
+  switch (ctx.ss.n_states()) {
+    case 1: return FilterLoop<1, kTrace>(ctx, trace);
+    case 2: return FilterLoop<2, kTrace>(ctx, trace);
+    case 3: return FilterLoop<3, kTrace>(ctx, trace);
+    case 4: return FilterLoop<4, kTrace>(ctx, trace);
+    case 5: return FilterLoop<5, kTrace>(ctx, trace);
+    case 6: return FilterLoop<6, kTrace>(ctx, trace);
+    case 7: return FilterLoop<7, kTrace>(ctx, trace);
+    case 8: return FilterLoop<8, kTrace>(ctx, trace);
+    default: return FilterLoop<Eigen::Dynamic, kTrace>(ctx, trace);
+  }
+}
+static_assert(kMaxFixedStates == 8, "Dispatch lists the fixed sizes");
+
+// ---- 3. entry points -------------------------------------------------------------------------
+
+template <bool kTrace>
+Result<Loglik> Run(const model::StateSpace& ss, const data::Series& series,
+                   const FilterSettings& settings, FilterTrace* trace) {
+  const int p = ss.n_outputs();
+  const int N = static_cast<int>(series.size());
+  assert(series.U.rows() == ss.n_inputs() && series.Y.rows() == p && "series bound to the model");
+  if (N < 2) return InputError(fmt::format("{}: at least two rows are needed", series.source));
+
+  std::vector<int> delay = settings.delay.empty() ? std::vector<int>(p, 0) : settings.delay;
+  std::vector<int> first_obs = settings.first_obs.empty() ? delay : settings.first_obs;
+  assert(static_cast<int>(delay.size()) == p && static_cast<int>(first_obs.size()) == p);
+  int last_j = -1;
+  for (int o = 0; o < p; ++o) {
+    first_obs[o] = std::max(first_obs[o], delay[o]);
+    if (first_obs[o] < N) last_j = std::max(last_j, N - 1 - delay[o]);
+  }
+  if (last_j < 0)
+    return InputError(fmt::format("{}: the output delay ({} samples) is longer than the data "
+                                  "({} rows): no observation is left",
+                                  series.source, *std::max_element(delay.begin(), delay.end()), N));
+
+  const std::vector<Discrete> disc = DiscretizeAll(ss, series, settings.hold);
+  auto P0 = InitialCovarianceFrom(ss, series, settings, &disc);
+  if (!P0) return P0.error();
+  const Context ctx{ss, series, settings, disc, *P0, delay, first_obs, last_j};
+  return Dispatch<kTrace>(ctx, trace);
+}
+
+}  // namespace
+
+Result<Loglik> LogLikelihood(const model::StateSpace& ss, const data::Series& series,
+                             const FilterSettings& settings) {
+  return Run<false>(ss, series, settings, nullptr);
+}
+
+Result<Loglik> RunFilter(const model::StateSpace& ss, const data::Series& series,
+                         const FilterSettings& settings, FilterTrace* trace) {
+  assert(trace != nullptr);
+  return Run<true>(ss, series, settings, trace);
+}
+
+}  // namespace gb::filter

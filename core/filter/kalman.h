@@ -1,0 +1,83 @@
+// The Kalman filter and the innovations log-likelihood (CONTRACT section 1).
+//
+// For a linear model (core/model/linear_model.h) at one θ and one bound data series:
+//
+//   state index j = 0 .. N-1 (the data's rows), x_j = x(t_j)
+//   observation y_{o,k} of output o at row k sees the state delayed by d_o samples:
+//       y_{o,k} = C_o x_{k-d_o} + D_o u_{k-d_o} + d_o + e_{o,k},    e ~ N(0, S_o)
+//   so at state index j the filter is updated with every y_{o, j+d_o} that is observed, and
+//   observations with k < first_obs_o (by default d_o) are not used.
+//
+//   Filter order: prior (x0, P0) at t_0; at each j first the measurement update with the
+//   observations that see x_j, then the time update to t_{j+1} over Δ_j = t_{j+1} - t_j with the
+//   exact discretisation (core/filter/discretize.h), cached once per distinct Δ.
+//   P0: "ctsm" = Q(Δ_0); "stationary" = solution of A P + P A' + σσ' = 0; or explicit variances.
+//
+//   log L = Σ_j -½ [ log det R_j + ε_j' R_j⁻¹ ε_j + p_j log 2π ]
+//   (ε_j: innovations of the p_j outputs observed at j, R_j their covariance). With the Huber
+//   option the term ½ r_j², r_j = sqrt(ε_j' R_j⁻¹ ε_j), is replaced by ρ_c(r_j) = ½ r² (r ≤ c),
+//   c r - ½ c² (r > c); the filter's state update itself is unchanged.
+//
+// Numerics: the measurement noise is diagonal, so the vector update at j is done as p_j scalar
+// updates in sequence. That is exactly the LDL' (Cholesky) factorisation of R_j: the scalar
+// innovation variances are the pivots, log det R_j is the sum of their logs, and ε'R⁻¹ε the sum of
+// the squared scaled innovations; R_j is never inverted. Each scalar update P -= k k' / r is
+// symmetric by construction; the time update is symmetrised.
+//
+// Speed: the loop is compiled for state dimensions 1..8 with fixed-size matrices and does no
+// allocation per sample.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/data/dataset.h"
+#include "core/model/linear_model.h"
+#include "core/util/result.h"
+
+namespace gb::filter {
+
+struct FilterSettings {
+  model::InputHold hold = model::InputHold::kZoh;
+  model::InitialCovariance initial_covariance = model::InitialCovariance::kCtsm;
+  std::optional<double> huber;        // Huber threshold c, or Gaussian
+  std::vector<int> delay;             // per output, samples (empty = all 0)
+  std::vector<int> first_obs;         // per output (empty = same as delay)
+
+  // Hold, P0 and Huber from the model; each output's delay at its `min`.
+  static FilterSettings FromModel(const model::ModelSpec& spec);
+};
+
+struct Loglik {
+  double loglik = 0.0;
+  long n_obs = 0;                     // scalar observations used
+};
+
+// Everything the filter computed, for predictions, residuals and the smoother.
+// Matrices over rows: column k is row k of the data. NaN where a value does not exist.
+struct FilterTrace {
+  Eigen::MatrixXd y_pred;             // p x N: E[y_{o,k} | observations before state index k-d_o]
+  Eigen::MatrixXd y_var;              // p x N: its variance (including S_o)
+  Eigen::MatrixXd x_pred;             // n x N: E[x_j | observations at state indices < j]
+  Eigen::MatrixXd x_filt;             // n x N: E[x_j | observations at state indices <= j]
+  std::vector<Eigen::MatrixXd> P_pred;  // N of n x n
+  std::vector<Eigen::MatrixXd> P_filt;  // N of n x n
+};
+
+// The log-likelihood of one series. Errors (kNumerical): an innovation variance that is not
+// positive (names the row and output), a non-finite likelihood, "stationary" P0 with an unstable
+// A. Errors (kInput): a delay that leaves no observation in the data.
+Result<Loglik> LogLikelihood(const model::StateSpace& ss, const data::Series& series,
+                             const FilterSettings& settings);
+
+// As LogLikelihood, and fills *trace.
+Result<Loglik> RunFilter(const model::StateSpace& ss, const data::Series& series,
+                         const FilterSettings& settings, FilterTrace* trace);
+
+// The initial covariance P0 the filter starts from (for display and tests).
+Result<Eigen::MatrixXd> InitialCovariance(const model::StateSpace& ss, const data::Series& series,
+                                          const FilterSettings& settings);
+
+}  // namespace gb::filter

@@ -1,0 +1,87 @@
+#include "core/filter/likelihood.h"
+
+#include <fmt/format.h>
+
+namespace gb::filter {
+
+Result<Likelihood> Likelihood::Create(std::shared_ptr<const model::LinearModel> model,
+                                      std::vector<std::shared_ptr<const data::Series>> series) {
+  const model::ModelSpec& spec = model->spec();
+  for (const auto& s : series) {
+    for (std::size_t o = 0; o < spec.outputs.size(); ++o) {
+      const int max_delay = spec.output_delay[o].max;
+      if (max_delay >= static_cast<int>(s->size()) - 1) {
+        Error e = InputError(fmt::format(
+            "the delay {}reaches {} samples but {} has only {} rows: no observation would be left",
+            spec.output_delay[o].IsScan() ? "range " : "", max_delay, s->source, s->size()));
+        e.file = spec.source;
+        e.path = "output_delay." + spec.outputs[o];
+        return e;
+      }
+    }
+  }
+  Likelihood l;
+  l.settings_ = FilterSettings::FromModel(spec);
+  for (const auto& d : spec.output_delay) l.settings_.first_obs.push_back(d.max);
+  l.model_ = std::move(model);
+  l.series_ = std::move(series);
+  return l;
+}
+
+std::vector<std::vector<int>> Likelihood::DelayGrid() const {
+  std::vector<std::vector<int>> grid{{}};
+  for (const auto& d : model_->spec().output_delay) {
+    std::vector<std::vector<int>> next;
+    for (const auto& prefix : grid) {
+      for (int v = d.min; v <= d.max; ++v) {
+        next.push_back(prefix);
+        next.back().push_back(v);
+      }
+    }
+    grid = std::move(next);
+  }
+  return grid;
+}
+
+Result<Loglik> Likelihood::EvaluateAt(const model::StateSpace& ss, std::span<const int> delay) const {
+  FilterSettings settings = settings_;
+  if (!delay.empty()) settings.delay.assign(delay.begin(), delay.end());
+  Loglik total;
+  for (const auto& s : series_) {
+    auto l = LogLikelihood(ss, *s, settings);
+    if (!l) return l.error();
+    total.loglik += l->loglik;
+    total.n_obs += l->n_obs;
+  }
+  return total;
+}
+
+Result<Loglik> Likelihood::Evaluate(std::span<const double> theta, std::span<const int> delay) const {
+  auto ss = model_->Evaluate(theta);
+  if (!ss) return ss.error();
+  return EvaluateAt(*ss, delay);
+}
+
+Result<DelayProfile> Likelihood::Profile(std::span<const double> theta) const {
+  auto ss = model_->Evaluate(theta);
+  if (!ss) return ss.error();
+  DelayProfile profile;
+  for (const auto& delay : DelayGrid()) {
+    DelayCandidate c;
+    c.delay = delay;
+    auto l = EvaluateAt(*ss, delay);
+    if (l) {
+      c.ok = true;
+      c.loglik = l->loglik;
+      c.n_obs = l->n_obs;
+      if (profile.best < 0 || c.loglik > profile.candidates[profile.best].loglik)
+        profile.best = static_cast<int>(profile.candidates.size());
+    } else {
+      c.message = l.error().ToString();
+    }
+    profile.candidates.push_back(std::move(c));
+  }
+  return profile;
+}
+
+}  // namespace gb::filter

@@ -1,0 +1,64 @@
+// The log-likelihood of a linear model over several independent data series, with output delays
+// (CONTRACT section 1): log L(θ) = Σ_series log L_series(θ).
+//
+// Delays: each output o has a delay range [min_o, max_o] from the model (a fixed delay has
+// min_o = max_o). Every delay candidate is scored on the same observations, y_{o,k} with
+// k >= max_o, so the log-likelihoods of different candidates compare. `Evaluate` takes one
+// candidate (a delay per output); `Profile` scores every candidate of the grid (the Cartesian
+// product of the outputs' ranges) at fixed θ.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "core/data/dataset.h"
+#include "core/filter/kalman.h"
+#include "core/model/linear_model.h"
+
+namespace gb::filter {
+
+struct DelayCandidate {
+  std::vector<int> delay;  // per output
+  double loglik = 0.0;
+  long n_obs = 0;
+  bool ok = false;
+  std::string message;     // why it failed, when !ok
+};
+
+struct DelayProfile {
+  std::vector<DelayCandidate> candidates;  // in grid order
+  int best = -1;                           // index of the highest log-likelihood, -1 if none ok
+};
+
+class Likelihood {
+ public:
+  // Binds nothing itself: `series` must be bound to the model's inputs and outputs. Fails (kInput)
+  // when a delay range does not fit in a series ("output_delay.ilambda: the delay range reaches
+  // 12 samples but f1.csv has 10 rows").
+  static Result<Likelihood> Create(std::shared_ptr<const model::LinearModel> model,
+                                   std::vector<std::shared_ptr<const data::Series>> series);
+
+  // log L at θ (all parameters, natural scale) with the given delay per output (empty: each
+  // output's min).
+  Result<Loglik> Evaluate(std::span<const double> theta, std::span<const int> delay = {}) const;
+
+  // Every delay candidate at θ. The model is evaluated once.
+  Result<DelayProfile> Profile(std::span<const double> theta) const;
+
+  // The delay grid: the Cartesian product of the outputs' ranges (a single entry without scans).
+  std::vector<std::vector<int>> DelayGrid() const;
+
+  const model::LinearModel& model() const { return *model_; }
+  const std::vector<std::shared_ptr<const data::Series>>& series() const { return series_; }
+  const FilterSettings& settings() const { return settings_; }
+
+ private:
+  Result<Loglik> EvaluateAt(const model::StateSpace& ss, std::span<const int> delay) const;
+
+  std::shared_ptr<const model::LinearModel> model_;
+  std::vector<std::shared_ptr<const data::Series>> series_;
+  FilterSettings settings_;  // first_obs = each output's max delay
+};
+
+}  // namespace gb::filter

@@ -1,0 +1,168 @@
+#include "core/model/linear_model.h"
+
+#include <cmath>
+#include <set>
+
+#include <fmt/format.h>
+
+namespace gb::model {
+namespace {
+
+Error ModelError(const ModelSpec& spec, const Formula& f, std::string message, int expr_col) {
+  Error e = InputError(std::move(message));
+  e.file = spec.source;
+  e.path = f.path;
+  e.expr_col = expr_col;
+  return e;
+}
+
+// Splits an affine expression f(v) = Σ_j a_j v_j + b into coefficients a_j and constant b.
+// Refuses f when some ∂f/∂v_j still depends on a variable in `vars`.
+Status SplitAffine(const ModelSpec& spec, const Formula& f, const std::vector<std::string>& vars,
+                   const std::set<std::string>& var_set, std::vector<expr::ExprPtr>* coefficients,
+                   expr::ExprPtr* constant) {
+  coefficients->clear();
+  for (const auto& v : vars) {
+    expr::ExprPtr dv = expr::Differentiate(f.expr, v);
+    std::set<std::string> used;
+    expr::CollectNames(dv, &used);
+    for (const auto& w : var_set) {
+      if (!used.count(w)) continue;
+      const expr::Node* at = expr::FindFirstVariable(f.expr, {v});
+      const std::string how =
+          w == v ? fmt::format("it is not linear in '{}'", v)
+                 : fmt::format("it multiplies '{}' by '{}'", v, w);
+      return ModelError(spec, f,
+                        fmt::format("the model must be affine in the states and inputs, but {} "
+                                    "(nonlinear models are not supported yet)",
+                                    how),
+                        at ? at->column : 0);
+    }
+    coefficients->push_back(dv);
+  }
+  expr::ExprPtr rest = f.expr;
+  for (const auto& v : vars) rest = expr::Substitute(rest, v, expr::Constant(0.0));
+  *constant = expr::Simplify(rest);
+  return Ok{};
+}
+
+}  // namespace
+
+Result<LinearModel> LinearModel::Compile(ModelSpec spec) {
+  LinearModel lm;
+  const int n = static_cast<int>(spec.states.size());
+  const int m = static_cast<int>(spec.inputs.size());
+  const int p = static_cast<int>(spec.outputs.size());
+
+  std::vector<std::string> vars = spec.states;
+  vars.insert(vars.end(), spec.inputs.begin(), spec.inputs.end());
+  const std::set<std::string> var_set(vars.begin(), vars.end());
+
+  // Split drift and observation rows into [A B | c] and [C D | d].
+  std::vector<std::vector<expr::ExprPtr>> f_coef(n), h_coef(p);
+  std::vector<expr::ExprPtr> f_const(n), h_const(p);
+  for (int i = 0; i < n; ++i) {
+    if (auto s = SplitAffine(spec, spec.drift[i], vars, var_set, &f_coef[i], &f_const[i]); !s)
+      return s.error();
+  }
+  for (int i = 0; i < p; ++i) {
+    if (auto s = SplitAffine(spec, spec.observation[i], vars, var_set, &h_coef[i], &h_const[i]); !s)
+      return s.error();
+  }
+
+  auto add = [&](expr::ExprPtr e, std::string name) {
+    lm.entries_.push_back(std::move(e));
+    lm.entry_names_.push_back(std::move(name));
+  };
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      add(f_coef[i][j], fmt::format("A[{},{}] (from drift.{})", spec.states[i], spec.states[j],
+                                    spec.states[i]));
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j)
+      add(f_coef[i][n + j], fmt::format("B[{},{}] (from drift.{})", spec.states[i], spec.inputs[j],
+                                        spec.states[i]));
+  for (int i = 0; i < n; ++i) add(f_const[i], fmt::format("the constant term of drift.{}", spec.states[i]));
+  for (int i = 0; i < p; ++i)
+    for (int j = 0; j < n; ++j)
+      add(h_coef[i][j], fmt::format("C[{},{}] (from observation.{})", spec.outputs[i],
+                                    spec.states[j], spec.outputs[i]));
+  for (int i = 0; i < p; ++i)
+    for (int j = 0; j < m; ++j)
+      add(h_coef[i][n + j], fmt::format("D[{},{}] (from observation.{})", spec.outputs[i],
+                                        spec.inputs[j], spec.outputs[i]));
+  for (int i = 0; i < p; ++i)
+    add(h_const[i], fmt::format("the constant term of observation.{}", spec.outputs[i]));
+  for (int i = 0; i < n; ++i) add(spec.diffusion[i].expr, spec.diffusion[i].path);
+  for (int i = 0; i < p; ++i) add(spec.measurement_variance[i].expr, spec.measurement_variance[i].path);
+  for (int i = 0; i < n; ++i) add(spec.initial_state[i].expr, spec.initial_state[i].path);
+  if (spec.initial_covariance == InitialCovariance::kExplicit)
+    for (int i = 0; i < n; ++i) add(spec.initial_variance[i].expr, spec.initial_variance[i].path);
+
+  std::vector<std::string> params;
+  for (const auto& par : spec.parameters) params.push_back(par.name);
+  auto tape = expr::Tape::Compile(lm.entries_, [&](const std::string& name) {
+    for (std::size_t k = 0; k < params.size(); ++k)
+      if (params[k] == name) return static_cast<int>(k);
+    return -1;
+  });
+  if (!tape) {
+    // Cannot happen for a validated spec (only parameters remain after the split), but a
+    // message beats an assertion if it ever does.
+    Error e = tape.error();
+    e.file = spec.source;
+    return e;
+  }
+  lm.tape_ = std::move(*tape);
+  lm.spec_ = std::move(spec);
+  return lm;
+}
+
+Result<StateSpace> LinearModel::Evaluate(std::span<const double> theta) const {
+  assert(theta.size() == spec_.parameters.size() && "θ has one entry per parameter");
+  const int n = n_states(), m = n_inputs(), p = n_outputs();
+  std::vector<double> v(tape_.size());
+  tape_.Eval(theta, v);
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    if (!std::isfinite(v[k]))
+      return NumericalError(fmt::format("{} is {} at these parameter values", entry_names_[k],
+                                        std::isnan(v[k]) ? "not a number" : "infinite"));
+  }
+  StateSpace ss;
+  std::size_t k = 0;
+  auto take = [&](Eigen::MatrixXd* M, int rows, int cols) {
+    M->resize(rows, cols);
+    for (int i = 0; i < rows; ++i)
+      for (int j = 0; j < cols; ++j) (*M)(i, j) = v[k++];
+  };
+  auto take_vec = [&](Eigen::VectorXd* x, int size) {
+    x->resize(size);
+    for (int i = 0; i < size; ++i) (*x)(i) = v[k++];
+  };
+  take(&ss.A, n, n);
+  take(&ss.B, n, m);
+  take_vec(&ss.c, n);
+  take(&ss.C, p, n);
+  take(&ss.D, p, m);
+  take_vec(&ss.d, p);
+  take_vec(&ss.sigma, n);
+  const std::size_t s_offset = k;
+  take_vec(&ss.S, p);
+  take_vec(&ss.x0, n);
+  const std::size_t p0_offset = k;
+  if (spec_.initial_covariance == InitialCovariance::kExplicit) take_vec(&ss.P0_diag, n);
+  assert(k == v.size());
+  for (int i = 0; i < p; ++i) {
+    if (ss.S(i) < 0)
+      return NumericalError(fmt::format("{} = {:g} is negative at these parameter values (a "
+                                        "variance)", entry_names_[s_offset + i], ss.S(i)));
+  }
+  for (int i = 0; i < ss.P0_diag.size(); ++i) {
+    if (ss.P0_diag(i) < 0)
+      return NumericalError(fmt::format("{} = {:g} is negative at these parameter values (a "
+                                        "variance)", entry_names_[p0_offset + i], ss.P0_diag(i)));
+  }
+  return ss;
+}
+
+}  // namespace gb::model

@@ -1,0 +1,100 @@
+// Model files (CONTRACT section 2): the stochastic differential equation
+//
+//   dx = f(x, u, θ) dt + σ(θ) dω           ω: independent standard Wiener processes, one per state
+//   y_k = h(x_{k-d}, u_{k-d}, θ) + e_k      e_k ~ N(0, S(θ)), S diagonal, d = output delay (samples)
+//
+// `ModelSpec` is the file, parsed and validated: names, parameters with bounds, and every
+// expression parsed (with the JSON path it came from, so later errors can point at it).
+// Validation catches everything that can be checked without data: JSON types, unknown or
+// duplicated names, expression syntax, unknown names inside expressions (with the column),
+// inverted bounds, start values outside their bounds, bad delay ranges, bad option values.
+// Whether the model is linear is decided by LinearModel::Compile (core/model/linear_model.h).
+//
+// Errors: `Error{file, path, expr_col, message}`, e.g.
+//   fuel.json: drift.mff, column 15: unknown name 'tauff' (did you mean 'tau_ff'?)
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/util/json.h"
+
+#include "core/expr/expr.h"
+#include "core/util/result.h"
+
+namespace gb::model {
+
+struct Parameter {
+  std::string name;
+  double value = 0.0;             // start value, or the value of a fixed parameter
+  std::optional<double> lower;    // absent: unbounded below
+  std::optional<double> upper;    // absent: unbounded above
+  bool fixed = false;
+  std::string unit;
+  std::string description;
+};
+
+// An expression together with where it came from.
+struct Formula {
+  std::string text;
+  expr::ExprPtr expr;
+  std::string path;               // JSON path, e.g. "drift.mff"
+};
+
+// A fixed output delay (min == max) or a range to scan by profile likelihood.
+struct DelaySpec {
+  int min = 0;
+  int max = 0;
+  bool IsScan() const { return max > min; }
+};
+
+enum class InputHold { kZoh, kFoh };
+enum class InitialCovariance { kCtsm, kStationary, kExplicit };
+
+struct ModelSpec {
+  std::string source;             // file the model came from ("" if not from a file)
+  std::string name;
+  std::vector<std::string> states;
+  std::vector<std::string> inputs;
+  std::vector<std::string> outputs;
+  std::vector<Parameter> parameters;     // in file order; θ vectors use this order
+
+  std::vector<Formula> drift;            // one per state
+  std::vector<Formula> diffusion;        // one per state ("0" where the file gives none)
+  std::vector<Formula> observation;      // one per output
+  std::vector<Formula> measurement_variance;  // one per output
+  std::vector<Formula> initial_state;    // one per state ("0" where the file gives none)
+  InitialCovariance initial_covariance = InitialCovariance::kCtsm;
+  std::vector<Formula> initial_variance; // one per state when kExplicit (variances)
+  std::vector<DelaySpec> output_delay;   // one per output (0 where the file gives none)
+  InputHold input_hold = InputHold::kZoh;
+  std::optional<double> robust_huber;    // Huber threshold c > 0; absent: Gaussian
+
+  int ParameterIndex(const std::string& name) const;  // -1 if absent
+  int StateIndex(const std::string& name) const;
+  int InputIndex(const std::string& name) const;
+  int OutputIndex(const std::string& name) const;
+  // Start (or fixed) values of all parameters, in order.
+  std::vector<double> Values() const;
+  bool HasDelayScan() const;
+};
+
+// Parses and validates a model object. `source` names the file in errors.
+Result<ModelSpec> ParseModel(const Json& j, const std::string& source);
+// Reads and parses a model file.
+Result<ModelSpec> LoadModelFile(const std::string& path);
+// The model as a JSON object that ParseModel reads back to an equal model.
+Json ToJson(const ModelSpec& m);
+// Writes the model atomically (pretty-printed JSON).
+Status SaveModelFile(const ModelSpec& m, const std::string& path);
+
+// Applies `NAME=VALUE` overrides (the command line's --set). Errors: unknown parameter (with a
+// suggestion), a value that is not a number. A value outside the bounds is allowed for a fixed
+// parameter and refused for a free one.
+Status SetParameter(ModelSpec* m, const std::string& name, double value);
+
+// The closest name in `candidates` to `name` by edit distance, if close enough to suggest.
+std::optional<std::string> Suggest(const std::string& name, const std::vector<std::string>& candidates);
+
+}  // namespace gb::model

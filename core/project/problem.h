@@ -1,0 +1,32 @@
+// A model together with the data it is fitted to: what every command and view works on.
+// Loading binds each dataset to the model's inputs and outputs once; everything is immutable
+// afterwards and shared (the GUI's background jobs hold the same pointers as the UI).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/data/dataset.h"
+#include "core/filter/likelihood.h"
+#include "core/model/linear_model.h"
+
+namespace gb::project {
+
+struct Problem {
+  std::shared_ptr<const model::LinearModel> model;
+  std::vector<std::shared_ptr<const data::Dataset>> datasets;
+  std::vector<std::shared_ptr<const data::Series>> series;  // bound, one per dataset
+};
+
+// Compiles the model (refusing nonlinear models), reads and binds every data file.
+Result<Problem> LoadProblem(model::ModelSpec spec, const std::vector<std::string>& data_paths);
+
+// Binds already-read datasets.
+Result<Problem> MakeProblem(model::ModelSpec spec,
+                            std::vector<std::shared_ptr<const data::Dataset>> datasets);
+
+// The likelihood over all the problem's series (checks that delays fit the data).
+Result<filter::Likelihood> MakeLikelihood(const Problem& problem);
+
+}  // namespace gb::project

@@ -1,0 +1,79 @@
+#include "core/sim/simulate.h"
+
+#include <Eigen/Dense>
+
+#include "core/filter/discretize.h"
+#include "core/sim/random.h"
+
+namespace gb::sim {
+namespace {
+
+// A factor L with L L' = M for a symmetric positive semi-definite M (rank-deficient allowed).
+Eigen::MatrixXd PsdFactor(const Eigen::MatrixXd& M) {
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(M);
+  const Eigen::VectorXd root = es.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  return es.eigenvectors() * root.asDiagonal();
+}
+
+Eigen::VectorXd Draw(NormalRng& rng, const Eigen::MatrixXd& L) {
+  Eigen::VectorXd z(L.cols());
+  for (Eigen::Index i = 0; i < z.size(); ++i) z(i) = rng.Normal();
+  return L * z;
+}
+
+}  // namespace
+
+Result<Simulation> Simulate(const model::StateSpace& ss, const data::Series& series,
+                            const filter::FilterSettings& settings, const SimulateOptions& options) {
+  const int n = ss.n_states(), p = ss.n_outputs(), m = ss.n_inputs();
+  const int N = static_cast<int>(series.size());
+  NormalRng rng(options.seed);
+  const Eigen::VectorXd sigma2 = ss.sigma.array().square();
+
+  std::vector<filter::Discrete> disc;
+  std::vector<Eigen::MatrixXd> q_factor;
+  for (double dt : series.intervals.distinct) {
+    disc.push_back(filter::Discretize(ss.A, ss.B, ss.c, sigma2, dt, settings.hold));
+    q_factor.push_back(PsdFactor(disc.back().Q));
+  }
+
+  Simulation sim;
+  sim.X.resize(n, N);
+  sim.Y.setConstant(p, N, std::numeric_limits<double>::quiet_NaN());
+  Eigen::VectorXd x = ss.x0;
+  if (options.random_initial_state) {
+    auto P0 = filter::InitialCovariance(ss, series, settings);
+    if (!P0) return P0.error();
+    x += Draw(rng, PsdFactor(*P0));
+  }
+  for (int j = 0; j < N; ++j) {
+    sim.X.col(j) = x;
+    if (j + 1 < N) {
+      const int g = series.intervals.group[j];
+      const filter::Discrete& d = disc[g];
+      Eigen::VectorXd next = d.Phi * x + d.g;
+      if (m > 0) {
+        next += d.Gamma0 * series.U.col(j);
+        if (settings.hold == model::InputHold::kFoh) next += d.Gamma1 * series.U.col(j + 1);
+      }
+      if (options.process_noise) next += Draw(rng, q_factor[g]);
+      x = next;
+    }
+  }
+  // Measurement noise is drawn after the state path so that the state path of a seed does not
+  // depend on whether outputs are noisy.
+  for (int k = 0; k < N; ++k) {
+    for (int o = 0; o < p; ++o) {
+      const int delay = settings.delay.empty() ? 0 : settings.delay[o];
+      const int j = k - delay;
+      if (j < 0) continue;
+      double y = ss.C.row(o).dot(sim.X.col(j)) + ss.d(o);
+      if (m > 0) y += ss.D.row(o).dot(series.U.col(j));
+      if (options.measurement_noise) y += std::sqrt(ss.S(o)) * rng.Normal();
+      sim.Y(o, k) = y;
+    }
+  }
+  return sim;
+}
+
+}  // namespace gb::sim

@@ -1,0 +1,167 @@
+#include "core/filter/discretize.h"
+
+#include <cmath>
+#include <complex>
+
+#include <Eigen/Dense>
+#include <gtest/gtest.h>
+
+namespace gb::filter {
+namespace {
+
+using model::InputHold;
+
+// Scalar Ornstein-Uhlenbeck with input and constant: dx = (a x + b u + c) dt + σ dω.
+struct ScalarOu {
+  double a, b, c, sigma;
+};
+
+Discrete DiscretizeScalar(const ScalarOu& ou, double dt, InputHold hold) {
+  Eigen::MatrixXd A(1, 1), B(1, 1);
+  Eigen::VectorXd c(1), s2(1);
+  A << ou.a;
+  B << ou.b;
+  c << ou.c;
+  s2 << ou.sigma * ou.sigma;
+  return Discretize(A, B, c, s2, dt, hold);
+}
+
+TEST(Discretize, MatchesClosedFormForScalarOuWithZeroOrderHold) {
+  for (const ScalarOu ou : {ScalarOu{-2.0, 3.0, 0.5, 0.7}, ScalarOu{-0.01, 1.0, -1.0, 2.0},
+                            ScalarOu{0.3, -1.5, 0.0, 0.1}}) {
+    for (double dt : {1e-3, 0.0125, 0.5, 7.0}) {
+      const Discrete d = DiscretizeScalar(ou, dt, InputHold::kZoh);
+      const double e = std::exp(ou.a * dt);
+      EXPECT_NEAR(d.Phi(0, 0), e, 4e-14 * e);  // a few squarings of rounding
+      const double integral = std::expm1(ou.a * dt) / ou.a;  // ∫_0^Δ e^{as} ds
+      EXPECT_NEAR(d.Gamma0(0, 0), ou.b * integral, 1e-13 * std::abs(ou.b * integral));
+      EXPECT_EQ(d.Gamma1(0, 0), 0.0);
+      EXPECT_NEAR(d.g(0), ou.c * integral, 1e-13 * std::abs(ou.c * integral) + 1e-300);
+      const double q = ou.sigma * ou.sigma * std::expm1(2 * ou.a * dt) / (2 * ou.a);
+      EXPECT_NEAR(d.Q(0, 0), q, 1e-12 * q) << "a=" << ou.a << " dt=" << dt;
+    }
+  }
+}
+
+TEST(Discretize, MatchesClosedFormForScalarOuWithFirstOrderHold) {
+  const ScalarOu ou{-1.7, 2.5, 0.3, 0.4};
+  for (double dt : {0.01, 0.25, 3.0}) {
+    const Discrete d = DiscretizeScalar(ou, dt, InputHold::kFoh);
+    const double a = ou.a;
+    // Γ1 = b/Δ ∫_0^Δ e^{a(Δ-s)} s ds = b (e^{aΔ} - 1 - aΔ) / (a² Δ)
+    const double gamma1 = ou.b * (std::expm1(a * dt) - a * dt) / (a * a * dt);
+    const double gamma0 = ou.b * std::expm1(a * dt) / a - gamma1;
+    EXPECT_NEAR(d.Gamma1(0, 0), gamma1, 1e-12 * std::abs(gamma1));
+    EXPECT_NEAR(d.Gamma0(0, 0), gamma0, 1e-12 * std::abs(gamma0));
+    EXPECT_NEAR(d.Phi(0, 0), std::exp(a * dt), 1e-14);
+  }
+}
+
+// Fine-step RK4 integration of the mean (input ramping linearly) and of dQ/dt = AQ + QA' + G.
+struct Integrated {
+  Eigen::VectorXd x;
+  Eigen::MatrixXd Q;
+};
+
+Integrated IntegrateFine(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                         const Eigen::VectorXd& c, const Eigen::VectorXd& s2,
+                         const Eigen::VectorXd& x0, const Eigen::VectorXd& u0,
+                         const Eigen::VectorXd& u1, double dt, bool linear_input, int steps) {
+  const Eigen::MatrixXd G = s2.asDiagonal();
+  auto u_at = [&](double t) -> Eigen::VectorXd {
+    return linear_input ? Eigen::VectorXd(u0 + (u1 - u0) * (t / dt)) : u0;
+  };
+  auto fx = [&](double t, const Eigen::VectorXd& x) -> Eigen::VectorXd {
+    return A * x + B * u_at(t) + c;
+  };
+  auto fq = [&](const Eigen::MatrixXd& Q) -> Eigen::MatrixXd {
+    return A * Q + Q * A.transpose() + G;
+  };
+  Eigen::VectorXd x = x0;
+  Eigen::MatrixXd Q = Eigen::MatrixXd::Zero(A.rows(), A.rows());
+  const double h = dt / steps;
+  for (int i = 0; i < steps; ++i) {
+    const double t = i * h;
+    const Eigen::VectorXd k1 = fx(t, x), k2 = fx(t + h / 2, x + h / 2 * k1),
+                          k3 = fx(t + h / 2, x + h / 2 * k2), k4 = fx(t + h, x + h * k3);
+    x += h / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
+    const Eigen::MatrixXd q1 = fq(Q), q2 = fq(Q + h / 2 * q1), q3 = fq(Q + h / 2 * q2),
+                          q4 = fq(Q + h * q3);
+    Q += h / 6 * (q1 + 2 * q2 + 2 * q3 + q4);
+  }
+  return {x, Q};
+}
+
+TEST(Discretize, MatchesFineStepIntegrationForCoupledNonSymmetricThreeStateModel) {
+  Eigen::MatrixXd A(3, 3), B(3, 2);
+  A << -1.2, 0.8, 0.0,   //
+      -0.5, -0.3, 1.1,   //
+      0.2, -0.9, -2.0;   // non-symmetric, complex eigenvalues
+  B << 1.0, 0.0,  //
+      0.3, -0.7,  //
+      0.0, 2.0;
+  Eigen::VectorXd c(3), s2(3), x0(3), u0(2), u1(2);
+  c << 0.1, -0.2, 0.05;
+  s2 << 0.5, 0.02, 1.3;
+  x0 << 1.0, -2.0, 0.5;
+  u0 << 0.4, -1.0;
+  u1 << 1.5, 0.3;
+  for (InputHold hold : {InputHold::kZoh, InputHold::kFoh}) {
+    for (double dt : {0.05, 0.7, 2.5}) {
+      const Discrete d = Discretize(A, B, c, s2, dt, hold);
+      const bool foh = hold == InputHold::kFoh;
+      const Integrated ref = IntegrateFine(A, B, c, s2, x0, u0, u1, dt, foh, 4000);
+      const Eigen::VectorXd x = d.Phi * x0 + d.Gamma0 * u0 + d.Gamma1 * u1 + d.g;
+      EXPECT_LT((x - ref.x).cwiseAbs().maxCoeff(), 1e-10 * (1 + ref.x.norm())) << "dt=" << dt;
+      EXPECT_LT((d.Q - ref.Q).cwiseAbs().maxCoeff(), 1e-10 * (1 + ref.Q.norm())) << "dt=" << dt;
+      EXPECT_EQ((d.Q - d.Q.transpose()).cwiseAbs().maxCoeff(), 0.0);
+    }
+  }
+}
+
+TEST(Discretize, StaysAccurateForStiffModelsOverLongIntervals) {
+  // Time constants from 1e-4 to 1e4 in one model, sampled at Δ = 10: e^{-AΔ} would overflow.
+  Eigen::MatrixXd A = Eigen::Vector3d(-1e4, -1.0, -1e-4).asDiagonal();
+  Eigen::MatrixXd B = Eigen::MatrixXd::Ones(3, 1);
+  Eigen::VectorXd c = Eigen::VectorXd::Zero(3), s2(3);
+  s2 << 2.0, 0.5, 1e-3;
+  const double dt = 10.0;
+  const Discrete d = Discretize(A, B, c, s2, dt, InputHold::kZoh);
+  for (int i = 0; i < 3; ++i) {
+    const double a = A(i, i);
+    const double q = s2(i) * std::expm1(2 * a * dt) / (2 * a);
+    EXPECT_NEAR(d.Q(i, i), q, 1e-10 * q) << "state " << i;
+    EXPECT_NEAR(d.Gamma0(i, 0), std::expm1(a * dt) / a, 1e-10 * std::abs(std::expm1(a * dt) / a));
+    EXPECT_NEAR(d.Phi(i, i), std::exp(a * dt), 1e-14);
+  }
+  EXPECT_TRUE(d.Q.allFinite());
+}
+
+TEST(StationaryCovariance, SolvesTheLyapunovEquationAndEqualsTheLongIntervalLimit) {
+  Eigen::MatrixXd A(2, 2);
+  A << -1.0, 2.0,  //
+      -0.5, -0.8;
+  Eigen::VectorXd s2(2);
+  s2 << 0.3, 1.1;
+  Eigen::MatrixXd P;
+  std::complex<double> bad;
+  ASSERT_TRUE(StationaryCovariance(A, s2, &P, &bad));
+  const Eigen::MatrixXd residual = A * P + P * A.transpose() + Eigen::MatrixXd(s2.asDiagonal());
+  EXPECT_LT(residual.cwiseAbs().maxCoeff(), 1e-13);
+  const Eigen::MatrixXd Q_long = IntegratedDiffusion(A, s2, 200.0);
+  EXPECT_LT((Q_long - P).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(StationaryCovariance, RefusesAnUnstableMatrix) {
+  Eigen::MatrixXd A(2, 2);
+  A << 0.1, 1.0,  //
+      0.0, -1.0;
+  Eigen::VectorXd s2 = Eigen::VectorXd::Ones(2);
+  Eigen::MatrixXd P;
+  std::complex<double> bad;
+  EXPECT_FALSE(StationaryCovariance(A, s2, &P, &bad));
+  EXPECT_NEAR(bad.real(), 0.1, 1e-12);
+}
+
+}  // namespace
+}  // namespace gb::filter
