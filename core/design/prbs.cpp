@@ -26,8 +26,13 @@ Signal Sample(double sample_time, double duration, F level) {
   const auto n = static_cast<std::size_t>(std::ceil(duration / sample_time - 1e-9));
   s.t.reserve(n);
   s.u.reserve(n);
+  // When 1/T_s is a whole number (80 Hz), k / 80 is the double nearest to the decimal time, so
+  // files show 0.0375 rather than 3 * 0.0125 = 0.037500000000000006.
+  const double rate = 1.0 / sample_time;
+  const bool whole_rate = std::abs(rate - std::round(rate)) < 1e-9 * rate;
   for (std::size_t k = 0; k < n; ++k) {
-    const double t = static_cast<double>(k) * sample_time;
+    const double t = whole_rate ? static_cast<double>(k) / std::round(rate)
+                                : static_cast<double>(k) * sample_time;
     s.t.push_back(t);
     s.u.push_back(level(t));
   }
