@@ -103,6 +103,18 @@ struct FixedDiscrete {
   Vec g;
 };
 
+// P <- (P + P')/2 in place (no temporary: the dynamic-size loop must not allocate).
+template <class Mat>
+void Symmetrize(Mat& P) {
+  for (Eigen::Index j = 1; j < P.cols(); ++j) {
+    for (Eigen::Index i = 0; i < j; ++i) {
+      const double v = 0.5 * (P(i, j) + P(j, i));
+      P(i, j) = v;
+      P(j, i) = v;
+    }
+  }
+}
+
 template <int NX, bool kTrace>
 Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
   using Mat = Eigen::Matrix<double, NX, NX>;
@@ -200,7 +212,7 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
       r2 += eps * eps / R;
       ++p_j;
       x.noalias() += PCt * (eps / R);
-      P.noalias() -= (PCt / R) * PCt.transpose();
+      P.noalias() -= (1.0 / R) * PCt * PCt.transpose();
     }
     if (p_j > 0) {
       double rho = 0.5 * r2;
@@ -229,7 +241,7 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
     PhiP.noalias() = dd.Phi * P;
     P.noalias() = PhiP * dd.Phi.transpose();
     P += dd.Q;
-    if constexpr (NX != 1) P = 0.5 * (P + P.transpose()).eval();
+    Symmetrize(P);
   }
   if (!std::isfinite(loglik))
     return NumericalError(fmt::format("{}: the log-likelihood is not finite at these parameter "
