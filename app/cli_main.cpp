@@ -51,6 +51,25 @@ int main(int argc, char** argv) {
   c_prbs->add_option("--out", prbs.out, "output CSV")->required();
   c_prbs->callback([&] { run = [&] { return RunPrbs(prbs); }; });
 
+  EstimateArgs est;
+  auto* c_est = app.add_subcommand("estimate", "maximum-likelihood estimates with standard errors");
+  c_est->add_option("model", est.model, "model file (JSON)")->required();
+  c_est->add_option("data", est.data, "data files (CSV), fitted jointly")->required();
+  c_est->add_option("--set", est.sets, "NAME=VALUE: override a start (or fixed) value");
+  c_est->add_option("--out", est.out, "result file (JSON, CONTRACT section 5)");
+  c_est->add_option("--threads", est.threads, "threads for gradients (default: all cores)");
+  c_est->add_option("--multistart", est.multistart, "extra starts spread over the bounds");
+  c_est->add_option("--max-evaluations", est.max_evaluations, "per fit (default 20000)");
+  c_est->add_option("--algorithm", est.algorithm, "bhhh (default), slsqp, lbfgs or bobyqa");
+  c_est->add_option("--ftol", est.ftol, "relative tolerance on -log L (default 1e-12)");
+  c_est->callback([&] { run = [&] { return RunEstimate(est); }; });
+
+  CompareArgs cmp;
+  auto* c_cmp = app.add_subcommand("compare", "likelihood-ratio test of two nested fits");
+  c_cmp->add_option("result_a", cmp.a, "result file (JSON)")->required();
+  c_cmp->add_option("result_b", cmp.b, "result file (JSON)")->required();
+  c_cmp->callback([&] { run = [&] { return RunCompare(cmp); }; });
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {

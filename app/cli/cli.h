@@ -55,4 +55,23 @@ struct PrbsArgs {
 };
 int RunPrbs(const PrbsArgs& args);
 
+struct EstimateArgs {
+  std::string model;
+  std::vector<std::string> data;
+  std::vector<std::string> sets;
+  std::string out;
+  int threads = 0;
+  int multistart = 0;
+  int max_evaluations = 20000;
+  std::string algorithm = "bhhh";
+  double ftol = 1e-12;
+};
+int RunEstimate(const EstimateArgs& args);
+
+struct CompareArgs {
+  std::string a;
+  std::string b;
+};
+int RunCompare(const CompareArgs& args);
+
 }  // namespace gb::cli

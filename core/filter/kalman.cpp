@@ -83,6 +83,7 @@ Result<Eigen::MatrixXd> InitialCovariance(const model::StateSpace& ss, const dat
 namespace {
 
 struct Context {
+  std::vector<double>* terms;  // per-state-index terms, or null
   const model::StateSpace& ss;
   const data::Series& series;
   const FilterSettings& settings;
@@ -220,8 +221,10 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
         const double r = std::sqrt(r2);
         if (r > huber) rho = huber * r - 0.5 * huber * huber;
       }
-      loglik -= 0.5 * (logdet + p_j * kLog2Pi) + rho;
+      const double term = -(0.5 * (logdet + p_j * kLog2Pi) + rho);
+      loglik += term;
       n_obs += p_j;
+      if (ctx.terms) (*ctx.terms)[j] = term;
     }
     if constexpr (kTrace) {
       trace->x_filt.col(j) = x;
@@ -269,7 +272,8 @@ static_assert(kMaxFixedStates == 8, "Dispatch lists the fixed sizes");
 
 template <bool kTrace>
 Result<Loglik> Run(const model::StateSpace& ss, const data::Series& series,
-                   const FilterSettings& settings, FilterTrace* trace) {
+                   const FilterSettings& settings, FilterTrace* trace,
+                   std::vector<double>* terms) {
   const int p = ss.n_outputs();
   const int N = static_cast<int>(series.size());
   assert(series.U.rows() == ss.n_inputs() && series.Y.rows() == p && "series bound to the model");
@@ -291,21 +295,22 @@ Result<Loglik> Run(const model::StateSpace& ss, const data::Series& series,
   const std::vector<Discrete> disc = DiscretizeAll(ss, series, settings.hold);
   auto P0 = InitialCovarianceFrom(ss, series, settings, &disc);
   if (!P0) return P0.error();
-  const Context ctx{ss, series, settings, disc, *P0, delay, first_obs, last_j};
+  if (terms) terms->assign(N, 0.0);
+  const Context ctx{terms, ss, series, settings, disc, *P0, delay, first_obs, last_j};
   return Dispatch<kTrace>(ctx, trace);
 }
 
 }  // namespace
 
 Result<Loglik> LogLikelihood(const model::StateSpace& ss, const data::Series& series,
-                             const FilterSettings& settings) {
-  return Run<false>(ss, series, settings, nullptr);
+                             const FilterSettings& settings, std::vector<double>* terms) {
+  return Run<false>(ss, series, settings, nullptr, terms);
 }
 
 Result<Loglik> RunFilter(const model::StateSpace& ss, const data::Series& series,
                          const FilterSettings& settings, FilterTrace* trace) {
   assert(trace != nullptr);
-  return Run<true>(ss, series, settings, trace);
+  return Run<true>(ss, series, settings, trace, nullptr);
 }
 
 }  // namespace gb::filter

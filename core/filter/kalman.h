@@ -69,8 +69,11 @@ struct FilterTrace {
 // The log-likelihood of one series. Errors (kNumerical): an innovation variance that is not
 // positive (names the row and output), a non-finite likelihood, "stationary" P0 with an unstable
 // A. Errors (kInput): a delay that leaves no observation in the data.
+// With `terms`, also writes the log-likelihood term of every state index j (0 where nothing is
+// observed), so that terms->size() == series.size() and the terms sum to the log-likelihood: the
+// per-observation contributions whose differences are the scores (for BHHH / Fisher scoring).
 Result<Loglik> LogLikelihood(const model::StateSpace& ss, const data::Series& series,
-                             const FilterSettings& settings);
+                             const FilterSettings& settings, std::vector<double>* terms = nullptr);
 
 // As LogLikelihood, and fills *trace.
 Result<Loglik> RunFilter(const model::StateSpace& ss, const data::Series& series,

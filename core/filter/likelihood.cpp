@@ -43,23 +43,28 @@ std::vector<std::vector<int>> Likelihood::DelayGrid() const {
   return grid;
 }
 
-Result<Loglik> Likelihood::EvaluateAt(const model::StateSpace& ss, std::span<const int> delay) const {
+Result<Loglik> Likelihood::EvaluateAt(const model::StateSpace& ss, std::span<const int> delay,
+                                      std::vector<double>* terms) const {
   FilterSettings settings = settings_;
   if (!delay.empty()) settings.delay.assign(delay.begin(), delay.end());
   Loglik total;
+  std::vector<double> one;
+  if (terms) terms->clear();
   for (const auto& s : series_) {
-    auto l = LogLikelihood(ss, *s, settings);
+    auto l = LogLikelihood(ss, *s, settings, terms ? &one : nullptr);
     if (!l) return l.error();
+    if (terms) terms->insert(terms->end(), one.begin(), one.end());
     total.loglik += l->loglik;
     total.n_obs += l->n_obs;
   }
   return total;
 }
 
-Result<Loglik> Likelihood::Evaluate(std::span<const double> theta, std::span<const int> delay) const {
+Result<Loglik> Likelihood::Evaluate(std::span<const double> theta, std::span<const int> delay,
+                                    std::vector<double>* terms) const {
   auto ss = model_->Evaluate(theta);
   if (!ss) return ss.error();
-  return EvaluateAt(*ss, delay);
+  return EvaluateAt(*ss, delay, terms);
 }
 
 Result<DelayProfile> Likelihood::Profile(std::span<const double> theta) const {

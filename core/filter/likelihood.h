@@ -41,7 +41,9 @@ class Likelihood {
 
   // log L at θ (all parameters, natural scale) with the given delay per output (empty: each
   // output's min).
-  Result<Loglik> Evaluate(std::span<const double> theta, std::span<const int> delay = {}) const;
+  // With `terms`: the per-state-index terms of every series, concatenated (see LogLikelihood).
+  Result<Loglik> Evaluate(std::span<const double> theta, std::span<const int> delay = {},
+                          std::vector<double>* terms = nullptr) const;
 
   // Every delay candidate at θ. The model is evaluated once.
   Result<DelayProfile> Profile(std::span<const double> theta) const;
@@ -54,7 +56,8 @@ class Likelihood {
   const FilterSettings& settings() const { return settings_; }
 
  private:
-  Result<Loglik> EvaluateAt(const model::StateSpace& ss, std::span<const int> delay) const;
+  Result<Loglik> EvaluateAt(const model::StateSpace& ss, std::span<const int> delay,
+                            std::vector<double>* terms = nullptr) const;
 
   std::shared_ptr<const model::LinearModel> model_;
   std::vector<std::shared_ptr<const data::Series>> series_;

@@ -1,0 +1,81 @@
+#include <cstdio>
+
+#include <fmt/format.h>
+
+#include "app/cli/cli.h"
+#include "core/estimate/estimate.h"
+#include "core/project/problem.h"
+#include "core/project/project.h"
+
+namespace gb::cli {
+
+int RunEstimate(const EstimateArgs& args) {
+  auto spec = LoadModelWithOverrides(args.model, args.sets);
+  if (!spec) return Fail(spec.error());
+  auto problem = project::LoadProblem(std::move(*spec), args.data);
+  if (!problem) return Fail(problem.error());
+  auto lik = project::MakeLikelihood(*problem);
+  if (!lik) return Fail(lik.error());
+  estimate::EstimateOptions options;
+  options.threads = args.threads;
+  options.multistart = args.multistart;
+  options.max_evaluations = args.max_evaluations;
+  options.ftol_rel = args.ftol;
+  if (args.algorithm == "bhhh") options.algorithm = estimate::Algorithm::kBhhh;
+  else if (args.algorithm == "lbfgs") options.algorithm = estimate::Algorithm::kLbfgs;
+  else if (args.algorithm == "slsqp") options.algorithm = estimate::Algorithm::kSlsqp;
+  else if (args.algorithm == "bobyqa") options.algorithm = estimate::Algorithm::kBobyqa;
+  else return Fail(InputError("--algorithm: use bhhh, slsqp, lbfgs or bobyqa"));
+  auto summary = estimate::Estimate(*lik, options);
+  if (!summary) return Fail(summary.error());
+  std::printf("%s", summary->Report().c_str());
+  if (!args.out.empty()) {
+    if (auto st = project::WriteFileAtomic(args.out, summary->ToJson().dump(1) + "\n"); !st)
+      return Fail(st.error());
+  }
+  return summary->converged ? 0 : 1;
+}
+
+int RunCompare(const CompareArgs& args) {
+  struct Fit {
+    double loglik;
+    int n_free;
+  };
+  auto read = [](const std::string& path) -> Result<Fit> {
+    auto j = project::ReadJsonFile(path);
+    if (!j) return j.error();
+    auto fail = [&](const std::string& what) {
+      Error e = InputError(what);
+      e.file = path;
+      return e;
+    };
+    if (!j->is_object() || !j->contains("greybench_result"))
+      return fail("not a greybench result file (no \"greybench_result\")");
+    if (!(*j)["loglik"].is_number()) return fail("loglik: expected a number");
+    if (!(*j)["n_free"].is_number_integer()) return fail("n_free: expected a whole number");
+    return Fit{(*j)["loglik"].get<double>(), (*j)["n_free"].get<int>()};
+  };
+  auto a = read(args.a);
+  if (!a) return Fail(a.error());
+  auto b = read(args.b);
+  if (!b) return Fail(b.error());
+  if (a->n_free == b->n_free)
+    return Fail(InputError(fmt::format("{} and {} have the same number of free parameters ({}): "
+                                       "a likelihood-ratio test needs nested models",
+                                       args.a, args.b, a->n_free)));
+  const bool a_restricted = a->n_free < b->n_free;
+  const Fit& r = a_restricted ? *a : *b;
+  const Fit& f = a_restricted ? *b : *a;
+  auto test = estimate::CompareNested(r.loglik, r.n_free, f.loglik, f.n_free);
+  if (!test) return Fail(test.error());
+  std::printf("restricted: %s (log L %.6f, %d free)\nfull:       %s (log L %.6f, %d free)\n",
+              (a_restricted ? args.a : args.b).c_str(), r.loglik, r.n_free,
+              (a_restricted ? args.b : args.a).c_str(), f.loglik, f.n_free);
+  std::printf("%s", test->Report().c_str());
+  if (f.loglik < r.loglik)
+    std::printf("  note: the full model's log-likelihood is below the restricted one's: its fit "
+                "did not reach the optimum, or the models are not nested.\n");
+  return 0;
+}
+
+}  // namespace gb::cli

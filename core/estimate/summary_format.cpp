@@ -1,0 +1,171 @@
+// EstimateSummary::Report (readable, in the spirit of CTSM's summary) and ToJson (CONTRACT
+// section 5). No NaN is ever printed as a number: missing values are blank / null.
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "core/estimate/estimate.h"
+
+namespace gb::estimate {
+namespace {
+
+std::string Num(double v) { return fmt::format("{:.6g}", v); }
+
+std::string Opt(const std::optional<double>& v, const char* blank = "") {
+  return v ? Num(*v) : std::string(blank);
+}
+
+std::string PValue(double p) {
+  if (p < 2.2e-16) return "<2e-16";
+  return fmt::format("{:.3g}", p);
+}
+
+Json OptJson(const std::optional<double>& v) { return v ? Json(*v) : Json(nullptr); }
+
+}  // namespace
+
+std::string EstimateSummary::Report() const {
+  std::string r;
+  auto line = [&r](const std::string& s) { r += s + "\n"; };
+  line(fmt::format("Model: {}", model_name.empty() ? "(unnamed)" : model_name));
+  std::string data;
+  for (std::size_t i = 0; i < datasets.size(); ++i) data += (i ? ", " : "") + datasets[i];
+  line(fmt::format("Data: {} ({} observations)", data, n_obs));
+  line(fmt::format("{}: {}", converged ? "Converged" : (cancelled ? "Cancelled" : "NOT converged"),
+                   message));
+  line(fmt::format("{} iterations, {} log-likelihood evaluations, {:.2f} s", iterations,
+                   evaluations, elapsed_s));
+  line("");
+  line(fmt::format("Log-likelihood: {:.6f}   AIC: {:.3f}   BIC: {:.3f}   free parameters: {}",
+                   loglik, aic, bic, n_free));
+  for (const auto& d : delays) {
+    if (!d.scanned && d.estimate == 0) continue;
+    line(fmt::format("Output delay of {}: {} samples{}", d.output, d.estimate,
+                     d.scanned ? " (estimated by profile likelihood)" : " (fixed)"));
+  }
+  line("");
+  // Coefficient table.
+  std::size_t w = 9;
+  for (const auto& p : parameters) w = std::max(w, p.name.size() + 1);
+  line(fmt::format("{:<{}} {:>13} {:>12} {:>10} {:>10}   {}", "", w, "Estimate", "Std. Error",
+                   "t value", "Pr(>|t|)", "bounds"));
+  for (const auto& p : parameters) {
+    std::string bounds = p.fixed ? "fixed"
+                                 : fmt::format("[{}, {}]", p.lower ? Num(*p.lower) : "-inf",
+                                               p.upper ? Num(*p.upper) : "inf");
+    if (p.at_bound) bounds += "  AT BOUND";
+    std::string se = p.fixed ? "" : Opt(p.std_error, "-");
+    line(fmt::format("{:<{}} {:>13} {:>12} {:>10} {:>10}   {}", p.name, w, Num(p.estimate), se,
+                     p.t_value ? fmt::format("{:.3g}", *p.t_value) : "",
+                     p.p_value ? PValue(*p.p_value) : "", bounds));
+  }
+  line("p-values: two-sided, Student's t with n_obs - n_free degrees of freedom.");
+  // Delay profile.
+  for (const auto& d : delays) {
+    if (!d.scanned) continue;
+    line("");
+    line(fmt::format("Profile log-likelihood of the {} delay (\">\": fit stopped early, a lower "
+                     "bound):", d.output));
+    double best = -INFINITY;
+    for (const auto& pt : d.profile)
+      if (pt.loglik) best = std::max(best, *pt.loglik);
+    for (const auto& pt : d.profile) {
+      if (!pt.loglik) {
+        line(fmt::format("  {:>4}  (failed)", pt.delay));
+        continue;
+      }
+      line(fmt::format("  {:>4}  {}{:>15.4f}  {:>12.4f}{}", pt.delay, pt.converged ? " " : ">",
+                       *pt.loglik, *pt.loglik - best,
+                       pt.delay == d.estimate ? "  <- estimate" : ""));
+    }
+  }
+  if (!correlation_names.empty() && correlation_names.size() <= 12) {
+    line("");
+    line("Correlation of the estimates:");
+    std::string head = fmt::format("{:<{}}", "", w);
+    for (const auto& n : correlation_names) head += fmt::format(" {:>7.7}", n);
+    line(head);
+    for (std::size_t a = 0; a < correlation_names.size(); ++a) {
+      std::string row = fmt::format("{:<{}}", correlation_names[a], w);
+      for (std::size_t b = 0; b <= a; ++b)
+        row += fmt::format(" {:>7.3f}", correlation(static_cast<Eigen::Index>(a),
+                                                   static_cast<Eigen::Index>(b)));
+      line(row);
+    }
+  }
+  if (!warnings.empty()) {
+    line("");
+    line("Warnings:");
+    for (const auto& w_text : warnings) line("  - " + w_text);
+  }
+  return r;
+}
+
+Json EstimateSummary::ToJson() const {
+  Json j;
+  j["greybench_result"] = 1;
+  j["model"] = model_name;
+  j["datasets"] = datasets;
+  j["converged"] = converged;
+  j["message"] = message;
+  j["loglik"] = loglik;
+  j["n_obs"] = n_obs;
+  j["n_free"] = n_free;
+  j["aic"] = aic;
+  j["bic"] = bic;
+  j["iterations"] = iterations;
+  j["evaluations"] = evaluations;
+  j["elapsed_s"] = elapsed_s;
+  Json params = Json::object();
+  for (const auto& p : parameters) {
+    Json e;
+    e["estimate"] = p.estimate;
+    e["std_error"] = OptJson(p.std_error);
+    e["t_value"] = OptJson(p.t_value);
+    e["p_value"] = OptJson(p.p_value);
+    e["lower"] = OptJson(p.lower);
+    e["upper"] = OptJson(p.upper);
+    e["fixed"] = p.fixed;
+    e["at_bound"] = p.at_bound;
+    if (!p.unit.empty()) e["unit"] = p.unit;
+    params[p.name] = e;
+  }
+  j["parameters"] = params;
+  Json matrix = Json::array();
+  for (Eigen::Index a = 0; a < correlation.rows(); ++a) {
+    Json row = Json::array();
+    for (Eigen::Index b = 0; b < correlation.cols(); ++b) row.push_back(correlation(a, b));
+    matrix.push_back(row);
+  }
+  j["correlation"] = {{"names", correlation_names}, {"matrix", matrix}};
+  Json delays_json = Json::object();
+  for (const auto& d : delays) {
+    Json e;
+    e["estimate"] = d.estimate;
+    e["scanned"] = d.scanned;
+    Json prof = Json::array();
+    for (const auto& pt : d.profile)
+      prof.push_back({{"delay", pt.delay}, {"loglik", OptJson(pt.loglik)}, {"converged", pt.converged}});
+    e["profile"] = prof;
+    delays_json[d.output] = e;
+  }
+  j["output_delay"] = delays_json;
+  j["warnings"] = warnings;
+  return j;
+}
+
+std::string LikelihoodRatioTest::Report() const {
+  return fmt::format(
+      "Likelihood-ratio test of the restricted model against the full one:\n"
+      "  statistic 2 (log L_full - log L_restricted) = {:.4f}\n"
+      "  degrees of freedom = {}\n"
+      "  p-value P(chi2_{} > statistic) = {}\n"
+      "  {}\n",
+      statistic, df, df, PValue(p_value),
+      p_value < 0.05 ? "The full model fits significantly better (5 % level): keep the extra "
+                       "parameters."
+                     : "The full model is not significantly better (5 % level): the restricted "
+                       "model suffices.");
+}
+
+}  // namespace gb::estimate
