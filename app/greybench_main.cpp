@@ -1,0 +1,231 @@
+// greybench: the workbench in a GLFW window (CONTRACT section 6).
+//   greybench [PROJECT.json] [--width W --height H] [--screenshot OUT.png [--frames N]]
+// Without a project it opens the bundled case study. --screenshot draws N frames once the
+// project has loaded, writes the window's pixels to OUT.png and exits (for scripts under Xvfb).
+#include <GLFW/glfw3.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <imgui.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ui/app_state.h"
+#include "ui/render/png.h"
+#include "ui/theme.h"
+#include "ui/workbench.h"
+
+#ifndef GREYBENCH_ASSETS_DIR
+#error "GREYBENCH_ASSETS_DIR must name the assets directory (app/CMakeLists.txt sets it)"
+#endif
+
+namespace {
+
+constexpr int kExitBadInput = 2;
+constexpr int kExitFailed = 1;
+constexpr int kDefaultWidth = 1440;
+constexpr int kDefaultHeight = 900;
+// Idle: wait this long for input before drawing again; after input, draw this many frames
+// without waiting so ImGui settles (popups opening, hover states).
+constexpr double kIdleWaitSeconds = 0.5;
+constexpr int kFramesAfterInput = 3;
+
+struct Options {
+  std::string project;
+  std::string screenshot;
+  int frames = 3;
+  int width = kDefaultWidth;
+  int height = kDefaultHeight;
+};
+
+constexpr const char* kUsage =
+    "usage: greybench [PROJECT.json] [--width W --height H] [--screenshot OUT.png [--frames N]]\n";
+
+int Fail(int status, const std::string& message) {
+  std::fprintf(stderr, "greybench: error: %s\n", message.c_str());
+  return status;
+}
+
+bool ParseInt(const char* text, int lo, int hi, int* out) {
+  char* end = nullptr;
+  const long v = std::strtol(text, &end, 10);
+  if (*text == '\0' || *end != '\0' || v < lo || v > hi) return false;
+  *out = static_cast<int>(v);
+  return true;
+}
+
+// Returns an error message, or "" when the command line is good.
+std::string ParseArgs(int argc, char** argv, Options* o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    if (arg == "--help" || arg == "-h") return "help";
+    if (arg.substr(0, 2) != "--") {
+      if (!o->project.empty()) return "more than one project given";
+      o->project = argv[i];
+      continue;
+    }
+    if (i + 1 >= argc) return std::string(arg) + " needs a value";
+    const char* value = argv[++i];
+    if (arg == "--screenshot") {
+      o->screenshot = value;
+    } else if (arg == "--frames") {
+      if (!ParseInt(value, 1, 100000, &o->frames)) return "--frames: expected a count >= 1";
+    } else if (arg == "--width") {
+      if (!ParseInt(value, 64, 16384, &o->width)) return "--width: expected pixels";
+    } else if (arg == "--height") {
+      if (!ParseInt(value, 64, 16384, &o->height)) return "--height: expected pixels";
+    } else {
+      return "unknown option '" + std::string(arg) + "'";
+    }
+  }
+  return "";
+}
+
+void GlfwError(int code, const char* description) {
+  std::fprintf(stderr, "greybench: GLFW error %d: %s\n", code, description);
+}
+
+// An OpenGL 3.3 core context (GLSL 330); failing that, whatever the driver gives (GLSL 130).
+GLFWwindow* OpenWindow(const Options& o, const char** glsl_version) {
+  glfwWindowHint(GLFW_SCALE_TO_MONITOR, GLFW_TRUE);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+  glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+  *glsl_version = "#version 330 core";
+  if (GLFWwindow* w = glfwCreateWindow(o.width, o.height, "greybench", nullptr, nullptr)) return w;
+  glfwDefaultWindowHints();
+  glfwWindowHint(GLFW_SCALE_TO_MONITOR, GLFW_TRUE);
+  *glsl_version = "#version 130";
+  return glfwCreateWindow(o.width, o.height, "greybench", nullptr, nullptr);
+}
+
+bool WriteScreenshot(GLFWwindow* window, const std::string& path) {
+  int w = 0, h = 0;
+  glfwGetFramebufferSize(window, &w, &h);
+  std::vector<unsigned char> pixels(static_cast<std::size_t>(w) * h * 4);
+  glReadBuffer(GL_BACK);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
+  std::string error;
+  if (!gb::ui::WritePngFromGl(path, w, h, pixels.data(), &error)) {
+    std::fprintf(stderr, "greybench: error: %s\n", error.c_str());
+    return false;
+  }
+  return true;
+}
+
+std::string WindowTitle(const gb::ui::AppState& state) {
+  if (!state.project) return "greybench";
+  const gb::project::Project& p = *state.project;
+  return "greybench \xE2\x80\x94 " +
+         (p.name.empty() ? std::filesystem::path(p.path).filename().string() : p.name);
+}
+
+int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
+  namespace ui = gb::ui;
+  float xscale = 1.0f, yscale = 1.0f;
+  glfwGetWindowContentScale(window, &xscale, &yscale);
+  const float scale = std::clamp(std::max(xscale, yscale), 1.0f, 4.0f);
+
+  ui::AppState state;
+  ui::SetUpWorkbench(state, scale);
+  ImGui_ImplGlfw_InitForOpenGL(window, true);
+  ImGui_ImplOpenGL3_Init(glsl_version);
+
+  if (!options.project.empty()) {
+    ui::OpenProject(state, options.project);
+  } else {
+    const std::string bundled = GREYBENCH_ASSETS_DIR "/projects/case_study.json";
+    if (std::filesystem::exists(bundled)) {
+      ui::OpenProject(state, bundled);
+    } else {
+      state.start_note = "The bundled case study (" + bundled + ") is not there yet.";
+      ui::AddMessage(state, ui::Severity::kInfo, state.start_note);
+    }
+  }
+
+  int status = 0;
+  int frames_drawn_loaded = 0;  // frames drawn with no job under way (for --screenshot)
+  int busy_frames = kFramesAfterInput;
+  std::string title;
+  while (!glfwWindowShouldClose(window) && !state.quit_requested) {
+    const bool busy = busy_frames > 0 || state.load_job.active() || !options.screenshot.empty() ||
+                      ImGui::IsAnyMouseDown();
+    if (busy) {
+      glfwPollEvents();
+      busy_frames = std::max(0, busy_frames - 1);
+    } else {
+      const double t0 = glfwGetTime();
+      glfwWaitEventsTimeout(kIdleWaitSeconds);
+      if (glfwGetTime() - t0 < 0.9 * kIdleWaitSeconds) busy_frames = kFramesAfterInput;
+    }
+
+    ImGui_ImplOpenGL3_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    ui::DrawWorkbench(state);
+    ImGui::Render();
+
+    if (const std::string t = WindowTitle(state); t != title) {
+      title = t;
+      glfwSetWindowTitle(window, title.c_str());
+    }
+    int fb_w = 0, fb_h = 0;
+    glfwGetFramebufferSize(window, &fb_w, &fb_h);
+    glViewport(0, 0, fb_w, fb_h);
+    const ImVec4 bg = ImGui::GetStyle().Colors[ImGuiCol_WindowBg];
+    glClearColor(bg.x, bg.y, bg.z, 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT);
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+
+    if (!options.screenshot.empty() && !state.load_job.active() &&
+        ++frames_drawn_loaded >= options.frames) {
+      status = WriteScreenshot(window, options.screenshot) ? 0 : kExitFailed;
+      break;
+    }
+    glfwSwapBuffers(window);
+  }
+
+  ImGui_ImplOpenGL3_Shutdown();
+  ImGui_ImplGlfw_Shutdown();
+  return status;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  const std::string arg_error = ParseArgs(argc, argv, &options);
+  if (arg_error == "help") {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  if (!arg_error.empty()) {
+    std::fputs(kUsage, stderr);
+    return Fail(kExitBadInput, arg_error);
+  }
+
+  glfwSetErrorCallback(GlfwError);
+  if (!glfwInit()) return Fail(kExitFailed, "cannot initialise GLFW (is there a display?)");
+  const char* glsl_version = nullptr;
+  GLFWwindow* window = OpenWindow(options, &glsl_version);
+  if (!window) {
+    glfwTerminate();
+    return Fail(kExitFailed, "cannot create a window with an OpenGL 3 context");
+  }
+  glfwMakeContextCurrent(window);
+  glfwSwapInterval(1);
+
+  ImGui::CreateContext();
+  const int status = Run(window, glsl_version, options);
+  ImGui::DestroyContext();
+  glfwDestroyWindow(window);
+  glfwTerminate();
+  return status;
+}

@@ -1,0 +1,172 @@
+// greybench-snapshot: renders one view of the workbench offscreen (OSMesa) to a PNG.
+// CONTRACT section 6:
+//   greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png [--width W --height H]
+//                      [--estimate]
+// Exit status: 0 written; 2 bad command line or bad input (stderr names the file); 1 the
+// rendering or the PNG writing failed.
+//
+// Deterministic: a fixed frame time, no mouse, no clock-dependent content, the fonts of
+// SetUpWorkbench(), and a software rasteriser, so the same inputs give the same PNG bytes.
+#include <GL/osmesa.h>
+#include <imgui.h>
+
+#include <cfloat>
+#include <cstdio>
+#include <cstdlib>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ui/app_state.h"
+#include "ui/render/fixed_gl_renderer.h"
+#include "ui/render/png.h"
+#include "ui/theme.h"
+#include "ui/workbench.h"
+
+namespace {
+
+constexpr int kExitBadInput = 2;
+constexpr int kExitRenderFailed = 1;
+// Frames drawn before the one written: windows size themselves in the first frames and linked
+// plots agree on their range and left margin one frame after they first meet.
+constexpr int kSettleFrames = 4;
+constexpr float kFrameTime = 1.0f / 60.0f;
+constexpr int kMinSize = 64;
+constexpr int kMaxSize = 8192;
+
+struct Options {
+  std::string project;
+  std::string view = "data";
+  std::string out;
+  int width = 1280;
+  int height = 800;
+  bool estimate = false;
+};
+
+constexpr const char* kUsage =
+    "usage: greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png\n"
+    "                          [--width W] [--height H] [--estimate]\n"
+    "VIEW: data diagram equations estimate predictions residuals parameters operating-points\n";
+
+int Fail(int status, const std::string& message) {
+  std::fprintf(stderr, "greybench-snapshot: error: %s\n", message.c_str());
+  return status;
+}
+
+std::optional<int> ParseSize(const std::string& text) {
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || v < kMinSize || v > kMaxSize) return std::nullopt;
+  return static_cast<int>(v);
+}
+
+// Returns an error message, or "" when the command line is good.
+std::string ParseArgs(int argc, char** argv, Options* o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    if (arg == "--estimate") {
+      o->estimate = true;
+      continue;
+    }
+    if (arg == "--help" || arg == "-h") return "help";
+    const bool takes_value = arg == "--project" || arg == "--view" || arg == "--out" ||
+                             arg == "--width" || arg == "--height";
+    if (!takes_value) return "unknown option '" + std::string(arg) + "'";
+    if (i + 1 >= argc) return std::string(arg) + " needs a value";
+    const std::string value = argv[++i];
+    if (arg == "--project") {
+      o->project = value;
+    } else if (arg == "--view") {
+      o->view = value;
+    } else if (arg == "--out") {
+      o->out = value;
+    } else {
+      const std::optional<int> size = ParseSize(value);
+      if (!size) {
+        return std::string(arg) + " '" + value + "': expected a whole number of pixels in [" +
+               std::to_string(kMinSize) + ", " + std::to_string(kMaxSize) + "]";
+      }
+      (arg == "--width" ? o->width : o->height) = *size;
+    }
+  }
+  if (o->project.empty()) return "--project is required";
+  if (o->out.empty()) return "--out is required";
+  return "";
+}
+
+// Draws the workbench offscreen and writes the PNG. The GL context is current.
+int Render(const Options& options, gb::ui::View view, std::vector<unsigned char>* pixels) {
+  namespace ui = gb::ui;
+  ui::AppState state;
+  ui::SetUpWorkbench(state, 1.0f);
+  ui::FixedGlRenderer renderer;
+  renderer.Init();
+
+  state.view = view;
+  ui::OpenProject(state, options.project);
+  ui::WaitForJobs(state);
+  if (!state.project) return Fail(kExitBadInput, state.open_error);
+  for (const ui::LoadedDataset& d : state.datasets) {
+    if (!d.data) return Fail(kExitBadInput, d.error);
+  }
+
+  ImGuiIO& io = ImGui::GetIO();
+  io.DisplaySize = ImVec2(static_cast<float>(options.width), static_cast<float>(options.height));
+  io.DisplayFramebufferScale = ImVec2(1.0f, 1.0f);
+  io.DeltaTime = kFrameTime;
+  for (int frame = 0; frame < kSettleFrames; ++frame) {
+    io.MousePos = ImVec2(-FLT_MAX, -FLT_MAX);
+    ImGui::NewFrame();
+    ui::DrawWorkbench(state);
+    ImGui::Render();
+  }
+  const ImVec4 bg = ImGui::GetStyle().Colors[ImGuiCol_WindowBg];
+  glClearColor(bg.x, bg.y, bg.z, 1.0f);
+  glClear(GL_COLOR_BUFFER_BIT);
+  renderer.Render(ImGui::GetDrawData());
+  glFinish();
+
+  std::string error;
+  if (!ui::WritePngFromGl(options.out, options.width, options.height, pixels->data(), &error)) {
+    return Fail(kExitRenderFailed, error);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  const std::string arg_error = ParseArgs(argc, argv, &options);
+  if (arg_error == "help") {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  if (!arg_error.empty()) {
+    std::fputs(kUsage, stderr);
+    return Fail(kExitBadInput, arg_error);
+  }
+  if (options.estimate) {
+    return Fail(kExitBadInput, "--estimate needs the estimator (not built yet)");
+  }
+  const std::optional<gb::ui::View> view = gb::ui::ParseView(options.view);
+  if (!view) {
+    std::fputs(kUsage, stderr);
+    return Fail(kExitBadInput, "unknown view '" + options.view + "'");
+  }
+
+  OSMesaContext gl = OSMesaCreateContextExt(OSMESA_RGBA, 24, 8, 0, nullptr);
+  if (!gl) return Fail(kExitRenderFailed, "cannot create an OSMesa context");
+  std::vector<unsigned char> pixels(static_cast<std::size_t>(options.width) * options.height * 4);
+  if (!OSMesaMakeCurrent(gl, pixels.data(), GL_UNSIGNED_BYTE, options.width, options.height)) {
+    OSMesaDestroyContext(gl);
+    return Fail(kExitRenderFailed, "cannot make the OSMesa context current");
+  }
+
+  ImGui::CreateContext();
+  const int status = Render(options, *view, &pixels);
+  ImGui::DestroyContext();
+  OSMesaDestroyContext(gl);
+  return status;
+}

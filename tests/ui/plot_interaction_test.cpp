@@ -1,0 +1,192 @@
+// The plot widget driven by synthetic mouse input in a headless ImGui context (no GL): each
+// expectation is the range computed by hand from the plot's pixel rectangle.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "ui/widgets/plot.h"
+
+namespace gb::ui::plot {
+namespace {
+
+constexpr float kWidth = 800.0f;
+constexpr float kHeight = 600.0f;
+
+class PlotInteraction : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    context_ = ImGui::CreateContext();
+    ImGuiIO& io = ImGui::GetIO();
+    io.IniFilename = nullptr;
+    io.DisplaySize = ImVec2(kWidth, kHeight);
+    io.DeltaTime = 1.0f / 60.0f;
+    unsigned char* pixels = nullptr;
+    int w = 0, h = 0;
+    io.Fonts->GetTexDataAsRGBA32(&pixels, &w, &h);
+    for (int i = 0; i <= 100; ++i) {
+      x_.push_back(0.1 * i);  // 0 .. 10
+      y_.push_back(std::sin(0.1 * i));
+      y2_.push_back(5.0 + 0.01 * i);      // 5 .. 6, far above y_
+      x_late_.push_back(5.0 + 0.15 * i);  // 5 .. 20
+    }
+  }
+  void TearDown() override { ImGui::DestroyContext(context_); }
+
+  // One frame: two stacked plots sharing `linked_`; the first has two items (and a legend).
+  void Frame() {
+    ImGui::NewFrame();
+    ImGui::SetNextWindowPos(ImVec2(0, 0));
+    ImGui::SetNextWindowSize(ImVec2(kWidth, kHeight));
+    ImGui::Begin("test", nullptr, ImGuiWindowFlags_NoDecoration);
+    PlotOptions options;
+    options.linked_x = &linked_;
+    if (BeginPlot(plots_, "top", ImVec2(-1, 280), options)) {
+      PlotLine(plots_, "sine", x_.data(), y_.data(), static_cast<int>(x_.size()));
+      PlotLine(plots_, "high", x_.data(), y2_.data(), static_cast<int>(x_.size()));
+      EndPlot(plots_);
+    }
+    if (BeginPlot(plots_, "bottom", ImVec2(-1, 280), options)) {
+      PlotLine(plots_, "late", x_late_.data(), y_.data(), static_cast<int>(x_late_.size()));
+      EndPlot(plots_);
+    }
+    ImGui::End();
+    ImGui::Render();
+  }
+
+  PlotState& Top() {
+    ImGui::NewFrame();  // ids are only computed inside a frame
+    ImGui::Begin("test");
+    const ImGuiID id = ImGui::GetID("top");
+    ImGui::End();
+    ImGui::EndFrame();
+    return plots_.plots.at(id);
+  }
+
+  void MouseTo(ImVec2 p) { ImGui::GetIO().MousePos = p; }
+  void Button(int b, bool down) { ImGui::GetIO().MouseDown[b] = down; }
+
+  // Pixel -> data along x in the top plot, as the widget defines it.
+  double XAt(float px) {
+    PlotState& st = Top();
+    const double w = st.last_plot_max.x - st.last_plot_min.x;
+    return linked_.range.min + (px - st.last_plot_min.x) / w * linked_.range.Span();
+  }
+
+  ImGuiContext* context_ = nullptr;
+  PlotContext plots_;
+  LinkedRange linked_;
+  std::vector<double> x_, y_, y2_, x_late_;
+};
+
+TEST_F(PlotInteraction, LinkedPlotsFitTheUnionOfTheirData) {
+  Frame();
+  Frame();
+  EXPECT_DOUBLE_EQ(linked_.range.min, 0.0);
+  EXPECT_DOUBLE_EQ(linked_.range.max, 20.0);
+}
+
+TEST_F(PlotInteraction, WheelZoomsXAboutTheCursor) {
+  Frame();
+  Frame();
+  PlotState& st = Top();
+  // Whole pixels: ImGui floors the mouse position.
+  const ImVec2 p(std::floor(st.last_plot_min.x + 0.3f * (st.last_plot_max.x - st.last_plot_min.x)),
+                 std::floor(0.5f * (st.last_plot_min.y + st.last_plot_max.y)));
+  const double anchor = XAt(p.x);
+  const Range before = linked_.range;
+  MouseTo(p);
+  Frame();  // hover
+  ImGui::GetIO().MouseWheel = 1.0f;
+  Frame();
+  EXPECT_NEAR(linked_.range.min, anchor - (anchor - before.min) * 0.8, 1e-9);
+  EXPECT_NEAR(linked_.range.max, anchor + (before.max - anchor) * 0.8, 1e-9);
+}
+
+TEST_F(PlotInteraction, WheelAboveThePlotAreaLeavesTheRangeToScrolling) {
+  Frame();
+  Frame();
+  PlotState& st = Top();
+  const Range before = linked_.range;
+  MouseTo(ImVec2(std::floor(0.5f * (st.last_plot_min.x + st.last_plot_max.x)),
+                 st.last_plot_min.y - 3.0f));  // the strip above the plot area
+  Frame();
+  ImGui::GetIO().MouseWheel = 1.0f;
+  Frame();
+  EXPECT_EQ(linked_.range.min, before.min);
+  EXPECT_EQ(linked_.range.max, before.max);
+}
+
+TEST_F(PlotInteraction, DragPansXByThePixelsMoved) {
+  Frame();
+  Frame();
+  PlotState& st = Top();
+  const float w = st.last_plot_max.x - st.last_plot_min.x;
+  const ImVec2 p(std::floor(0.5f * (st.last_plot_min.x + st.last_plot_max.x)),
+                 std::floor(0.5f * (st.last_plot_min.y + st.last_plot_max.y)));
+  const Range before = linked_.range;
+  MouseTo(p);
+  Frame();
+  Button(0, true);
+  Frame();
+  MouseTo(ImVec2(p.x - 100.0f, p.y));
+  Frame();
+  Button(0, false);
+  Frame();
+  const double shift = 100.0 / w * before.Span();
+  EXPECT_NEAR(linked_.range.min, before.min + shift, 1e-9);
+  EXPECT_NEAR(linked_.range.max, before.max + shift, 1e-9);
+  EXPECT_TRUE(Top().y_auto);  // y follows the data while it was never zoomed
+}
+
+TEST_F(PlotInteraction, RightDragZoomsToTheBoxAndDoubleClickFitsAgain) {
+  Frame();
+  Frame();
+  PlotState& st = Top();
+  const ImVec2 a(st.last_plot_min.x + 100.0f, st.last_plot_min.y + 40.0f);
+  const ImVec2 b(st.last_plot_min.x + 300.0f, st.last_plot_min.y + 120.0f);
+  const double xa = XAt(a.x), xb = XAt(b.x);
+  MouseTo(a);
+  Frame();
+  Button(1, true);
+  Frame();
+  MouseTo(b);
+  Frame();
+  Button(1, false);
+  Frame();
+  EXPECT_NEAR(linked_.range.min, xa, 1e-9);
+  EXPECT_NEAR(linked_.range.max, xb, 1e-9);
+  EXPECT_FALSE(Top().y_auto);
+
+  // Double-click: press, release, press within the double-click time, in place.
+  for (bool down : {true, false, true, false}) {
+    Button(0, down);
+    Frame();
+  }
+  Frame();
+  EXPECT_DOUBLE_EQ(linked_.range.min, 0.0);
+  EXPECT_DOUBLE_EQ(linked_.range.max, 20.0);
+  EXPECT_TRUE(Top().y_auto);
+}
+
+TEST_F(PlotInteraction, ClickingALegendEntryHidesTheItemAndTheFitIgnoresIt) {
+  Frame();
+  Frame();
+  EXPECT_GT(Top().y.max, 6.0);  // "high" reaches 6
+  PlotState& st = Top();
+  ASSERT_EQ(st.legend_ids.size(), 2u);
+  const float row_h = (st.last_legend_max.y - st.last_legend_min.y) / 2.0f;
+  MouseTo(ImVec2(0.5f * (st.last_legend_min.x + st.last_legend_max.x),
+                 st.last_legend_min.y + 1.5f * row_h));
+  Frame();
+  Button(0, true);
+  Frame();
+  Button(0, false);
+  Frame();
+  EXPECT_EQ(Top().hidden.size(), 1u);
+  EXPECT_LT(Top().y.max, 1.2);               // only the sine is fitted now
+  EXPECT_DOUBLE_EQ(linked_.range.min, 0.0);  // the click did not pan
+}
+
+}  // namespace
+}  // namespace gb::ui::plot

@@ -1,0 +1,13 @@
+// The diagram view: a placeholder until the block-diagram editor exists.
+#include "ui/panel_common.h"
+#include "ui/panels.h"
+
+namespace gb::ui {
+
+void DrawDiagramPanel(AppState& state) {
+  DrawUnavailable(state, View::kDiagram, "the block-diagram editor",
+                  "It will show the model as blocks linked by signals, and edits made there will "
+                  "change the model.");
+}
+
+}  // namespace gb::ui

@@ -1,0 +1,176 @@
+// greybench's plot widget, drawn with ImGui draw lists (no ImPlot).
+//
+//   plot::PlotOptions opt;
+//   opt.title = "ilambda";
+//   opt.x_label = "t";
+//   opt.linked_x = &state.data_view.x_range;      // plots sharing it pan and zoom together
+//   if (plot::BeginPlot(ctx, "##ilambda", ImVec2(-1, 200), opt)) {
+//     plot::PlotBand(ctx, "±2 sd", t, lo, hi, n);
+//     plot::PlotLine(ctx, "predicted", t, yhat, n);
+//     plot::PlotMarkers(ctx, "measured", t, y, n);
+//     plot::EndPlot(ctx);                           // only when BeginPlot returned true
+//   }
+//
+// Data: the Plot* functions keep pointers to the caller's arrays until EndPlot() of the same
+// frame, which draws everything; nothing is copied. x must be ascending (time series); y may
+// hold NaN (a missing value: lines break there). Each frame draws at most about two vertices
+// per pixel column and series: min/max per pixel column when the view holds more samples than
+// pixels, so 1e6 points stay interactive.
+//
+// Mouse: wheel zooms x about the cursor (over the y axis: zooms y; over the title it scrolls
+// the window as usual); left drag pans; right drag zooms to a box; double-click fits the data;
+// clicking a legend entry hides or shows the item.
+// Hovering shows a crosshair on every linked plot and the nearest sample of each item.
+// y follows the data in view (auto-fit) until the user zooms or pans y.
+//
+// State: everything that persists from frame to frame (ranges, drags, hidden items) lives in a
+// PlotContext owned by the application (AppState), keyed by the plot's ImGui id.
+#pragma once
+
+#include <imgui.h>
+
+#include <climits>
+#include <cmath>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "ui/widgets/plot_axis.h"
+#include "ui/widgets/plot_decimate.h"
+
+namespace gb::ui::plot {
+
+// An x range shared by several plots. Owned by the caller; must outlive the plots using it.
+struct LinkedRange {
+  static constexpr int kNoFit = INT_MAX;
+  Range range;
+  // A fit was asked for in this frame; the plots drawn in the next frame fit the range to the
+  // union of their data. The initial value asks for a fit at the first use.
+  int fit_request_frame = -1;
+  int fit_frame = -1;  // [internal] frame in which the union is being built
+  bool fit_has_data = false;
+  // [internal] the x under the mouse in a plot sharing this range, and in which frame.
+  double hover_x = 0.0;
+  int hover_frame = -1;
+  // [internal] the widest left gutter of the plots sharing this range, so their plot areas
+  // line up: `gutter` from the previous frame, `gutter_next` being gathered in this one.
+  float gutter = 0.0f, gutter_next = 0.0f;
+  int gutter_frame = -1;
+
+  // Refit at the next frame (e.g. after new data arrived).
+  void RequestFit() { fit_request_frame = -1; }
+};
+
+enum class Legend { kAuto, kShow, kHide };  // kAuto: shown when the plot has two or more items
+
+struct PlotOptions {
+  const char* title = nullptr;    // above the plot area
+  const char* x_label = nullptr;  // axis names; units are printed as "t [s]"
+  const char* x_unit = nullptr;
+  const char* y_label = nullptr;
+  const char* y_unit = nullptr;
+  LinkedRange* linked_x = nullptr;  // nullptr: the plot keeps its own x range
+  Legend legend = Legend::kAuto;
+  bool x_tick_labels = true;
+  bool x_title = true;  // "x_label [x_unit]" under the axis; the hover readout names x either way
+};
+
+struct ItemStyle {
+  ImU32 color = 0;             // 0: the next colour of the palette
+  float line_weight = 0.0f;    // pixels at scale 1; 0: PlotStyle::line_weight
+  float marker_radius = 0.0f;  // pixels at scale 1; 0: PlotStyle::marker_radius
+  float fill_alpha = 0.22f;    // bands
+};
+
+struct PlotStyle {
+  float scale = 1.0f;  // DPI scale: multiplies every size below
+  float line_weight = 1.5f;
+  float marker_radius = 2.5f;
+  ImU32 frame_bg = IM_COL32(255, 255, 255, 0);
+  ImU32 plot_bg = IM_COL32(255, 255, 255, 255);
+  ImU32 border = IM_COL32(196, 200, 206, 255);
+  ImU32 grid = IM_COL32(232, 234, 238, 255);
+  ImU32 tick_text = IM_COL32(88, 94, 104, 255);
+  ImU32 title_text = IM_COL32(30, 34, 40, 255);
+  ImU32 crosshair = IM_COL32(120, 126, 136, 150);
+  ImU32 box_zoom = IM_COL32(47, 111, 219, 255);
+  ImFont* title_font = nullptr;  // nullptr: the current font
+  std::vector<ImU32> palette = {IM_COL32(31, 119, 180, 255),  IM_COL32(255, 127, 14, 255),
+                                IM_COL32(44, 160, 44, 255),   IM_COL32(214, 39, 40, 255),
+                                IM_COL32(148, 103, 189, 255), IM_COL32(140, 86, 75, 255),
+                                IM_COL32(227, 119, 194, 255), IM_COL32(127, 127, 127, 255),
+                                IM_COL32(188, 189, 34, 255),  IM_COL32(23, 190, 207, 255)};
+};
+
+// Persistent state of one plot (by ImGui id).
+struct PlotState {
+  LinkedRange own_x;  // used when the options link no range
+  Range y;
+  bool y_auto = true;
+  int drag_region = 0;  // where the left button went down (plot, an axis, the legend)
+  bool box_active = false;
+  ImVec2 box_start;
+  ImVec2 last_plot_min, last_plot_max;  // plot area of the previous frame (input uses it)
+  ImVec2 last_legend_min, last_legend_max;
+  std::vector<ImGuiID> legend_ids;  // entries of the previous frame's legend, top to bottom
+  std::vector<ImGuiID> hidden;      // items the user switched off in the legend
+  bool drawn_before = false;
+};
+
+enum class ItemKind { kLine, kBand, kMarkers, kStems, kErrorBars };
+
+// One item of the plot being built: pointers into the caller's arrays, valid until EndPlot().
+struct Item {
+  ItemKind kind = ItemKind::kLine;
+  std::string label;  // the visible part (before "##")
+  ImGuiID id = 0;
+  const double* x = nullptr;
+  const double* y = nullptr;   // line, markers, stems, error bars: the value; band: lower
+  const double* y2 = nullptr;  // band: upper; error bars: the half-width
+  int n = 0;
+  double ref = 0.0;  // stems: the baseline
+  ImU32 color = 0;
+  float line_weight = 0.0f, marker_radius = 0.0f, fill_alpha = 0.0f;
+  bool hidden = false;
+};
+
+class PlotContext {
+ public:
+  PlotStyle style;
+
+  // Internal to the widget (plot.cpp) from here on.
+  std::unordered_map<ImGuiID, PlotState> plots;
+  bool in_plot = false;
+  ImGuiID current_id = 0;
+  PlotOptions options;
+  ImVec2 frame_min, frame_max;
+  bool hovered = false, active = false;
+  std::vector<Item> items;
+  // Per-frame scratch buffers, reused so drawing allocates nothing in steady state.
+  std::vector<ColumnAggregate> columns, columns2;
+  std::vector<ImVec2> points;
+  std::vector<unsigned char> occupied;
+};
+
+// Reserves the plot's rectangle (size: <= 0 means the available width/height minus |size|)
+// and handles nothing yet. Returns false when the plot is clipped; then do not call EndPlot().
+bool BeginPlot(PlotContext& ctx, const char* id, ImVec2 size, const PlotOptions& options = {});
+
+void PlotLine(PlotContext& ctx, const char* label, const double* x, const double* y, int n,
+              const ItemStyle& style = {});
+// A filled band between lo and hi (e.g. a prediction ± 2 standard deviations).
+void PlotBand(PlotContext& ctx, const char* label, const double* x, const double* lo,
+              const double* hi, int n, const ItemStyle& style = {});
+void PlotMarkers(PlotContext& ctx, const char* label, const double* x, const double* y, int n,
+                 const ItemStyle& style = {});
+// Vertical lines from `ref` to y with a marker at y (e.g. an autocorrelation function).
+void PlotStems(PlotContext& ctx, const char* label, const double* x, const double* y, int n,
+               double ref = 0.0, const ItemStyle& style = {});
+// y ± err with caps (e.g. estimates with their standard errors).
+void PlotErrorBars(PlotContext& ctx, const char* label, const double* x, const double* y,
+                   const double* err, int n, const ItemStyle& style = {});
+
+// Handles the mouse, fits the ranges, and draws the plot and its items.
+void EndPlot(PlotContext& ctx);
+
+}  // namespace gb::ui::plot

@@ -1,0 +1,73 @@
+#include "ui/widgets/plot_axis.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace gb::ui::plot {
+namespace {
+
+// Magnitudes outside [1e-4, 1e5) get a shared power of ten: beyond that, plain labels grow
+// too long to read at a glance.
+constexpr int kMaxPlainExponent = 4;
+constexpr int kMinPlainExponent = -4;
+
+double NiceStep(double span, int max_ticks) {
+  const double raw = span / std::max(1, max_ticks - 1);
+  const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
+  const double normalized = raw / magnitude;
+  double nice = 10.0;
+  if (normalized <= 1.0) {
+    nice = 1.0;
+  } else if (normalized <= 2.0) {
+    nice = 2.0;
+  } else if (normalized <= 5.0) {
+    nice = 5.0;
+  }
+  return nice * magnitude;
+}
+
+}  // namespace
+
+Ticks NiceTicks(Range range, int max_ticks) {
+  Ticks ticks;
+  const double span = range.Span();
+  if (!std::isfinite(range.min) || !std::isfinite(range.max) || !(span > 0.0)) return ticks;
+  max_ticks = std::max(2, max_ticks);
+
+  ticks.step = NiceStep(span, max_ticks);
+  // Integer multiples of the step, so labels do not accumulate rounding error.
+  const double first = std::ceil(range.min / ticks.step - 1e-9);
+  const double last = std::floor(range.max / ticks.step + 1e-9);
+  for (double k = first; k <= last; k += 1.0) {
+    double v = k * ticks.step;
+    if (std::abs(v) < ticks.step * 1e-9) v = 0.0;
+    ticks.values.push_back(v);
+  }
+
+  const double magnitude = std::max(std::abs(range.min), std::abs(range.max));
+  const int e = static_cast<int>(std::floor(std::log10(magnitude)));
+  if (e > kMaxPlainExponent || e < kMinPlainExponent) ticks.exponent = e;
+  const double scaled_step = ticks.step / std::pow(10.0, ticks.exponent);
+  ticks.decimals = std::max(0, static_cast<int>(std::ceil(-std::log10(scaled_step) - 1e-9)));
+  return ticks;
+}
+
+std::string FormatTick(double value, const Ticks& ticks) {
+  const double scaled = value / std::pow(10.0, ticks.exponent);
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", ticks.decimals, scaled);
+  std::string s = buf;
+  // "-0", "-0.00": a rounding artefact, not a negative number.
+  if (s[0] == '-' && s.find_first_not_of("-0.") == std::string::npos) s.erase(0, 1);
+  return s;
+}
+
+std::string FormatValue(double value) {
+  if (std::isnan(value)) return "missing";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6g", value);
+  return buf;
+}
+
+}  // namespace gb::ui::plot

@@ -1,0 +1,353 @@
+// The workbench frame around the panels.
+//
+// Sections
+//   1. Menu bar
+//   2. Sidebar: project, views, datasets
+//   3. Status bar and the messages window
+//   4. Dialogs: open project, about
+//   5. DrawWorkbench
+#include "ui/workbench.h"
+
+#include <imgui_stdlib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "ui/panel_common.h"
+#include "ui/panels.h"
+
+#ifndef GREYBENCH_VERSION
+#define GREYBENCH_VERSION "unknown"
+#endif
+
+namespace gb::ui {
+namespace {
+
+constexpr float kSidebarWidth = 220.0f;  // pixels at scale 1
+constexpr const char* kOpenPopup = "Open project";
+constexpr const char* kAboutPopup = "About greybench";
+
+// Views whose feature exists; the others show an honest placeholder and are dimmed in the
+// sidebar.
+bool ViewAvailable(View view) { return view == View::kData || view == View::kEquations; }
+
+// ---------------------------------------------------------------------------------------------
+// 1. Menu bar
+
+void DrawMenuBar(AppState& state) {
+  if (!ImGui::BeginMainMenuBar()) return;
+  const bool loading = state.load_job.active();
+  if (ImGui::BeginMenu("File")) {
+    if (ImGui::MenuItem("Open project\xE2\x80\xA6", nullptr, false, !loading)) {
+      state.open_dialog_requested = true;
+    }
+    if (ImGui::MenuItem("Reload project", nullptr, false, !loading && state.project)) {
+      OpenProject(state, state.project->path);
+    }
+    ImGui::Separator();
+    if (ImGui::MenuItem("Quit")) state.quit_requested = true;
+    ImGui::EndMenu();
+  }
+  if (ImGui::BeginMenu("View")) {
+    for (View v : kAllViews) {
+      const std::string title(ViewTitle(v));
+      if (ImGui::MenuItem(title.c_str(), nullptr, state.view == v)) state.view = v;
+    }
+    ImGui::Separator();
+    if (ImGui::MenuItem("Messages", nullptr, state.show_messages)) {
+      state.show_messages = !state.show_messages;
+    }
+    ImGui::EndMenu();
+  }
+  if (ImGui::BeginMenu("Help")) {
+    if (ImGui::MenuItem("About greybench")) state.show_about = true;
+    ImGui::EndMenu();
+  }
+  ImGui::EndMainMenuBar();
+}
+
+// ---------------------------------------------------------------------------------------------
+// 2. Sidebar
+
+void SidebarCaption(const char* text) {
+  ImGui::Spacing();
+  ImGui::TextDisabled("%s", text);
+}
+
+void DrawSidebar(AppState& state) {
+  const float s = state.fonts.scale;
+  SidebarCaption("PROJECT");
+  if (state.project) {
+    const project::Project& p = *state.project;
+    ImGui::PushFont(state.fonts.bold);
+    ImGui::PushTextWrapPos(0.0f);
+    ImGui::TextUnformatted(p.name.empty() ? FileName(p.path).c_str() : p.name.c_str());
+    ImGui::PopTextWrapPos();
+    ImGui::PopFont();
+    ImGui::TextDisabled("%s", FileName(p.path).c_str());
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", p.path.c_str());
+  } else {
+    ImGui::TextDisabled("none open");
+  }
+  if (state.load_job.active()) {
+    ImGui::TextDisabled("Opening %s\xE2\x80\xA6", FileName(state.loading_path).c_str());
+    ImGui::ProgressBar(state.load_job.progress(), ImVec2(-1, 4.0f * s), "");
+  }
+
+  ImGui::Spacing();
+  SidebarCaption("VIEWS");
+  ImGui::PushStyleVar(ImGuiStyleVar_ItemSpacing, ImVec2(0, 2.0f * s));
+  const float row_h = ImGui::GetTextLineHeight() + 8.0f * s;
+  for (View v : kAllViews) {
+    const std::string title(ViewTitle(v));
+    if (!ViewAvailable(v))
+      ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetColorU32(ImGuiCol_TextDisabled));
+    if (ImGui::Selectable(title.c_str(), state.view == v, 0, ImVec2(0, row_h))) state.view = v;
+    if (!ViewAvailable(v)) {
+      ImGui::PopStyleColor();
+      if (ImGui::IsItemHovered()) ImGui::SetTooltip("Not available yet");
+    }
+  }
+  ImGui::PopStyleVar();
+
+  if (!state.project) return;
+  ImGui::Spacing();
+  SidebarCaption("DATASETS");
+  if (state.datasets.empty()) ImGui::TextDisabled("none");
+  for (const LoadedDataset& d : state.datasets) {
+    const std::string name = FileName(d.path);
+    if (d.data) {
+      ImGui::TextUnformatted(name.c_str());
+      const std::string rows = GroupedCount(static_cast<long long>(d.summary.rows));
+      ImGui::SameLine(ImGui::GetContentRegionMax().x - ImGui::CalcTextSize(rows.c_str()).x);
+      ImGui::TextDisabled("%s", rows.c_str());
+    } else {
+      ImGui::TextColored(SeverityColor(Severity::kError), "%s (unreadable)", name.c_str());
+      if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", d.error.c_str());
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// 3. Status bar and messages
+
+void DrawStatusBar(AppState& state, float height) {
+  const float s = state.fonts.scale;
+  const ImVec2 min = ImGui::GetCursorScreenPos();
+  const ImVec2 max(min.x + ImGui::GetWindowWidth(), min.y + height);
+  ImDrawList* dl = ImGui::GetWindowDrawList();
+  dl->AddRectFilled(min, max, ImGui::GetColorU32(ImGuiCol_MenuBarBg));
+  dl->AddLine(min, ImVec2(max.x, min.y), ImGui::GetColorU32(ImGuiCol_Border));
+
+  const float pad = 10.0f * s;
+  const float text_y = min.y + 0.5f * (height - ImGui::GetTextLineHeight());
+  std::string text;
+  ImU32 color = ImGui::GetColorU32(ImGuiCol_TextDisabled);
+  if (state.load_job.active()) {
+    text = "Opening " + state.loading_path + "\xE2\x80\xA6";
+  } else if (!state.messages.empty()) {
+    const Message& m = state.messages.back();
+    text = m.text;
+    if (m.severity != Severity::kInfo)
+      color = ImGui::ColorConvertFloat4ToU32(SeverityColor(m.severity));
+    const float r = 3.5f * s;
+    dl->AddCircleFilled(ImVec2(min.x + pad + r, min.y + 0.5f * height), r,
+                        ImGui::ColorConvertFloat4ToU32(SeverityColor(m.severity)), 12);
+  } else {
+    text = "Ready";
+  }
+
+  const std::string button = std::to_string(state.messages.size()) +
+                             (state.messages.size() == 1 ? " message" : " messages") +
+                             "###messages";
+  const float button_w = ImGui::CalcTextSize(button.c_str(), nullptr, true).x +
+                         2.0f * ImGui::GetStyle().FramePadding.x;
+  const float text_x = min.x + pad + 12.0f * s;
+  const ImVec4 clip(text_x, min.y, max.x - button_w - 2.0f * pad, max.y);
+  dl->AddText(nullptr, 0.0f, ImVec2(text_x, text_y), color, text.c_str(), nullptr, 0.0f, &clip);
+
+  ImGui::SetCursorScreenPos(
+      ImVec2(max.x - button_w - pad, min.y + 0.5f * (height - ImGui::GetFrameHeight())));
+  ImGui::PushStyleColor(ImGuiCol_Button, IM_COL32(0, 0, 0, 0));
+  if (ImGui::Button(button.c_str())) state.show_messages = !state.show_messages;
+  ImGui::PopStyleColor();
+}
+
+void DrawMessagesWindow(AppState& state) {
+  if (!state.show_messages) return;
+  const float s = state.fonts.scale;
+  const ImGuiViewport* vp = ImGui::GetMainViewport();
+  ImGui::SetNextWindowSize(ImVec2(680.0f * s, 300.0f * s), ImGuiCond_Appearing);
+  ImGui::SetNextWindowPos(
+      ImVec2(vp->WorkPos.x + vp->WorkSize.x * 0.5f, vp->WorkPos.y + vp->WorkSize.y * 0.5f),
+      ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowBorderSize, 1.0f);
+  const bool open = ImGui::Begin("Messages", &state.show_messages, ImGuiWindowFlags_NoCollapse);
+  ImGui::PopStyleVar();
+  if (open) {
+    if (ImGui::Button("Clear")) state.messages.clear();
+    ImGui::Separator();
+    ImGui::BeginChild("##list");
+    if (state.messages.empty()) ImGui::TextDisabled("No messages.");
+    for (const Message& m : state.messages) {
+      const char* tag = m.severity == Severity::kError     ? "error  "
+                        : m.severity == Severity::kWarning ? "warning"
+                                                           : "info   ";
+      ImGui::TextColored(SeverityColor(m.severity), "%s", tag);
+      ImGui::SameLine();
+      ImGui::PushTextWrapPos(0.0f);
+      ImGui::TextUnformatted(m.text.c_str());
+      ImGui::PopTextWrapPos();
+    }
+    ImGui::EndChild();
+  }
+  ImGui::End();
+}
+
+// ---------------------------------------------------------------------------------------------
+// 4. Dialogs
+
+void DrawOpenDialog(AppState& state) {
+  if (state.open_dialog_requested) {
+    state.open_dialog_requested = false;
+    if (state.open_dialog_path.empty() && state.project)
+      state.open_dialog_path = state.project->path;
+    ImGui::OpenPopup(kOpenPopup);
+  }
+  const ImGuiViewport* vp = ImGui::GetMainViewport();
+  ImGui::SetNextWindowPos(
+      ImVec2(vp->WorkPos.x + vp->WorkSize.x * 0.5f, vp->WorkPos.y + vp->WorkSize.y * 0.35f),
+      ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
+  if (!ImGui::BeginPopupModal(kOpenPopup, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
+  ImGui::TextUnformatted("Project file (JSON, CONTRACT section 7):");
+  ImGui::SetNextItemWidth(560.0f * state.fonts.scale);
+  if (ImGui::IsWindowAppearing()) ImGui::SetKeyboardFocusHere();
+  const bool enter =
+      ImGui::InputTextWithHint("##path", "path/to/project.json", &state.open_dialog_path,
+                               ImGuiInputTextFlags_EnterReturnsTrue);
+  const bool can_open = !state.open_dialog_path.empty();
+  ImGui::BeginDisabled(!can_open);
+  const bool open = ImGui::Button("Open") || (enter && can_open);
+  ImGui::EndDisabled();
+  ImGui::SameLine();
+  if (ImGui::Button("Cancel") || open) ImGui::CloseCurrentPopup();
+  if (open) OpenProject(state, state.open_dialog_path);
+  ImGui::EndPopup();
+}
+
+void DrawAboutDialog(AppState& state) {
+  if (state.show_about) {
+    state.show_about = false;
+    ImGui::OpenPopup(kAboutPopup);
+  }
+  if (!ImGui::BeginPopupModal(kAboutPopup, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
+  ImGui::PushFont(state.fonts.heading);
+  ImGui::TextUnformatted("greybench " GREYBENCH_VERSION);
+  ImGui::PopFont();
+  ImGui::TextUnformatted("Identification of continuous-time stochastic grey-box models");
+  ImGui::TextUnformatted("from measured data.");
+  ImGui::TextDisabled("Dear ImGui %s", ImGui::GetVersion());
+  if (ImGui::Button("Close")) ImGui::CloseCurrentPopup();
+  ImGui::EndPopup();
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// 5. DrawWorkbench
+
+void DrawPanel(AppState& state, View view) {
+  switch (view) {
+    case View::kData:
+      DrawDataPanel(state);
+      break;
+    case View::kDiagram:
+      DrawDiagramPanel(state);
+      break;
+    case View::kEquations:
+      DrawEquationsPanel(state);
+      break;
+    case View::kEstimate:
+      DrawEstimatePanel(state);
+      break;
+    case View::kPredictions:
+      DrawPredictionsPanel(state);
+      break;
+    case View::kResiduals:
+      DrawResidualsPanel(state);
+      break;
+    case View::kParameters:
+      DrawParametersPanel(state);
+      break;
+    case View::kOperatingPoints:
+      DrawOperatingPointsPanel(state);
+      break;
+  }
+}
+
+void DrawWorkbench(AppState& state) {
+  PollJobs(state);
+  DrawMenuBar(state);
+
+  const float s = state.fonts.scale;
+  const ImGuiViewport* vp = ImGui::GetMainViewport();
+  ImGui::SetNextWindowPos(vp->WorkPos);
+  ImGui::SetNextWindowSize(vp->WorkSize);
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(0, 0));
+  ImGui::PushStyleVar(ImGuiStyleVar_ItemSpacing, ImVec2(0, 0));
+  const ImGuiWindowFlags frame_flags =
+      ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoSavedSettings |
+      ImGuiWindowFlags_NoBringToFrontOnFocus | ImGuiWindowFlags_NoScrollWithMouse;
+  ImGui::Begin("##workbench", nullptr, frame_flags);
+  ImGui::PopStyleVar(2);
+
+  const float status_h = std::round(ImGui::GetFrameHeight() + 6.0f * s);
+  const float body_h = std::max(1.0f, ImGui::GetContentRegionAvail().y - status_h);
+  const float sidebar_w = std::round(kSidebarWidth * s);
+
+  // Sidebar.
+  ImGui::PushStyleColor(ImGuiCol_ChildBg, IM_COL32(242, 243, 246, 255));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(12.0f * s, 8.0f * s));
+  ImGui::BeginChild("##sidebar", ImVec2(sidebar_w, body_h), false,
+                    ImGuiWindowFlags_AlwaysUseWindowPadding);
+  DrawSidebar(state);
+  ImGui::EndChild();
+  ImGui::PopStyleVar();
+  ImGui::PopStyleColor();
+  {
+    const ImVec2 a = ImGui::GetItemRectMin();
+    const ImVec2 b = ImGui::GetItemRectMax();
+    ImGui::GetWindowDrawList()->AddLine(ImVec2(b.x - 0.5f, a.y), ImVec2(b.x - 0.5f, b.y),
+                                        ImGui::GetColorU32(ImGuiCol_Border));
+  }
+  ImGui::SameLine(0, 0);
+
+  // The current view.
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(16.0f * s, 10.0f * s));
+  ImGui::BeginChild("##view", ImVec2(0, body_h), false,
+                    ImGuiWindowFlags_AlwaysUseWindowPadding | ImGuiWindowFlags_NoScrollbar);
+  ImGui::PopStyleVar();
+  ImGui::PushStyleVar(ImGuiStyleVar_ItemSpacing, ImVec2(8.0f * s, 6.0f * s));
+  ImGui::PushFont(state.fonts.heading);
+  const std::string title(ViewTitle(state.view));
+  ImGui::TextUnformatted(title.c_str());
+  ImGui::PopFont();
+  ImGui::Spacing();
+  ImGui::PushID(static_cast<int>(state.view));
+  DrawPanel(state, state.view);
+  ImGui::PopID();
+  ImGui::PopStyleVar();
+  ImGui::EndChild();
+
+  ImGui::SetCursorScreenPos(ImVec2(ImGui::GetWindowPos().x,
+                                   ImGui::GetWindowPos().y + ImGui::GetWindowHeight() - status_h));
+  DrawStatusBar(state, status_h);
+  DrawOpenDialog(state);
+  DrawAboutDialog(state);
+  ImGui::End();
+
+  DrawMessagesWindow(state);
+}
+
+}  // namespace gb::ui
