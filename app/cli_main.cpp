@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
   c_est->add_option("--threads", est.threads, "threads for gradients (default: all cores)");
   c_est->add_option("--multistart", est.multistart, "extra starts spread over the bounds");
   c_est->add_option("--max-evaluations", est.max_evaluations, "per fit (default 20000)");
-  c_est->add_option("--algorithm", est.algorithm, "bhhh (default), slsqp, lbfgs or bobyqa");
+  c_est->add_option("--algorithm", est.algorithm, "auto (default: L-BFGS then BHHH), bhhh, slsqp, lbfgs or bobyqa");
   c_est->add_option("--ftol", est.ftol, "relative tolerance on -log L (default 1e-12)");
   c_est->callback([&] { run = [&] { return RunEstimate(est); }; });
 

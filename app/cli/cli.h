@@ -63,7 +63,7 @@ struct EstimateArgs {
   int threads = 0;
   int multistart = 0;
   int max_evaluations = 20000;
-  std::string algorithm = "bhhh";
+  std::string algorithm = "auto";
   double ftol = 1e-12;
 };
 int RunEstimate(const EstimateArgs& args);

@@ -21,11 +21,12 @@ int RunEstimate(const EstimateArgs& args) {
   options.multistart = args.multistart;
   options.max_evaluations = args.max_evaluations;
   options.ftol_rel = args.ftol;
-  if (args.algorithm == "bhhh") options.algorithm = estimate::Algorithm::kBhhh;
+  if (args.algorithm == "auto") options.algorithm = estimate::Algorithm::kAuto;
+  else if (args.algorithm == "bhhh") options.algorithm = estimate::Algorithm::kBhhh;
   else if (args.algorithm == "lbfgs") options.algorithm = estimate::Algorithm::kLbfgs;
   else if (args.algorithm == "slsqp") options.algorithm = estimate::Algorithm::kSlsqp;
   else if (args.algorithm == "bobyqa") options.algorithm = estimate::Algorithm::kBobyqa;
-  else return Fail(InputError("--algorithm: use bhhh, slsqp, lbfgs or bobyqa"));
+  else return Fail(InputError("--algorithm: use auto, bhhh, slsqp, lbfgs or bobyqa"));
   auto summary = estimate::Estimate(*lik, options);
   if (!summary) return Fail(summary.error());
   std::printf("%s", summary->Report().c_str());

@@ -351,6 +351,34 @@ class Fitter {
   FitResult Fit(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
                 int max_iterations = kMaxBhhhIterations) {
     if (options_.algorithm == Algorithm::kBhhh) return FitBhhh(std::move(z), delay, stage, max_iterations);
+    if (options_.algorithm == Algorithm::kAuto) {
+      FitResult rough = FitNlopt(std::move(z), delay, stage, nlopt::LD_LBFGS,
+                                 std::max(options_.ftol_rel, options_.handover_ftol_rel));
+      if (rough.cancelled || !std::isfinite(rough.loglik)) return rough;
+      FitResult polished = FitBhhh(rough.z, delay, stage, max_iterations);
+      if (polished.converged || polished.cancelled) return polished;
+      // BHHH could not finish (flat or bound-limited directions, where the outer product of the
+      // scores is a poor Hessian): L-BFGS to the full tolerance from the best point so far.
+      FitResult& better = polished.loglik >= rough.loglik ? polished : rough;
+      FitResult finished = FitNlopt(better.z, delay, stage, nlopt::LD_LBFGS, options_.ftol_rel);
+      return finished.loglik >= better.loglik ? finished : better;
+    }
+    const nlopt::algorithm algo = options_.algorithm == Algorithm::kLbfgs   ? nlopt::LD_LBFGS
+                                  : options_.algorithm == Algorithm::kSlsqp ? nlopt::LD_SLSQP
+                                                                            : nlopt::LN_BOBYQA;
+    return FitNlopt(std::move(z), delay, stage, algo, options_.ftol_rel);
+  }
+
+  // A fit from a nearby optimum: BHHH under kAuto, else the chosen algorithm.
+  FitResult FitWarm(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
+                    int max_iterations) {
+    if (options_.algorithm == Algorithm::kAuto) return FitBhhh(std::move(z), delay, stage, max_iterations);
+    return Fit(std::move(z), delay, stage, max_iterations);
+  }
+
+  // One NLopt run.
+  FitResult FitNlopt(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
+                     nlopt::algorithm algo, double ftol_rel) {
     FitResult result;
     for (int i = 0; i < k(); ++i) z[i] = std::clamp(z[i], lower_[i], upper_[i]);
     if (k() == 0) {
@@ -387,14 +415,11 @@ class Fitter {
       }
       return -f;
     };
-    const nlopt::algorithm algo = options_.algorithm == Algorithm::kLbfgs   ? nlopt::LD_LBFGS
-                                  : options_.algorithm == Algorithm::kSlsqp ? nlopt::LD_SLSQP
-                                                                            : nlopt::LN_BOBYQA;
     nlopt::opt opt(algo, static_cast<unsigned>(k()));
     opt.set_lower_bounds(lower_);
     opt.set_upper_bounds(upper_);
     opt.set_min_objective(objective, &data);
-    opt.set_ftol_rel(options_.ftol_rel);
+    opt.set_ftol_rel(ftol_rel);
     opt.set_xtol_rel(options_.xtol_rel);
     if (options_.max_evaluations > 0) opt.set_maxeval(options_.max_evaluations);
     double minf = 0;
@@ -664,7 +689,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& lik, const EstimateOp
     const auto& next = profile->candidates[profile->best].delay;
     if (next == delay) break;
     delay = next;
-    best = fitter.Fit(best.z, delay, "fitting");
+    best = fitter.FitWarm(best.z, delay, "fitting", kMaxBhhhIterations);
   }
   // The profile: θ re-optimised at every other delay candidate, walking outward from the
   // estimate so that each fit starts from the optimum of its nearest fitted neighbour. Fits at
@@ -700,7 +725,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& lik, const EstimateOp
         int nearest = INT_MAX;
         for (const auto& [d, z] : fitted)
           if (distance(d, candidate) < nearest) nearest = distance(d, candidate), start = &z;
-        FitResult r = fitter.Fit(*start, candidate, "delay profile", kProfileIterations);
+        FitResult r = fitter.FitWarm(*start, candidate, "delay profile", kProfileIterations);
         if (r.cancelled) {
           best.cancelled = true;
           best.message = r.message;

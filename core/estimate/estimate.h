@@ -4,7 +4,9 @@
 //
 // Optimiser, on a scaled copy of the free parameters (z_i = θ_i / s_i, s_i = |start_i|, or 1 when
 // the start is 0) so that a variance of 1e-4 and a gain of 1 move alike:
-//   - BHHH (default): Newton steps d = I⁻¹ g where g is the gradient of log L and I = Σ_j s_j s_j'
+//   - auto (default): L-BFGS (NLopt) from each start to a loose tolerance, then BHHH. L-BFGS is
+//     robust far from the optimum, BHHH converges in few iterations near it.
+//   - BHHH: Newton steps d = I⁻¹ g where g is the gradient of log L and I = Σ_j s_j s_j'
 //     the outer product of the per-observation scores s_j = ∂ℓ_j/∂z (ℓ_j: the log-likelihood term
 //     of state index j). I estimates the Fisher information, so near the optimum the steps are
 //     close to Newton's and a fit takes 10-20 iterations where generic quasi-Newton methods need
@@ -51,6 +53,8 @@ struct Progress {
 };
 
 enum class Algorithm {
+  kAuto,    // from each start: NLopt L-BFGS to a loose tolerance (robust far from the optimum),
+            // then BHHH to the final tolerance; warm-started delay-profile fits: BHHH only
   kBhhh,    // Newton steps with the BHHH information (outer product of per-observation scores),
             // projected onto the bounds, with a line search: few iterations on ML problems
   kLbfgs,   // NLopt LD_LBFGS: limited-memory quasi-Newton with bounds, gradients by differences
@@ -59,7 +63,9 @@ enum class Algorithm {
 };
 
 struct EstimateOptions {
-  Algorithm algorithm = Algorithm::kBhhh;
+  Algorithm algorithm = Algorithm::kAuto;
+  // With kAuto: the relative tolerance at which the L-BFGS phase hands over to BHHH.
+  double handover_ftol_rel = 1e-7;
   // Stop when an iteration changes -log L by less than ftol_rel times its value.
   double ftol_rel = 1e-12;
   // ... or changes every scaled parameter by less than xtol_rel (relative).
