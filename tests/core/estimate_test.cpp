@@ -1,6 +1,9 @@
 #include "core/estimate/estimate.h"
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <thread>
 #include <fstream>
 #include <map>
 #include <set>
@@ -208,6 +211,44 @@ TEST(Estimate, ReportsGpAndJeAsNotIdentifiableWhenTheLoadIsHeldConstant) {
       EXPECT_FALSE(p.std_error.has_value()) << p.name << " must not get a (tiny) standard error";
     }
   }
+}
+
+TEST(Estimate, ReportsProgressAndStopsWithin100msOfCancellation) {
+  const auto truth = Compile(FuelFilm(true));
+  design::PrbsOptions prbs;
+  prbs.order = 6;
+  prbs.bit_period = 0.5;
+  prbs.sample_time = 0.0125;
+  prbs.duration = 500.0;  // 40 000 samples: a fit of several seconds
+  prbs.low = 1.08;
+  prbs.high = 1.32;
+  auto lik = filter::Likelihood::Create(Compile(FuelFilm(false)), {Simulate(*truth, {prbs}, 3)});
+  ASSERT_TRUE(lik.ok());
+  std::atomic<bool> cancel{false};
+  std::atomic<int> reports{0};
+  EstimateOptions o;
+  o.cancel = &cancel;
+  o.progress = [&](const Progress& p) {
+    EXPECT_TRUE(std::isfinite(p.loglik));
+    EXPECT_EQ(p.theta.size(), 8u);
+    reports.fetch_add(1);
+  };
+  Result<EstimateSummary> result = InputError("not run");
+  std::atomic<bool> done{false};
+  std::thread worker([&] {
+    result = Estimate(*lik, o);
+    done = true;
+  });
+  while (reports.load() < 2 && !done) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  ASSERT_FALSE(done.load()) << "the fit ended before it could be cancelled";
+  const auto asked = std::chrono::steady_clock::now();
+  cancel = true;
+  worker.join();
+  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - asked).count();
+  EXPECT_LT(waited, 0.1);
+  ASSERT_TRUE(result.ok());
+  EXPECT_TRUE(result->cancelled);
+  EXPECT_FALSE(result->converged);
 }
 
 // ---- calibration -------------------------------------------------------------------------------

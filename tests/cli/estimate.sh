@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# greybench-cli estimate and compare, end to end: simulate data from the fuel-film model, fit it
+# and a restricted version (X fixed at a wrong value), and test one against the other.
+# Usage: estimate.sh GREYBENCH_CLI TEST_DATA_DIR
+set -u
+cli=$1
+data=$2
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+passes=0
+failures=0
+check() {  # check DESCRIPTION COMMAND...
+  local what=$1
+  shift
+  if "$@"; then passes=$((passes + 1)); else echo "FAIL: $what"; failures=$((failures + 1)); fi
+}
+
+"$cli" prbs --order 6 --period 0.5 --ts 0.0125 --duration 50 --low 1.08 --high 1.32 --name mfi \
+  --out "$tmp/u.csv"
+"$cli" simulate "$data/cli/fuel.json" --inputs "$tmp/u.csv" --seed 4 --out "$tmp/d.csv"
+
+"$cli" estimate "$data/cli/fuel.json" "$tmp/d.csv" --out "$tmp/full.json" >"$tmp/full.txt"
+check "estimate exits 0" test $? -eq 0
+check "the report has the coefficient table" grep -q "Std. Error" "$tmp/full.txt"
+check "the result file is CONTRACT section 5" python3 - "$tmp/full.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["greybench_result"] == 1 and r["converged"] is True
+for key in ["model", "datasets", "message", "loglik", "n_obs", "n_free", "aic", "bic",
+            "iterations", "evaluations", "elapsed_s", "parameters", "correlation",
+            "output_delay", "warnings"]:
+    assert key in r, key
+kb = r["parameters"]["Kb"]
+assert kb["fixed"] is True and kb["std_error"] is None and kb["t_value"] is None
+x = r["parameters"]["X"]
+assert x["std_error"] > 0 and abs(x["estimate"] - 0.175) < 4 * x["std_error"]
+assert abs(r["aic"] - (-2 * r["loglik"] + 2 * r["n_free"])) < 1e-6
+PY
+
+# The restricted model: X fixed at 0.05.
+python3 - "$data/cli/fuel.json" "$tmp/restricted.json" <<'PY'
+import json, sys
+m = json.load(open(sys.argv[1]))
+m["parameters"]["X"] = {"value": 0.05, "fixed": True}
+json.dump(m, open(sys.argv[2], "w"))
+PY
+"$cli" estimate "$tmp/restricted.json" "$tmp/d.csv" --out "$tmp/restricted.json.out" >/dev/null
+"$cli" compare "$tmp/restricted.json.out" "$tmp/full.json" >"$tmp/compare.txt"
+check "compare exits 0" test $? -eq 0
+check "compare reports one degree of freedom" grep -q "degrees of freedom = 1" "$tmp/compare.txt"
+check "the full model wins" grep -q "fits significantly better" "$tmp/compare.txt"
+"$cli" compare "$tmp/full.json" "$tmp/full.json" >/dev/null 2>"$tmp/err.txt"
+check "compare refuses models with equal numbers of parameters" test $? -eq 2
+"$cli" compare "$tmp/u.csv" "$tmp/full.json" >/dev/null 2>"$tmp/err.txt"
+check "compare refuses a file that is not a result" test $? -eq 2
+
+echo "$passes passed, $failures failed"
+[ "$failures" -eq 0 ]

@@ -1,0 +1,101 @@
+#include "core/filter/likelihood.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "core/design/prbs.h"
+#include "core/sim/simulate.h"
+
+namespace gb::filter {
+namespace {
+
+std::shared_ptr<const model::LinearModel> Compile(const char* text) {
+  auto spec = model::ParseModel(Json::parse(text), "m.json");
+  EXPECT_TRUE(spec.ok()) << spec.error().ToString();
+  return std::make_shared<const model::LinearModel>(*model::LinearModel::Compile(*spec));
+}
+
+const char* kModel = R"json({
+  "greybench_model": 1, "states": ["x"], "inputs": ["u"], "outputs": ["y"],
+  "parameters": {"a": 1.5, "b": 2.0, "s": 0.4, "r": 0.05},
+  "drift": {"x": "-a*x + b*u"}, "diffusion": {"x": "s"},
+  "observation": {"y": "x"}, "measurement_variance": {"y": "r"},
+  "output_delay": {"y": {"min": 0, "max": 4}}})json";
+
+std::shared_ptr<const data::Series> SimulatedSeries(const model::LinearModel& m, int delay,
+                                                    std::uint32_t seed, double duration) {
+  design::PrbsOptions o;
+  o.order = 5;
+  o.bit_period = 0.5;
+  o.sample_time = 0.1;
+  o.duration = duration;
+  o.seed = seed;
+  auto u = *design::MakePrbs(o);
+  data::Series s;
+  s.source = "sim" + std::to_string(seed);
+  s.time = u.t;
+  s.U = Eigen::Map<const Eigen::MatrixXd>(u.u.data(), 1, static_cast<Eigen::Index>(u.u.size()));
+  s.Y.setZero(1, static_cast<Eigen::Index>(u.t.size()));
+  s.intervals = data::GroupIntervals(s.time);
+  FilterSettings st = FilterSettings::FromModel(m.spec());
+  st.delay = {delay};
+  sim::SimulateOptions so;
+  so.seed = seed;
+  s.Y = sim::Simulate(*m.Evaluate(m.spec().Values()), s, st, so)->Y;
+  return std::make_shared<const data::Series>(std::move(s));
+}
+
+TEST(Likelihood, SeveralDatasetsAddUp) {
+  const auto m = Compile(kModel);
+  const auto s1 = SimulatedSeries(*m, 2, 1, 30.0);
+  const auto s2 = SimulatedSeries(*m, 2, 2, 20.0);
+  const auto joint = *Likelihood::Create(m, {s1, s2});
+  const auto one = *Likelihood::Create(m, {s1});
+  const auto two = *Likelihood::Create(m, {s2});
+  const std::vector<double> theta = m->spec().Values();
+  for (int d = 0; d <= 4; ++d) {
+    const std::vector<int> delay = {d};
+    const auto lj = joint.Evaluate(theta, delay);
+    const auto l1 = one.Evaluate(theta, delay);
+    const auto l2 = two.Evaluate(theta, delay);
+    ASSERT_TRUE(lj.ok() && l1.ok() && l2.ok());
+    EXPECT_NEAR(lj->loglik, l1->loglik + l2->loglik, 1e-9 * std::abs(lj->loglik));
+    EXPECT_EQ(lj->n_obs, l1->n_obs + l2->n_obs);
+  }
+}
+
+TEST(Likelihood, ScoresEveryDelayCandidateOnTheSameObservations) {
+  const auto m = Compile(kModel);
+  const auto s = SimulatedSeries(*m, 3, 5, 40.0);
+  const auto lik = *Likelihood::Create(m, {s});
+  const auto profile = lik.Profile(m->spec().Values());
+  ASSERT_TRUE(profile.ok());
+  ASSERT_EQ(profile->candidates.size(), 5u);
+  for (const auto& c : profile->candidates) {
+    ASSERT_TRUE(c.ok) << c.message;
+    EXPECT_EQ(c.n_obs, static_cast<long>(s->size()) - 4) << "observations k >= max delay (4)";
+  }
+  EXPECT_EQ(profile->candidates[profile->best].delay[0], 3) << "the simulated delay wins";
+}
+
+TEST(Likelihood, RefusesADelayRangeLongerThanTheData) {
+  const auto m = Compile(R"json({
+    "greybench_model": 1, "states": ["x"], "outputs": ["y"], "parameters": {"a": 1},
+    "drift": {"x": "-a*x"}, "diffusion": {"x": "1"}, "observation": {"y": "x"},
+    "measurement_variance": {"y": "1"}, "output_delay": {"y": {"min": 0, "max": 50}}})json");
+  data::Series s;
+  s.source = "short.csv";
+  s.time = {0, 1, 2, 3, 4};
+  s.U.resize(0, 5);
+  s.Y.setZero(1, 5);
+  s.intervals = data::GroupIntervals(s.time);
+  auto lik = Likelihood::Create(m, {std::make_shared<const data::Series>(s)});
+  ASSERT_FALSE(lik.ok());
+  EXPECT_EQ(lik.error().path, "output_delay.y");
+  EXPECT_NE(lik.error().message.find("short.csv has only 5 rows"), std::string::npos)
+      << lik.error().message;
+}
+
+}  // namespace
+}  // namespace gb::filter
