@@ -107,46 +107,13 @@ class Fitter {
   }
 
   // log L at scaled point z, or -inf where it cannot be evaluated.
-  double LogLik(const std::vector<double>& z, const std::vector<int>& delay, long* n_obs = nullptr) {
+  double LogLik(const std::vector<double>& z, const std::vector<int>& delay, long* n_obs = nullptr,
+                std::vector<double>* terms = nullptr) {
     evaluations_.fetch_add(1);
-    auto l = lik_.Evaluate(Theta(z), delay);
+    auto l = lik_.Evaluate(Theta(z), delay, terms);
     if (!l) return -std::numeric_limits<double>::infinity();
     if (n_obs) *n_obs = l->n_obs;
     return l->loglik;
-  }
-
-  // Central-difference gradient of log L (one-sided at bounds), evaluations in parallel.
-  std::vector<double> Gradient(const std::vector<double>& z, double f0, const std::vector<int>& delay) {
-    struct Point {
-      int i;
-      double step;  // signed
-    };
-    std::vector<Point> points;
-    for (int i = 0; i < k(); ++i) {
-      const double h = kGradientStep * std::max(1.0, std::abs(z[i]));
-      if (z[i] + h <= upper_[i]) points.push_back({i, h});
-      if (z[i] - h >= lower_[i]) points.push_back({i, -h});
-    }
-    std::vector<double> values(points.size());
-    ParallelFor(static_cast<int>(points.size()), threads_, [&](int p) {
-      std::vector<double> zp = z;
-      zp[points[p].i] += points[p].step;
-      values[p] = LogLik(zp, delay);
-    });
-    std::vector<double> g(k(), 0.0);
-    for (int i = 0; i < k(); ++i) {
-      double plus = NAN, minus = NAN, hp = 0, hm = 0;
-      for (std::size_t p = 0; p < points.size(); ++p) {
-        if (points[p].i != i) continue;
-        if (points[p].step > 0) plus = values[p], hp = points[p].step;
-        else minus = values[p], hm = -points[p].step;
-      }
-      if (!std::isnan(plus) && !std::isnan(minus)) g[i] = (plus - minus) / (hp + hm);
-      else if (!std::isnan(plus)) g[i] = (plus - f0) / hp;
-      else if (!std::isnan(minus)) g[i] = (f0 - minus) / hm;
-      if (!std::isfinite(g[i])) g[i] = 0.0;
-    }
-    return g;
   }
 
   // The score of every log-likelihood term by central differences (one-sided at a bound): the
@@ -398,7 +365,8 @@ class Fitter {
       auto* d = static_cast<Data*>(raw);
       Fitter* self = d->self;
       if (self->Cancelled()) throw nlopt::forced_stop();
-      const double f = self->LogLik(zz, *d->delay);
+      std::vector<double> terms;
+      const double f = self->LogLik(zz, *d->delay, nullptr, grad.empty() ? nullptr : &terms);
       if (!std::isfinite(f)) {
         if (!grad.empty()) std::fill(grad.begin(), grad.end(), 0.0);
         return kFailedObjective;
@@ -409,8 +377,10 @@ class Fitter {
       }
       if (!grad.empty()) {
         ++self->iterations_;
-        const std::vector<double> g = self->Gradient(zz, f, *d->delay);
-        for (std::size_t i = 0; i < g.size(); ++i) grad[i] = -g[i];
+        Eigen::VectorXd g;
+        Eigen::MatrixXd info;
+        if (!self->Scores(zz, *d->delay, &terms, &g, &info)) g.setZero(self->k());
+        for (int i = 0; i < self->k(); ++i) grad[i] = -g(i);
         self->Report(*d->stage, d->best->z, d->best->loglik, *d->delay);
       }
       return -f;
