@@ -70,6 +70,21 @@ int main(int argc, char** argv) {
   c_cmp->add_option("result_b", cmp.b, "result file (JSON)")->required();
   c_cmp->callback([&] { run = [&] { return RunCompare(cmp); }; });
 
+  DynoArgs dyno;
+  auto* c_dyno = app.add_subcommand("dyno", "run an experiment on the virtual dyno (simulated data)");
+  c_dyno->add_option("experiment", dyno.experiment, "fuel, crankshaft or square-wave")
+      ->required()
+      ->check(CLI::IsMember({"fuel", "crankshaft", "square-wave"}));
+  c_dyno->add_option("--point", dyno.point, "fuel: operating point of Table 2 (f1 f2 f3 f4 f7 f8)");
+  c_dyno->add_option("--duration", dyno.duration, "seconds (default: fuel 125, crankshaft 600)");
+  c_dyno->add_option("--seed", dyno.seed, "random seed (default 1)");
+  c_dyno->add_option("--order", dyno.order, "PRBS order (default: fuel 6, crankshaft 7)");
+  c_dyno->add_option("--bit-period", dyno.bit_period, "PRBS bit period in s (default 0.5 / 1)");
+  c_dyno->add_flag("--no-filter", dyno.no_filter, "record without the anti-alias filters");
+  c_dyno->add_flag("--constant-load", dyno.constant_load, "crankshaft: hold the load torque");
+  c_dyno->add_option("--out", dyno.out, "output CSV")->required();
+  c_dyno->callback([&] { run = [&] { return RunDyno(dyno); }; });
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {

@@ -74,4 +74,17 @@ struct CompareArgs {
 };
 int RunCompare(const CompareArgs& args);
 
+struct DynoArgs {
+  std::string experiment;  // fuel, crankshaft, square-wave
+  std::string point = "f1";
+  double duration = 0;     // 0: the experiment's default
+  std::uint64_t seed = 1;
+  int order = 0;           // 0: default
+  double bit_period = 0;   // 0: default
+  bool no_filter = false;
+  bool constant_load = false;
+  std::string out;
+};
+int RunDyno(const DynoArgs& args);
+
 }  // namespace gb::cli
