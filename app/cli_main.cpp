@@ -70,6 +70,27 @@ int main(int argc, char** argv) {
   c_cmp->add_option("result_b", cmp.b, "result file (JSON)")->required();
   c_cmp->callback([&] { run = [&] { return RunCompare(cmp); }; });
 
+  PredictArgs predict;
+  auto* c_pred = app.add_subcommand("predict", "one-step predictions with standard deviations");
+  c_pred->add_option("model", predict.model, "model file (JSON)")->required();
+  c_pred->add_option("data", predict.data, "data file (CSV)")->required();
+  c_pred->add_option("--set", predict.sets, "NAME=VALUE: override a parameter's value");
+  c_pred->add_option("--result", predict.result, "take the estimates (and delays) from a result file");
+  c_pred->add_option("--out", predict.out, "output CSV: t, then o, o_pred, o_sd, o_residual")
+      ->required();
+  c_pred->callback([&] { run = [&] { return RunPredict(predict); }; });
+
+  DiagnoseArgs diag;
+  auto* c_diag = app.add_subcommand("diagnose", "residual diagnostics: ACF, PACF, CCF, periodogram, tests");
+  c_diag->add_option("model", diag.model, "model file (JSON)")->required();
+  c_diag->add_option("data", diag.data, "data file (CSV)")->required();
+  c_diag->add_option("--set", diag.sets, "NAME=VALUE: override a parameter's value");
+  c_diag->add_option("--result", diag.result, "take the estimates (and delays) from a result file");
+  c_diag->add_option("--max-lag", diag.max_lag, "lags of ACF, PACF and CCF (default min(40, n/4))");
+  c_diag->add_option("--lb-lags", diag.ljung_box_lags, "Ljung-Box lags (default min(20, max lag))");
+  c_diag->add_option("--out", diag.out, "output JSON with every series and test")->required();
+  c_diag->callback([&] { run = [&] { return RunDiagnose(diag); }; });
+
   DynoArgs dyno;
   auto* c_dyno = app.add_subcommand("dyno", "run an experiment on the virtual dyno (simulated data)");
   c_dyno->add_option("experiment", dyno.experiment, "fuel, crankshaft or square-wave")
@@ -84,6 +105,18 @@ int main(int argc, char** argv) {
   c_dyno->add_flag("--constant-load", dyno.constant_load, "crankshaft: hold the load torque");
   c_dyno->add_option("--out", dyno.out, "output CSV")->required();
   c_dyno->callback([&] { run = [&] { return RunDyno(dyno); }; });
+
+  SweepArgs sweep;
+  auto* c_sweep = app.add_subcommand("sweep", "estimate one model on many operating points");
+  c_sweep->add_option("model", sweep.model, "model file (JSON)")->required();
+  c_sweep->add_option("data", sweep.data, "data files, each tagged with its operating point")
+      ->required();
+  c_sweep->add_option("--set", sweep.sets, "NAME=VALUE: override a start (or fixed) value");
+  c_sweep->add_option("--out-csv", sweep.out_csv, "table of estimates (CSV)");
+  c_sweep->add_option("--out-md", sweep.out_md, "table of estimates (Markdown)");
+  c_sweep->add_option("--trend", sweep.trend, "PARAMETER:TAG fitted linearly (default X:alpha_deg)");
+  c_sweep->add_option("--parallel", sweep.parallel, "datasets fitted at once (default: all cores)");
+  c_sweep->callback([&] { run = [&] { return RunSweep(sweep); }; });
 
   try {
     app.parse(argc, argv);

@@ -3,9 +3,13 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "core/data/dataset.h"
+#include "core/filter/kalman.h"
+#include "core/model/linear_model.h"
 #include "core/model/model.h"
 #include "core/util/result.h"
 
@@ -86,5 +90,56 @@ struct DynoArgs {
   std::string out;
 };
 int RunDyno(const DynoArgs& args);
+
+struct SweepArgs {
+  std::string model;
+  std::vector<std::string> data;
+  std::vector<std::string> sets;
+  std::string out_csv;
+  std::string out_md;
+  std::string trend = "X:alpha_deg";  // PARAMETER:TAG
+  int parallel = 0;
+};
+int RunSweep(const SweepArgs& args);
+
+// The model, one data series and the parameter values and delays `predict` and `diagnose` work
+// at: the model file's values, replaced by the estimates of a result file (--result, may be
+// empty), then by --set. Delays: the result's "output_delay" estimates where it names them;
+// otherwise the model's delay, chosen by profile likelihood at θ when the model scans a range.
+// The filter settings score observations as `loglik` does (first used row = largest delay).
+struct EvaluatedSeries {
+  std::shared_ptr<const model::LinearModel> model;
+  std::shared_ptr<const data::Series> series;
+  std::vector<double> theta;
+  model::StateSpace ss;
+  filter::FilterSettings settings;   // with the chosen delay per output
+  std::string delay_source;          // "model file", "result file" or "profile likelihood ..."
+};
+Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
+                                            const std::string& data_path,
+                                            const std::vector<std::string>& sets,
+                                            const std::string& result_path);
+// Comment lines for output files: the tool, the files, the parameter values and the delays.
+std::vector<std::string> DescribeEvaluation(const EvaluatedSeries& e, const std::string& tool);
+
+struct PredictArgs {
+  std::string model;
+  std::string data;
+  std::vector<std::string> sets;
+  std::string result;
+  std::string out;
+};
+int RunPredict(const PredictArgs& args);
+
+struct DiagnoseArgs {
+  std::string model;
+  std::string data;
+  std::vector<std::string> sets;
+  std::string result;
+  std::string out;
+  int max_lag = 0;         // 0: automatic (core/diagnose/residuals.h)
+  int ljung_box_lags = 0;  // 0: automatic
+};
+int RunDiagnose(const DiagnoseArgs& args);
 
 }  // namespace gb::cli
