@@ -19,6 +19,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kTestLevel = 0.05;
 constexpr int kDefaultMaxLag = 40;
 constexpr int kDefaultLjungBoxLags = 20;
+constexpr int kMaxPrewhiteningOrder = 10;
 constexpr int kMinHistogramBins = 5;
 constexpr int kMaxHistogramBins = 100;
 // Lag ranges listed in the verdict before "...".
@@ -87,6 +88,38 @@ Correlogram Autocorrelation(std::span<const double> x, int max_lag) {
   return out;
 }
 
+namespace {
+
+// The Durbin-Levinson recursion on r(1..K): φ_kk for every order reached, and the coefficients
+// φ_{p,1..p} of the last order p. Stops early where r has no value or stops being a valid ACF.
+struct Levinson {
+  std::vector<double> phi_kk;  // φ_11, φ_22, ...
+  std::vector<double> phi;     // φ_{p,1..p}, p = phi_kk.size()
+};
+
+Levinson DurbinLevinson(const std::vector<double>& r_from_1, int K) {
+  Levinson out;
+  const auto r = [&](int k) { return r_from_1[k - 1]; };
+  std::vector<double> next;
+  for (int k = 1; k <= K; ++k) {
+    double num = r(k), den = 1.0;
+    for (int j = 1; j < k; ++j) {
+      num -= out.phi[j - 1] * r(k - j);
+      den -= out.phi[j - 1] * r(j);
+    }
+    if (!std::isfinite(num) || !(den > 0.0)) break;
+    const double phi_kk = num / den;
+    next.assign(k, 0.0);
+    for (int j = 1; j < k; ++j) next[j - 1] = out.phi[j - 1] - phi_kk * out.phi[k - j - 1];
+    next[k - 1] = phi_kk;
+    out.phi.swap(next);
+    out.phi_kk.push_back(phi_kk);
+  }
+  return out;
+}
+
+}  // namespace
+
 Correlogram PartialAutocorrelation(const Correlogram& acf) {
   Correlogram out;
   out.n = acf.n;
@@ -94,21 +127,37 @@ Correlogram PartialAutocorrelation(const Correlogram& acf) {
   out.lag = acf.lag;
   const int K = static_cast<int>(acf.value.size());
   out.value.assign(K, kNaN);
-  const auto r = [&](int k) { return acf.value[k - 1]; };  // r(k), k >= 1
-  std::vector<double> phi, next;  // φ_{k-1, 1..k-1}, stored from index 0
-  for (int k = 1; k <= K; ++k) {
-    double num = r(k), den = 1.0;
-    for (int j = 1; j < k; ++j) {
-      num -= phi[j - 1] * r(k - j);
-      den -= phi[j - 1] * r(j);
+  const Levinson lev = DurbinLevinson(acf.value, K);
+  std::copy(lev.phi_kk.begin(), lev.phi_kk.end(), out.value.begin());
+  return out;
+}
+
+Prewhitened Prewhiten(std::span<const double> u, int max_order) {
+  const Moments mo = ObservedMoments(u);
+  Prewhitened out;
+  const int N = static_cast<int>(u.size());
+  int order = 0;
+  if (mo.m2 > 0 && max_order > 0 && mo.n > max_order + 1) {
+    const Correlogram acf = Autocorrelation(u, max_order);
+    const Levinson lev = DurbinLevinson(acf.value, max_order);
+    // AIC(p) = n log σ²_p + 2p with σ²_p = c(0) Π_{k<=p} (1 - φ_kk²); c(0) drops out.
+    double log_var = 0.0, best_aic = 0.0;
+    for (int p = 1; p <= static_cast<int>(lev.phi_kk.size()); ++p) {
+      log_var += std::log1p(-lev.phi_kk[p - 1] * lev.phi_kk[p - 1]);
+      const double aic = mo.n * log_var + 2.0 * p;
+      if (aic < best_aic) {
+        best_aic = aic;
+        order = p;
+      }
     }
-    if (!std::isfinite(num) || !(den > 0.0)) break;  // a gap without pairs, or |r| not a valid ACF
-    const double phi_kk = num / den;
-    next.assign(k, 0.0);
-    for (int j = 1; j < k; ++j) next[j - 1] = phi[j - 1] - phi_kk * phi[k - j - 1];
-    next[k - 1] = phi_kk;
-    phi.swap(next);
-    out.value[k - 1] = phi_kk;
+    // The coefficients of the chosen order: rerun the recursion to that order.
+    if (order > 0) out.ar = DurbinLevinson(acf.value, order).phi;
+  }
+  out.values.assign(N, kNaN);
+  for (int t = order; t < N; ++t) {
+    double a = u[t] - mo.mean;
+    for (int i = 1; i <= order; ++i) a -= out.ar[i - 1] * (u[t - i] - mo.mean);
+    out.values[t] = a;  // NaN when any term is missing
   }
   return out;
 }
@@ -312,7 +361,8 @@ std::string Verdict(const ResidualDiagnostics& d) {
   }
   for (const CrossCorrelogram& c : d.ccf) {
     if (!c.significant) continue;
-    std::string s = fmt::format("CCF with {} peaks at lag {}{} (r = {:.2f}, 95% bound {:.2f})",
+    std::string s = fmt::format("CCF with {} peaks at lag {}{} (prewhitened input; r = {:.2f}, "
+                                "95% bound {:.2f})",
                                 c.input, c.peak_lag > 0 ? "+" : "", c.peak_lag, c.peak,
                                 c.peak_bound);
     if (c.peak_lag > 0)
@@ -405,14 +455,18 @@ Result<ResidualDiagnostics> Diagnose(std::span<const double> z,
     c.constant = !(ObservedMoments(u).m2 > 0);
     if (!c.constant) {
       c.ccf = CrossCorrelation(x, u, K);
+      const Prewhitened alpha = Prewhiten(u, std::min(kMaxPrewhiteningOrder, d.n / 10));
+      c.prewhitening_ar = alpha.ar;
+      c.ccf_prewhitened = CrossCorrelation(x, alpha.values, K);
+      const Correlogram& pw = c.ccf_prewhitened;
       int best = -1;
-      for (int i = 0; i < static_cast<int>(c.ccf.value.size()); ++i)
-        if (!std::isnan(c.ccf.value[i]) &&
-            (best < 0 || std::abs(c.ccf.value[i]) > std::abs(c.ccf.value[best])))
+      for (int i = 0; i < static_cast<int>(pw.value.size()); ++i)
+        if (!std::isnan(pw.value[i]) &&
+            (best < 0 || std::abs(pw.value[i]) > std::abs(pw.value[best])))
           best = i;
       if (best >= 0) {
-        c.peak_lag = c.ccf.lag[best];
-        c.peak = c.ccf.value[best];
+        c.peak_lag = pw.lag[best];
+        c.peak = pw.value[best];
       }
       const boost::math::normal_distribution<double> normal;
       const double z_bonferroni = boost::math::quantile(

@@ -23,8 +23,16 @@
 //   (ū, c_uu(0) over the rows given). A residual that responds to the input k samples later
 //   peaks at k = +k (the input leads); a peak at a negative lag means the residual leads the
 //   input (feedback from the output to the input). Band ±1.96/√n per lag, valid when the residual
-//   is white (whatever the input's own correlation; Bartlett). For the verdict a peak counts when
-//   max_k |ccf(k)| exceeds the Bonferroni bound z_{1-0.025/(2K+1)}/√n (5% over all 2K+1 lags).
+//   is white (whatever the input's own correlation; Bartlett).
+// Prewhitened CCF (Box & Jenkins' cross-correlation check of a transfer-function model, 11.3):
+//   an input such as a PRBS with a long bit period is strongly autocorrelated, which smears the
+//   CCF over many lags and hides where a peak is. So the input is also prewhitened by an AR(p)
+//   model, fitted by Yule-Walker (Durbin-Levinson on u's ACF), p = 0 .. min(10, n/10) chosen by
+//   AIC = n log σ²_p + 2p with σ²_p = c(0) Π_{k<=p} (1 - φ_kk²):
+//     α_t = (u_t - ū) - Σ_{i=1}^{p} φ_i (u_{t-i} - ū)     (NaN for t < p)
+//   and the same CCF, with the same convention, is taken between x and α. The verdict uses this
+//   one: a peak counts when max_k |ccf_α(k)| exceeds the Bonferroni bound z_{1-0.025/(2K+1)}/√n
+//   (5% over all 2K+1 lags).
 // Cumulated periodogram (Box & Jenkins, section 8.2.6):
 //   a_t = x_t - x̄ (0 where x_t is missing: a gap adds no power), N = number of rows,
 //   I(f_j) = (2/N) |Σ_{t=0}^{N-1} a_t e^{-2πi f_j t}|²,   f_j = j/N,  j = 1 .. q,  q = ⌊(N-1)/2⌋
@@ -43,7 +51,7 @@
 //
 // Verdict: "white" when the Ljung-Box p >= 0.05 and the cumulated periodogram stays inside its
 // band. The words name what failed: the ACF lags outside the band, the Ljung-Box p, a periodogram
-// peak, a CCF peak per input with its lag and a hint (lag > 0: "a missing or wrong delay, or
+// peak, a (prewhitened) CCF peak per input with its lag and a hint (lag > 0: "a missing or wrong delay, or
 // missing dynamics?"; lag 0: "a missing direct term?"; lag < 0: "feedback?"), and non-normality
 // (Jarque-Bera p < 0.05, with "heavy tails" when the excess kurtosis exceeds 1).
 #pragma once
@@ -115,12 +123,19 @@ struct InputSeries {
 
 struct CrossCorrelogram {
   std::string input;
-  Correlogram ccf;             // lags -K .. K; empty when the input is constant
+  Correlogram ccf;             // with the input as measured; lags -K .. K; empty when constant
+  Correlogram ccf_prewhitened; // with the prewhitened input α
+  std::vector<double> prewhitening_ar;  // φ_1 .. φ_p (empty: p = 0, α = u - ū)
   bool constant = false;       // the input does not vary over the rows: no correlation exists
-  int peak_lag = 0;            // argmax_k |ccf(k)|
-  double peak = 0.0;           // ccf(peak_lag)
+  int peak_lag = 0;            // argmax_k |ccf_prewhitened(k)|
+  double peak = 0.0;           // ccf_prewhitened(peak_lag)
   double peak_bound = 0.0;     // the Bonferroni bound for the peak
   bool significant = false;    // |peak| > peak_bound
+};
+
+struct Prewhitened {
+  std::vector<double> ar;      // φ_1 .. φ_p
+  std::vector<double> values;  // α_t, NaN for t < p
 };
 
 struct ResidualDiagnostics {
@@ -143,6 +158,8 @@ struct ResidualDiagnostics {
 Correlogram Autocorrelation(std::span<const double> x, int max_lag);
 Correlogram PartialAutocorrelation(const Correlogram& acf);
 Correlogram CrossCorrelation(std::span<const double> x, std::span<const double> u, int max_lag);
+// AR order chosen by AIC among 0 .. max_order (0 when u does not vary or is too short).
+Prewhitened Prewhiten(std::span<const double> u, int max_order);
 CumulatedPeriodogram CumulativePeriodogram(std::span<const double> x);  // needs >= 3 rows
 LjungBox LjungBoxTest(const Correlogram& acf, int lags, int fitted_arma_params = 0);
 Normality NormalityTests(std::span<const double> x, int histogram_bins = 0);

@@ -11,6 +11,7 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
+#include "core/design/prbs.h"
 #include "core/sim/random.h"
 
 namespace gb::diagnose {
@@ -197,11 +198,12 @@ TEST(CrossCorrelation, AResidualThatRespondsToTheInputLaterPeaksAtThatPositiveLa
   const CrossCorrelogram& c = d->ccf[0];
   EXPECT_EQ(c.peak_lag, kDelay);
   EXPECT_NEAR(c.peak, 0.6 / std::sqrt(1.36), 4 / std::sqrt(N));
-  EXPECT_NEAR(c.peak, NaiveCcf(eps, u, kDelay), kExact);
+  EXPECT_NEAR(c.ccf.value[40 + kDelay], NaiveCcf(eps, u, kDelay), kExact);  // lags -40 .. 40
   EXPECT_TRUE(c.significant);
   EXPECT_NE(d->verdict.find("CCF with mfi peaks at lag +3"), std::string::npos) << d->verdict;
   EXPECT_NE(d->verdict.find("delay"), std::string::npos) << d->verdict;
   // Every other lag stays small.
+  ASSERT_EQ(c.ccf.lag[40 + kDelay], kDelay);
   for (std::size_t i = 0; i < c.ccf.value.size(); ++i)
     if (c.ccf.lag[i] != kDelay) {
       EXPECT_LT(std::abs(c.ccf.value[i]), 4 / std::sqrt(N));
@@ -220,6 +222,55 @@ TEST(CrossCorrelation, AResidualThatLeadsTheInputPeaksAtANegativeLag) {
   EXPECT_EQ(d->ccf[0].peak_lag, -2);
   EXPECT_NE(d->verdict.find("lag -2"), std::string::npos) << d->verdict;
   EXPECT_NE(d->verdict.find("feedback"), std::string::npos) << d->verdict;
+}
+
+TEST(Prewhiten, FitsAnAr1InputAndFiltersItByItsCoefficients) {
+  constexpr double phi = 0.8;
+  constexpr int N = 5000;
+  const std::vector<double> u = Ar1(N, phi, 24);
+  const Prewhitened pw = Prewhiten(u, 10);
+  ASSERT_GE(pw.ar.size(), 1u);
+  EXPECT_NEAR(pw.ar[0], phi, 4 * std::sqrt((1 - phi * phi) / N));
+  for (std::size_t i = 1; i < pw.ar.size(); ++i) EXPECT_LT(std::abs(pw.ar[i]), 4 / std::sqrt(N));
+  const double m = Mean(u);
+  const int p = static_cast<int>(pw.ar.size());
+  for (int t = 0; t < N; ++t) {
+    if (t < p) {
+      EXPECT_TRUE(std::isnan(pw.values[t]));
+      continue;
+    }
+    double a = u[t] - m;
+    for (int i = 1; i <= p; ++i) a -= pw.ar[i - 1] * (u[t - i] - m);
+    EXPECT_NEAR(pw.values[t], a, 1e-12);
+  }
+}
+
+TEST(CrossCorrelation, PrewhiteningLocatesTheLagOfAResponseToAPiecewiseConstantInput) {
+  // A PRBS with 40 samples per bit, and a residual that responds to its steps 2 samples later
+  // (what an output delay 2 samples too short leaves): the raw CCF is smeared over the bit
+  // length, the prewhitened one peaks at +2.
+  design::PrbsOptions o;
+  o.order = 6;
+  o.bit_period = 0.5;
+  o.sample_time = 0.0125;
+  o.duration = 60;
+  const auto prbs = design::MakePrbs(o);
+  ASSERT_TRUE(prbs.ok());
+  const std::vector<double>& u = prbs->u;
+  const int N = static_cast<int>(u.size());
+  const std::vector<double> e = WhiteNoise(N, 25);
+  std::vector<double> eps(N);
+  for (int t = 0; t < N; ++t) eps[t] = (t >= 3 ? 0.5 * (u[t - 2] - u[t - 3]) : 0.0) + e[t];
+  const std::vector<InputSeries> inputs = {{"mfi", u}};
+  const auto d = Diagnose(eps, inputs);
+  ASSERT_TRUE(d.ok());
+  const CrossCorrelogram& c = d->ccf[0];
+  EXPECT_EQ(c.peak_lag, 2);
+  EXPECT_TRUE(c.significant);
+  EXPECT_NE(d->verdict.find("CCF with mfi peaks at lag +2"), std::string::npos) << d->verdict;
+  double raw_max = 0;
+  for (double v : c.ccf.value) raw_max = std::max(raw_max, std::abs(v));
+  EXPECT_LT(raw_max, 0.5 * std::abs(c.peak)) << "the raw CCF hides the peak";
 }
 
 TEST(CrossCorrelation, IsLeftOutForAConstantInput) {

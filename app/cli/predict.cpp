@@ -1,0 +1,182 @@
+#include <cmath>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "app/cli/cli.h"
+#include "core/data/write_csv.h"
+#include "core/filter/predict.h"
+#include "core/project/problem.h"
+#include "core/project/project.h"
+
+namespace gb::cli {
+namespace {
+
+Error ResultError(const std::string& file, const std::string& path, const std::string& message) {
+  Error e = InputError(message);
+  e.file = file;
+  e.path = path;
+  return e;
+}
+
+// Copies the estimates of a result file into `spec`, except the parameters named in `keep`
+// (those set by --set). Returns the delay per output the result names (-1: not named).
+Result<std::vector<int>> ApplyResult(const std::string& path, const std::set<std::string>& keep,
+                                     model::ModelSpec* spec) {
+  auto j = project::ReadJsonFile(path);
+  if (!j) return j.error();
+  if (!j->is_object() || !j->contains("greybench_result"))
+    return ResultError(path, "", "not a greybench result file (no \"greybench_result\")");
+  const Json& params = (*j)["parameters"];
+  if (!params.is_object())
+    return ResultError(path, "parameters", "expected an object of parameter estimates");
+  for (const auto& [name, entry] : params.items()) {
+    const std::string where = "parameters." + name;
+    if (keep.count(name)) continue;
+    const int i = spec->ParameterIndex(name);
+    if (i < 0)
+      return ResultError(path, where,
+                         fmt::format("the model {} has no parameter '{}': is the result from "
+                                     "another model?", spec->source, name));
+    if (!entry.is_object() || !entry.contains("estimate") || !entry["estimate"].is_number())
+      return ResultError(path, where + ".estimate", "expected a number");
+    const double value = entry["estimate"].get<double>();
+    model::Parameter& par = spec->parameters[i];
+    if (!std::isfinite(value) || (!par.fixed && ((par.lower && value < *par.lower) ||
+                                                 (par.upper && value > *par.upper))))
+      return ResultError(path, where + ".estimate",
+                         fmt::format("{} is outside the bounds the model {} gives '{}'", value,
+                                     spec->source, name));
+    par.value = value;
+  }
+  std::vector<int> delay(spec->outputs.size(), -1);
+  if (j->contains("output_delay")) {
+    const Json& delays = (*j)["output_delay"];
+    if (!delays.is_object()) return ResultError(path, "output_delay", "expected an object");
+    for (const auto& [name, entry] : delays.items()) {
+      const std::string where = "output_delay." + name + ".estimate";
+      const int o = spec->OutputIndex(name);
+      if (o < 0)
+        return ResultError(path, "output_delay." + name,
+                           fmt::format("the model {} has no output '{}'", spec->source, name));
+      if (!entry.is_object() || !entry["estimate"].is_number_integer())
+        return ResultError(path, where, "expected a whole number of samples");
+      const int d = entry["estimate"].get<int>();
+      const model::DelaySpec& range = spec->output_delay[o];
+      if (d < range.min || d > range.max)
+        return ResultError(path, where,
+                           fmt::format("delay {} is outside the model's range {}..{} for '{}'", d,
+                                       range.min, range.max, name));
+      delay[o] = d;
+    }
+  }
+  return delay;
+}
+
+}  // namespace
+
+Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
+                                            const std::string& data_path,
+                                            const std::vector<std::string>& sets,
+                                            const std::string& result_path) {
+  auto spec = LoadModelWithOverrides(model_path, sets);
+  if (!spec) return spec.error();
+  std::vector<int> result_delay(spec->outputs.size(), -1);
+  if (!result_path.empty()) {
+    std::set<std::string> set_names;
+    for (const auto& s : sets) set_names.insert(s.substr(0, s.find('=')));
+    auto d = ApplyResult(result_path, set_names, &*spec);
+    if (!d) return d.error();
+    result_delay = *d;
+  }
+  EvaluatedSeries out;
+  out.theta = spec->Values();
+  auto problem = project::LoadProblem(std::move(*spec), {data_path});
+  if (!problem) return problem.error();
+  auto lik = project::MakeLikelihood(*problem);
+  if (!lik) return lik.error();
+  out.model = problem->model;
+  out.series = problem->series.front();
+  const model::ModelSpec& m = out.model->spec();
+  auto ss = out.model->Evaluate(out.theta);
+  if (!ss) return ss.error();
+  out.ss = std::move(*ss);
+  out.settings = lik->settings();  // first observation = each output's largest delay
+
+  // Delays: the result's where it names them; the rest at the model's value, or chosen by
+  // profile likelihood at θ when the model scans a range (as `loglik` does).
+  bool scan = false;
+  for (std::size_t o = 0; o < m.outputs.size(); ++o)
+    scan = scan || (result_delay[o] < 0 && m.output_delay[o].IsScan());
+  out.settings.delay.resize(m.outputs.size());
+  for (std::size_t o = 0; o < m.outputs.size(); ++o)
+    out.settings.delay[o] = result_delay[o] >= 0 ? result_delay[o] : m.output_delay[o].min;
+  bool from_result = false;
+  for (int d : result_delay) from_result = from_result || d >= 0;
+  out.delay_source = from_result ? "result file" : "model file";
+  if (scan) {
+    auto profile = lik->Profile(out.theta);
+    if (!profile) return profile.error();
+    int best = -1;
+    for (int c = 0; c < static_cast<int>(profile->candidates.size()); ++c) {
+      const auto& cand = profile->candidates[c];
+      bool fits = cand.ok;
+      for (std::size_t o = 0; o < m.outputs.size(); ++o)
+        fits = fits && (result_delay[o] < 0 || cand.delay[o] == result_delay[o]);
+      if (fits && (best < 0 || cand.loglik > profile->candidates[best].loglik)) best = c;
+    }
+    if (best < 0) return NumericalError(profile->candidates.front().message);
+    out.settings.delay = profile->candidates[best].delay;
+    out.delay_source = "profile likelihood at these parameter values";
+  }
+  return out;
+}
+
+std::vector<std::string> DescribeEvaluation(const EvaluatedSeries& e, const std::string& tool) {
+  const model::ModelSpec& m = e.model->spec();
+  std::vector<std::string> lines = {
+      fmt::format("{} by greybench-cli: model {}, data {}", tool, m.source, e.series->source)};
+  std::string values;
+  for (std::size_t i = 0; i < m.parameters.size(); ++i)
+    values += fmt::format("{}{}={}", i ? " " : "", m.parameters[i].name, e.theta[i]);
+  lines.push_back("parameters: " + values);
+  std::string delays;
+  for (std::size_t o = 0; o < m.outputs.size(); ++o)
+    delays += fmt::format("{}{}={}", o ? " " : "", m.outputs[o], e.settings.delay[o]);
+  lines.push_back(fmt::format("output delay (samples): {} (from the {})", delays, e.delay_source));
+  return lines;
+}
+
+int RunPredict(const PredictArgs& args) {
+  auto e = LoadEvaluatedSeries(args.model, args.data, args.sets, args.result);
+  if (!e) return Fail(e.error());
+  auto pred = filter::PredictOneStep(e->ss, *e->series, e->settings);
+  if (!pred) return Fail(pred.error());
+
+  const model::ModelSpec& m = e->model->spec();
+  const data::Series& s = *e->series;
+  std::vector<std::vector<double>> storage;
+  std::vector<std::string> names;
+  for (std::size_t o = 0; o < m.outputs.size(); ++o) {
+    const auto row = [&](const Eigen::MatrixXd& M) {
+      return std::vector<double>(M.row(o).begin(), M.row(o).end());
+    };
+    storage.push_back(row(s.Y));
+    names.push_back(m.outputs[o]);
+    storage.push_back(row(pred->y_pred));
+    names.push_back(m.outputs[o] + "_pred");
+    storage.push_back(row(pred->y_sd));
+    names.push_back(m.outputs[o] + "_sd");
+    storage.push_back(row(pred->residual));
+    names.push_back(m.outputs[o] + "_residual");
+  }
+  std::vector<data::CsvColumn> cols = {{"t", s.time}};
+  for (std::size_t c = 0; c < storage.size(); ++c) cols.push_back({names[c], storage[c]});
+  std::vector<std::string> comments = DescribeEvaluation(*e, "one-step predictions");
+  comments.push_back(fmt::format("log-likelihood {:.10g} over {} observations",
+                                 pred->loglik.loglik, pred->loglik.n_obs));
+  if (auto st = data::WriteCsvFile(args.out, cols, comments); !st) return Fail(st.error());
+  return 0;
+}
+
+}  // namespace gb::cli

@@ -1,0 +1,171 @@
+#!/usr/bin/env bash
+# greybench-cli predict and diagnose (CONTRACT section 4): the CSV's columns, residual = output -
+# prediction, the Gaussian log-likelihood rebuilt from the CSV's predictions and sds equals
+# `loglik`, --set / --result / delay choice, diagnose's JSON keys, and bad input.
+# Usage: predict.sh GREYBENCH_CLI TEST_DATA_DIR
+set -u
+cli=$1
+data=$2
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+failures=0
+passes=0
+model=$data/cli/fuel.json
+csv=$data/cli/fuel.csv
+
+pass() { passes=$((passes + 1)); }
+fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+
+# check NAME COMMAND...: a check passes when COMMAND exits 0; its output is shown otherwise.
+check() {
+  local name=$1
+  shift
+  local out
+  if out=$("$@" 2>&1); then pass; else fail "$name: $out"; fi
+}
+
+# run ARGS...: the CLI with a 20 s limit; stderr to $tmp/err.
+run() { timeout 20 "$cli" "$@" 2>"$tmp/err"; }
+
+# expect CODE REGEX -- ARGS...: exit status and stderr of a failing call.
+expect() {
+  local code=$1 pattern=$2
+  shift 3
+  local err status
+  err=$(timeout 20 "$cli" "$@" 2>&1 >/dev/null)
+  status=$?
+  if [ "$status" -ne "$code" ] || ! grep -Eq -- "$pattern" <<<"$err"; then
+    fail "greybench-cli $*: expected exit $code and /$pattern/, got exit $status: $err"
+  else
+    pass
+  fi
+}
+
+# The CSV checks, in Python: header, column count, residual = output - prediction, and the
+# log-likelihood Σ -½ [log(2π sd²) + (r/sd)²] over the rows from FIRST on equals LOGLIK.
+csv_check() {  # csv_check FILE FIRST LOGLIK
+  python3 - "$@" <<'PY'
+import csv, math, sys
+path, first, loglik = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
+rows = [r for r in csv.reader(l for l in open(path) if not l.startswith("#"))]
+header, body = rows[0], rows[1:]
+want = ["t", "ilambda", "ilambda_pred", "ilambda_sd", "ilambda_residual"]
+assert header == want, f"header {header}, expected {want}"
+assert len(body) == 40, f"{len(body)} rows, expected 40"
+assert all(len(r) == 5 for r in body), "a row without 5 fields"
+num = lambda s: math.nan if s == "NA" else float(s)
+ll, used = 0.0, 0
+for k, r in enumerate(body):
+    t, y, yp, sd, res = map(num, r)
+    if math.isnan(res):
+        assert math.isnan(y) or math.isnan(yp), f"row {k}: residual missing"
+        continue
+    assert abs(res - (y - yp)) <= 1e-12 * max(1.0, abs(y)), f"row {k}: {res} != {y} - {yp}"
+    assert sd > 0, f"row {k}: sd {sd}"
+    if k >= first:
+        ll += -0.5 * (math.log(2 * math.pi * sd * sd) + (res / sd) ** 2)
+        used += 1
+assert abs(ll - loglik) <= 1e-6 * abs(loglik), f"log-likelihood from the CSV {ll}, loglik says {loglik}"
+PY
+}
+
+# --- predict at the model's values ----------------------------------------------------------
+loglik=$(python3 -c 'import json,sys; print(json.load(sys.stdin)["loglik"])' < <("$cli" loglik "$model" "$csv"))
+if run predict "$model" "$csv" --out "$tmp/pred.csv"; then pass; else fail "predict: $(cat "$tmp/err")"; fi
+check "predict CSV" csv_check "$tmp/pred.csv" 2 "$loglik"
+check "predict: the first two rows (delay 2) have no prediction" \
+  python3 -c "
+import csv; rows = [r for r in csv.reader(l for l in open('$tmp/pred.csv') if not l.startswith('#'))]
+assert rows[1][2] == 'NA' and rows[2][2] == 'NA' and rows[3][2] != 'NA', rows[1:4]"
+
+# --- --set changes the predictions and the log-likelihood follows --------------------------
+loglik_set=$(python3 -c 'import json,sys; print(json.load(sys.stdin)["loglik"])' < <("$cli" loglik "$model" "$csv" --set X=0.3))
+if run predict "$model" "$csv" --set X=0.3 --out "$tmp/pred_set.csv"; then pass; else fail "predict --set: $(cat "$tmp/err")"; fi
+check "predict --set CSV" csv_check "$tmp/pred_set.csv" 2 "$loglik_set"
+check "predict --set differs" bash -c "! cmp -s '$tmp/pred.csv' '$tmp/pred_set.csv'"
+
+# --- --result: estimates and the delay from a result file; --set still wins -----------------
+python3 - "$tmp/result.json" <<'PY'
+import json, sys
+json.dump({"greybench_result": 1,
+           "parameters": {"tau_fv": {"estimate": 0.09}, "X": {"estimate": 0.3},
+                          "Kb": {"estimate": 0.8421, "fixed": True}},
+           "output_delay": {"ilambda": {"estimate": 3, "profile": []}}}, open(sys.argv[1], "w"))
+PY
+# The model with the delay range 0..5 accepts the result's delay 3.
+python3 - "$model" "$tmp/scan.json" <<'PY'
+import json, sys
+m = json.load(open(sys.argv[1])); m["output_delay"]["ilambda"] = {"min": 0, "max": 5}
+json.dump(m, open(sys.argv[2], "w"), indent=1)
+PY
+if run predict "$tmp/scan.json" "$csv" --result "$tmp/result.json" --set tau_fv=0.1 --out "$tmp/pred_res.csv"; then pass; else fail "predict --result: $(cat "$tmp/err")"; fi
+check "predict --result names its values" \
+  grep -q "parameters: tau_fv=0.1 tau_ff=0.375 X=0.3 .*" "$tmp/pred_res.csv"
+check "predict --result takes the delay" grep -q "ilambda=3 (from the result file)" "$tmp/pred_res.csv"
+check "predict --result: no prediction before row 3" \
+  python3 -c "
+import csv; rows = [r for r in csv.reader(l for l in open('$tmp/pred_res.csv') if not l.startswith('#'))]
+assert [r[2] for r in rows[1:4]] == ['NA'] * 3 and rows[4][2] != 'NA', rows[1:5]"
+
+# --- a delay range without a result: the profile-best delay at θ, as loglik chooses it ------
+best=$("$cli" loglik "$tmp/scan.json" "$csv" | python3 -c 'import json,sys; print(json.load(sys.stdin)["output_delay"]["ilambda"]["estimate"])')
+if run predict "$tmp/scan.json" "$csv" --out "$tmp/pred_scan.csv"; then pass; else fail "predict scan: $(cat "$tmp/err")"; fi
+check "predict uses the profile-best delay" grep -q "ilambda=$best (from the profile likelihood" "$tmp/pred_scan.csv"
+
+# --- diagnose --------------------------------------------------------------------------------
+if run diagnose "$model" "$csv" --out "$tmp/diag.json" >"$tmp/diag.out"; then pass; else fail "diagnose: $(cat "$tmp/err")"; fi
+check "diagnose prints a verdict" grep -Eq "^ilambda: Residuals (look|are not) white" "$tmp/diag.out"
+check "diagnose JSON" python3 - "$tmp/diag.json" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+for key in ["greybench_diagnostics", "model", "dataset", "parameters", "output_delay", "loglik",
+            "n_obs", "outputs", "verdict", "lag_convention"]:
+    assert key in d, f"no '{key}'"
+o = d["outputs"]["ilambda"]
+for key in ["acf", "pacf", "ccf", "cumulated_periodogram", "ljung_box", "normality", "verdict",
+            "white", "normal", "n"]:
+    assert key in o, f"no outputs.ilambda.{key}"
+K = len(o["acf"]["lag"])
+assert K >= 1 and o["acf"]["lag"] == list(range(1, K + 1)) and len(o["acf"]["value"]) == K
+assert len(o["pacf"]["value"]) == K and o["acf"]["band"] > 0
+c = o["ccf"]["mfi"]
+assert c["lag"] == list(range(-K, K + 1)) and len(c["value"]) == 2 * K + 1
+assert len(c["prewhitened"]["value"]) == 2 * K + 1
+cp = o["cumulated_periodogram"]
+q = cp["q"]
+assert len(cp["frequency"]) == len(cp["value"]) == len(cp["white"]) == q and q == (o["n"] - 1) // 2
+assert abs(cp["value"][-1] - 1) < 1e-12 and cp["band"] > 0
+lb = o["ljung_box"]
+assert 0 <= lb["p_value"] <= 1 and lb["df"] == lb["lags"]
+nm = o["normality"]
+assert len(nm["qq"]["theoretical"]) == len(nm["qq"]["sample"]) == o["n"]
+assert sum(nm["histogram"]["counts"]) == o["n"]
+assert len(nm["histogram"]["edges"]) == len(nm["histogram"]["counts"]) + 1
+assert d["output_delay"]["ilambda"] == 2 and d["n_obs"] == 38
+PY
+if run diagnose "$model" "$csv" --max-lag 5 --lb-lags 4 --out "$tmp/diag5.json" >/dev/null; then pass; else fail "diagnose --max-lag: $(cat "$tmp/err")"; fi
+check "diagnose --max-lag/--lb-lags" python3 -c "
+import json; o = json.load(open('$tmp/diag5.json'))['outputs']['ilambda']
+assert len(o['acf']['value']) == 5 and o['ljung_box']['lags'] == 4"
+
+# --- bad input -------------------------------------------------------------------------------
+expect 2 "error: .*--out" -- predict "$model" "$csv"
+expect 2 "error: .*--out" -- diagnose "$model" "$csv"
+expect 2 "nowhere.csv" -- predict "$model" "$tmp/nowhere.csv" --out "$tmp/x.csv"
+echo '{"loglik": 1}' >"$tmp/notresult.json"
+expect 2 "notresult.json: not a greybench result file" -- predict "$model" "$csv" --result "$tmp/notresult.json" --out "$tmp/x.csv"
+echo '{"greybench_result": 1, "parameters": {"tauff": {"estimate": 1}}}' >"$tmp/other.json"
+expect 2 "other.json: parameters.tauff: .*no parameter 'tauff'" -- predict "$model" "$csv" --result "$tmp/other.json" --out "$tmp/x.csv"
+echo '{"greybench_result": 1, "parameters": {}, "output_delay": {"ilambda": {"estimate": 7}}}' >"$tmp/far.json"
+expect 2 "far.json: output_delay.ilambda.estimate: delay 7 is outside the model's range 0..5" -- diagnose "$tmp/scan.json" "$csv" --result "$tmp/far.json" --out "$tmp/x.json"
+expect 2 "max_lag 50 needs more than 50" -- diagnose "$model" "$csv" --max-lag 50 --out "$tmp/x.json"
+expect 2 "--set X: 'abc' is not a number" -- predict "$model" "$csv" --set X=abc --out "$tmp/x.csv"
+python3 - "$model" "$tmp/negvar.json" <<'PY'
+import json, sys
+m = json.load(open(sys.argv[1])); m["measurement_variance"]["ilambda"] = "s2 - 1"
+json.dump(m, open(sys.argv[2], "w"))
+PY
+expect 1 "measurement_variance.ilambda .*negative" -- predict "$tmp/negvar.json" "$csv" --out "$tmp/x.csv"
+
+echo "$passes passed, $failures failed"
+[ "$failures" -eq 0 ]
