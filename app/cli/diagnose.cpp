@@ -42,19 +42,24 @@ Json DiagnosticsJson(const diagnose::ResidualDiagnostics& d) {
   }
   j["ccf"] = ccf;
   const auto& cp = d.periodogram;
-  j["cumulated_periodogram"] = {{"frequency", cp.frequency},     {"value", cp.value},
-                                {"white", cp.white},             {"band", cp.band},
-                                {"q", cp.q},                     {"max_deviation", cp.max_deviation},
-                                {"peak_frequency", cp.peak_frequency}, {"inside", cp.inside}};
+  j["cumulated_periodogram"] = {{"frequency", cp.frequency},
+                                {"value", cp.value},
+                                {"white", cp.white},
+                                {"band", cp.band},
+                                {"q", cp.q},
+                                {"max_deviation", cp.max_deviation},
+                                {"peak_frequency", cp.peak_frequency},
+                                {"inside", cp.inside}};
   const auto& nm = d.normality;
-  j["normality"] = {{"mean", nm.mean},
-                    {"sd", nm.sd},
-                    {"skewness", nm.skewness},
-                    {"excess_kurtosis", nm.excess_kurtosis},
-                    {"jarque_bera", nm.jarque_bera},
-                    {"p_value", nm.p_value},
-                    {"qq", {{"theoretical", nm.qq_theoretical}, {"sample", nm.qq_sample}}},
-                    {"histogram", {{"edges", nm.histogram_edges}, {"counts", nm.histogram_counts}}}};
+  j["normality"] = {
+      {"mean", nm.mean},
+      {"sd", nm.sd},
+      {"skewness", nm.skewness},
+      {"excess_kurtosis", nm.excess_kurtosis},
+      {"jarque_bera", nm.jarque_bera},
+      {"p_value", nm.p_value},
+      {"qq", {{"theoretical", nm.qq_theoretical}, {"sample", nm.qq_sample}}},
+      {"histogram", {{"edges", nm.histogram_edges}, {"counts", nm.histogram_counts}}}};
   return j;
 }
 
@@ -76,7 +81,8 @@ int RunDiagnose(const DiagnoseArgs& args) {
   for (std::size_t i = 0; i < m.inputs.size(); ++i)
     input_values.emplace_back(s.U.row(i).begin(), s.U.row(i).end());
   std::vector<diagnose::InputSeries> inputs;
-  for (std::size_t i = 0; i < m.inputs.size(); ++i) inputs.push_back({m.inputs[i], input_values[i]});
+  for (std::size_t i = 0; i < m.inputs.size(); ++i)
+    inputs.push_back({m.inputs[i], input_values[i]});
 
   Json out;
   out["greybench_diagnostics"] = 1;
@@ -96,8 +102,9 @@ int RunDiagnose(const DiagnoseArgs& args) {
   // converts them to the data's time unit.
   out["sample_interval"] =
       s.intervals.distinct.size() == 1 ? Json(s.intervals.distinct[0]) : Json(nullptr);
-  out["lag_convention"] = "ccf(k) = corr(residual[t+k], input[t]): a residual that responds to "
-                          "the input k samples later peaks at +k";
+  out["lag_convention"] =
+      "ccf(k) = corr(residual[t+k], input[t]): a residual that responds to "
+      "the input k samples later peaks at +k";
 
   Json outputs = Json::object();
   std::string verdict;

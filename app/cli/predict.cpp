@@ -37,13 +37,14 @@ Result<std::vector<int>> ApplyResult(const std::string& path, const std::set<std
     if (i < 0)
       return ResultError(path, where,
                          fmt::format("the model {} has no parameter '{}': is the result from "
-                                     "another model?", spec->source, name));
+                                     "another model?",
+                                     spec->source, name));
     if (!entry.is_object() || !entry.contains("estimate") || !entry["estimate"].is_number())
       return ResultError(path, where + ".estimate", "expected a number");
     const double value = entry["estimate"].get<double>();
     model::Parameter& par = spec->parameters[i];
-    if (!std::isfinite(value) || (!par.fixed && ((par.lower && value < *par.lower) ||
-                                                 (par.upper && value > *par.upper))))
+    if (!std::isfinite(value) ||
+        (!par.fixed && ((par.lower && value < *par.lower) || (par.upper && value > *par.upper))))
       return ResultError(path, where + ".estimate",
                          fmt::format("{} is outside the bounds the model {} gives '{}'", value,
                                      spec->source, name));
@@ -173,8 +174,8 @@ int RunPredict(const PredictArgs& args) {
   std::vector<data::CsvColumn> cols = {{"t", s.time}};
   for (std::size_t c = 0; c < storage.size(); ++c) cols.push_back({names[c], storage[c]});
   std::vector<std::string> comments = DescribeEvaluation(*e, "one-step predictions");
-  comments.push_back(fmt::format("log-likelihood {:.10g} over {} observations",
-                                 pred->loglik.loglik, pred->loglik.n_obs));
+  comments.push_back(fmt::format("log-likelihood {:.10g} over {} observations", pred->loglik.loglik,
+                                 pred->loglik.n_obs));
   if (auto st = data::WriteCsvFile(args.out, cols, comments); !st) return Fail(st.error());
   return 0;
 }

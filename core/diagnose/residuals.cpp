@@ -1,4 +1,5 @@
-// Sections: 1. correlograms  2. cumulated periodogram  3. tests  4. Diagnose and the verdict
+// Sections: 1. correlograms (ACF, PACF by Durbin-Levinson, prewhitening, CCF)
+//           2. cumulated periodogram  3. tests (Ljung-Box, normality)  4. Diagnose and the verdict
 #include "core/diagnose/residuals.h"
 
 #include <algorithm>
@@ -183,9 +184,8 @@ Correlogram CrossCorrelation(std::span<const double> x, std::span<const double> 
       ++pairs;
     }
     out.lag.push_back(k);
-    out.value.push_back(pairs > 0 && scale > 0
-                            ? (1.0 - static_cast<double>(std::abs(k)) / mx.n) * (sum / pairs) / scale
-                            : kNaN);
+    const double taper = 1.0 - static_cast<double>(std::abs(k)) / mx.n;
+    out.value.push_back(pairs > 0 && scale > 0 ? taper * (sum / pairs) / scale : kNaN);
   }
   return out;
 }
@@ -354,44 +354,48 @@ std::string Verdict(const ResidualDiagnostics& d) {
                        LagRangesForVerdict(outside));
     s += fmt::format("Ljung-Box p = {:.2g} at {} lags", d.ljung_box.p_value, d.ljung_box.lags);
     if (!d.periodogram.inside)
-      s += fmt::format("; the cumulated periodogram leaves its 95% band (strongest frequency "
-                       "{:.3g} cycles per sample)",
-                       d.periodogram.peak_frequency);
+      s += fmt::format(
+          "; the cumulated periodogram leaves its 95% band (strongest frequency "
+          "{:.3g} cycles per sample)",
+          d.periodogram.peak_frequency);
     sentences.push_back(s + ".");
   }
   for (const CrossCorrelogram& c : d.ccf) {
     if (!c.significant) continue;
-    std::string s = fmt::format("CCF with {} peaks at lag {}{} (prewhitened input; r = {:.2f}, "
-                                "95% bound {:.2f})",
-                                c.input, c.peak_lag > 0 ? "+" : "", c.peak_lag, c.peak,
-                                c.peak_bound);
+    std::string s = fmt::format(
+        "CCF with {} peaks at lag {}{} (prewhitened input; r = {:.2f}, "
+        "95% bound {:.2f})",
+        c.input, c.peak_lag > 0 ? "+" : "", c.peak_lag, c.peak, c.peak_bound);
     if (c.peak_lag > 0)
-      s += fmt::format(": an effect of {} {} sample{} later is not explained - a missing or wrong "
-                       "delay, or missing dynamics?",
-                       c.input, c.peak_lag, c.peak_lag > 1 ? "s" : "");
+      s += fmt::format(
+          ": an effect of {} {} sample{} later is not explained - a missing or wrong "
+          "delay, or missing dynamics?",
+          c.input, c.peak_lag, c.peak_lag > 1 ? "s" : "");
     else if (c.peak_lag == 0)
       s += fmt::format(": a missing direct (same-sample) effect of {}?", c.input);
     else
-      s += fmt::format(": the residual leads {} - feedback from the output to the input?",
-                       c.input);
+      s += fmt::format(": the residual leads {} - feedback from the output to the input?", c.input);
     sentences.push_back(s);
   }
   const Normality& nm = d.normality;
   if (nm.sd > kScaleRatio)
-    sentences.push_back(fmt::format("The standardised residuals have sd {:.3g}: the model's "
-                                    "predicted variances are too small.",
-                                    nm.sd));
+    sentences.push_back(
+        fmt::format("The standardised residuals have sd {:.3g}: the model's "
+                    "predicted variances are too small.",
+                    nm.sd));
   else if (nm.sd < 1.0 / kScaleRatio)
-    sentences.push_back(fmt::format("The standardised residuals have sd {:.3g}: the model's "
-                                    "predicted variances are too large.",
-                                    nm.sd));
+    sentences.push_back(
+        fmt::format("The standardised residuals have sd {:.3g}: the model's "
+                    "predicted variances are too large.",
+                    nm.sd));
   if (d.normal) {
-    sentences.push_back(fmt::format("Normality is not rejected (Jarque-Bera p = {:.2g}).",
-                                    nm.p_value));
+    sentences.push_back(
+        fmt::format("Normality is not rejected (Jarque-Bera p = {:.2g}).", nm.p_value));
   } else {
-    std::string s = fmt::format("Not normal: Jarque-Bera p = {:.2g} (skewness {:.2f}, excess "
-                                "kurtosis {:.2f})",
-                                nm.p_value, nm.skewness, nm.excess_kurtosis);
+    std::string s = fmt::format(
+        "Not normal: Jarque-Bera p = {:.2g} (skewness {:.2f}, excess "
+        "kurtosis {:.2f})",
+        nm.p_value, nm.skewness, nm.excess_kurtosis);
     if (nm.excess_kurtosis > 1.0) s += "; heavy tails: outliers? consider \"robust_huber\"";
     sentences.push_back(s + ".");
   }
@@ -402,8 +406,7 @@ std::string Verdict(const ResidualDiagnostics& d) {
 
 }  // namespace
 
-Result<ResidualDiagnostics> Diagnose(std::span<const double> z,
-                                     std::span<const InputSeries> inputs,
+Result<ResidualDiagnostics> Diagnose(std::span<const double> z, std::span<const InputSeries> inputs,
                                      const DiagnoseOptions& options) {
   if (std::string why; !options.IsValid(&why)) return InputError("diagnostics options: " + why);
   for ([[maybe_unused]] const InputSeries& in : inputs)
@@ -420,25 +423,29 @@ Result<ResidualDiagnostics> Diagnose(std::span<const double> z,
   const Moments mo = ObservedMoments(x);
   d.n = mo.n;
   if (d.n < kMinResiduals)
-    return InputError(fmt::format("only {} residual{} observed: at least {} are needed for "
-                                  "residual diagnostics",
-                                  d.n, d.n == 1 ? " is" : "s are", kMinResiduals));
+    return InputError(
+        fmt::format("only {} residual{} observed: at least {} are needed for "
+                    "residual diagnostics",
+                    d.n, d.n == 1 ? " is" : "s are", kMinResiduals));
   if (!(mo.m2 > 0)) return InputError("the residuals do not vary: no correlation can be computed");
 
-  d.max_lag = options.max_lag > 0 ? options.max_lag
-                                  : std::max(1, std::min(kDefaultMaxLag, d.n / 4));
+  d.max_lag =
+      options.max_lag > 0 ? options.max_lag : std::max(1, std::min(kDefaultMaxLag, d.n / 4));
   if (d.max_lag >= d.n)
     return InputError(fmt::format("max_lag {} needs more than {} observed residuals; there are {}",
                                   d.max_lag, d.max_lag, d.n));
   const int lb_lags = options.ljung_box_lags > 0 ? options.ljung_box_lags
                                                  : std::min(kDefaultLjungBoxLags, d.max_lag);
   if (lb_lags >= d.n)
-    return InputError(fmt::format("{} Ljung-Box lags need more than {} observed residuals; there "
-                                  "are {}", lb_lags, lb_lags, d.n));
+    return InputError(
+        fmt::format("{} Ljung-Box lags need more than {} observed residuals; there "
+                    "are {}",
+                    lb_lags, lb_lags, d.n));
   if (lb_lags - options.fitted_arma_params < 1)
-    return InputError(fmt::format("the Ljung-Box test at {} lags with {} fitted ARMA parameters "
-                                  "has no degrees of freedom",
-                                  lb_lags, options.fitted_arma_params));
+    return InputError(
+        fmt::format("the Ljung-Box test at {} lags with {} fitted ARMA parameters "
+                    "has no degrees of freedom",
+                    lb_lags, options.fitted_arma_params));
 
   Correlogram acf = Autocorrelation(x, std::max(d.max_lag, lb_lags));
   d.ljung_box = LjungBoxTest(acf, lb_lags, options.fitted_arma_params);
@@ -469,8 +476,8 @@ Result<ResidualDiagnostics> Diagnose(std::span<const double> z,
         c.peak = pw.value[best];
       }
       const boost::math::normal_distribution<double> normal;
-      const double z_bonferroni = boost::math::quantile(
-          normal, 1.0 - 0.5 * kTestLevel / static_cast<double>(2 * K + 1));
+      const double z_bonferroni =
+          boost::math::quantile(normal, 1.0 - 0.5 * kTestLevel / static_cast<double>(2 * K + 1));
       c.peak_bound = z_bonferroni / std::sqrt(static_cast<double>(d.n));
       c.significant = best >= 0 && std::abs(c.peak) > c.peak_bound;
     }

@@ -19,7 +19,8 @@
 //   (φ_kk is the last coefficient of the AR(k) fit by the Yule-Walker equations.)
 // CCF between the residuals x and an input u, SIGN CONVENTION:
 //   ccf(k) = corr(x_{t+k}, u_t),   k = -K .. K
-//          = (1 - |k|/n) (1/ν_k) Σ_{t: x_{t+k}, u_t observed} (x_{t+k} - x̄)(u_t - ū) / sqrt(c_xx(0) c_uu(0))
+//          = (1 - |k|/n) (1/ν_k) Σ_{t: x_{t+k}, u_t observed} (x_{t+k} - x̄)(u_t - ū)
+//            / sqrt(c_xx(0) c_uu(0))
 //   (ū, c_uu(0) over the rows given). A residual that responds to the input k samples later
 //   peaks at k = +k (the input leads); a peak at a negative lag means the residual leads the
 //   input (feedback from the output to the input). Band ±1.96/√n per lag, valid when the residual
@@ -51,9 +52,9 @@
 //
 // Verdict: "white" when the Ljung-Box p >= 0.05 and the cumulated periodogram stays inside its
 // band. The words name what failed: the ACF lags outside the band, the Ljung-Box p, a periodogram
-// peak, a (prewhitened) CCF peak per input with its lag and a hint (lag > 0: "a missing or wrong delay, or
-// missing dynamics?"; lag 0: "a missing direct term?"; lag < 0: "feedback?"), and non-normality
-// (Jarque-Bera p < 0.05, with "heavy tails" when the excess kurtosis exceeds 1).
+// peak, a (prewhitened) CCF peak per input with its lag and a hint (lag > 0: "a missing or wrong
+// delay, or missing dynamics?"; lag 0: "a missing direct term?"; lag < 0: "feedback?"), and
+// non-normality (Jarque-Bera p < 0.05, with "heavy tails" when the excess kurtosis exceeds 1).
 #pragma once
 
 #include <span>
@@ -79,10 +80,10 @@ struct DiagnoseOptions {
 };
 
 struct Correlogram {
-  std::vector<int> lag;        // 1 .. K (ACF, PACF) or -K .. K (CCF)
-  std::vector<double> value;   // NaN where no pair of observed values exists
-  double band = 0.0;           // the 95% limits ±band under whiteness, 1.96/√n
-  int n = 0;                   // observed values
+  std::vector<int> lag;       // 1 .. K (ACF, PACF) or -K .. K (CCF)
+  std::vector<double> value;  // NaN where no pair of observed values exists
+  double band = 0.0;          // the 95% limits ±band under whiteness, 1.96/√n
+  int n = 0;                  // observed values
 };
 
 struct CumulatedPeriodogram {
@@ -91,14 +92,14 @@ struct CumulatedPeriodogram {
   std::vector<double> white;      // j/q
   double band = 0.0;              // 1.36/√q
   int q = 0;
-  double max_deviation = 0.0;     // max_j |C(f_j) - j/q|
-  double peak_frequency = 0.0;    // f_j of the largest I(f_j)
-  bool inside = true;             // max_deviation <= band
+  double max_deviation = 0.0;   // max_j |C(f_j) - j/q|
+  double peak_frequency = 0.0;  // f_j of the largest I(f_j)
+  bool inside = true;           // max_deviation <= band
 };
 
 struct LjungBox {
   double statistic = 0.0;
-  int lags = 0;                // h
+  int lags = 0;  // h
   int df = 0;
   double p_value = 1.0;
 };
@@ -110,10 +111,10 @@ struct Normality {
   double excess_kurtosis = 0.0;
   double jarque_bera = 0.0;
   double p_value = 1.0;
-  std::vector<double> qq_theoretical;  // Φ⁻¹((i - ½)/n)
-  std::vector<double> qq_sample;       // sorted values
-  std::vector<double> histogram_edges; // bins + 1
-  std::vector<int> histogram_counts;   // bins
+  std::vector<double> qq_theoretical;   // Φ⁻¹((i - ½)/n)
+  std::vector<double> qq_sample;        // sorted values
+  std::vector<double> histogram_edges;  // bins + 1
+  std::vector<int> histogram_counts;    // bins
 };
 
 struct InputSeries {
@@ -123,14 +124,14 @@ struct InputSeries {
 
 struct CrossCorrelogram {
   std::string input;
-  Correlogram ccf;             // with the input as measured; lags -K .. K; empty when constant
-  Correlogram ccf_prewhitened; // with the prewhitened input α
+  Correlogram ccf;              // with the input as measured; lags -K .. K; empty when constant
+  Correlogram ccf_prewhitened;  // with the prewhitened input α
   std::vector<double> prewhitening_ar;  // φ_1 .. φ_p (empty: p = 0, α = u - ū)
-  bool constant = false;       // the input does not vary over the rows: no correlation exists
-  int peak_lag = 0;            // argmax_k |ccf_prewhitened(k)|
-  double peak = 0.0;           // ccf_prewhitened(peak_lag)
-  double peak_bound = 0.0;     // the Bonferroni bound for the peak
-  bool significant = false;    // |peak| > peak_bound
+  bool constant = false;     // the input does not vary over the rows: no correlation exists
+  int peak_lag = 0;          // argmax_k |ccf_prewhitened(k)|
+  double peak = 0.0;         // ccf_prewhitened(peak_lag)
+  double peak_bound = 0.0;   // the Bonferroni bound for the peak
+  bool significant = false;  // |peak| > peak_bound
 };
 
 struct Prewhitened {
@@ -139,9 +140,9 @@ struct Prewhitened {
 };
 
 struct ResidualDiagnostics {
-  int first_row = 0;           // the rows analysed: [first_row, first_row + rows)
+  int first_row = 0;  // the rows analysed: [first_row, first_row + rows)
   int rows = 0;
-  int n = 0;                   // observed residuals among them
+  int n = 0;  // observed residuals among them
   int max_lag = 0;
   Correlogram acf, pacf;
   std::vector<CrossCorrelogram> ccf;  // one per input, in the order given
@@ -150,7 +151,7 @@ struct ResidualDiagnostics {
   Normality normality;
   bool white = false;
   bool normal = false;
-  std::string verdict;         // one or a few sentences for the user
+  std::string verdict;  // one or a few sentences for the user
 };
 
 // The statistics one by one. `x` may hold NaN (missing). Preconditions (asserted):

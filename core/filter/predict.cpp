@@ -27,9 +27,8 @@ void CheckTrace([[maybe_unused]] const model::StateSpace& ss,
                 [[maybe_unused]] const data::Series& series,
                 [[maybe_unused]] const FilterTrace& trace) {
   assert(trace.x_filt.cols() == static_cast<Eigen::Index>(series.size()) &&
-         trace.x_filt.rows() == ss.n_states() &&
-         trace.P_filt.size() == series.size() && trace.y_pred.rows() == ss.n_outputs() &&
-         "the trace belongs to this model and series");
+         trace.x_filt.rows() == ss.n_states() && trace.P_filt.size() == series.size() &&
+         trace.y_pred.rows() == ss.n_outputs() && "the trace belongs to this model and series");
 }
 
 }  // namespace
@@ -144,7 +143,8 @@ Result<HorizonPredictions> PredictAheadFromTrace(const model::StateSpace& ss,
   for (int o = 0; o < p; ++o) {
     for (int k = delay[o]; k < N; ++k) {
       const int j = k - delay[o];
-      out.y_sd(o, k) = std::sqrt((ss.C.row(o) * out.P[j] * ss.C.row(o).transpose()).value() + ss.S(o));
+      out.y_sd(o, k) =
+          std::sqrt((ss.C.row(o) * out.P[j] * ss.C.row(o).transpose()).value() + ss.S(o));
     }
   }
   return out;

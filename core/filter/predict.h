@@ -21,8 +21,9 @@
 //
 // h-step prediction (h >= 0): from the filtered state at s = j - h,
 //   x̂_{j|s} = Φ_{j-1} x̂_{j-1|s} + Γ0_{j-1} u_{j-1} + Γ1_{j-1} u_j + g_{j-1}
-//   P_{j|s}  = Φ_{j-1} P_{j-1|s} Φ_{j-1}' + Q_{j-1}                     (starting at x̂_{s|s}, P_{s|s})
-//   ŷ_{o,k} = C_o x̂_{j|s} + D_o u_j + d_o,   sd_{o,k} = sqrt(C_o P_{j|s} C_o' + S_o)   (j = k - d_o)
+//   P_{j|s}  = Φ_{j-1} P_{j-1|s} Φ_{j-1}' + Q_{j-1}          (starting at x̂_{s|s}, P_{s|s})
+//   ŷ_{o,k}  = C_o x̂_{j|s} + D_o u_j + d_o                   (j = k - d_o)
+//   sd_{o,k} = sqrt(C_o P_{j|s} C_o' + S_o)
 // The inputs between s and j are the measured ones (known future inputs, as in a simulation).
 // For j < h there is no observation to condition on and the prediction starts from the prior
 // (x0, P0) at index 0. h = 1 is the one-step prediction; h = 0 gives the filtered output.
@@ -65,18 +66,18 @@ struct OneStepPredictions {
 };
 
 struct HorizonPredictions {
-  int horizon = 1;                   // h
-  Eigen::MatrixXd y_pred;            // p x N, NaN for k < d_o
-  Eigen::MatrixXd y_sd;              // p x N, includes S_o
-  Eigen::MatrixXd x_pred;            // n x N: E[x_j | observations up to state index j - h]
-  std::vector<Eigen::MatrixXd> P;    // N of n x n: its covariance
+  int horizon = 1;                 // h
+  Eigen::MatrixXd y_pred;          // p x N, NaN for k < d_o
+  Eigen::MatrixXd y_sd;            // p x N, includes S_o
+  Eigen::MatrixXd x_pred;          // n x N: E[x_j | observations up to state index j - h]
+  std::vector<Eigen::MatrixXd> P;  // N of n x n: its covariance
 };
 
 struct SmoothedStates {
-  Eigen::MatrixXd x;                 // n x N: E[x_j | every observation]
-  std::vector<Eigen::MatrixXd> P;    // N of n x n
-  Eigen::MatrixXd y;                 // p x N: noise-free output at the smoothed state (NaN k < d_o)
-  Eigen::MatrixXd y_sd;              // p x N: sqrt(C_o P_{j|N} C_o'), without S_o
+  Eigen::MatrixXd x;               // n x N: E[x_j | every observation]
+  std::vector<Eigen::MatrixXd> P;  // N of n x n
+  Eigen::MatrixXd y;               // p x N: noise-free output at the smoothed state (NaN k < d_o)
+  Eigen::MatrixXd y_sd;            // p x N: sqrt(C_o P_{j|N} C_o'), without S_o
 };
 
 // The delay and first used observation of every output, as the filter applies them (settings

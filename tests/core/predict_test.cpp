@@ -2,6 +2,7 @@
 // moments of the dense joint Gaussian of all states and observations (brute force, no filter),
 // the closed form of the Ornstein-Uhlenbeck process, and the closed-form response of a
 // first-order system to a square wave (the paper's Fig. 2 experiment).
+// Sections: brute force (the joint Gaussian), smoother, predictions, simulation.
 #include "core/filter/predict.h"
 
 #include <cmath>
@@ -168,9 +169,8 @@ TEST(Smooth, EqualsTheConditionalMeanAndCovarianceOfTheStackedGaussian) {
   const auto ss = lm.Evaluate(lm.spec().Values());
   ASSERT_TRUE(ss.ok());
   const data::Series series = RandomSeries(14, 2, 0.2, 5);
-  for (const FilterSettings& st :
-       {Settings(model::InputHold::kZoh, {0, 0}, {0, 0}),
-        Settings(model::InputHold::kFoh, {1, 3}, {3, 3})}) {
+  for (const FilterSettings& st : {Settings(model::InputHold::kZoh, {0, 0}, {0, 0}),
+                                   Settings(model::InputHold::kFoh, {1, 3}, {3, 3})}) {
     const auto smoothed = Smooth(*ss, series, st);
     ASSERT_TRUE(smoothed.ok()) << smoothed.error().ToString();
     const Joint J = BuildJoint(*ss, series, st);
@@ -180,7 +180,8 @@ TEST(Smooth, EqualsTheConditionalMeanAndCovarianceOfTheStackedGaussian) {
     const int n = ss->n_states();
     for (int j = 0; j < static_cast<int>(series.size()); ++j) {
       for (int i = 0; i < n; ++i) {
-        EXPECT_NEAR(smoothed->x(i, j), c.mean(j * n + i), kTight * (1 + std::abs(c.mean(j * n + i))))
+        EXPECT_NEAR(smoothed->x(i, j), c.mean(j * n + i),
+                    kTight * (1 + std::abs(c.mean(j * n + i))))
             << "state " << i << " at " << j;
         for (int l = 0; l < n; ++l)
           EXPECT_NEAR(smoothed->P[j](i, l), c.cov(j * n + i, j * n + l), kTight) << "at " << j;
@@ -191,8 +192,8 @@ TEST(Smooth, EqualsTheConditionalMeanAndCovarianceOfTheStackedGaussian) {
       for (int k = st.delay[o]; k < static_cast<int>(series.size()); ++k) {
         const int j = k - st.delay[o];
         const Eigen::RowVectorXd Co = ss->C.row(o);
-        const double mean = Co.dot(c.mean.segment(j * n, n)) + ss->D.row(o).dot(series.U.col(j)) +
-                            ss->d(o);
+        const double mean =
+            Co.dot(c.mean.segment(j * n, n)) + ss->D.row(o).dot(series.U.col(j)) + ss->d(o);
         const double var = (Co * c.cov.block(j * n, j * n, n, n) * Co.transpose()).value();
         EXPECT_NEAR(smoothed->y(o, k), mean, kTight * (1 + std::abs(mean)));
         EXPECT_NEAR(smoothed->y_sd(o, k), std::sqrt(var), kTight);
@@ -311,7 +312,8 @@ TEST(PredictAhead, OneStepIsTheFiltersPrediction) {
   ASSERT_TRUE(one.ok() && ahead.ok());
   for (int o = 0; o < 2; ++o) {
     for (int k = st.delay[o]; k < 40; ++k) {
-      EXPECT_NEAR(ahead->y_pred(o, k), one->y_pred(o, k), 1e-12 * (1 + std::abs(one->y_pred(o, k))));
+      EXPECT_NEAR(ahead->y_pred(o, k), one->y_pred(o, k),
+                  1e-12 * (1 + std::abs(one->y_pred(o, k))));
       EXPECT_NEAR(ahead->y_sd(o, k), one->y_sd(o, k), 1e-12);
     }
   }
@@ -347,8 +349,7 @@ TEST(PredictAhead, VarianceMatchesTheClosedFormForScalarOrnsteinUhlenbeck) {
         if (k >= N) continue;
         const double decay = std::exp(-a * h * dt);
         const double P = trace.P_filt[j - h](0, 0);
-        const double var = decay * decay * P +
-                           sigma * sigma * (1 - decay * decay) / (2 * a) + S;
+        const double var = decay * decay * P + sigma * sigma * (1 - decay * decay) / (2 * a) + S;
         EXPECT_NEAR(pred->y_sd(0, k) * pred->y_sd(0, k), var, 1e-12) << "h " << h << " j " << j;
         EXPECT_NEAR(pred->y_pred(0, k), decay * trace.x_filt(0, j - h), 1e-12);
       }
@@ -407,15 +408,20 @@ TEST(DeterministicResponse, AnOutputDelayShiftsTheOutputBySamples) {
   const model::LinearModel lm = CompileModel(kTwoOutputModel);
   const auto ss = lm.Evaluate(lm.spec().Values());
   const data::Series series = RandomSeries(20, 2, 0.0, 2);
-  const auto plain = sim::DeterministicResponse(*ss, series, Settings(model::InputHold::kZoh, {0, 0}, {}));
+  const auto plain =
+      sim::DeterministicResponse(*ss, series, Settings(model::InputHold::kZoh, {0, 0}, {}));
   const auto delayed =
       sim::DeterministicResponse(*ss, series, Settings(model::InputHold::kZoh, {3, 1}, {}));
   ASSERT_TRUE(plain.ok() && delayed.ok());
   for (int k = 0; k < 20; ++k) {
-    if (k < 3) EXPECT_TRUE(std::isnan(delayed->Y(0, k)));
-    else EXPECT_DOUBLE_EQ(delayed->Y(0, k), plain->Y(0, k - 3));
-    if (k < 1) EXPECT_TRUE(std::isnan(delayed->Y(1, k)));
-    else EXPECT_DOUBLE_EQ(delayed->Y(1, k), plain->Y(1, k - 1));
+    if (k < 3)
+      EXPECT_TRUE(std::isnan(delayed->Y(0, k)));
+    else
+      EXPECT_DOUBLE_EQ(delayed->Y(0, k), plain->Y(0, k - 3));
+    if (k < 1)
+      EXPECT_TRUE(std::isnan(delayed->Y(1, k)));
+    else
+      EXPECT_DOUBLE_EQ(delayed->Y(1, k), plain->Y(1, k - 1));
   }
 }
 

@@ -1,6 +1,8 @@
 // Residual diagnostics against brute-force computations written out here (plain sums, a naive
 // O(N²) DFT, Yule-Walker solves, the closed-form chi-square tail for even degrees of freedom)
 // and against Monte Carlo properties of white noise, AR(1) and a sinusoid in noise.
+// Sections: references, ACF and PACF, CCF (and prewhitening), cumulated periodogram, Ljung-Box,
+// normality, Diagnose and the verdict.
 #include "core/diagnose/residuals.h"
 
 #include <algorithm>
@@ -16,6 +18,8 @@
 
 namespace gb::diagnose {
 namespace {
+
+// ---- references ------------------------------------------------------------------------------
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kExact = 1e-10;  // two computations of the same sums
@@ -324,7 +328,8 @@ TEST(CumulativePeriodogram, OfWhiteNoiseLeavesTheBandAboutOneTimeInTwenty) {
   ExpectMatchesNaiveDft(x, CumulativePeriodogram(x));
   int outside = 0;
   constexpr int kSeries = 300;
-  for (std::uint64_t s = 0; s < kSeries; ++s) outside += !CumulativePeriodogram(WhiteNoise(400, 500 + s)).inside;
+  for (std::uint64_t s = 0; s < kSeries; ++s)
+    outside += !CumulativePeriodogram(WhiteNoise(400, 500 + s)).inside;
   EXPECT_LT(outside, 0.10 * kSeries);
 }
 
