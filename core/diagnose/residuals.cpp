@@ -27,6 +27,8 @@ constexpr int kMaxHistogramBins = 100;
 constexpr int kMaxRangesInVerdict = 8;
 // Standardised residuals whose sd leaves [1/kScaleRatio, kScaleRatio] get a remark on the scale.
 constexpr double kScaleRatio = 1.25;
+// A CCF peak below kMarginal times its bound is called possibly chance in the verdict.
+constexpr double kMarginal = 1.25;
 
 struct Moments {
   int n = 0;
@@ -341,7 +343,7 @@ std::string Verdict(const ResidualDiagnostics& d) {
   std::vector<std::string> sentences;
   if (d.white) {
     sentences.push_back(fmt::format(
-        "Residuals look white (Ljung-Box p = {:.2g} at {} lags; cumulated periodogram inside its "
+        "Residuals look white (Ljung-Box p = {:.3g} at {} lags; cumulated periodogram inside its "
         "95% band).",
         d.ljung_box.p_value, d.ljung_box.lags));
   } else {
@@ -352,7 +354,7 @@ std::string Verdict(const ResidualDiagnostics& d) {
     if (!outside.empty())
       s += fmt::format("ACF exceeds the band at lag{} {}; ", outside.size() > 1 ? "s" : "",
                        LagRangesForVerdict(outside));
-    s += fmt::format("Ljung-Box p = {:.2g} at {} lags", d.ljung_box.p_value, d.ljung_box.lags);
+    s += fmt::format("Ljung-Box p = {:.3g} at {} lags", d.ljung_box.p_value, d.ljung_box.lags);
     if (!d.periodogram.inside)
       s += fmt::format(
           "; the cumulated periodogram leaves its 95% band (strongest frequency "
@@ -363,10 +365,12 @@ std::string Verdict(const ResidualDiagnostics& d) {
   for (const CrossCorrelogram& c : d.ccf) {
     if (!c.significant) continue;
     std::string s = fmt::format(
-        "CCF with {} peaks at lag {}{} (prewhitened input; r = {:.2f}, "
-        "95% bound {:.2f})",
+        "CCF with {} peaks at lag {}{} (prewhitened input; r = {:.3g}, "
+        "95% bound {:.3g})",
         c.input, c.peak_lag > 0 ? "+" : "", c.peak_lag, c.peak, c.peak_bound);
-    if (c.peak_lag > 0)
+    if (std::abs(c.peak) < kMarginal * c.peak_bound)
+      s += ": only just above the bound, possibly chance (1 time in 20 without any effect)";
+    else if (c.peak_lag > 0)
       s += fmt::format(
           ": an effect of {} {} sample{} later is not explained - a missing or wrong "
           "delay, or missing dynamics?",
@@ -375,7 +379,7 @@ std::string Verdict(const ResidualDiagnostics& d) {
       s += fmt::format(": a missing direct (same-sample) effect of {}?", c.input);
     else
       s += fmt::format(": the residual leads {} - feedback from the output to the input?", c.input);
-    sentences.push_back(s);
+    sentences.push_back(s.back() == '?' ? s : s + ".");
   }
   const Normality& nm = d.normality;
   if (nm.sd > kScaleRatio)
@@ -390,10 +394,10 @@ std::string Verdict(const ResidualDiagnostics& d) {
                     nm.sd));
   if (d.normal) {
     sentences.push_back(
-        fmt::format("Normality is not rejected (Jarque-Bera p = {:.2g}).", nm.p_value));
+        fmt::format("Normality is not rejected (Jarque-Bera p = {:.3g}).", nm.p_value));
   } else {
     std::string s = fmt::format(
-        "Not normal: Jarque-Bera p = {:.2g} (skewness {:.2f}, excess "
+        "Not normal: Jarque-Bera p = {:.3g} (skewness {:.2f}, excess "
         "kurtosis {:.2f})",
         nm.p_value, nm.skewness, nm.excess_kurtosis);
     if (nm.excess_kurtosis > 1.0) s += "; heavy tails: outliers? consider \"robust_huber\"";

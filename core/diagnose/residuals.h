@@ -53,8 +53,10 @@
 // Verdict: "white" when the Ljung-Box p >= 0.05 and the cumulated periodogram stays inside its
 // band. The words name what failed: the ACF lags outside the band, the Ljung-Box p, a periodogram
 // peak, a (prewhitened) CCF peak per input with its lag and a hint (lag > 0: "a missing or wrong
-// delay, or missing dynamics?"; lag 0: "a missing direct term?"; lag < 0: "feedback?"), and
-// non-normality (Jarque-Bera p < 0.05, with "heavy tails" when the excess kurtosis exceeds 1).
+// delay, or missing dynamics?"; lag 0: "a missing direct term?"; lag < 0: "feedback?"; a peak
+// below 1.25 times its bound: "possibly chance"), a scale of the standardised residuals outside
+// [0.8, 1.25] ("the predicted variances are too small / large"), and non-normality (Jarque-Bera
+// p < 0.05, with "heavy tails" when the excess kurtosis exceeds 1).
 #pragma once
 
 #include <span>
