@@ -155,7 +155,9 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
   int busy_frames = kFramesAfterInput;
   std::string title;
   while (!glfwWindowShouldClose(window) && !state.quit_requested) {
-    const bool busy = busy_frames > 0 || state.load_job.active() || !options.screenshot.empty() ||
+    // A job under way redraws every frame: its progress shows, and its result is installed
+    // (and a cancel acknowledged) at the next frame.
+    const bool busy = busy_frames > 0 || ui::AnyJobActive(state) || !options.screenshot.empty() ||
                       ImGui::IsAnyMouseDown();
     if (busy) {
       glfwPollEvents();

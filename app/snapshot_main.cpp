@@ -3,10 +3,17 @@
 //   greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png [--width W --height H]
 //                      [--estimate]
 // Exit status: 0 written; 2 bad command line or bad input (stderr names the file); 1 the
-// rendering or the PNG writing failed.
+// rendering or the PNG writing failed, or --estimate's estimation failed (the PNG is still
+// written: it shows why).
 //
-// Deterministic: a fixed frame time, no mouse, no clock-dependent content, the fonts of
-// SetUpWorkbench(), and a software rasteriser, so the same inputs give the same PNG bytes.
+// --estimate starts the estimation exactly as the Estimate view's Run button does
+// (StartEstimation: the same background job), waits for it, then renders. It runs with
+// threads = 1 and the other options at their defaults.
+//
+// Deterministic: a fixed frame time, no mouse, no clock-dependent content (AppState::
+// deterministic: every elapsed time, in the views and in the report text, is drawn as the
+// placeholder "– s"), the fonts of SetUpWorkbench(), and a software rasteriser, so the same
+// inputs give the same PNG bytes.
 #include <GL/osmesa.h>
 #include <imgui.h>
 
@@ -104,11 +111,23 @@ int Render(const Options& options, gb::ui::View view, std::vector<unsigned char>
   renderer.Init();
 
   state.view = view;
+  state.deterministic = true;
   ui::OpenProject(state, options.project);
   ui::WaitForJobs(state);
   if (!state.project) return Fail(kExitBadInput, state.open_error);
   for (const ui::LoadedDataset& d : state.datasets) {
     if (!d.data) return Fail(kExitBadInput, d.error);
+  }
+  int status = 0;
+  if (options.estimate) {
+    state.estimation.settings.threads = 1;  // the same iterations on every machine
+    std::string why;
+    if (!ui::StartEstimation(state, &why)) return Fail(kExitBadInput, "--estimate: " + why);
+    ui::WaitForJobs(state);
+    if (!state.estimation.last_failure.empty()) {
+      std::fprintf(stderr, "greybench-snapshot: error: %s\n", state.estimation.last_failure.c_str());
+      status = kExitRenderFailed;
+    }
   }
 
   ImGuiIO& io = ImGui::GetIO();
@@ -131,7 +150,7 @@ int Render(const Options& options, gb::ui::View view, std::vector<unsigned char>
   if (!ui::WritePngFromGl(options.out, options.width, options.height, pixels->data(), &error)) {
     return Fail(kExitRenderFailed, error);
   }
-  return 0;
+  return status;
 }
 
 }  // namespace
@@ -146,9 +165,6 @@ int main(int argc, char** argv) {
   if (!arg_error.empty()) {
     std::fputs(kUsage, stderr);
     return Fail(kExitBadInput, arg_error);
-  }
-  if (options.estimate) {
-    return Fail(kExitBadInput, "--estimate needs the estimator (not built yet)");
   }
   const std::optional<gb::ui::View> view = gb::ui::ParseView(options.view);
   if (!view) {

@@ -4,11 +4,13 @@
 //   AppState state;                    // main()
 //   OpenProject(state, path);          // starts the loading job
 //   every frame: DrawWorkbench(state); // polls jobs, draws menu, sidebar, current view
+//   StartEstimation(state);            // the Estimate view's Run button (and the snapshot)
 #pragma once
 
 #include <imgui.h>
 
 #include <array>
+#include <chrono>
 #include <memory>
 #include <optional>
 #include <string>
@@ -16,9 +18,12 @@
 #include <vector>
 
 #include "core/data/dataset.h"
+#include "core/model/model.h"
 #include "core/project/project.h"
 #include "ui/data_summary.h"
+#include "ui/estimation.h"
 #include "ui/job.h"
+#include "ui/model_edit.h"
 #include "ui/widgets/plot.h"
 
 namespace gb::ui {
@@ -72,11 +77,49 @@ struct ProjectLoad {
   std::optional<project::Project> project;
   std::string error;  // why `project` is empty
   std::vector<LoadedDataset> datasets;
+  // The project's model, parsed and validated (core/model); absent when it is not valid.
+  std::optional<model::ModelSpec> model;
+  std::string model_error;  // why `model` is absent
 };
 
 struct DataViewState {
   // One per dataset: the plots of a dataset's columns pan and zoom together in x.
   std::vector<plot::LinkedRange> x_ranges;
+};
+
+// The estimation: options, the job under way, and the last finished fit.
+struct EstimationState {
+  EstimationSettings settings;  // edited in the Estimate view
+  Job<EstimationRun> job;
+  std::shared_ptr<EstimationProgress> progress;  // of the run under way
+  Trace live_trace;  // the run under way, copied from `progress` every frame
+  std::chrono::steady_clock::time_point started;
+  int started_revision = 0;    // AppState::model_revision when the run started
+  int started_generation = 0;  // AppState::project_generation when the run started
+  // The last fit that finished (converged or not); a failed or cancelled run leaves it alone.
+  std::optional<FitResult> result;
+  // How the last run ended when it left no result: "cancelled after 1.2 s", or the error.
+  std::string last_failure;
+  Severity last_failure_severity = Severity::kInfo;
+};
+
+// A parameter edit the model refused, shown in the Parameters view next to the table.
+struct ParameterRefusal {
+  std::string parameter;
+  ParameterField field = ParameterField::kValue;
+  std::string text;    // what the user entered
+  std::string reason;  // from core
+};
+
+struct ParametersViewState {
+  std::vector<ParameterEdit> pending;  // emitted while drawing, applied after the table
+  // The cell being typed into and its text (ImGui keeps the text only while the cell is
+  // active; it is committed when the cell loses focus).
+  std::string editing_parameter;
+  ParameterField editing_field = ParameterField::kValue;
+  std::string editing_text;
+  bool use_estimates_requested = false;
+  std::optional<ParameterRefusal> refusal;
 };
 
 struct AppState {
@@ -87,6 +130,14 @@ struct AppState {
   std::string start_note;  // shown on the empty workbench (e.g. why no project was opened)
   Job<ProjectLoad> load_job;
   std::string loading_path;
+  int project_generation = 0;  // counts the projects installed (a late result can tell)
+
+  // The model the views work on: parsed from the project, then edited in the Parameters view.
+  std::optional<model::ModelSpec> model;
+  std::string model_error;  // why `model` is absent
+  int model_revision = 0;   // counts the accepted edits
+
+  EstimationState estimation;
 
   View view = View::kData;
   std::vector<Message> messages;
@@ -99,6 +150,11 @@ struct AppState {
   Fonts fonts;
   plot::PlotContext plots;
   DataViewState data_view;
+  ParametersViewState parameters_view;
+
+  // greybench-snapshot: draw nothing that depends on the clock (elapsed times are shown as
+  // kElapsedPlaceholder), so the same inputs give the same picture.
+  bool deterministic = false;
 };
 
 void AddMessage(AppState& state, Severity severity, std::string text);
@@ -107,7 +163,20 @@ void AddMessage(AppState& state, Severity severity, std::string text);
 void OpenProject(AppState& state, std::string path);
 // Installs the results of finished jobs. DrawWorkbench calls it at the start of every frame.
 void PollJobs(AppState& state);
-// Blocks until every job has finished, then polls. For the snapshot renderer only.
+// Blocks until every job has finished, then polls. For the snapshot renderer and tests only.
 void WaitForJobs(AppState& state);
+bool AnyJobActive(const AppState& state);
+
+// Starts estimating the model on the project's data with state.estimation.settings. Returns
+// false and says why in `why` when it cannot start (no valid model, unreadable data, a run or
+// a project load under way).
+bool StartEstimation(AppState& state, std::string* why = nullptr);
+// Asks the run under way to stop; PollJobs then reports it and keeps the previous result.
+void CancelEstimation(AppState& state);
+bool EstimationRunning(const AppState& state);
+
+// Applies state.parameters_view.pending (and a requested "use estimates as start values") to
+// state.model through core's validation; a refused edit is kept in parameters_view.refusal.
+void ApplyParameterEdits(AppState& state);
 
 }  // namespace gb::ui

@@ -30,7 +30,10 @@ constexpr const char* kAboutPopup = "About greybench";
 
 // Views whose feature exists; the others show an honest placeholder and are dimmed in the
 // sidebar.
-bool ViewAvailable(View view) { return view == View::kData || view == View::kEquations; }
+bool ViewAvailable(View view) {
+  return view == View::kData || view == View::kEquations || view == View::kEstimate ||
+         view == View::kParameters;
+}
 
 // ---------------------------------------------------------------------------------------------
 // 1. Menu bar
@@ -146,6 +149,12 @@ void DrawStatusBar(AppState& state, float height) {
   ImU32 color = ImGui::GetColorU32(ImGuiCol_TextDisabled);
   if (state.load_job.active()) {
     text = "Opening " + state.loading_path + "\xE2\x80\xA6";
+  } else if (EstimationRunning(state)) {
+    const EstimationProgress::Latest p =
+        state.estimation.progress ? state.estimation.progress->latest() : EstimationProgress::Latest{};
+    text = "Estimating \xE2\x80\x94 " + std::string(StageText(p.stage));
+    if (p.any) text += ", iteration " + std::to_string(p.iteration);
+    text += "\xE2\x80\xA6";
   } else if (!state.messages.empty()) {
     const Message& m = state.messages.back();
     text = m.text;

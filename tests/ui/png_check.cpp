@@ -1,11 +1,15 @@
-// png_check FILE.png WIDTH HEIGHT: exits 0 when FILE.png is a WIDTH x HEIGHT image that shows
-// something: many distinct colours, and no single colour covering nearly all of it. Used by the
-// snapshot tests to tell a rendered workbench from a blank or garbled frame.
+// png_check FILE.png WIDTH HEIGHT [--colour RRGGBB:MIN]...: exits 0 when FILE.png is a
+// WIDTH x HEIGHT image that shows something: many distinct colours, and no single colour
+// covering nearly all of it. Used by the snapshot tests to tell a rendered workbench from a
+// blank or garbled frame. Each --colour asks for at least MIN pixels of exactly that colour
+// (e.g. the fill of the correlation heat map's diagonal cells: the view shows a fit).
 #include <stb_image.h>  // the implementation is in libstb
 
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <unordered_map>
+#include <vector>
 
 namespace {
 
@@ -15,8 +19,21 @@ constexpr double kMaxDominantShare = 0.95;  // the background may not be all the
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 4) {
-    std::fprintf(stderr, "usage: png_check FILE.png WIDTH HEIGHT\n");
+  struct Wanted {
+    unsigned colour;
+    long min;
+  };
+  std::vector<Wanted> wanted;
+  bool usage_ok = argc >= 4 && (argc - 4) % 2 == 0;
+  for (int i = 4; usage_ok && i + 1 < argc; i += 2) {
+    unsigned colour = 0;
+    long min = 0;
+    usage_ok = std::strcmp(argv[i], "--colour") == 0 &&
+               std::sscanf(argv[i + 1], "%6x:%ld", &colour, &min) == 2;
+    wanted.push_back({colour, min});
+  }
+  if (!usage_ok) {
+    std::fprintf(stderr, "usage: png_check FILE.png WIDTH HEIGHT [--colour RRGGBB:MIN]...\n");
     return 2;
   }
   const int want_w = std::atoi(argv[2]);
@@ -46,6 +63,15 @@ int main(int argc, char** argv) {
   if (static_cast<int>(counts.size()) < kMinColours || share > kMaxDominantShare) {
     std::fprintf(stderr, "png_check: the image looks blank\n");
     return 1;
+  }
+  for (const Wanted& w : wanted) {
+    const auto it = counts.find(w.colour);
+    const long n = it == counts.end() ? 0 : it->second;
+    std::printf("png_check: colour %06x: %ld pixels (at least %ld wanted)\n", w.colour, n, w.min);
+    if (n < w.min) {
+      std::fprintf(stderr, "png_check: too few pixels of colour %06x\n", w.colour);
+      return 1;
+    }
   }
   return 0;
 }

@@ -5,7 +5,8 @@
 #   snapshot_test.sh CASE SNAPSHOT_EXE PNG_CHECK_EXE DATA_DIR OUT_DIR [GREYBENCH_EXE SOURCE_DIR]
 #
 # CASE: data | equations | placeholder | deterministic | bad-project | bad-view | estimate |
-#       window. Exit 0 pass, 1 fail, 77 skipped (window test without xvfb-run).
+#       estimate-deterministic | estimate-case-study | window.
+# Exit 0 pass, 1 fail, 77 skipped (window test without xvfb-run).
 set -uo pipefail
 
 case_name="$1"; snapshot="$2"; png_check="$3"; data="$4"; out="$5"
@@ -57,9 +58,34 @@ case "$case_name" in
     expect_error 2 "unknown view 'plots'" \
       "$snapshot" --project "$project" --view plots --out "$out/bad.png"
     ;;
-  estimate)
-    expect_error 2 "error: --estimate needs the estimator (not built yet)" \
-      "$snapshot" --project "$project" --view parameters --estimate --out "$out/bad.png"
+  estimate|estimate-case-study)
+    # The estimate and parameters views after --estimate. Exact colours prove the fit is drawn:
+    # the red estimate point of the delay profile (estimate view), the dark red diagonal cells
+    # of the correlation heat map (parameters view).
+    if [[ $case_name == estimate-case-study ]]; then
+      source_dir="$7"; project="$source_dir/assets/projects/case_study.json"
+    fi
+    "$snapshot" --project "$project" --view estimate --estimate \
+      --out "$out/$case_name-estimate.png" || fail "snapshot of estimate failed"
+    "$png_check" "$out/$case_name-estimate.png" 1280 800 --colour d62728:40 \
+      || fail "$case_name-estimate.png"
+    "$snapshot" --project "$project" --view parameters --estimate \
+      --out "$out/$case_name-parameters.png" || fail "snapshot of parameters failed"
+    "$png_check" "$out/$case_name-parameters.png" 1280 800 --colour b2182b:2000 \
+      || fail "$case_name-parameters.png"
+    # Without --estimate the same view has no fit to show.
+    "$snapshot" --project "$project" --view parameters --out "$out/$case_name-no-fit.png" \
+      || fail "snapshot without --estimate failed"
+    if "$png_check" "$out/$case_name-no-fit.png" 1280 800 --colour b2182b:2000 >/dev/null 2>&1; then
+      fail "the parameters view shows a heat map without a fit"
+    fi
+    ;;
+  estimate-deterministic)
+    for i in 1 2; do
+      "$snapshot" --project "$project" --view estimate --estimate --out "$out/est-det$i.png" \
+        || fail "run $i"
+    done
+    cmp "$out/est-det1.png" "$out/est-det2.png" || fail "two renderings after --estimate differ"
     ;;
   window)
     greybench="$6"; source_dir="$7"

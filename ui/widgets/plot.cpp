@@ -205,6 +205,9 @@ void FitX(PlotContext& ctx, LinkedRange& xr) {
     const double c = xr.range.min;
     const double h = std::max(std::abs(c) * kFitPadding, 0.5);
     xr.range = {c - h, c + h};
+  } else if (ctx.options.x_padding > 0.0 && !ctx.options.linked_x) {
+    const double h = xr.range.Span() * ctx.options.x_padding;
+    xr.range = {xr.range.min - h, xr.range.max + h};
   }
 }
 
@@ -402,8 +405,12 @@ void DrawLegend(PlotContext& ctx, PlotState& st, ImDrawList* dl, const Layout& l
   const float row_h = l.font_h + 0.3f * l.font_h;
   const float swatch_w = 1.4f * l.font_h;
   const ImVec2 size(pad * 3.0f + swatch_w + text_w, pad * 2.0f + row_h * labelled);
-  const ImVec2 max(t.max.x - pad, t.min.y + pad + size.y);
-  const ImVec2 min(max.x - size.x, t.min.y + pad);
+  const LegendCorner corner = ctx.options.legend_corner;
+  const bool right = corner == LegendCorner::kTopRight || corner == LegendCorner::kBottomRight;
+  const bool top = corner == LegendCorner::kTopRight || corner == LegendCorner::kTopLeft;
+  const ImVec2 min(right ? t.max.x - pad - size.x : t.min.x + pad,
+                   top ? t.min.y + pad : t.max.y - pad - size.y);
+  const ImVec2 max(min.x + size.x, min.y + size.y);
   dl->AddRectFilled(min, max, IM_COL32(255, 255, 255, 225), 3.0f * ctx.style.scale);
   dl->AddRect(min, max, ctx.style.border, 3.0f * ctx.style.scale);
   float y = min.y + pad;

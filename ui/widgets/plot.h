@@ -62,6 +62,8 @@ struct LinkedRange {
 };
 
 enum class Legend { kAuto, kShow, kHide };  // kAuto: shown when the plot has two or more items
+// Where in the plot area the legend sits (choose the corner the data leave free).
+enum class LegendCorner { kTopRight, kTopLeft, kBottomRight, kBottomLeft };
 
 struct PlotOptions {
   const char* title = nullptr;    // above the plot area
@@ -71,8 +73,13 @@ struct PlotOptions {
   const char* y_unit = nullptr;
   LinkedRange* linked_x = nullptr;  // nullptr: the plot keeps its own x range
   Legend legend = Legend::kAuto;
+  LegendCorner legend_corner = LegendCorner::kTopRight;
   bool x_tick_labels = true;
   bool x_title = true;  // "x_label [x_unit]" under the axis; the hover readout names x either way
+  // Fraction of the data's x span added on both sides when x is fitted (0: the data reach the
+  // edges, as a time series should; e.g. 0.03 for points that should not sit on the frame).
+  // Plots with a linked x range ignore it.
+  double x_padding = 0.0;
 };
 
 struct ItemStyle {

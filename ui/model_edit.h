@@ -1,0 +1,43 @@
+// Edits of the model's parameters as the Parameters view emits them, applied through core:
+// the edited model is written with model::ToJson and read back with model::ParseModel, so an
+// edit is accepted exactly when the same change made in the model file would be, and refused
+// with the parser's reason otherwise ("the start value 2 is outside the bounds [0.005, 1]").
+// Pure functions of a ModelSpec; AppState applies the result (ApplyParameterEdits).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/estimate/estimate.h"
+#include "core/model/model.h"
+#include "core/util/result.h"
+
+namespace gb::ui {
+
+enum class ParameterField { kValue, kLower, kUpper, kFixed };
+std::string_view FieldText(ParameterField field);  // "start value", "lower bound", ...
+
+struct ParameterEdit {
+  std::string parameter;
+  ParameterField field = ParameterField::kValue;
+  std::optional<double> number;  // value / lower / upper; absent lower/upper: unbounded
+  bool fixed = false;            // kFixed
+  std::string text;              // as the user typed it (for messages)
+};
+
+// Reads what the user typed into a value or bound cell: a number ("1e-3"), or for a bound an
+// empty cell (no bound). Refuses anything else with a reason.
+Result<ParameterEdit> ParseParameterEdit(const std::string& parameter, ParameterField field,
+                                         const std::string& text);
+
+// The model with the edit applied, or why the edit is refused (the message only; the caller
+// knows which cell it came from).
+Result<model::ModelSpec> ApplyParameterEdit(const model::ModelSpec& spec, const ParameterEdit& edit);
+
+// The model with every free parameter's start value set to its estimate in `summary` (matched
+// by name; fixed parameters and names the fit does not know are left alone).
+Result<model::ModelSpec> UseEstimatesAsStart(const model::ModelSpec& spec,
+                                             const estimate::EstimateSummary& summary);
+
+}  // namespace gb::ui
