@@ -10,6 +10,7 @@
 #include "core/data/dataset.h"
 #include "core/filter/kalman.h"
 #include "core/model/linear_model.h"
+#include "core/filter/likelihood.h"
 #include "core/model/model.h"
 #include "core/util/result.h"
 
@@ -21,6 +22,16 @@ int Fail(const Error& e);
 // Reads the model file and applies every `NAME=VALUE` of --set.
 Result<model::ModelSpec> LoadModelWithOverrides(const std::string& path,
                                                 const std::vector<std::string>& sets);
+
+// The model (with --set applied) and its data as a likelihood, and θ at the model's values:
+// the common start of loglik, bench and estimate.
+struct LoadedLikelihood {
+  filter::Likelihood likelihood;
+  std::vector<double> theta;
+};
+Result<LoadedLikelihood> LoadLikelihood(const std::string& model_path,
+                                        const std::vector<std::string>& data_paths,
+                                        const std::vector<std::string>& sets);
 
 struct LoglikArgs {
   std::string model;

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include "app/cli/cli.h"
+#include "core/project/problem.h"
 
 namespace gb::cli {
 
@@ -30,6 +31,19 @@ Result<model::ModelSpec> LoadModelWithOverrides(const std::string& path,
     if (auto st = model::SetParameter(&*spec, name, value); !st) return st.error();
   }
   return spec;
+}
+
+Result<LoadedLikelihood> LoadLikelihood(const std::string& model_path,
+                                        const std::vector<std::string>& data_paths,
+                                        const std::vector<std::string>& sets) {
+  auto spec = LoadModelWithOverrides(model_path, sets);
+  if (!spec) return spec.error();
+  std::vector<double> theta = spec->Values();
+  auto problem = project::LoadProblem(std::move(*spec), data_paths);
+  if (!problem) return problem.error();
+  auto lik = project::MakeLikelihood(*problem);
+  if (!lik) return lik.error();
+  return LoadedLikelihood{std::move(*lik), std::move(theta)};
 }
 
 }  // namespace gb::cli

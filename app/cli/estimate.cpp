@@ -4,18 +4,14 @@
 
 #include "app/cli/cli.h"
 #include "core/estimate/estimate.h"
-#include "core/project/problem.h"
 #include "core/project/project.h"
 
 namespace gb::cli {
 
 int RunEstimate(const EstimateArgs& args) {
-  auto spec = LoadModelWithOverrides(args.model, args.sets);
-  if (!spec) return Fail(spec.error());
-  auto problem = project::LoadProblem(std::move(*spec), args.data);
-  if (!problem) return Fail(problem.error());
-  auto lik = project::MakeLikelihood(*problem);
-  if (!lik) return Fail(lik.error());
+  auto loaded = LoadLikelihood(args.model, args.data, args.sets);
+  if (!loaded) return Fail(loaded.error());
+  const filter::Likelihood* lik = &loaded->likelihood;
   estimate::EstimateOptions options;
   options.threads = args.threads;
   options.multistart = args.multistart;

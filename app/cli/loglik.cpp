@@ -3,19 +3,15 @@
 #include <cstdio>
 
 #include "app/cli/cli.h"
-#include "core/project/problem.h"
 #include "core/util/json.h"
 
 namespace gb::cli {
 
 int RunLoglik(const LoglikArgs& args) {
-  auto spec = LoadModelWithOverrides(args.model, args.sets);
-  if (!spec) return Fail(spec.error());
-  const std::vector<double> theta = spec->Values();
-  auto problem = project::LoadProblem(std::move(*spec), args.data);
-  if (!problem) return Fail(problem.error());
-  auto lik = project::MakeLikelihood(*problem);
-  if (!lik) return Fail(lik.error());
+  auto loaded = LoadLikelihood(args.model, args.data, args.sets);
+  if (!loaded) return Fail(loaded.error());
+  const filter::Likelihood* lik = &loaded->likelihood;
+  const std::vector<double>& theta = loaded->theta;
 
   Json out;
   const auto& model = lik->model().spec();
@@ -50,13 +46,10 @@ int RunLoglik(const LoglikArgs& args) {
 }
 
 int RunBench(const BenchArgs& args) {
-  auto spec = LoadModelWithOverrides(args.model, args.sets);
-  if (!spec) return Fail(spec.error());
-  const std::vector<double> theta = spec->Values();
-  auto problem = project::LoadProblem(std::move(*spec), args.data);
-  if (!problem) return Fail(problem.error());
-  auto lik = project::MakeLikelihood(*problem);
-  if (!lik) return Fail(lik.error());
+  auto loaded = LoadLikelihood(args.model, args.data, args.sets);
+  if (!loaded) return Fail(loaded.error());
+  const filter::Likelihood* lik = &loaded->likelihood;
+  const std::vector<double>& theta = loaded->theta;
   if (args.repeat < 1) return Fail(InputError("--repeat must be at least 1"));
 
   std::vector<double> seconds;
