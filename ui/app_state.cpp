@@ -96,6 +96,8 @@ void InstallProject(AppState& state, ProjectLoad load) {
   if (state.estimation.job.active()) state.estimation.job.RequestCancel();
   state.estimation.result.reset();
   state.estimation.last_failure.clear();
+  state.estimation.live_trace.Clear();
+  state.estimation.trace_x.RequestFit();
   state.parameters_view = ParametersViewState{};
   if (!state.model) AddMessage(state, Severity::kError, "The model is not valid: " + state.model_error);
 }
@@ -115,6 +117,7 @@ void InstallEstimation(AppState& state, EstimationRun run) {
   EstimationState& e = state.estimation;
   e.progress->AppendTrace(&e.live_trace);
   e.progress.reset();
+  e.trace_x.RequestFit();  // to the new result's trace, or back to the kept one
   if (e.started_generation != state.project_generation) {
     e.live_trace.Clear();
     return;  // a run on a project that is no longer open
@@ -151,6 +154,7 @@ void InstallEstimation(AppState& state, EstimationRun run) {
   e.live_trace = Trace{};
   e.result = MakeFitResult(std::move(run.summary).value(), std::move(trace), e.settings,
                            e.started_revision, state.deterministic);
+  e.profile_x.assign(e.result->profiles.size(), plot::LinkedRange{});
 }
 
 }  // namespace
@@ -178,7 +182,11 @@ void OpenProject(AppState& state, std::string path) {
 
 void PollJobs(AppState& state) {
   EstimationState& e = state.estimation;
-  if (e.progress) e.progress->AppendTrace(&e.live_trace);
+  if (e.progress) {
+    const int known = e.live_trace.size();
+    e.progress->AppendTrace(&e.live_trace);
+    if (e.live_trace.size() != known) e.trace_x.RequestFit();
+  }
   if (std::optional<EstimationRun> run = e.job.TakeIfReady()) {
     InstallEstimation(state, std::move(*run));
   }
@@ -246,6 +254,7 @@ bool StartEstimation(AppState& state, std::string* why) {
   EstimationState& e = state.estimation;
   e.progress = std::make_shared<EstimationProgress>();
   e.live_trace.Clear();
+  e.trace_x.RequestFit();
   e.started = std::chrono::steady_clock::now();
   e.started_revision = state.model_revision;
   e.started_generation = state.project_generation;

@@ -93,6 +93,10 @@ struct EstimationState {
   Job<EstimationRun> job;
   std::shared_ptr<EstimationProgress> progress;  // of the run under way
   Trace live_trace;  // the run under way, copied from `progress` every frame
+  // The x ranges of the trace and the delay-profile plots: refitted whenever new points
+  // arrive or a new result is installed (the plots follow a live run).
+  plot::LinkedRange trace_x;
+  std::vector<plot::LinkedRange> profile_x;  // one per FitResult::profiles
   std::chrono::steady_clock::time_point started;
   int started_revision = 0;    // AppState::model_revision when the run started
   int started_generation = 0;  // AppState::project_generation when the run started

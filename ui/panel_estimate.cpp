@@ -198,6 +198,7 @@ void DrawTracePlot(AppState& state, const Trace& trace, ImVec2 size) {
   options.title = "Log-likelihood by iteration";
   options.x_label = "iteration";
   options.y_label = "log L";
+  options.linked_x = &state.estimation.trace_x;  // refitted as points arrive
   options.legend = plot::Legend::kHide;  // no corner is reliably free: see TraceLegend()
   if (!plot::BeginPlot(state.plots, "##trace", size, options)) return;
   plot::ItemStyle fit;
@@ -214,7 +215,8 @@ void DrawTracePlot(AppState& state, const Trace& trace, ImVec2 size) {
   plot::EndPlot(state.plots);
 }
 
-void DrawProfilePlot(AppState& state, const DelayProfilePlot& p, ImVec2 size) {
+void DrawProfilePlot(AppState& state, const DelayProfilePlot& p, plot::LinkedRange* x,
+                     ImVec2 size) {
   std::string title = "Profile log L of the " + p.output + " delay";
   if (!p.estimate_delay.empty())
     title += ": estimate " + FormatSig(p.estimate_delay[0], 6) + " samples";
@@ -225,6 +227,7 @@ void DrawProfilePlot(AppState& state, const DelayProfilePlot& p, ImVec2 size) {
   options.y_label = "log L";
   options.legend = plot::Legend::kHide;  // the title names the estimate (the red point)
   options.x_padding = kProfileXPadding;
+  options.linked_x = x;  // refitted when a new result arrives
   ImGui::PushID(p.output.c_str());
   if (plot::BeginPlot(state.plots, "##profile", size, options)) {
     const int n = static_cast<int>(p.delay.size());
@@ -276,7 +279,10 @@ void DrawPlots(AppState& state, const Trace& trace, const FitResult* result) {
   DrawTracePlot(state, trace, size);
   for (int i = 0; i < n_profiles; ++i) {
     ImGui::SameLine();
-    DrawProfilePlot(state, result->profiles[static_cast<std::size_t>(i)], size);
+    const auto k = static_cast<std::size_t>(i);
+    if (state.estimation.profile_x.size() != result->profiles.size())
+      state.estimation.profile_x.assign(result->profiles.size(), plot::LinkedRange{});
+    DrawProfilePlot(state, result->profiles[k], &state.estimation.profile_x[k], size);
   }
   TraceLegend(state, trace);
   for (int i = 0; i < n_profiles; ++i) {

@@ -190,24 +190,29 @@ void FitX(PlotContext& ctx, LinkedRange& xr) {
     xr.fit_has_data = false;
   }
   if (xr.fit_frame != frame) return;
+  // This plot's extent (padded as its options ask), then the union with the plots before it.
+  bool any = false;
+  Range own;
   for (const Item& item : ctx.items) {
     double lo = 0, hi = 0;
     if (!internal::ItemXExtent(item, &lo, &hi)) continue;
-    if (!xr.fit_has_data) {
-      xr.range = {lo, hi};
-      xr.fit_has_data = true;
-    } else {
-      xr.range = {std::min(xr.range.min, lo), std::max(xr.range.max, hi)};
-    }
+    own = any ? Range{std::min(own.min, lo), std::max(own.max, hi)} : Range{lo, hi};
+    any = true;
+  }
+  if (any && ctx.options.x_padding > 0.0) {
+    const double h = own.Span() * ctx.options.x_padding;
+    own = {own.min - h, own.max + h};
+  }
+  if (any) {
+    xr.range = xr.fit_has_data ? Range{std::min(xr.range.min, own.min), std::max(xr.range.max, own.max)}
+                               : own;
+    xr.fit_has_data = true;
   }
   if (!xr.fit_has_data) xr.range = {0.0, 1.0};
   if (!(xr.range.Span() > 0.0)) {
     const double c = xr.range.min;
     const double h = std::max(std::abs(c) * kFitPadding, 0.5);
     xr.range = {c - h, c + h};
-  } else if (ctx.options.x_padding > 0.0 && !ctx.options.linked_x) {
-    const double h = xr.range.Span() * ctx.options.x_padding;
-    xr.range = {xr.range.min - h, xr.range.max + h};
   }
 }
 

@@ -78,7 +78,7 @@ struct PlotOptions {
   bool x_title = true;  // "x_label [x_unit]" under the axis; the hover readout names x either way
   // Fraction of the data's x span added on both sides when x is fitted (0: the data reach the
   // edges, as a time series should; e.g. 0.03 for points that should not sit on the frame).
-  // Plots with a linked x range ignore it.
+  // With a linked range, each plot pads its own extent before the union is taken.
   double x_padding = 0.0;
 };
 

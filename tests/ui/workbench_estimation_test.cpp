@@ -1,0 +1,251 @@
+// The estimate and parameters views driven through synthetic ImGui input, as a user would use
+// them: click Run, watch the job finish, read the estimates in the Parameters view; start a
+// long fit and cancel it; type a start value the model refuses, then one it accepts.
+//
+// The estimates the GUI installs are checked against core's Estimate run directly on the same
+// files with the same options (the GUI must add nothing and lose nothing on the way).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "core/estimate/estimate.h"
+#include "core/model/model.h"
+#include "core/project/problem.h"
+#include "tests/ui/workbench_driver.h"
+#include "ui/format.h"
+
+#ifndef GREYBENCH_SOURCE_DIR
+#error "GREYBENCH_SOURCE_DIR must name the source tree (tests/ui/CMakeLists.txt sets it)"
+#endif
+
+namespace gb::ui {
+namespace {
+
+using std::chrono::milliseconds;
+using testing::WorkbenchDriver;
+
+const std::string kSource = GREYBENCH_SOURCE_DIR;
+const std::string kTestProject = kSource + "/tests/data/ui/project.json";
+const std::string kCaseStudy = kSource + "/assets/projects/case_study.json";
+constexpr milliseconds kFitTimeout{60000};
+constexpr milliseconds kCancelDeadline{100};
+
+// The cells of the table row whose first cell is `name`, from ImGui's log of a table
+// ("| tau_fv | s | { 0.08 } | ... |"); empty when there is no such row.
+std::vector<std::string> Row(const std::string& log, const std::string& name) {
+  std::istringstream lines(log);
+  std::string line;
+  while (std::getline(lines, line)) {
+    if (line.rfind("| " + name + " |", 0) != 0) continue;
+    std::vector<std::string> cells;
+    std::size_t at = 2;
+    for (std::size_t end; (end = line.find(" |", at)) != std::string::npos; at = end + 3)
+      cells.push_back(line.substr(at, end - at));
+    return cells;
+  }
+  return {};
+}
+
+// Columns of the parameters table after a fit.
+constexpr std::size_t kEstimateColumn = 6;
+constexpr std::size_t kStdErrorColumn = 7;
+
+// core's estimate of the test project, with the GUI's options.
+estimate::EstimateSummary EstimateDirectly(const EstimationSettings& settings) {
+  auto spec = model::LoadModelFile(kSource + "/tests/data/ui/fuel_film.json");
+  EXPECT_TRUE(spec.ok());
+  auto problem = project::LoadProblem(*spec, {kSource + "/tests/data/ui/f1.csv"});
+  EXPECT_TRUE(problem.ok());
+  auto likelihood = project::MakeLikelihood(*problem);
+  EXPECT_TRUE(likelihood.ok());
+  estimate::EstimateOptions options;
+  options.algorithm = settings.algorithm;
+  options.multistart = settings.multistart;
+  options.threads = settings.threads;
+  auto summary = estimate::Estimate(*likelihood, options);
+  EXPECT_TRUE(summary.ok());
+  return *summary;
+}
+
+TEST(WorkbenchEstimation, ClickingRunInstallsTheEstimatesAndTheParametersViewShowsThem) {
+  WorkbenchDriver d;
+  d.Open(kTestProject);
+  ASSERT_TRUE(d.state.model) << d.state.model_error;
+  d.state.view = View::kEstimate;
+  d.state.estimation.settings.threads = 1;
+  d.Frame();
+
+  const std::optional<ImVec2> run = d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId("Run"));
+  ASSERT_TRUE(run) << "the Run button was not found in the estimate view";
+  d.Click(*run);
+  EXPECT_TRUE(EstimationRunning(d.state) || d.state.estimation.result);
+  ASSERT_TRUE(d.FramesUntil([&] { return !EstimationRunning(d.state); }, kFitTimeout));
+  d.Frame();
+
+  ASSERT_TRUE(d.state.estimation.result) << d.state.estimation.last_failure;
+  const FitResult& fit = *d.state.estimation.result;
+  EXPECT_TRUE(fit.summary.converged) << fit.summary.message;
+  EXPECT_GT(fit.trace.size(), 0) << "the progress record fed no trace";
+  EXPECT_FALSE(fit.report.empty());
+
+  const estimate::EstimateSummary direct = EstimateDirectly(d.state.estimation.settings);
+  EXPECT_DOUBLE_EQ(fit.summary.loglik, direct.loglik);
+  ASSERT_EQ(fit.summary.parameters.size(), direct.parameters.size());
+  for (std::size_t i = 0; i < direct.parameters.size(); ++i) {
+    EXPECT_EQ(fit.summary.parameters[i].name, direct.parameters[i].name);
+    EXPECT_DOUBLE_EQ(fit.summary.parameters[i].estimate, direct.parameters[i].estimate)
+        << direct.parameters[i].name;
+  }
+
+  // The parameters view lists them, row by row.
+  d.state.view = View::kParameters;
+  d.Frame();
+  const std::string log = d.Text();
+  for (const estimate::ParameterEstimate& p : direct.parameters) {
+    const std::vector<std::string> row = Row(log, p.name);
+    ASSERT_GT(row.size(), kStdErrorColumn) << "no row for " << p.name << " in:\n" << log;
+    EXPECT_EQ(row[kEstimateColumn], FormatSig(p.estimate, 5)) << p.name;
+    if (p.std_error) {
+      EXPECT_EQ(row[kStdErrorColumn], FormatSig(*p.std_error, 3)) << p.name;
+    }
+  }
+  EXPECT_EQ(Row(log, "s12").at(kStdErrorColumn), "at lower bound");
+  EXPECT_EQ(Row(log, "Kb").at(kStdErrorColumn), "fixed");
+  EXPECT_NE(log.find("s12 is at its lower bound"), std::string::npos) << "the warning is missing";
+  EXPECT_EQ(log.find("nan"), std::string::npos) << log;
+}
+
+TEST(WorkbenchEstimation, CancelStopsTheFitWithin100msAndKeepsThePreviousResult) {
+  WorkbenchDriver d;
+  d.Open(kCaseStudy);
+  ASSERT_TRUE(d.state.model) << d.state.model_error;
+  d.state.view = View::kEstimate;
+  d.Frame();
+  const std::optional<ImVec2> run = d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId("Run"));
+  ASSERT_TRUE(run);
+
+  // A first fit: the result to keep.
+  d.Click(*run);
+  ASSERT_TRUE(d.FramesUntil([&] { return !EstimationRunning(d.state); }, kFitTimeout));
+  d.Frame();
+  ASSERT_TRUE(d.state.estimation.result) << d.state.estimation.last_failure;
+  const estimate::EstimateSummary first = d.state.estimation.result->summary;
+
+  // A long second fit (many starts), cancelled once it is under way.
+  d.state.estimation.settings.multistart = 50;
+  d.Click(*run);
+  ASSERT_TRUE(EstimationRunning(d.state));
+  ASSERT_TRUE(d.FramesUntil(
+      [&] {
+        return d.state.estimation.progress && d.state.estimation.progress->latest().iteration >= 3;
+      },
+      kFitTimeout));
+  const std::optional<ImVec2> cancel =
+      d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId("Cancel"), run->y);
+  ASSERT_TRUE(cancel) << "the Cancel button was not found next to Run";
+  ASSERT_TRUE(EstimationRunning(d.state)) << "the fit ended before it could be cancelled";
+  d.MouseTo(*cancel);
+  d.Press();
+  const auto clicked = std::chrono::steady_clock::now();
+  d.Release();  // the button acts here: CancelEstimation
+  d.state.estimation.job.Wait();
+  const auto stopped = std::chrono::steady_clock::now();
+  EXPECT_LT(stopped - clicked, kCancelDeadline);
+  RecordProperty("cancel_ms", static_cast<int>(std::chrono::duration_cast<milliseconds>(
+                                                   stopped - clicked).count()));
+
+  d.Frame();  // installs the outcome
+  EXPECT_FALSE(EstimationRunning(d.state));
+  ASSERT_TRUE(d.state.estimation.result);
+  const estimate::EstimateSummary& kept = d.state.estimation.result->summary;
+  EXPECT_EQ(kept.loglik, first.loglik);
+  EXPECT_EQ(kept.iterations, first.iterations);
+  EXPECT_EQ(kept.theta, first.theta);
+  EXPECT_NE(d.state.estimation.last_failure.find("cancelled"), std::string::npos);
+  ASSERT_FALSE(d.state.messages.empty());
+  EXPECT_EQ(d.state.messages.back().severity, Severity::kWarning);
+  EXPECT_NE(d.state.messages.back().text.find("previous results are kept"), std::string::npos);
+  const std::string log = d.Text();
+  EXPECT_NE(log.find("The results below are from the previous run"), std::string::npos) << log;
+}
+
+TEST(WorkbenchEstimation, ATypedStartValueOutsideTheBoundsIsRefusedWithTheReason) {
+  WorkbenchDriver d;
+  d.Open(kTestProject);
+  ASSERT_TRUE(d.state.model);
+  d.state.view = View::kParameters;
+  d.Frame();
+  // The start value cell of the first parameter (tau_fv, bounds [0.005, 1]).
+  ImGuiWindow* view = WorkbenchDriver::FindWindow("##workbench/##view_", "/##parameters_view_");
+  ASSERT_TRUE(view);
+  const int row = 0;
+  const ImGuiID table = ImHashStr("##parameters", 0, view->ID);
+  const ImGuiID cell = ImHashStr("##value", 0, ImHashData(&row, sizeof row, table));
+  const std::optional<ImVec2> at = d.Find(view, cell);
+  ASSERT_TRUE(at) << "the start value cell was not found";
+  const int revision = d.state.model_revision;
+
+  d.Click(*at);  // activates the field, its text selected
+  d.Type("2");
+  d.PressEnter();
+  ASSERT_TRUE(d.state.parameters_view.refusal);
+  EXPECT_EQ(d.state.parameters_view.refusal->parameter, "tau_fv");
+  EXPECT_NE(d.state.parameters_view.refusal->reason.find("outside the bounds"), std::string::npos)
+      << d.state.parameters_view.refusal->reason;
+  EXPECT_EQ(d.state.model->parameters[0].value, 0.08);  // unchanged
+  EXPECT_EQ(d.state.model_revision, revision);
+  EXPECT_NE(d.Text().find("refused"), std::string::npos);
+
+  d.Click(*at);
+  d.Type("0.09");
+  d.PressEnter();
+  EXPECT_FALSE(d.state.parameters_view.refusal);
+  EXPECT_EQ(d.state.model->parameters[0].value, 0.09);
+  EXPECT_GT(d.state.model_revision, revision);
+  // The project's model (read by the equations view) follows.
+  EXPECT_EQ(d.state.project->model_json["parameters"]["tau_fv"]["value"].get<double>(), 0.09);
+}
+
+TEST(WorkbenchEstimation, AFailedRunKeepsThePreviousResultAndSaysWhy) {
+  WorkbenchDriver d;
+  d.Open(kTestProject);
+  ASSERT_TRUE(d.state.model);
+  d.state.estimation.settings.threads = 1;
+  ASSERT_TRUE(StartEstimation(d.state));
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.estimation.result);
+  const double loglik = d.state.estimation.result->summary.loglik;
+
+  // A delay range longer than the data: the likelihood cannot be built.
+  d.state.model->output_delay[0].max = 100000;
+  std::string why;
+  ASSERT_TRUE(StartEstimation(d.state, &why)) << why;
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.estimation.result);
+  EXPECT_EQ(d.state.estimation.result->summary.loglik, loglik);
+  EXPECT_NE(d.state.estimation.last_failure.find("output_delay"), std::string::npos)
+      << d.state.estimation.last_failure;
+  ASSERT_FALSE(d.state.messages.empty());
+  EXPECT_EQ(d.state.messages.back().severity, Severity::kError);
+  EXPECT_NE(d.state.messages.back().text.find("previous results are kept"), std::string::npos);
+}
+
+TEST(WorkbenchEstimation, RunIsRefusedWithAReasonWhileARunIsUnderWay) {
+  WorkbenchDriver d;
+  d.Open(kCaseStudy);
+  ASSERT_TRUE(StartEstimation(d.state));
+  std::string why;
+  EXPECT_FALSE(StartEstimation(d.state, &why));
+  EXPECT_EQ(why, "an estimation is under way");
+  CancelEstimation(d.state);
+  WaitForJobs(d.state);
+  EXPECT_FALSE(d.state.estimation.result);  // nothing to keep, nothing installed
+  EXPECT_NE(d.state.estimation.last_failure.find("cancelled"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace gb::ui
