@@ -125,7 +125,8 @@ int Render(const Options& options, gb::ui::View view, std::vector<unsigned char>
     if (!ui::StartEstimation(state, &why)) return Fail(kExitBadInput, "--estimate: " + why);
     ui::WaitForJobs(state);
     if (!state.estimation.last_failure.empty()) {
-      std::fprintf(stderr, "greybench-snapshot: error: %s\n", state.estimation.last_failure.c_str());
+      std::fprintf(stderr, "greybench-snapshot: error: %s\n",
+                   state.estimation.last_failure.c_str());
       status = kExitRenderFailed;
     }
   }

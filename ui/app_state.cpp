@@ -99,7 +99,8 @@ void InstallProject(AppState& state, ProjectLoad load) {
   state.estimation.live_trace.Clear();
   state.estimation.trace_x.RequestFit();
   state.parameters_view = ParametersViewState{};
-  if (!state.model) AddMessage(state, Severity::kError, "The model is not valid: " + state.model_error);
+  if (!state.model)
+    AddMessage(state, Severity::kError, "The model is not valid: " + state.model_error);
 }
 
 bool SameParameters(const model::ModelSpec& a, const model::ModelSpec& b) {
@@ -141,9 +142,10 @@ void InstallEstimation(AppState& state, EstimationRun run) {
   const estimate::EstimateSummary& s = *run.summary;
   char loglik[64];
   std::snprintf(loglik, sizeof loglik, "%.6g", s.loglik);
-  std::string text = std::string(s.converged ? "Estimation converged" : "Estimation did NOT converge") +
-                     ": log L = " + loglik + ", " + std::to_string(s.iterations) +
-                     " iterations, " + Seconds(state, s.elapsed_s);
+  std::string text =
+      std::string(s.converged ? "Estimation converged" : "Estimation did NOT converge") +
+      ": log L = " + loglik + ", " + std::to_string(s.iterations) + " iterations, " +
+      Seconds(state, s.elapsed_s);
   if (!s.warnings.empty()) {
     text += " (" + std::to_string(s.warnings.size()) +
             (s.warnings.size() == 1 ? " warning)" : " warnings)");

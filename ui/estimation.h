@@ -123,8 +123,8 @@ EstimationRun RunEstimation(const EstimationInput& input, EstimationProgress& pr
 // The delay profile of one scanned output, as plot arrays.
 struct DelayProfilePlot {
   std::string output;
-  std::vector<double> delay;   // ascending
-  std::vector<double> loglik;  // NaN where the fit at that delay failed
+  std::vector<double> delay;                            // ascending
+  std::vector<double> loglik;                           // NaN where the fit at that delay failed
   std::vector<double> estimate_delay, estimate_loglik;  // one point: the estimate
   bool any_lower_bound = false;  // some fits were stopped early (their log L is a lower bound)
 };

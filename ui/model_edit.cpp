@@ -58,7 +58,8 @@ Result<ParameterEdit> ParseParameterEdit(const std::string& parameter, Parameter
   return edit;
 }
 
-Result<model::ModelSpec> ApplyParameterEdit(const model::ModelSpec& spec, const ParameterEdit& edit) {
+Result<model::ModelSpec> ApplyParameterEdit(const model::ModelSpec& spec,
+                                            const ParameterEdit& edit) {
   const int i = spec.ParameterIndex(edit.parameter);
   if (i < 0) return InputError("the model has no parameter '" + edit.parameter + "'");
   model::ModelSpec edited = spec;

@@ -33,7 +33,8 @@ Result<ParameterEdit> ParseParameterEdit(const std::string& parameter, Parameter
 
 // The model with the edit applied, or why the edit is refused (the message only; the caller
 // knows which cell it came from).
-Result<model::ModelSpec> ApplyParameterEdit(const model::ModelSpec& spec, const ParameterEdit& edit);
+Result<model::ModelSpec> ApplyParameterEdit(const model::ModelSpec& spec,
+                                            const ParameterEdit& edit);
 
 // The model with every free parameter's start value set to its estimate in `summary` (matched
 // by name; fixed parameters and names the fit does not know are left alone).

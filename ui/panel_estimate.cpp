@@ -19,9 +19,9 @@
 namespace gb::ui {
 namespace {
 
-constexpr float kPlotHeight = 230.0f;        // pixels at scale 1
-constexpr float kMinReportHeight = 160.0f;   // below it the view scrolls
-constexpr float kOptionInputWidth = 96.0f;   // the multistart and threads fields
+constexpr float kPlotHeight = 230.0f;       // pixels at scale 1
+constexpr float kMinReportHeight = 160.0f;  // below it the view scrolls
+constexpr float kOptionInputWidth = 96.0f;  // the multistart and threads fields
 constexpr float kAlgorithmWidth = 110.0f;
 constexpr double kProfileXPadding = 0.03;  // the end points do not sit on the frame
 constexpr ImU32 kEstimateColor = IM_COL32(214, 39, 40, 255);
@@ -34,8 +34,7 @@ std::string Elapsed(const AppState& state, double seconds) {
 }
 
 double RunningSeconds(const AppState& state) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() -
-                                       state.estimation.started)
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - state.estimation.started)
       .count();
 }
 
@@ -81,7 +80,8 @@ void DrawToolbar(AppState& state) {
   }
   if (run) {
     std::string why;
-    if (!StartEstimation(state, &why)) AddMessage(state, Severity::kError, "Cannot estimate: " + why);
+    if (!StartEstimation(state, &why))
+      AddMessage(state, Severity::kError, "Cannot estimate: " + why);
   }
   ImGui::SameLine();
   ImGui::BeginDisabled(!running);
@@ -180,7 +180,8 @@ void DrawKeyFigures(AppState& state, const FitResult& r) {
   row.Add("AIC", FormatFixed(s.aic, 2));
   row.Add("BIC", FormatFixed(s.bic, 2));
   for (const estimate::DelayEstimate& d : s.delays) {
-    if (d.scanned) row.Add(("Delay of " + d.output).c_str(), std::to_string(d.estimate) + " samples");
+    if (d.scanned)
+      row.Add(("Delay of " + d.output).c_str(), std::to_string(d.estimate) + " samples");
   }
   row.Add("Observations", GroupedCount(s.n_obs));
   row.Add("Free", std::to_string(s.n_free));
@@ -199,12 +200,12 @@ void DrawTracePlot(AppState& state, const Trace& trace, ImVec2 size) {
   options.x_label = "iteration";
   options.y_label = "log L";
   options.linked_x = &state.estimation.trace_x;  // refitted as points arrive
-  options.legend = plot::Legend::kHide;  // no corner is reliably free: see TraceLegend()
+  options.legend = plot::Legend::kHide;          // no corner is reliably free: see TraceLegend()
   if (!plot::BeginPlot(state.plots, "##trace", size, options)) return;
   plot::ItemStyle fit;
   fit.color = kFitColor;
-  plot::PlotLine(state.plots, "fit", trace.iteration.data(), trace.loglik_fit.data(),
-                 trace.size(), fit);
+  plot::PlotLine(state.plots, "fit", trace.iteration.data(), trace.loglik_fit.data(), trace.size(),
+                 fit);
   if (trace.has_profile) {
     plot::ItemStyle profile;
     profile.color = kProfileColor;

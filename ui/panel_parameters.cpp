@@ -235,7 +235,7 @@ void DrawTable(AppState& state, const FitResult* result) {
   ImGui::TableNextRow(ImGuiTableRowFlags_Headers);
   for (int c = 0; c < columns; ++c) {
     const char* name = ImGui::TableGetColumnName(c);
-    const bool right = c >= 6 && c <= 10;
+    const bool right = with_fit && c >= 6;  // the numbers of the fit
     if (right) {
       HeaderRight(name);
     } else {
@@ -396,9 +396,9 @@ void DrawParametersPanel(AppState& state) {
     // The heat map fits the rest of the view (down to a legible size; below it, it scrolls).
     const ImGuiStyle& style = ImGui::GetStyle();
     const float heading_h = ImGui::GetTextLineHeight() + 8.0f * s + 3.0f * style.ItemSpacing.y;
-    const float max_height = std::max(
-        200.0f * s, ImGui::GetContentRegionAvail().y - heading_h - 2.0f * style.CellPadding.y -
-                        style.ItemSpacing.y);
+    const float max_height =
+        std::max(200.0f * s, ImGui::GetContentRegionAvail().y - heading_h -
+                                 2.0f * style.CellPadding.y - style.ItemSpacing.y);
     if (ImGui::BeginTable("##below", 2, ImGuiTableFlags_SizingStretchProp)) {
       ImGui::TableSetupColumn("correlation", ImGuiTableColumnFlags_WidthFixed);
       ImGui::TableSetupColumn("warnings", ImGuiTableColumnFlags_WidthStretch);

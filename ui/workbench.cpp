@@ -150,8 +150,9 @@ void DrawStatusBar(AppState& state, float height) {
   if (state.load_job.active()) {
     text = "Opening " + state.loading_path + "\xE2\x80\xA6";
   } else if (EstimationRunning(state)) {
-    const EstimationProgress::Latest p =
-        state.estimation.progress ? state.estimation.progress->latest() : EstimationProgress::Latest{};
+    const EstimationProgress::Latest p = state.estimation.progress
+                                             ? state.estimation.progress->latest()
+                                             : EstimationProgress::Latest{};
     text = "Estimating \xE2\x80\x94 " + std::string(StageText(p.stage));
     if (p.any) text += ", iteration " + std::to_string(p.iteration);
     text += "\xE2\x80\xA6";

@@ -75,7 +75,8 @@ class WorkbenchDriver {
     ImGui::NewFrame();
     ImGui::SetNextWindowPos(ImVec2(0, 0));
     ImGui::SetNextWindowSize(ImVec2(kWidth, kHeight));
-    ImGui::Begin("##text", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoSavedSettings);
+    ImGui::Begin("##text", nullptr,
+                 ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoSavedSettings);
     ImGui::LogToBuffer();
     DrawPanel(state, state.view);
     std::string log = GImGui->LogBuffer.c_str();

@@ -155,8 +155,9 @@ TEST(WorkbenchEstimation, CancelStopsTheFitWithin100msAndKeepsThePreviousResult)
   d.state.estimation.job.Wait();
   const auto stopped = std::chrono::steady_clock::now();
   EXPECT_LT(stopped - clicked, kCancelDeadline);
-  RecordProperty("cancel_ms", static_cast<int>(std::chrono::duration_cast<milliseconds>(
-                                                   stopped - clicked).count()));
+  RecordProperty(
+      "cancel_ms",
+      static_cast<int>(std::chrono::duration_cast<milliseconds>(stopped - clicked).count()));
 
   d.Frame();  // installs the outcome
   EXPECT_FALSE(EstimationRunning(d.state));

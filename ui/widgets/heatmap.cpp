@@ -83,8 +83,8 @@ void HeatMap(const char* id, const std::vector<std::string>& labels, const doubl
   }
   float label_w = 0.0f;
   for (const std::string& l : labels)
-    label_w = std::max(label_w, label_font->CalcTextSizeA(label_font->FontSize, FLT_MAX, 0.0f,
-                                                          l.c_str()).x);
+    label_w = std::max(label_w,
+                       label_font->CalcTextSizeA(label_font->FontSize, FLT_MAX, 0.0f, l.c_str()).x);
   const float pad = kLabelPad * s;
   const float line_h = ImGui::GetTextLineHeight();
   const float gutter_x = std::round(label_w + pad);
@@ -98,14 +98,16 @@ void HeatMap(const char* id, const std::vector<std::string>& labels, const doubl
   cell = std::round(cell);
   char tick_text[3][16];
   std::snprintf(tick_text[0], sizeof tick_text[0], "%s", FormatValue(o.max).c_str());
-  std::snprintf(tick_text[1], sizeof tick_text[1], "%s", FormatValue(0.5 * (o.min + o.max)).c_str());
+  std::snprintf(tick_text[1], sizeof tick_text[1], "%s",
+                FormatValue(0.5 * (o.min + o.max)).c_str());
   std::snprintf(tick_text[2], sizeof tick_text[2], "%s", FormatValue(o.min).c_str());
   float tick_w = 0.0f;
   for (const char* t : tick_text) tick_w = std::max(tick_w, ImGui::CalcTextSize(t).x);
   const float bar_w = o.color_bar ? (kBarGap + kBarWidth) * s + 4.0f * s + tick_w : 0.0f;
   const float side = cell * static_cast<float>(n);
   // The colour bar's bottom label reaches half a line below the cells.
-  const ImVec2 size(gutter_x + side + bar_w, gutter_y + side + (o.color_bar ? 0.5f * line_h : 0.0f));
+  const ImVec2 size(gutter_x + side + bar_w,
+                    gutter_y + side + (o.color_bar ? 0.5f * line_h : 0.0f));
 
   const ImVec2 origin = ImGui::GetCursorScreenPos();
   ImGui::InvisibleButton(id, size);
@@ -150,8 +152,9 @@ void HeatMap(const char* id, const std::vector<std::string>& labels, const doubl
         text = buf;
       }
       const ImVec2 ts = ImGui::CalcTextSize(text);
-      dl->AddText(ImVec2(std::round(0.5f * (a.x + b.x - ts.x)), std::round(0.5f * (a.y + b.y - ts.y))),
-                  finite ? TextColorOn(bg) : dim_col, text);
+      dl->AddText(
+          ImVec2(std::round(0.5f * (a.x + b.x - ts.x)), std::round(0.5f * (a.y + b.y - ts.y))),
+          finite ? TextColorOn(bg) : dim_col, text);
       if (hovered && mouse.x >= a.x - gap && mouse.x < b.x + gap && mouse.y >= a.y - gap &&
           mouse.y < b.y + gap) {
         hover_r = r;
@@ -160,7 +163,8 @@ void HeatMap(const char* id, const std::vector<std::string>& labels, const doubl
     }
   }
   if (hover_r >= 0) {
-    const ImVec2 a(grid.x + static_cast<float>(hover_c) * cell, grid.y + static_cast<float>(hover_r) * cell);
+    const ImVec2 a(grid.x + static_cast<float>(hover_c) * cell,
+                   grid.y + static_cast<float>(hover_r) * cell);
     dl->AddRect(a, ImVec2(a.x + cell, a.y + cell), IM_COL32(30, 34, 40, 255), 0.0f, 0, 2.0f * s);
     const double v = values[hover_r * n + hover_c];
     if (std::isfinite(v)) {
@@ -187,7 +191,8 @@ void HeatMap(const char* id, const std::vector<std::string>& labels, const doubl
   for (int k = 0; k < 3; ++k) {
     const float y = grid.y + 0.5f * side * static_cast<float>(k);
     dl->AddLine(ImVec2(bx + kBarWidth * s, y), ImVec2(bx + kBarWidth * s + 3.0f * s, y), dim_col);
-    const float ty = std::clamp(y - 0.5f * line_h, grid.y - 0.5f * line_h, grid.y + side - 0.5f * line_h);
+    const float ty =
+        std::clamp(y - 0.5f * line_h, grid.y - 0.5f * line_h, grid.y + side - 0.5f * line_h);
     dl->AddText(ImVec2(bx + kBarWidth * s + 5.0f * s, std::round(ty)), dim_col, tick_text[k]);
   }
 }

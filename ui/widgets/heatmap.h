@@ -23,7 +23,7 @@ struct HeatMapOptions {
   double max = 1.0;
   const char* format = "%.2f";  // cell text (printf)
   float scale = 1.0f;           // DPI scale: multiplies the sizes below
-  float min_cell = 38.0f;  // cell side, pixels at scale 1 (grows to fit labels and values)
+  float min_cell = 38.0f;       // cell side, pixels at scale 1 (grows to fit labels and values)
   // The height the map may take (0: any); cells shrink to fit it, but not below the width of
   // the values (column labels wider than a cell are then clipped; the tooltip names them).
   float max_height = 0.0f;

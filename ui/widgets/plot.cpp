@@ -204,8 +204,9 @@ void FitX(PlotContext& ctx, LinkedRange& xr) {
     own = {own.min - h, own.max + h};
   }
   if (any) {
-    xr.range = xr.fit_has_data ? Range{std::min(xr.range.min, own.min), std::max(xr.range.max, own.max)}
-                               : own;
+    xr.range = xr.fit_has_data
+                   ? Range{std::min(xr.range.min, own.min), std::max(xr.range.max, own.max)}
+                   : own;
     xr.fit_has_data = true;
   }
   if (!xr.fit_has_data) xr.range = {0.0, 1.0};
