@@ -32,10 +32,8 @@ FilterSettings FilterSettings::FromModel(const model::ModelSpec& spec) {
   return s;
 }
 
-namespace {
-
-std::vector<Discrete> DiscretizeAll(const model::StateSpace& ss, const data::Series& series,
-                                    model::InputHold hold) {
+std::vector<Discrete> DiscretizeIntervals(const model::StateSpace& ss, const data::Series& series,
+                                          model::InputHold hold) {
   const Eigen::VectorXd sigma2 = ss.sigma.array().square();
   std::vector<Discrete> out;
   out.reserve(series.intervals.distinct.size());
@@ -43,6 +41,8 @@ std::vector<Discrete> DiscretizeAll(const model::StateSpace& ss, const data::Ser
     out.push_back(Discretize(ss.A, ss.B, ss.c, sigma2, dt, hold));
   return out;
 }
+
+namespace {
 
 Result<Eigen::MatrixXd> InitialCovarianceFrom(const model::StateSpace& ss,
                                               const data::Series& series,
@@ -292,7 +292,7 @@ Result<Loglik> Run(const model::StateSpace& ss, const data::Series& series,
                                   "({} rows): no observation is left",
                                   series.source, *std::max_element(delay.begin(), delay.end()), N));
 
-  const std::vector<Discrete> disc = DiscretizeAll(ss, series, settings.hold);
+  const std::vector<Discrete> disc = DiscretizeIntervals(ss, series, settings.hold);
   auto P0 = InitialCovarianceFrom(ss, series, settings, &disc);
   if (!P0) return P0.error();
   if (terms) terms->assign(N, 0.0);

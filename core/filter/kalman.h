@@ -34,6 +34,7 @@
 #include <Eigen/Core>
 
 #include "core/data/dataset.h"
+#include "core/filter/discretize.h"
 #include "core/model/linear_model.h"
 #include "core/util/result.h"
 
@@ -78,6 +79,11 @@ Result<Loglik> LogLikelihood(const model::StateSpace& ss, const data::Series& se
 // As LogLikelihood, and fills *trace.
 Result<Loglik> RunFilter(const model::StateSpace& ss, const data::Series& series,
                          const FilterSettings& settings, FilterTrace* trace);
+
+// The exact discretisation of every distinct sample interval of `series`
+// (series.intervals.distinct), in that order; the filter, the predictions and the simulator use it.
+std::vector<Discrete> DiscretizeIntervals(const model::StateSpace& ss, const data::Series& series,
+                                          model::InputHold hold);
 
 // The initial covariance P0 the filter starts from (for display and tests).
 Result<Eigen::MatrixXd> InitialCovariance(const model::StateSpace& ss, const data::Series& series,

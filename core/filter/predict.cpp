@@ -13,16 +13,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::vector<Discrete> DiscretizeEach(const model::StateSpace& ss, const data::Series& series,
-                                     model::InputHold hold) {
-  const Eigen::VectorXd sigma2 = ss.sigma.array().square();
-  std::vector<Discrete> out;
-  out.reserve(series.intervals.distinct.size());
-  for (double dt : series.intervals.distinct)
-    out.push_back(Discretize(ss.A, ss.B, ss.c, sigma2, dt, hold));
-  return out;
-}
-
 void CheckTrace([[maybe_unused]] const model::StateSpace& ss,
                 [[maybe_unused]] const data::Series& series,
                 [[maybe_unused]] const FilterTrace& trace) {
@@ -105,7 +95,7 @@ Result<HorizonPredictions> PredictAheadFromTrace(const model::StateSpace& ss,
   const bool foh = settings.hold == model::InputHold::kFoh;
   auto P0 = InitialCovariance(ss, series, settings);
   if (!P0) return P0.error();
-  const std::vector<Discrete> disc = DiscretizeEach(ss, series, settings.hold);
+  const std::vector<Discrete> disc = DiscretizeIntervals(ss, series, settings.hold);
 
   HorizonPredictions out;
   out.horizon = horizon;
@@ -165,7 +155,7 @@ SmoothedStates SmoothFromTrace(const model::StateSpace& ss, const data::Series& 
   CheckTrace(ss, series, trace);
   const int p = ss.n_outputs();
   const int N = static_cast<int>(series.size());
-  const std::vector<Discrete> disc = DiscretizeEach(ss, series, settings.hold);
+  const std::vector<Discrete> disc = DiscretizeIntervals(ss, series, settings.hold);
 
   SmoothedStates out;
   out.x = trace.x_filt;

@@ -28,14 +28,9 @@ Result<Simulation> Simulate(const model::StateSpace& ss, const data::Series& ser
   const int n = ss.n_states(), p = ss.n_outputs(), m = ss.n_inputs();
   const int N = static_cast<int>(series.size());
   NormalRng rng(options.seed);
-  const Eigen::VectorXd sigma2 = ss.sigma.array().square();
-
-  std::vector<filter::Discrete> disc;
+  const std::vector<filter::Discrete> disc = filter::DiscretizeIntervals(ss, series, settings.hold);
   std::vector<Eigen::MatrixXd> q_factor;
-  for (double dt : series.intervals.distinct) {
-    disc.push_back(filter::Discretize(ss.A, ss.B, ss.c, sigma2, dt, settings.hold));
-    q_factor.push_back(PsdFactor(disc.back().Q));
-  }
+  for (const auto& d : disc) q_factor.push_back(PsdFactor(d.Q));
 
   Simulation sim;
   sim.X.resize(n, N);
