@@ -295,7 +295,7 @@ void DrawPlots(AppState& state, const Trace& trace, const FitResult* result) {
   }
 }
 
-void DrawReport(AppState& state, FitResult& r, bool previous) {
+void DrawReport(AppState& state, const FitResult& r, bool previous) {
   const float s = state.fonts.scale;
   SectionHeading(state, previous ? "Report of the previous run" : "Report");
   if (ImGui::SmallButton("Copy to clipboard")) ImGui::SetClipboardText(r.report.c_str());
@@ -341,15 +341,16 @@ void DrawEstimatePanel(AppState& state) {
 
   EstimationState& e = state.estimation;
   const bool running = EstimationRunning(state);
-  FitResult* result = e.result ? &*e.result : nullptr;
+  const FitResult* result = e.result ? &*e.result : nullptr;
   if (running) {
     DrawRunning(state);
   } else if (result) {
     DrawResultStatus(state, *result);
   }
   if (!running && !e.last_failure.empty()) {
-    const std::string text =
-        e.last_failure + (result ? ". The results below are from the previous run." : ".");
+    std::string text = e.last_failure;
+    if (!text.empty() && text.back() != '.') text += '.';
+    if (result) text += " The results below are from the previous run.";
     ImGui::PushTextWrapPos(0.0f);
     ImGui::TextColored(SeverityColor(e.last_failure_severity), "%s", text.c_str());
     ImGui::PopTextWrapPos();

@@ -79,8 +79,13 @@ void NumberCell(AppState& state, const model::Parameter& p, ParameterField field
                      : field == ParameterField::kLower ? "\xE2\x88\x92\xE2\x88\x9E"  // −∞
                                                        : "\xE2\x88\x9E";             // ∞
   ImGui::SetNextItemWidth(-FLT_MIN);
+  if (refused) {
+    ImGui::PushStyleColor(ImGuiCol_FrameBg, kRefusedCellBg);
+    ImGui::PushStyleColor(ImGuiCol_Border, SeverityColor(Severity::kError));
+  }
   ImGui::InputTextWithHint(id, hint, text,
                            ImGuiInputTextFlags_CharsScientific | ImGuiInputTextFlags_AutoSelectAll);
+  if (refused) ImGui::PopStyleColor(2);
   if (ImGui::IsItemActivated()) {
     v.editing_parameter = p.name;
     v.editing_field = field;
