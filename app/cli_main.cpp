@@ -91,6 +91,13 @@ int main(int argc, char** argv) {
   c_diag->add_option("--out", diag.out, "output JSON with every series and test")->required();
   c_diag->callback([&] { run = [&] { return RunDiagnose(diag); }; });
 
+  ExportModelArgs export_model;
+  auto* c_export = app.add_subcommand("export-model", "write the model a project's diagram compiles to");
+  c_export->add_option("project", export_model.project, "project file (JSON) with a \"diagram\"")
+      ->required();
+  c_export->add_option("--out", export_model.out, "model file to write (JSON)")->required();
+  c_export->callback([&] { run = [&] { return RunExportModel(export_model); }; });
+
   DynoArgs dyno;
   auto* c_dyno = app.add_subcommand("dyno", "run an experiment on the virtual dyno (simulated data)");
   c_dyno->add_option("experiment", dyno.experiment, "fuel, crankshaft or square-wave")

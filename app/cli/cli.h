@@ -153,4 +153,12 @@ struct DiagnoseArgs {
 };
 int RunDiagnose(const DiagnoseArgs& args);
 
+// export-model PROJECT --out MODEL: writes the model the project's block diagram (its "diagram"
+// key: inline or a file name) compiles to. A project without a diagram is an input error.
+struct ExportModelArgs {
+  std::string project;
+  std::string out;
+};
+int RunExportModel(const ExportModelArgs& args);
+
 }  // namespace gb::cli

@@ -1,0 +1,537 @@
+// Sections: 1. expression building  2. the compiler (structure, signals, equations, model)
+//           3. Compile  4. FromModel
+#include <algorithm>
+#include <map>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "core/diagram/diagram.h"
+#include "core/diagram/internal.h"
+#include "core/expr/expr.h"
+#include "core/model/linear_model.h"
+
+namespace gb::diagram {
+
+std::string Problem::ToString() const {
+  std::string out = block == 0 ? "diagram" : fmt::format("block {}", block);
+  if (in_port >= 0) out += fmt::format(", in-port {}", in_port);
+  if (!field.empty()) out += "." + field;
+  if (expr_col > 0) out += fmt::format(", column {}", expr_col);
+  return out + ": " + message;
+}
+
+std::string CompileResult::Message() const {
+  std::string out;
+  for (const auto& p : problems) out += p.ToString() + "\n";
+  return out;
+}
+
+namespace {
+
+// ---- 1. expression building ------------------------------------------------------------------
+
+using expr::ExprPtr;
+using expr::Node;
+using expr::Op;
+
+ExprPtr Binary(Op op, ExprPtr a, ExprPtr b) {
+  auto n = std::make_shared<Node>();
+  n->op = op;
+  n->args = {std::move(a), std::move(b)};
+  return n;
+}
+
+// Replaces every variable named in `by` at once (so a replacement is never substituted again).
+ExprPtr SubstituteAll(const ExprPtr& e, const std::map<std::string, ExprPtr>& by) {
+  if (e->op == Op::kVar) {
+    auto it = by.find(e->name);
+    return it == by.end() ? e : it->second;
+  }
+  if (e->args.empty()) return e;
+  auto n = std::make_shared<Node>(*e);
+  for (auto& a : n->args) a = SubstituteAll(a, by);
+  return n;
+}
+
+std::string Text(const ExprPtr& e) { return expr::ToString(expr::Simplify(e)); }
+
+// ---- 2. the compiler -------------------------------------------------------------------------
+
+class Compiler {
+ public:
+  explicit Compiler(const BlockDiagram& d) : d_(d) {}
+
+  std::vector<Problem> problems;
+
+  void Report(const Block& b, std::string message, int in_port = -1, std::string field = "",
+              int expr_col = 0) {
+    Problem p;
+    p.block = b.id;
+    p.in_port = in_port;
+    p.field = std::move(field);
+    p.expr_col = expr_col;
+    p.message = std::move(message);
+    problems.push_back(std::move(p));
+  }
+  void ReportDiagram(std::string message) {
+    Problem p;
+    p.message = std::move(message);
+    problems.push_back(std::move(p));
+  }
+
+  // Links, names and ports: everything that does not need expressions.
+  void CheckStructure() {
+    std::map<std::string, const Block*> shared_names;  // inputs, states
+    std::map<std::string, const Block*> output_names;
+    std::set<std::string> params;
+    for (const auto& p : d_.parameters) params.insert(p.name);
+    for (const auto& b : d_.blocks) {
+      const bool named = b.kind == BlockKind::kInput || b.kind == BlockKind::kOutput ||
+                         HoldsState(b.kind);
+      if (named) {
+        if (!internal::IsIdentifier(b.name) || internal::IsFunctionName(b.name)) {
+          Report(b, fmt::format("'{}' is not a valid name for a model {}", b.name,
+                                b.kind == BlockKind::kInput    ? "input"
+                                : b.kind == BlockKind::kOutput ? "output"
+                                                               : "state"),
+                 -1, "name");
+        } else {
+          auto& space = b.kind == BlockKind::kOutput ? output_names : shared_names;
+          if (auto [it, fresh] = space.emplace(b.name, &b); !fresh)
+            Report(b, fmt::format("'{}' is also the name of {}", b.name,
+                                  internal::BlockLabel(*it->second)), -1, "name");
+          else if (b.kind != BlockKind::kOutput && params.count(b.name))
+            Report(b, fmt::format("'{}' is also a parameter", b.name), -1, "name");
+        }
+      }
+      if (b.kind == BlockKind::kSum &&
+          (b.signs.empty() || b.signs.find_first_not_of("+-") != std::string::npos))
+        Report(b, "a sum needs one '+' or '-' per input", -1, "signs");
+      const auto ins = InPorts(b);
+      for (std::size_t i = 0; i < ins.size(); ++i) {
+        const PortRef ref = In(b.id, static_cast<int>(i));
+        const int n = static_cast<int>(std::count_if(
+            d_.links.begin(), d_.links.end(), [&](const Link& l) { return l.to == ref; }));
+        if (n == 0 && !ins[i].optional)
+          Report(b, fmt::format("in-port '{}' is not connected", ins[i].name), static_cast<int>(i));
+        if (n > 1)
+          Report(b, fmt::format("in-port '{}' holds {} links (an in-port takes one)", ins[i].name,
+                                n), static_cast<int>(i));
+      }
+    }
+    for (const auto& l : d_.links) {
+      const Block* a = d_.FindBlock(l.from.block);
+      const Block* b = d_.FindBlock(l.to.block);
+      if (!a || !b) {
+        ReportDiagram(fmt::format("link {} joins a block that does not exist", l.id));
+        continue;
+      }
+      const auto outs = OutPorts(*a);
+      const auto ins = InPorts(*b);
+      if (l.from.side != PortSide::kOut || l.to.side != PortSide::kIn ||
+          l.from.index < 0 || l.from.index >= static_cast<int>(outs.size()) ||
+          l.to.index < 0 || l.to.index >= static_cast<int>(ins.size())) {
+        Report(*b, fmt::format("link {} joins a port that does not exist", l.id));
+        continue;
+      }
+      if (outs[l.from.index].type != ins[l.to.index].type)
+        Report(*b, fmt::format("link {} joins a noise port to a signal port", l.id), l.to.index);
+      if (a->kind == BlockKind::kDelay && b->kind != BlockKind::kOutput)
+        Report(*a, fmt::format("a delay may only sit directly in front of an output (a sensor), "
+                               "but it feeds {}", internal::BlockLabel(*b)));
+    }
+    if (shared_names.empty() ||
+        std::none_of(d_.blocks.begin(), d_.blocks.end(),
+                     [](const Block& b) { return HoldsState(b.kind); }))
+      ReportDiagram("the diagram has no lag, integrator or state block: a model needs a state");
+    if (output_names.empty()) ReportDiagram("the diagram has no output block");
+  }
+
+  // A field's expression (parsed, names checked), or nullptr after reporting why not.
+  ExprPtr Field(const Block& b, const std::string& field, const char* missing) {
+    auto it = b.fields.find(field);
+    if (it == b.fields.end() || it->second.empty()) {
+      Report(b, missing, -1, field);
+      return nullptr;
+    }
+    auto e = internal::ParseField(d_, b, field, it->second);
+    if (!e) {
+      Report(b, e.error().message, -1, field, e.error().expr_col);
+      return nullptr;
+    }
+    return *e;
+  }
+
+  // The signal arriving at an in-port (nullptr if it cannot be formed; reported elsewhere).
+  ExprPtr InSignal(const Block& b, int index) {
+    const Link* l = d_.LinkInto(In(b.id, index));
+    if (!l) return nullptr;
+    return Signal(l->from.block, l->from.index);
+  }
+
+  // The signal at an out-port, composed backwards along the links.
+  ExprPtr Signal(int block, int out) {
+    const auto key = std::make_pair(block, out);
+    if (auto it = signals_.find(key); it != signals_.end()) return it->second;
+    const Block* b = d_.FindBlock(block);
+    if (!b) return nullptr;
+    if (b->kind == BlockKind::kInput || HoldsState(b->kind)) return expr::Variable(b->name);
+    if (visiting_.count(block)) {
+      if (loop_reported_.insert(block).second)
+        Report(*b, "this block is on an algebraic loop (a cycle with no lag, integrator or state "
+                   "block on it)");
+      return nullptr;
+    }
+    visiting_.insert(block);
+    ExprPtr s = Compose(*b, out);
+    visiting_.erase(block);
+    if (s) s = expr::Simplify(s);
+    signals_[key] = s;
+    return s;
+  }
+
+  ExprPtr Compose(const Block& b, int out) {
+    switch (b.kind) {
+      case BlockKind::kGain: {
+        ExprPtr u = InSignal(b, 0);
+        ExprPtr k = Field(b, "k", "the gain k is not set");
+        return u && k ? Binary(Op::kMul, k, u) : nullptr;
+      }
+      case BlockKind::kSum: {
+        ExprPtr total;
+        bool ok = true;
+        for (std::size_t i = 0; i < b.signs.size(); ++i) {
+          ExprPtr u = InSignal(b, static_cast<int>(i));
+          if (!u) {
+            ok = false;
+            continue;
+          }
+          if (!total)
+            total = b.signs[i] == '-' ? Binary(Op::kSub, expr::Constant(0), u) : u;
+          else
+            total = Binary(b.signs[i] == '-' ? Op::kSub : Op::kAdd, total, u);
+        }
+        return ok ? total : nullptr;
+      }
+      case BlockKind::kSplit: {
+        ExprPtr u = InSignal(b, 0);
+        ExprPtr x = Field(b, "X", "the split fraction X is not set");
+        if (!u || !x) return nullptr;
+        ExprPtr gain = out == 0 ? x : Binary(Op::kSub, expr::Constant(1), x);
+        return Binary(Op::kMul, gain, u);
+      }
+      case BlockKind::kDelay: return InSignal(b, 0);
+      default: return nullptr;  // outputs and noise blocks have no signal out-port
+    }
+  }
+
+  // dx/dt of a state block (without noise).
+  ExprPtr Drift(const Block& b) {
+    const ExprPtr x = expr::Variable(b.name);
+    switch (b.kind) {
+      case BlockKind::kLag: {
+        ExprPtr u = InSignal(b, 0);
+        ExprPtr K = Field(b, "K", "the gain K is not set");
+        ExprPtr tau = Field(b, "tau", "the time constant tau is not set");
+        if (!u || !K || !tau) return nullptr;
+        return Binary(Op::kDiv, Binary(Op::kSub, Binary(Op::kMul, K, u), x), tau);
+      }
+      case BlockKind::kIntegrator: {
+        ExprPtr u = InSignal(b, 0);
+        ExprPtr k = Field(b, "k", "the gain k is not set");
+        if (!u || !k) return nullptr;
+        return Binary(Op::kMul, k, u);
+      }
+      case BlockKind::kState: {
+        ExprPtr f = Field(b, "f", "the drift f is not set");
+        auto by = PortSignals(b);
+        if (!f || !by) return nullptr;
+        return SubstituteAll(f, *by);
+      }
+      default: return nullptr;
+    }
+  }
+
+  // Each named in-port of a state or output block -> the signal arriving there.
+  std::optional<std::map<std::string, ExprPtr>> PortSignals(const Block& b) {
+    std::map<std::string, ExprPtr> by;
+    bool ok = true;
+    for (std::size_t i = 0; i < b.ports.size(); ++i) {
+      ExprPtr s = InSignal(b, static_cast<int>(i));
+      if (!s) ok = false;
+      by[b.ports[i]] = s;
+    }
+    if (!ok) return std::nullopt;
+    return by;
+  }
+
+  ExprPtr Observation(const Block& b) {
+    ExprPtr h = Field(b, "h", "the observation h is not set");
+    auto by = PortSignals(b);
+    if (!h || !by) return nullptr;
+    return SubstituteAll(h, *by);
+  }
+
+  // The output's delay: a delay block in front of every port (all the same), or its own.
+  std::optional<model::DelaySpec> Delay(const Block& b) {
+    std::optional<model::DelaySpec> via_block;
+    bool direct = false;
+    for (std::size_t i = 0; i < b.ports.size(); ++i) {
+      const Link* l = d_.LinkInto(In(b.id, static_cast<int>(i)));
+      const Block* src = l ? d_.FindBlock(l->from.block) : nullptr;
+      if (!src) continue;
+      if (src->kind != BlockKind::kDelay) {
+        direct = true;
+        continue;
+      }
+      if (via_block && (via_block->min != src->delay.min || via_block->max != src->delay.max)) {
+        Report(b, "the delay blocks in front of this output differ (an output has one delay)");
+        return std::nullopt;
+      }
+      via_block = src->delay;
+    }
+    if (!via_block) return b.delay;
+    if (direct) {
+      Report(b, "some in-ports of this output come through a delay block and some do not (the "
+                "delay applies to the whole output)");
+      return std::nullopt;
+    }
+    if (b.delay.min != 0 || b.delay.max != 0) {
+      Report(b, "this output has a delay of its own and a delay block in front of it");
+      return std::nullopt;
+    }
+    return via_block;
+  }
+
+ private:
+  const BlockDiagram& d_;
+  std::map<std::pair<int, int>, ExprPtr> signals_;
+  std::set<int> visiting_;
+  std::set<int> loop_reported_;
+};
+
+Json DelayJson(const model::DelaySpec& d) {
+  if (d.IsScan()) return {{"min", d.min}, {"max", d.max}};
+  return d.min;
+}
+
+Json ParametersJson(const std::vector<model::Parameter>& ps) {
+  Json out = Json::object();
+  for (const auto& par : ps) {
+    Json v;
+    v["value"] = par.value;
+    if (par.lower) v["lower"] = *par.lower;
+    if (par.upper) v["upper"] = *par.upper;
+    if (par.fixed) v["fixed"] = true;
+    if (!par.unit.empty()) v["unit"] = par.unit;
+    if (!par.description.empty()) v["description"] = par.description;
+    out[par.name] = v;
+  }
+  return out;
+}
+
+// Maps a model error ("drift.mfv", "observation.y") back to the block it came from.
+Problem ProblemFromModelError(const BlockDiagram& d, const Error& e) {
+  Problem p;
+  p.message = e.message;
+  p.expr_col = 0;  // the column is in the composed equation, not in a field the user typed
+  const auto dot = e.path.find('.');
+  if (dot != std::string::npos) {
+    const std::string key = e.path.substr(0, dot);
+    const std::string name = e.path.substr(dot + 1);
+    const bool about_output = key == "observation" || key == "measurement_variance" ||
+                              key == "output_delay";
+    for (const auto& b : d.blocks) {
+      if (b.name != name) continue;
+      if (about_output ? b.kind == BlockKind::kOutput : HoldsState(b.kind)) p.block = b.id;
+    }
+    p.message = fmt::format("{}: {}", e.path, e.message);
+  }
+  return p;
+}
+
+}  // namespace
+
+// ---- 3. Compile ------------------------------------------------------------------------------
+
+CompileResult Compile(const BlockDiagram& d, const std::string& source) {
+  CompileResult result;
+  Compiler c(d);
+  c.CheckStructure();
+
+  Json j;
+  j["greybench_model"] = 1;
+  if (!d.name.empty()) j["name"] = d.name;
+  std::vector<std::string> states, inputs, outputs;
+  for (const auto& b : d.blocks) {
+    if (b.kind == BlockKind::kInput) inputs.push_back(b.name);
+    if (b.kind == BlockKind::kOutput) outputs.push_back(b.name);
+    if (HoldsState(b.kind)) states.push_back(b.name);
+  }
+  j["states"] = states;
+  j["inputs"] = inputs;
+  j["outputs"] = outputs;
+  j["parameters"] = ParametersJson(d.parameters);
+  Json drift = Json::object(), diffusion = Json::object(), initial = Json::object();
+  Json observation = Json::object(), variance = Json::object(), delays = Json::object();
+
+  for (const auto& b : d.blocks) {
+    if (HoldsState(b.kind)) {
+      if (ExprPtr f = c.Drift(b)) drift[b.name] = Text(f);
+      if (ExprPtr x0 = c.Field(b, "x0", "the initial state x0 is not set")) initial[b.name] = Text(x0);
+    } else if (b.kind == BlockKind::kOutput) {
+      if (ExprPtr h = c.Observation(b)) observation[b.name] = Text(h);
+      if (ExprPtr s = c.Field(b, "variance", "the output has no measurement variance"))
+        variance[b.name] = Text(s);
+      if (auto delay = c.Delay(b); delay && (delay->min != 0 || delay->max != 0))
+        delays[b.name] = DelayJson(*delay);
+    } else if (b.kind == BlockKind::kNoise) {
+      ExprPtr sigma = c.Field(b, "sigma", "the noise intensity sigma is not set");
+      bool attached = false;
+      for (const auto& l : d.links) {
+        if (l.from.block != b.id) continue;
+        const Block* target = d.FindBlock(l.to.block);
+        if (!target || !HoldsState(target->kind)) continue;
+        attached = true;
+        if (sigma) diffusion[target->name] = Text(sigma);
+      }
+      if (!attached) c.Report(b, "this noise block is attached to no state");
+    } else if (b.kind == BlockKind::kDelay) {
+      if (std::none_of(d.links.begin(), d.links.end(),
+                       [&](const Link& l) { return l.from.block == b.id; }))
+        c.Report(b, "this delay feeds nothing: a delay sits directly in front of an output");
+    } else {
+      for (int k = 0; k < static_cast<int>(OutPorts(b).size()); ++k) c.Signal(b.id, k);
+    }
+  }
+  if (!c.problems.empty()) {
+    for (auto& p : c.problems) {  // a field read by two out-ports is reported once
+      const bool seen = std::any_of(result.problems.begin(), result.problems.end(),
+                                    [&](const Problem& q) { return q.ToString() == p.ToString(); });
+      if (!seen) result.problems.push_back(std::move(p));
+    }
+    return result;
+  }
+
+  j["drift"] = drift;
+  j["diffusion"] = diffusion;
+  j["observation"] = observation;
+  j["measurement_variance"] = variance;
+  if (!delays.empty()) j["output_delay"] = delays;
+  j["initial_state"] = initial;
+  j["initial_covariance"] =
+      d.initial_covariance == model::InitialCovariance::kStationary ? "stationary" : "ctsm";
+  j["input_hold"] = d.input_hold == model::InputHold::kFoh ? "foh" : "zoh";
+  if (d.robust_huber) j["robust_huber"] = *d.robust_huber;
+
+  auto spec = model::ParseModel(j, source);
+  if (!spec) {
+    result.problems.push_back(ProblemFromModelError(d, spec.error()));
+    return result;
+  }
+  // Round trip through the file form, as a saved model would be read.
+  auto reread = model::ParseModel(model::ToJson(*spec), source);
+  if (!reread) {
+    result.problems.push_back(ProblemFromModelError(d, reread.error()));
+    return result;
+  }
+  if (auto linear = model::LinearModel::Compile(*reread); !linear) {
+    result.problems.push_back(ProblemFromModelError(d, linear.error()));
+    return result;
+  }
+  result.model = std::move(*reread);
+  return result;
+}
+
+// ---- 4. FromModel ----------------------------------------------------------------------------
+
+Result<BlockDiagram> FromModel(const model::ModelSpec& m) {
+  if (m.initial_covariance == model::InitialCovariance::kExplicit) {
+    Error e = InputError("a diagram cannot hold an explicit initial covariance yet");
+    e.file = m.source;
+    e.path = "initial_covariance";
+    return e;
+  }
+  constexpr double kColumn = 220.0;
+  constexpr double kRow = 120.0;
+  BlockDiagram d;
+  d.name = m.name;
+  d.parameters = m.parameters;
+  d.input_hold = m.input_hold;
+  d.initial_covariance = m.initial_covariance;
+  d.robust_huber = m.robust_huber;
+
+  // What reads what: the states and inputs (in model order) an expression uses, except `self`.
+  auto reads = [&](const model::Formula& f, const std::string& self) {
+    std::set<std::string> used;
+    expr::CollectNames(f.expr, &used);
+    std::vector<std::string> out;
+    for (const auto& s : m.states)
+      if (s != self && used.count(s)) out.push_back(s);
+    for (const auto& u : m.inputs)
+      if (used.count(u)) out.push_back(u);
+    return out;
+  };
+  auto fail = [&](const Error& e) {
+    Error out = e;
+    out.file = m.source;
+    return out;
+  };
+
+  std::map<std::string, int> source_block;  // state or input name -> block id
+  for (std::size_t i = 0; i < m.inputs.size(); ++i) {
+    auto id = AddBlock(&d, MakeBlock(BlockKind::kInput, m.inputs[i]), {0.0, kRow * i});
+    if (!id) return fail(id.error());
+    source_block[m.inputs[i]] = *id;
+  }
+  std::vector<int> state_blocks;
+  for (std::size_t i = 0; i < m.states.size(); ++i) {
+    Block b = MakeBlock(BlockKind::kState, m.states[i]);
+    b.ports = reads(m.drift[i], m.states[i]);
+    b.fields["f"] = m.drift[i].text;
+    b.fields["x0"] = m.initial_state[i].text;
+    auto id = AddBlock(&d, std::move(b), {2 * kColumn, kRow * i});
+    if (!id) return fail(id.error());
+    source_block[m.states[i]] = *id;
+    state_blocks.push_back(*id);
+  }
+  std::vector<int> output_blocks;
+  for (std::size_t o = 0; o < m.outputs.size(); ++o) {
+    Block b = MakeBlock(BlockKind::kOutput, m.outputs[o]);
+    b.ports = reads(m.observation[o], "");
+    b.fields["h"] = m.observation[o].text;
+    b.fields["variance"] = m.measurement_variance[o].text;
+    b.delay = m.output_delay[o];
+    auto id = AddBlock(&d, std::move(b), {3 * kColumn, kRow * o});
+    if (!id) return fail(id.error());
+    output_blocks.push_back(*id);
+  }
+  auto wire = [&](int block) -> Status {
+    const Block copy = *d.FindBlock(block);
+    for (std::size_t p = 0; p < copy.ports.size(); ++p) {
+      auto l = Connect(&d, Out(source_block.at(copy.ports[p])), In(block, static_cast<int>(p)));
+      if (!l) return l.error();
+    }
+    return Ok{};
+  };
+  for (int id : state_blocks)
+    if (auto s = wire(id); !s) return fail(s.error());
+  for (int id : output_blocks)
+    if (auto s = wire(id); !s) return fail(s.error());
+  for (std::size_t i = 0; i < m.states.size(); ++i) {
+    double sigma = 1.0;
+    if (expr::IsConstant(expr::Simplify(m.diffusion[i].expr), &sigma) && sigma == 0.0) continue;
+    Block noise = MakeBlock(BlockKind::kNoise);
+    noise.fields["sigma"] = m.diffusion[i].text;
+    auto id = AddBlock(&d, std::move(noise), {kColumn, kRow * i});
+    if (!id) return fail(id.error());
+    const Block* state = d.FindBlock(state_blocks[i]);
+    const int noise_port = static_cast<int>(InPorts(*state).size()) - 1;
+    auto l = Connect(&d, Out(*id), In(state_blocks[i], noise_port));
+    if (!l) return fail(l.error());
+  }
+  return d;
+}
+
+}  // namespace gb::diagram

@@ -1,0 +1,435 @@
+// Block diagrams: edits that refuse with reasons, the compiler against the hand-written models of
+// the paper (eq. 13-14 and 15-16) and their closed forms, FromModel, and the JSON form.
+#include "core/diagram/diagram.h"
+
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "core/model/linear_model.h"
+#include "core/project/problem.h"
+#include "core/project/project.h"
+
+namespace gb::diagram {
+namespace {
+
+const std::string kSource = GREYBENCH_SOURCE_DIR;
+constexpr double kMatrixTol = 1e-12;  // entries are the same rational expressions
+constexpr double kLoglikTol = 1e-9;   // relative: same filter, same numbers
+
+model::ModelSpec LoadModel(const std::string& name) {
+  auto m = model::LoadModelFile(kSource + "/assets/models/" + name);
+  EXPECT_TRUE(m.ok()) << (m.ok() ? "" : m.error().ToString());
+  return *m;
+}
+
+BlockDiagram LoadDiagram(const std::string& name) {
+  auto d = LoadDiagramFile(kSource + "/assets/diagrams/" + name);
+  EXPECT_TRUE(d.ok()) << (d.ok() ? "" : d.error().ToString());
+  return *d;
+}
+
+model::ModelSpec CompileOrDie(const BlockDiagram& d) {
+  CompileResult r = Compile(d);
+  EXPECT_TRUE(r.ok()) << r.Message();
+  return *r.model;
+}
+
+// θ for `spec` taken by name from `reference`, each value scaled by `scale`.
+std::vector<double> ThetaByName(const model::ModelSpec& spec, const model::ModelSpec& reference,
+                                double scale) {
+  std::vector<double> theta;
+  for (const auto& p : spec.parameters) {
+    const int i = reference.ParameterIndex(p.name);
+    EXPECT_GE(i, 0) << p.name;
+    theta.push_back(reference.parameters[i].value * scale);
+  }
+  return theta;
+}
+
+// Compares every matrix of the two models at the same θ, matching states, inputs and outputs by
+// name (the diagram may order them differently).
+void ExpectSameStateSpace(const model::ModelSpec& got, const model::ModelSpec& want, double scale) {
+  auto lg = model::LinearModel::Compile(got);
+  auto lw = model::LinearModel::Compile(want);
+  ASSERT_TRUE(lg.ok()) << lg.error().ToString();
+  ASSERT_TRUE(lw.ok()) << lw.error().ToString();
+  auto g = lg->Evaluate(ThetaByName(got, want, scale));
+  auto w = lw->Evaluate(ThetaByName(want, want, scale));
+  ASSERT_TRUE(g.ok()) << g.error().ToString();
+  ASSERT_TRUE(w.ok()) << w.error().ToString();
+  ASSERT_EQ(got.states.size(), want.states.size());
+  ASSERT_EQ(got.inputs.size(), want.inputs.size());
+  ASSERT_EQ(got.outputs.size(), want.outputs.size());
+  for (std::size_t i = 0; i < want.states.size(); ++i) {
+    const int gi = got.StateIndex(want.states[i]);
+    ASSERT_GE(gi, 0) << want.states[i];
+    for (std::size_t j = 0; j < want.states.size(); ++j)
+      EXPECT_NEAR(g->A(gi, got.StateIndex(want.states[j])), w->A(i, j), kMatrixTol)
+          << "A[" << want.states[i] << "," << want.states[j] << "]";
+    for (std::size_t j = 0; j < want.inputs.size(); ++j)
+      EXPECT_NEAR(g->B(gi, got.InputIndex(want.inputs[j])), w->B(i, j), kMatrixTol)
+          << "B[" << want.states[i] << "," << want.inputs[j] << "]";
+    EXPECT_NEAR(g->c(gi), w->c(i), kMatrixTol);
+    EXPECT_NEAR(g->sigma(gi), w->sigma(i), kMatrixTol);
+    EXPECT_NEAR(g->x0(gi), w->x0(i), kMatrixTol);
+  }
+  for (std::size_t o = 0; o < want.outputs.size(); ++o) {
+    const int go = got.OutputIndex(want.outputs[o]);
+    ASSERT_GE(go, 0) << want.outputs[o];
+    for (std::size_t j = 0; j < want.states.size(); ++j)
+      EXPECT_NEAR(g->C(go, got.StateIndex(want.states[j])), w->C(o, j), kMatrixTol);
+    for (std::size_t j = 0; j < want.inputs.size(); ++j)
+      EXPECT_NEAR(g->D(go, got.InputIndex(want.inputs[j])), w->D(o, j), kMatrixTol);
+    EXPECT_NEAR(g->d(go), w->d(o), kMatrixTol);
+    EXPECT_NEAR(g->S(go), w->S(o), kMatrixTol);
+    EXPECT_EQ(got.output_delay[go].min, want.output_delay[o].min);
+    EXPECT_EQ(got.output_delay[go].max, want.output_delay[o].max);
+  }
+  EXPECT_EQ(got.input_hold, want.input_hold);
+  EXPECT_EQ(got.initial_covariance, want.initial_covariance);
+}
+
+double Loglik(const model::ModelSpec& spec, const model::ModelSpec& reference,
+              const std::string& data, std::vector<int> delay) {
+  const std::vector<double> theta = ThetaByName(spec, reference, 1.0);
+  auto problem = project::LoadProblem(spec, {kSource + "/assets/data/" + data});
+  EXPECT_TRUE(problem.ok()) << problem.error().ToString();
+  auto lik = project::MakeLikelihood(*problem);
+  EXPECT_TRUE(lik.ok()) << lik.error().ToString();
+  auto l = lik->Evaluate(theta, delay);
+  EXPECT_TRUE(l.ok()) << l.error().ToString();
+  return l->loglik;
+}
+
+// ---- the bundled diagrams --------------------------------------------------------------------
+
+TEST(DiagramCompile, FuelFilmDiagramGivesTheMatricesOfEq13To14) {
+  const model::ModelSpec got = CompileOrDie(LoadDiagram("fuel_film.json"));
+  const model::ModelSpec want = LoadModel("fuel_film.json");
+  ExpectSameStateSpace(got, want, 1.0);
+  ExpectSameStateSpace(got, want, 1.07);  // not a coincidence of the start values
+
+  // And the closed form of eq. 13-14: A = diag(-1/τ_fv, -1/τ_ff), B = [(1-X)/τ_fv; X/τ_ff],
+  // C = [Kb Kb].
+  auto lin = model::LinearModel::Compile(got);
+  ASSERT_TRUE(lin.ok());
+  auto ss = lin->Evaluate(got.Values());
+  ASSERT_TRUE(ss.ok());
+  auto value = [&](const char* n) { return got.parameters[got.ParameterIndex(n)].value; };
+  const int v = got.StateIndex("mfv"), f = got.StateIndex("mff");
+  EXPECT_NEAR(ss->A(v, v), -1 / value("tau_fv"), kMatrixTol);
+  EXPECT_NEAR(ss->A(f, f), -1 / value("tau_ff"), kMatrixTol);
+  EXPECT_EQ(ss->A(v, f), 0.0);
+  EXPECT_NEAR(ss->B(v, 0), (1 - value("X")) / value("tau_fv"), kMatrixTol);
+  EXPECT_NEAR(ss->B(f, 0), value("X") / value("tau_ff"), kMatrixTol);
+  EXPECT_NEAR(ss->C(0, v), value("Kb"), kMatrixTol);
+  EXPECT_NEAR(ss->C(0, f), value("Kb"), kMatrixTol);
+  EXPECT_EQ(got.input_hold, model::InputHold::kFoh);
+  EXPECT_EQ(got.output_delay[0].min, 0);
+  EXPECT_EQ(got.output_delay[0].max, 10);
+}
+
+TEST(DiagramCompile, CrankshaftDiagramGivesTheMatricesOfEq15To16) {
+  const model::ModelSpec got = CompileOrDie(LoadDiagram("crankshaft.json"));
+  const model::ModelSpec want = LoadModel("crankshaft.json");
+  ExpectSameStateSpace(got, want, 1.0);
+  ExpectSameStateSpace(got, want, 0.93);
+
+  // Closed form: A = -1/τ_f - G_p K_n/J_e, B = [G_p K_θ/J_e, -1/J_e], C = [1; -K_n],
+  // D = [0 0; K_θ 0].
+  auto lin = model::LinearModel::Compile(got);
+  ASSERT_TRUE(lin.ok());
+  auto ss = lin->Evaluate(got.Values());
+  ASSERT_TRUE(ss.ok());
+  auto value = [&](const char* n) { return got.parameters[got.ParameterIndex(n)].value; };
+  const int th = got.InputIndex("theta"), tl = got.InputIndex("Tl");
+  const int yn = got.OutputIndex("N"), yp = got.OutputIndex("Pman");
+  EXPECT_NEAR(ss->A(0, 0), -1 / value("tau_f") - value("Gp") * value("Kn") / value("Je"),
+              kMatrixTol);
+  EXPECT_NEAR(ss->B(0, th), value("Gp") * value("Ktheta") / value("Je"), kMatrixTol);
+  EXPECT_NEAR(ss->B(0, tl), -1 / value("Je"), kMatrixTol);
+  EXPECT_NEAR(ss->C(yn, 0), 1.0, kMatrixTol);
+  EXPECT_NEAR(ss->C(yp, 0), -value("Kn"), kMatrixTol);
+  EXPECT_NEAR(ss->D(yp, th), value("Ktheta"), kMatrixTol);
+  EXPECT_EQ(ss->D(yn, th), 0.0);
+  EXPECT_EQ(ss->D(yp, tl), 0.0);
+}
+
+TEST(DiagramCompile, FuelFilmDiagramHasTheLoglikOfTheHandWrittenModel) {
+  const model::ModelSpec want = LoadModel("fuel_film.json");
+  const model::ModelSpec got = CompileOrDie(LoadDiagram("fuel_film.json"));
+  for (int delay : {0, 6}) {
+    const double l_want = Loglik(want, want, "fuel_f1.csv", {delay});
+    const double l_got = Loglik(got, want, "fuel_f1.csv", {delay});
+    EXPECT_TRUE(std::isfinite(l_want));
+    EXPECT_NEAR(l_got, l_want, kLoglikTol * std::abs(l_want)) << "delay " << delay;
+  }
+}
+
+TEST(DiagramCompile, CrankshaftDiagramHasTheLoglikOfTheHandWrittenModel) {
+  const model::ModelSpec want = LoadModel("crankshaft.json");
+  const model::ModelSpec got = CompileOrDie(LoadDiagram("crankshaft.json"));
+  const double l_want = Loglik(want, want, "crankshaft.csv", {});
+  const double l_got = Loglik(got, want, "crankshaft.csv", {});
+  EXPECT_TRUE(std::isfinite(l_want));
+  EXPECT_NEAR(l_got, l_want, kLoglikTol * std::abs(l_want));
+}
+
+TEST(DiagramCompile, ProjectNamesItsDiagram) {
+  auto p = project::LoadProject(kSource + "/assets/projects/fuel_film_diagram.json");
+  ASSERT_TRUE(p.ok()) << p.error().ToString();
+  auto d = LoadProjectDiagram(*p);
+  ASSERT_TRUE(d.ok()) << d.error().ToString();
+  auto from_model = model::ParseModel(p->model_json, p->path);
+  ASSERT_TRUE(from_model.ok());
+  ExpectSameStateSpace(CompileOrDie(*d), *from_model, 1.0);
+
+  auto plain = project::LoadProject(kSource + "/assets/projects/fuel_f1.json");
+  ASSERT_TRUE(plain.ok());
+  auto none = LoadProjectDiagram(*plain);
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.error().message.find("no diagram"), std::string::npos);
+}
+
+// ---- edits -----------------------------------------------------------------------------------
+
+// u -> gain -> sum -> lag x -> output y, with parameters k, tau, s2.
+struct Small {
+  BlockDiagram d;
+  int u, gain, sum, lag, y;
+};
+
+Small MakeSmall() {
+  Small s;
+  for (const char* name : {"k", "tau", "s2"}) {
+    model::Parameter p;
+    p.name = name;
+    p.value = 1.0;
+    EXPECT_TRUE(SetParameterEntry(&s.d, p).ok());
+  }
+  s.u = *AddBlock(&s.d, MakeBlock(BlockKind::kInput, "u"));
+  s.gain = *AddBlock(&s.d, MakeBlock(BlockKind::kGain));
+  s.sum = *AddBlock(&s.d, MakeBlock(BlockKind::kSum));
+  s.lag = *AddBlock(&s.d, MakeBlock(BlockKind::kLag, "x"));
+  s.y = *AddBlock(&s.d, MakeBlock(BlockKind::kOutput, "y"));
+  EXPECT_TRUE(Connect(&s.d, Out(s.u), In(s.gain)).ok());
+  EXPECT_TRUE(Connect(&s.d, Out(s.gain), In(s.sum, 0)).ok());
+  EXPECT_TRUE(Connect(&s.d, Out(s.sum), In(s.lag)).ok());
+  EXPECT_TRUE(Connect(&s.d, Out(s.lag), In(s.y)).ok());
+  return s;
+}
+
+TEST(DiagramEdit, RefusesAnOccupiedInPort) {
+  Small s = MakeSmall();
+  const auto links = s.d.links.size();
+  auto r = Connect(&s.d, Out(s.u), In(s.lag));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("already connected"), std::string::npos) << r.error().message;
+  EXPECT_EQ(s.d.links.size(), links);  // nothing changed
+}
+
+TEST(DiagramEdit, RefusesOutToOutAndInToIn) {
+  Small s = MakeSmall();
+  auto a = Connect(&s.d, Out(s.u), Out(s.gain));
+  ASSERT_FALSE(a.ok());
+  EXPECT_NE(a.error().message.find("out-port to an out-port"), std::string::npos);
+  auto b = Connect(&s.d, In(s.sum, 1), In(s.gain));
+  ASSERT_FALSE(b.ok());
+  EXPECT_NE(b.error().message.find("in-port to an in-port"), std::string::npos);
+}
+
+TEST(DiagramEdit, RefusesAnAlgebraicLoopButNotALoopThroughAState) {
+  Small s = MakeSmall();
+  // gain -> sum -> gain: no state on the cycle.
+  const int g2 = *AddBlock(&s.d, MakeBlock(BlockKind::kGain));
+  ASSERT_TRUE(Connect(&s.d, Out(s.sum), In(g2)).ok());
+  auto r = Connect(&s.d, Out(g2), In(s.sum, 1));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("algebraic loop"), std::string::npos) << r.error().message;
+  // lag -> gain -> sum -> lag: feedback through a state is fine.
+  const int g3 = *AddBlock(&s.d, MakeBlock(BlockKind::kGain));
+  ASSERT_TRUE(Connect(&s.d, Out(s.lag), In(g3)).ok());
+  EXPECT_TRUE(Connect(&s.d, Out(g3), In(s.sum, 1)).ok());
+}
+
+TEST(DiagramEdit, RefusesADelayThatDoesNotFeedAnOutput) {
+  Small s = MakeSmall();
+  Block delay = MakeBlock(BlockKind::kDelay);
+  delay.delay = {2, 2};
+  const int d = *AddBlock(&s.d, delay);
+  const int g = *AddBlock(&s.d, MakeBlock(BlockKind::kGain));
+  ASSERT_TRUE(Connect(&s.d, Out(s.lag), In(d)).ok());
+  auto r = Connect(&s.d, Out(d), In(g));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("only feed output"), std::string::npos) << r.error().message;
+}
+
+TEST(DiagramEdit, RefusesAnUnknownParameterWithItsColumn) {
+  Small s = MakeSmall();
+  auto r = SetBlockParameter(&s.d, s.lag, "tau", "2*taux");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().expr_col, 3);
+  EXPECT_EQ(r.error().path, "block " + std::to_string(s.lag) + ".tau");
+  EXPECT_NE(r.error().message.find("unknown name 'taux' (did you mean 'tau'?)"), std::string::npos)
+      << r.error().message;
+  EXPECT_EQ(s.d.FindBlock(s.lag)->fields.at("tau"), "1");  // unchanged
+  EXPECT_TRUE(SetBlockParameter(&s.d, s.lag, "tau", "2*tau").ok());
+  auto syntax = SetBlockParameter(&s.d, s.gain, "k", "k*(1");
+  ASSERT_FALSE(syntax.ok());
+  EXPECT_GT(syntax.error().expr_col, 0);
+}
+
+TEST(DiagramEdit, RefusesANameThatIsTaken) {
+  Small s = MakeSmall();
+  auto r = AddBlock(&s.d, MakeBlock(BlockKind::kInput, "x"));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("already the name"), std::string::npos);
+  EXPECT_FALSE(AddBlock(&s.d, MakeBlock(BlockKind::kLag, "tau")).ok());  // a parameter
+  EXPECT_TRUE(AddBlock(&s.d, MakeBlock(BlockKind::kOutput, "x")).ok());  // outputs apart
+}
+
+TEST(DiagramEdit, RemoveBlockTakesItsLinksAndMoveOnlyTheLayout) {
+  Small s = MakeSmall();
+  ASSERT_TRUE(Move(&s.d, s.sum, {10, 20}).ok());
+  const Json before = ToJson(s.d);
+  ASSERT_TRUE(Move(&s.d, s.sum, {30, 40}).ok());
+  Json after = ToJson(s.d);
+  EXPECT_EQ(before["blocks"], after["blocks"]);
+  EXPECT_EQ(before["links"], after["links"]);
+  EXPECT_NE(before["layout"], after["layout"]);
+  ASSERT_TRUE(RemoveBlock(&s.d, s.sum).ok());
+  for (const auto& l : s.d.links) {
+    EXPECT_NE(l.from.block, s.sum);
+    EXPECT_NE(l.to.block, s.sum);
+  }
+  EXPECT_EQ(s.d.layout.positions.count(s.sum), 0u);
+}
+
+TEST(DiagramCompile, ReportsProblemsByBlock) {
+  Small s = MakeSmall();  // the sum's second in-port is open, y has no variance
+  CompileResult r = Compile(s.d);
+  ASSERT_FALSE(r.ok());
+  bool open_port = false, no_variance = false;
+  for (const auto& p : r.problems) {
+    if (p.block == s.sum && p.in_port == 1) open_port = true;
+    if (p.block == s.y && p.field == "variance") no_variance = true;
+  }
+  EXPECT_TRUE(open_port) << r.Message();
+  EXPECT_TRUE(no_variance) << r.Message();
+
+  ASSERT_TRUE(SetSumSigns(&s.d, s.sum, "+").ok());
+  ASSERT_TRUE(SetBlockParameter(&s.d, s.y, "variance", "s2").ok());
+  ASSERT_TRUE(SetBlockParameter(&s.d, s.gain, "k", "k").ok());
+  ASSERT_TRUE(SetBlockParameter(&s.d, s.lag, "tau", "tau").ok());
+  CompileResult ok = Compile(s.d);
+  ASSERT_TRUE(ok.ok()) << ok.Message();
+  EXPECT_EQ(ok.model->drift[0].text, "(k*u - x)/tau");
+}
+
+TEST(DiagramCompile, ReportsAnAlgebraicLoopAndAMisplacedDelayReadFromAFile) {
+  // Edits refuse these, but a file can hold them.
+  Small s = MakeSmall();
+  Json j = ToJson(s.d);
+  j["links"].push_back({{"id", 90}, {"from", {s.sum, 0}}, {"to", {s.sum, 1}}});
+  j["blocks"].push_back({{"id", 91}, {"kind", "delay"}, {"delay", 1}});
+  j["blocks"].push_back({{"id", 92}, {"kind", "gain"}, {"k", "k"}});
+  j["links"].push_back({{"id", 93}, {"from", {s.lag, 0}}, {"to", {91, 0}}});
+  j["links"].push_back({{"id", 94}, {"from", {91, 0}}, {"to", {92, 0}}});
+  j["blocks"].push_back({{"id", 95}, {"kind", "gain"}, {"k", "kk"}});
+  auto d = FromJson(j);
+  ASSERT_TRUE(d.ok()) << d.error().ToString();
+  CompileResult r = Compile(*d);
+  bool loop = false, delay = false, unknown = false;
+  for (const auto& p : r.problems) {
+    if (p.block == s.sum && p.message.find("algebraic loop") != std::string::npos) loop = true;
+    if (p.block == 91 && p.message.find("in front of an output") != std::string::npos) delay = true;
+    if (p.block == 95 && p.field == "k" && p.expr_col == 1) unknown = true;
+  }
+  EXPECT_TRUE(loop) << r.Message();
+  EXPECT_TRUE(delay) << r.Message();
+  EXPECT_TRUE(unknown) << r.Message();
+}
+
+// ---- FromModel -------------------------------------------------------------------------------
+
+TEST(DiagramFromModel, CrankshaftAndFuelFilmCompileBackToTheSameMatrices) {
+  for (const char* name : {"crankshaft.json", "fuel_film.json"}) {
+    SCOPED_TRACE(name);
+    const model::ModelSpec want = LoadModel(name);
+    auto d = FromModel(want);
+    ASSERT_TRUE(d.ok()) << d.error().ToString();
+    ExpectSameStateSpace(CompileOrDie(*d), want, 1.0);
+    ExpectSameStateSpace(CompileOrDie(*d), want, 1.1);
+    // Every block has a position; inputs left of states, states left of outputs.
+    double input_x = 0, state_x = 0, output_x = 0;
+    for (const auto& b : d->blocks) {
+      ASSERT_EQ(d->layout.positions.count(b.id), 1u);
+      const double x = d->layout.positions.at(b.id)[0];
+      if (b.kind == BlockKind::kInput) input_x = x;
+      if (b.kind == BlockKind::kState) state_x = x;
+      if (b.kind == BlockKind::kOutput) output_x = x;
+    }
+    EXPECT_LT(input_x, state_x);
+    EXPECT_LT(state_x, output_x);
+  }
+}
+
+TEST(DiagramFromModel, WiresStatesByWhatTheyRead) {
+  auto d = FromModel(LoadModel("crankshaft.json"));
+  ASSERT_TRUE(d.ok());
+  const Block* n = nullptr;
+  for (const auto& b : d->blocks)
+    if (b.kind == BlockKind::kState) n = &b;
+  ASSERT_NE(n, nullptr);
+  EXPECT_EQ(n->ports, (std::vector<std::string>{"theta", "Tl"}));
+  const Link* noise = d->LinkInto(In(n->id, 2));
+  ASSERT_NE(noise, nullptr);
+  EXPECT_EQ(d->FindBlock(noise->from.block)->kind, BlockKind::kNoise);
+}
+
+// ---- JSON ------------------------------------------------------------------------------------
+
+TEST(DiagramJson, RoundTripKeepsEverything) {
+  for (const char* name : {"fuel_film.json", "crankshaft.json"}) {
+    SCOPED_TRACE(name);
+    const BlockDiagram d = LoadDiagram(name);
+    const Json j = ToJson(d);
+    auto back = FromJson(j);
+    ASSERT_TRUE(back.ok()) << back.error().ToString();
+    EXPECT_EQ(ToJson(*back), j);
+    EXPECT_EQ(back->next_id, d.next_id);
+    EXPECT_EQ(back->layout.positions, d.layout.positions);
+    EXPECT_EQ(model::ToJson(CompileOrDie(*back)), model::ToJson(CompileOrDie(d)));
+  }
+  auto from_model = FromModel(LoadModel("crankshaft.json"));
+  ASSERT_TRUE(from_model.ok());
+  auto back = FromJson(ToJson(*from_model));
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(ToJson(*back), ToJson(*from_model));
+}
+
+TEST(DiagramJson, ErrorsNameTheJsonPath) {
+  Json j = ToJson(LoadDiagram("fuel_film.json"));
+  j["blocks"][2]["kind"] = "lagg";
+  auto r = FromJson(j, "p.json", "diagram");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().path, "diagram.blocks[2].kind");
+  EXPECT_EQ(r.error().file, "p.json");
+
+  Json k = ToJson(LoadDiagram("fuel_film.json"));
+  k["links"][0]["to"] = {2, 5};
+  auto r2 = FromJson(k);
+  ASSERT_FALSE(r2.ok());
+  EXPECT_EQ(r2.error().path, "links[0].to[1]");
+
+  Json p = ToJson(LoadDiagram("fuel_film.json"));
+  p["parameters"]["X"]["lower"] = 2.0;
+  auto r3 = FromJson(p);
+  ASSERT_FALSE(r3.ok());
+  EXPECT_EQ(r3.error().path.rfind("parameters.X", 0), 0u) << r3.error().ToString();
+}
+
+}  // namespace
+}  // namespace gb::diagram
