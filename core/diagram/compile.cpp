@@ -1,10 +1,10 @@
 // Sections: 1. expression building  2. the compiler (structure, signals, equations, model)
 //           3. Compile  4. FromModel
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <map>
 #include <set>
-
-#include <fmt/format.h>
 
 #include "core/diagram/diagram.h"
 #include "core/diagram/internal.h"
@@ -87,20 +87,23 @@ class Compiler {
     std::set<std::string> params;
     for (const auto& p : d_.parameters) params.insert(p.name);
     for (const auto& b : d_.blocks) {
-      const bool named = b.kind == BlockKind::kInput || b.kind == BlockKind::kOutput ||
-                         HoldsState(b.kind);
+      const bool named =
+          b.kind == BlockKind::kInput || b.kind == BlockKind::kOutput || HoldsState(b.kind);
       if (named) {
         if (!internal::IsIdentifier(b.name) || internal::IsFunctionName(b.name)) {
-          Report(b, fmt::format("'{}' is not a valid name for a model {}", b.name,
-                                b.kind == BlockKind::kInput    ? "input"
-                                : b.kind == BlockKind::kOutput ? "output"
-                                                               : "state"),
+          Report(b,
+                 fmt::format("'{}' is not a valid name for a model {}", b.name,
+                             b.kind == BlockKind::kInput    ? "input"
+                             : b.kind == BlockKind::kOutput ? "output"
+                                                            : "state"),
                  -1, "name");
         } else {
           auto& space = b.kind == BlockKind::kOutput ? output_names : shared_names;
           if (auto [it, fresh] = space.emplace(b.name, &b); !fresh)
-            Report(b, fmt::format("'{}' is also the name of {}", b.name,
-                                  internal::BlockLabel(*it->second)), -1, "name");
+            Report(b,
+                   fmt::format("'{}' is also the name of {}", b.name,
+                               internal::BlockLabel(*it->second)),
+                   -1, "name");
           else if (b.kind != BlockKind::kOutput && params.count(b.name))
             Report(b, fmt::format("'{}' is also a parameter", b.name), -1, "name");
         }
@@ -111,13 +114,14 @@ class Compiler {
       const auto ins = InPorts(b);
       for (std::size_t i = 0; i < ins.size(); ++i) {
         const PortRef ref = In(b.id, static_cast<int>(i));
-        const int n = static_cast<int>(std::count_if(
-            d_.links.begin(), d_.links.end(), [&](const Link& l) { return l.to == ref; }));
+        const int n = static_cast<int>(std::count_if(d_.links.begin(), d_.links.end(),
+                                                     [&](const Link& l) { return l.to == ref; }));
         if (n == 0 && !ins[i].optional)
           Report(b, fmt::format("in-port '{}' is not connected", ins[i].name), static_cast<int>(i));
         if (n > 1)
-          Report(b, fmt::format("in-port '{}' holds {} links (an in-port takes one)", ins[i].name,
-                                n), static_cast<int>(i));
+          Report(b,
+                 fmt::format("in-port '{}' holds {} links (an in-port takes one)", ins[i].name, n),
+                 static_cast<int>(i));
       }
     }
     for (const auto& l : d_.links) {
@@ -129,9 +133,9 @@ class Compiler {
       }
       const auto outs = OutPorts(*a);
       const auto ins = InPorts(*b);
-      if (l.from.side != PortSide::kOut || l.to.side != PortSide::kIn ||
-          l.from.index < 0 || l.from.index >= static_cast<int>(outs.size()) ||
-          l.to.index < 0 || l.to.index >= static_cast<int>(ins.size())) {
+      if (l.from.side != PortSide::kOut || l.to.side != PortSide::kIn || l.from.index < 0 ||
+          l.from.index >= static_cast<int>(outs.size()) || l.to.index < 0 ||
+          l.to.index >= static_cast<int>(ins.size())) {
         Report(*b, fmt::format("link {} joins a port that does not exist", l.id));
         continue;
       }
@@ -139,11 +143,11 @@ class Compiler {
         Report(*b, fmt::format("link {} joins a noise port to a signal port", l.id), l.to.index);
       if (a->kind == BlockKind::kDelay && b->kind != BlockKind::kOutput)
         Report(*a, fmt::format("a delay may only sit directly in front of an output (a sensor), "
-                               "but it feeds {}", internal::BlockLabel(*b)));
+                               "but it feeds {}",
+                               internal::BlockLabel(*b)));
     }
-    if (shared_names.empty() ||
-        std::none_of(d_.blocks.begin(), d_.blocks.end(),
-                     [](const Block& b) { return HoldsState(b.kind); }))
+    if (shared_names.empty() || std::none_of(d_.blocks.begin(), d_.blocks.end(),
+                                             [](const Block& b) { return HoldsState(b.kind); }))
       ReportDiagram("the diagram has no lag, integrator or state block: a model needs a state");
     if (output_names.empty()) ReportDiagram("the diagram has no output block");
   }
@@ -179,8 +183,9 @@ class Compiler {
     if (b->kind == BlockKind::kInput || HoldsState(b->kind)) return expr::Variable(b->name);
     if (visiting_.count(block)) {
       if (loop_reported_.insert(block).second)
-        Report(*b, "this block is on an algebraic loop (a cycle with no lag, integrator or state "
-                   "block on it)");
+        Report(*b,
+               "this block is on an algebraic loop (a cycle with no lag, integrator or state "
+               "block on it)");
       return nullptr;
     }
     visiting_.insert(block);
@@ -221,8 +226,10 @@ class Compiler {
         ExprPtr gain = out == 0 ? x : Binary(Op::kSub, expr::Constant(1), x);
         return Binary(Op::kMul, gain, u);
       }
-      case BlockKind::kDelay: return InSignal(b, 0);
-      default: return nullptr;  // outputs and noise blocks have no signal out-port
+      case BlockKind::kDelay:
+        return InSignal(b, 0);
+      default:
+        return nullptr;  // outputs and noise blocks have no signal out-port
     }
   }
 
@@ -249,7 +256,8 @@ class Compiler {
         if (!f || !by) return nullptr;
         return SubstituteAll(f, *by);
       }
-      default: return nullptr;
+      default:
+        return nullptr;
     }
   }
 
@@ -293,8 +301,9 @@ class Compiler {
     }
     if (!via_block) return b.delay;
     if (direct) {
-      Report(b, "some in-ports of this output come through a delay block and some do not (the "
-                "delay applies to the whole output)");
+      Report(b,
+             "some in-ports of this output come through a delay block and some do not (the "
+             "delay applies to the whole output)");
       return std::nullopt;
     }
     if (b.delay.min != 0 || b.delay.max != 0) {
@@ -340,8 +349,8 @@ Problem ProblemFromModelError(const BlockDiagram& d, const Error& e) {
   if (dot != std::string::npos) {
     const std::string key = e.path.substr(0, dot);
     const std::string name = e.path.substr(dot + 1);
-    const bool about_output = key == "observation" || key == "measurement_variance" ||
-                              key == "output_delay";
+    const bool about_output =
+        key == "observation" || key == "measurement_variance" || key == "output_delay";
     for (const auto& b : d.blocks) {
       if (b.name != name) continue;
       if (about_output ? b.kind == BlockKind::kOutput : HoldsState(b.kind)) p.block = b.id;
@@ -379,7 +388,8 @@ CompileResult Compile(const BlockDiagram& d, const std::string& source) {
   for (const auto& b : d.blocks) {
     if (HoldsState(b.kind)) {
       if (ExprPtr f = c.Drift(b)) drift[b.name] = Text(f);
-      if (ExprPtr x0 = c.Field(b, "x0", "the initial state x0 is not set")) initial[b.name] = Text(x0);
+      if (ExprPtr x0 = c.Field(b, "x0", "the initial state x0 is not set"))
+        initial[b.name] = Text(x0);
     } else if (b.kind == BlockKind::kOutput) {
       if (ExprPtr h = c.Observation(b)) observation[b.name] = Text(h);
       if (ExprPtr s = c.Field(b, "variance", "the output has no measurement variance"))

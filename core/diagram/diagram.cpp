@@ -1,10 +1,10 @@
 // Sections: 1. kinds and ports  2. shared helpers (names, fields, loops)  3. edits
 #include "core/diagram/diagram.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cctype>
-
-#include <fmt/format.h>
 
 #include "core/diagram/internal.h"
 
@@ -19,11 +19,11 @@ struct KindInfo {
   const char* name;
 };
 constexpr KindInfo kKinds[] = {
-    {BlockKind::kInput, "input"},   {BlockKind::kOutput, "output"},
-    {BlockKind::kGain, "gain"},     {BlockKind::kSum, "sum"},
-    {BlockKind::kLag, "lag"},       {BlockKind::kIntegrator, "integrator"},
-    {BlockKind::kState, "state"},   {BlockKind::kSplit, "split"},
-    {BlockKind::kDelay, "delay"},   {BlockKind::kNoise, "noise"},
+    {BlockKind::kInput, "input"}, {BlockKind::kOutput, "output"},
+    {BlockKind::kGain, "gain"},   {BlockKind::kSum, "sum"},
+    {BlockKind::kLag, "lag"},     {BlockKind::kIntegrator, "integrator"},
+    {BlockKind::kState, "state"}, {BlockKind::kSplit, "split"},
+    {BlockKind::kDelay, "delay"}, {BlockKind::kNoise, "noise"},
 };
 
 bool HasModelName(BlockKind k) {
@@ -60,14 +60,22 @@ const std::vector<std::string>& FieldsOf(BlockKind kind) {
   static const std::vector<std::string> kSplit = {"X"};
   static const std::vector<std::string> kNoise = {"sigma"};
   switch (kind) {
-    case BlockKind::kOutput: return kOutput;
-    case BlockKind::kGain: return kGain;
-    case BlockKind::kLag: return kLag;
-    case BlockKind::kIntegrator: return kIntegrator;
-    case BlockKind::kState: return kState;
-    case BlockKind::kSplit: return kSplit;
-    case BlockKind::kNoise: return kNoise;
-    default: return kNone;
+    case BlockKind::kOutput:
+      return kOutput;
+    case BlockKind::kGain:
+      return kGain;
+    case BlockKind::kLag:
+      return kLag;
+    case BlockKind::kIntegrator:
+      return kIntegrator;
+    case BlockKind::kState:
+      return kState;
+    case BlockKind::kSplit:
+      return kSplit;
+    case BlockKind::kNoise:
+      return kNoise;
+    default:
+      return kNone;
   }
 }
 
@@ -80,14 +88,29 @@ Block MakeBlock(BlockKind kind, std::string name) {
       b.ports = {"u"};
       b.fields = {{"h", "u"}, {"variance", ""}};
       break;
-    case BlockKind::kGain: b.fields = {{"k", "1"}}; break;
-    case BlockKind::kSum: b.signs = "++"; break;
-    case BlockKind::kLag: b.fields = {{"K", "1"}, {"tau", "1"}, {"x0", "0"}}; break;
-    case BlockKind::kIntegrator: b.fields = {{"k", "1"}, {"x0", "0"}}; break;
-    case BlockKind::kState: b.fields = {{"f", "0"}, {"x0", "0"}}; break;
-    case BlockKind::kSplit: b.fields = {{"X", "0.5"}}; break;
-    case BlockKind::kNoise: b.fields = {{"sigma", "1"}}; break;
-    default: break;
+    case BlockKind::kGain:
+      b.fields = {{"k", "1"}};
+      break;
+    case BlockKind::kSum:
+      b.signs = "++";
+      break;
+    case BlockKind::kLag:
+      b.fields = {{"K", "1"}, {"tau", "1"}, {"x0", "0"}};
+      break;
+    case BlockKind::kIntegrator:
+      b.fields = {{"k", "1"}, {"x0", "0"}};
+      break;
+    case BlockKind::kState:
+      b.fields = {{"f", "0"}, {"x0", "0"}};
+      break;
+    case BlockKind::kSplit:
+      b.fields = {{"X", "0.5"}};
+      break;
+    case BlockKind::kNoise:
+      b.fields = {{"sigma", "1"}};
+      break;
+    default:
+      break;
   }
   return b;
 }
@@ -96,7 +119,8 @@ std::vector<PortInfo> InPorts(const Block& b) {
   std::vector<PortInfo> in;
   switch (b.kind) {
     case BlockKind::kInput:
-    case BlockKind::kNoise: break;
+    case BlockKind::kNoise:
+      break;
     case BlockKind::kOutput:
       for (const auto& p : b.ports) in.push_back({p, PortType::kSignal, false});
       break;
@@ -113,18 +137,23 @@ std::vector<PortInfo> InPorts(const Block& b) {
       for (const auto& p : b.ports) in.push_back({p, PortType::kSignal, false});
       in.push_back({"noise", PortType::kNoise, true});
       break;
-    default: in.push_back({"u", PortType::kSignal, false}); break;
+    default:
+      in.push_back({"u", PortType::kSignal, false});
+      break;
   }
   return in;
 }
 
 std::vector<PortInfo> OutPorts(const Block& b) {
   switch (b.kind) {
-    case BlockKind::kOutput: return {};
-    case BlockKind::kNoise: return {{"noise", PortType::kNoise, false}};
+    case BlockKind::kOutput:
+      return {};
+    case BlockKind::kNoise:
+      return {{"noise", PortType::kNoise, false}};
     case BlockKind::kSplit:
       return {{"X", PortType::kSignal, false}, {"1-X", PortType::kSignal, false}};
-    default: return {{"out", PortType::kSignal, false}};
+    default:
+      return {{"out", PortType::kSignal, false}};
   }
 }
 
@@ -158,8 +187,8 @@ bool IsIdentifier(const std::string& s) {
 }
 
 bool IsFunctionName(const std::string& s) {
-  static const std::set<std::string> kFunctions = {"exp", "log", "sqrt", "sin", "cos", "tan",
-                                                   "tanh", "abs", "pow", "min", "max", "sign"};
+  static const std::set<std::string> kFunctions = {"exp",  "log", "sqrt", "sin", "cos", "tan",
+                                                   "tanh", "abs", "pow",  "min", "max", "sign"};
   return kFunctions.count(s) > 0;
 }
 
@@ -176,7 +205,8 @@ std::set<std::string> AllowedNames(const BlockDiagram& d, const Block& b,
                                    const std::string& field) {
   std::set<std::string> names;
   for (const auto& p : d.parameters) names.insert(p.name);
-  if ((b.kind == BlockKind::kState && field == "f") || (b.kind == BlockKind::kOutput && field == "h"))
+  if ((b.kind == BlockKind::kState && field == "f") ||
+      (b.kind == BlockKind::kOutput && field == "h"))
     names.insert(b.ports.begin(), b.ports.end());
   if (b.kind == BlockKind::kState && field == "f") names.insert(b.name);
   return names;
@@ -263,7 +293,8 @@ Status CheckModelName(const BlockDiagram& d, const Block& b, const std::string& 
   const std::string path = fmt::format("block {}.name", b.id);
   if (!internal::IsIdentifier(name))
     return Refuse(path, fmt::format("'{}' is not a valid name (letters, digits and _, not "
-                                    "starting with a digit)", name));
+                                    "starting with a digit)",
+                                    name));
   if (internal::IsFunctionName(name))
     return Refuse(path, fmt::format("'{}' is the name of a function", name));
   const bool is_output = b.kind == BlockKind::kOutput;
@@ -314,9 +345,9 @@ Status CheckBlock(const BlockDiagram& d, const Block& b, int self) {
                     "a sum needs one '+' or '-' per input, e.g. \"+-\"");
   }
   if (b.delay.min < 0 || b.delay.max < b.delay.min)
-    return Refuse(fmt::format("block {}.delay", b.id),
-                  fmt::format("the delay range [{}, {}] is not 0 <= min <= max", b.delay.min,
-                              b.delay.max));
+    return Refuse(
+        fmt::format("block {}.delay", b.id),
+        fmt::format("the delay range [{}, {}] is not 0 <= min <= max", b.delay.min, b.delay.max));
   return Ok{};
 }
 
@@ -336,7 +367,8 @@ Status RemoveBlock(BlockDiagram* d, int block) {
                          [&](const Block& b) { return b.id == block; });
   if (it == d->blocks.end()) return NoSuchBlock(block);
   d->blocks.erase(it);
-  std::erase_if(d->links, [&](const Link& l) { return l.from.block == block || l.to.block == block; });
+  std::erase_if(d->links,
+                [&](const Link& l) { return l.from.block == block || l.to.block == block; });
   d->layout.positions.erase(block);
   return Ok{};
 }
@@ -345,9 +377,9 @@ Result<int> Connect(BlockDiagram* d, PortRef from, PortRef to) {
   if (from.side != PortSide::kOut || to.side != PortSide::kIn)
     return Refuse("", from.side == PortSide::kIn && to.side == PortSide::kIn
                           ? "cannot link an in-port to an in-port: a link runs from an out-port"
-                          : from.side == PortSide::kOut && to.side == PortSide::kOut
-                                ? "cannot link an out-port to an out-port: a link ends at an in-port"
-                                : "a link runs from an out-port to an in-port");
+                      : from.side == PortSide::kOut && to.side == PortSide::kOut
+                          ? "cannot link an out-port to an out-port: a link ends at an in-port"
+                          : "a link runs from an out-port to an in-port");
   const Block* a = d->FindBlock(from.block);
   const Block* b = d->FindBlock(to.block);
   if (!a) return NoSuchBlock(from.block);
@@ -433,10 +465,32 @@ Status SetDelay(BlockDiagram* d, int block, model::DelaySpec delay) {
     return Refuse(fmt::format("block {}.delay", block),
                   fmt::format("{} has no delay (only delay and output blocks do)", BlockLabel(*b)));
   if (delay.min < 0 || delay.max < delay.min)
-    return Refuse(fmt::format("block {}.delay", block),
-                  fmt::format("the delay range [{}, {}] is not 0 <= min <= max", delay.min,
-                              delay.max));
+    return Refuse(
+        fmt::format("block {}.delay", block),
+        fmt::format("the delay range [{}, {}] is not 0 <= min <= max", delay.min, delay.max));
   b->delay = delay;
+  return Ok{};
+}
+
+Status SetPortNames(BlockDiagram* d, int block, const std::vector<std::string>& ports) {
+  Block* b = FindMutable(d, block);
+  if (!b) return NoSuchBlock(block);
+  if (b->kind != BlockKind::kState && b->kind != BlockKind::kOutput)
+    return Refuse(fmt::format("block {}.ports", block),
+                  BlockLabel(*b) + " has fixed ports (only state and output blocks name theirs)");
+  Block renamed = *b;
+  renamed.ports = ports;
+  if (auto s = CheckBlock(*d, renamed, b->id); !s) return s;
+  const int old_count = static_cast<int>(b->ports.size());
+  const int new_count = static_cast<int>(ports.size());
+  // A state block's noise port is the last in-port: it moves with the count.
+  std::erase_if(d->links, [&](const Link& l) {
+    return l.to.block == block && l.to.index >= new_count && l.to.index < old_count;
+  });
+  if (b->kind == BlockKind::kState)
+    for (auto& l : d->links)
+      if (l.to.block == block && l.to.index == old_count) l.to.index = new_count;
+  b->ports = ports;
   return Ok{};
 }
 
@@ -465,12 +519,12 @@ Status SetParameterEntry(BlockDiagram* d, model::Parameter parameter) {
     return Refuse(path + ".value", "the value is outside the bounds");
   for (const auto& b : d->blocks) {
     if (b.kind != BlockKind::kOutput && HasModelName(b.kind) && b.name == parameter.name)
-      return Refuse(path, fmt::format("'{}' is already the name of {}", parameter.name,
-                                      BlockLabel(b)));
+      return Refuse(path,
+                    fmt::format("'{}' is already the name of {}", parameter.name, BlockLabel(b)));
     for (const auto& p : b.ports)
       if (p == parameter.name)
-        return Refuse(path, fmt::format("'{}' is the name of a port of {}", parameter.name,
-                                        BlockLabel(b)));
+        return Refuse(
+            path, fmt::format("'{}' is the name of a port of {}", parameter.name, BlockLabel(b)));
   }
   for (auto& p : d->parameters) {
     if (p.name == parameter.name) {

@@ -33,6 +33,9 @@
 // out to any number. A state block's noise in-port may stay unconnected (no diffusion, σ = 0);
 // every signal in-port must be connected before the diagram compiles.
 //
+// Ownership: everything is held by value; a BlockDiagram owns its blocks, links, parameters and
+// layout. Pointers from FindBlock/FindLink/LinkInto are valid until the next edit.
+//
 // Edits (AddBlock, Connect, ...) are free functions that either apply the whole edit or refuse it
 // with an Error whose `path` names the block ("block 7.tau") and, for expressions, `expr_col`.
 // They keep these invariants: links join an out-port to an in-port of the same type, no in-port
@@ -45,7 +48,8 @@
 //   drift.<state>      = the block's equation above
 //   diffusion.<state>  = sigma of the noise block linked to it, else 0
 //   observation.<out>  = h with each port replaced by its signal
-//   measurement_variance.<out> = variance,  output_delay.<out> = the delay block in front (or its own)
+//   measurement_variance.<out> = variance
+//   output_delay.<out> = the delay of the delay block in front (or the output's own delay)
 // States, inputs and outputs appear in block order. The model is written as JSON and read back by
 // model::ParseModel, and model::LinearModel::Compile must accept it.
 #pragma once
@@ -63,7 +67,18 @@
 
 namespace gb::diagram {
 
-enum class BlockKind { kInput, kOutput, kGain, kSum, kLag, kIntegrator, kState, kSplit, kDelay, kNoise };
+enum class BlockKind {
+  kInput,
+  kOutput,
+  kGain,
+  kSum,
+  kLag,
+  kIntegrator,
+  kState,
+  kSplit,
+  kDelay,
+  kNoise
+};
 enum class PortType { kSignal, kNoise };
 enum class PortSide { kIn, kOut };
 
@@ -128,7 +143,7 @@ struct BlockDiagram {
   int next_id = 1;  // ids of blocks and links come from one counter
   Layout layout;
 
-  const Block* FindBlock(int id) const;         // nullptr if absent
+  const Block* FindBlock(int id) const;  // nullptr if absent
   const Link* FindLink(int id) const;
   const Link* LinkInto(const PortRef& in) const;  // the link holding an in-port, or nullptr
 };
@@ -155,6 +170,10 @@ Status SetBlockParameter(BlockDiagram* d, int block, const std::string& field,
 Status RenameBlock(BlockDiagram* d, int block, const std::string& name);
 // Sets the delay of a delay block or an output block (0 <= min <= max).
 Status SetDelay(BlockDiagram* d, int block, model::DelaySpec delay);
+// Sets the in-port names of a state or output block (identifiers, unique, not parameters, not the
+// state's own name); links into ports past the new count are removed. Port i keeps its links, so
+// renaming a port keeps its wiring; f or h must then read the new names (they are re-checked).
+Status SetPortNames(BlockDiagram* d, int block, const std::vector<std::string>& ports);
 // Sets the signs of a sum block (one per in-port); links into ports that disappear are removed.
 Status SetSumSigns(BlockDiagram* d, int block, const std::string& signs);
 // Adds a parameter or replaces the one of the same name (bounds checked as in a model file).
@@ -166,12 +185,12 @@ Status Move(BlockDiagram* d, int block, std::array<double, 2> position);
 
 // Something that keeps a diagram from compiling, located so the UI can mark it.
 struct Problem {
-  int block = 0;          // 0: the diagram as a whole
-  int in_port = -1;       // the in-port concerned, -1 if none
-  std::string field;      // the expression field concerned ("tau"), or ""
-  int expr_col = 0;       // column in that field's expression, 0 if none
+  int block = 0;      // 0: the diagram as a whole
+  int in_port = -1;   // the in-port concerned, -1 if none
+  std::string field;  // the expression field concerned ("tau"), or ""
+  int expr_col = 0;   // column in that field's expression, 0 if none
   std::string message;
-  std::string ToString() const;  // "block 7 (lag mfv), in-port 0 (u): not connected"
+  std::string ToString() const;  // "block 6, in-port 0: in-port 'u' is not connected"
 };
 
 struct CompileResult {

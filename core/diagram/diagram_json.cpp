@@ -1,8 +1,8 @@
 // Sections: 1. writing  2. reading  3. files and projects
+#include <fmt/format.h>
+
 #include <filesystem>
 #include <set>
-
-#include <fmt/format.h>
 
 #include "core/diagram/diagram.h"
 #include "core/diagram/internal.h"
@@ -45,15 +45,16 @@ Json ToJson(const BlockDiagram& d) {
       auto it = b.fields.find(field);
       if (it != b.fields.end()) jb[field] = it->second;
     }
-    if (b.kind == BlockKind::kDelay || (b.kind == BlockKind::kOutput && (b.delay.min != 0 || b.delay.max != 0)))
+    if (b.kind == BlockKind::kDelay ||
+        (b.kind == BlockKind::kOutput && (b.delay.min != 0 || b.delay.max != 0)))
       jb["delay"] = DelayJson(b.delay);
     blocks.push_back(jb);
   }
   j["blocks"] = blocks;
   Json links = Json::array();
   for (const auto& l : d.links)
-    links.push_back({{"id", l.id}, {"from", {l.from.block, l.from.index}},
-                     {"to", {l.to.block, l.to.index}}});
+    links.push_back(
+        {{"id", l.id}, {"from", {l.from.block, l.from.index}}, {"to", {l.to.block, l.to.index}}});
   j["links"] = links;
   Json layout = Json::object();
   for (const auto& [id, xy] : d.layout.positions) layout[std::to_string(id)] = {xy[0], xy[1]};
@@ -133,8 +134,12 @@ class Reader {
   // The parameter table, validated exactly as a model file's (through model::ParseModel).
   Result<std::vector<model::Parameter>> Parameters(const Json& ps) const {
     const std::string x = "gb_diagram_state_", y = "gb_diagram_output_";
-    Json m = {{"greybench_model", 1}, {"states", {x}}, {"outputs", {y}}, {"parameters", ps},
-              {"drift", {{x, "0"}}}, {"observation", {{y, "0"}}},
+    Json m = {{"greybench_model", 1},
+              {"states", {x}},
+              {"outputs", {y}},
+              {"parameters", ps},
+              {"drift", {{x, "0"}}},
+              {"observation", {{y, "0"}}},
               {"measurement_variance", {{y, "1"}}}};
     auto spec = model::ParseModel(m, source_);
     if (!spec) {
@@ -156,9 +161,15 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
                               const std::string& path_prefix) {
   const Reader r(source, path_prefix);
   if (!j.is_object()) return r.Fail("", "a diagram is a JSON object, found " + TypeName(j));
-  static const std::set<std::string> kKeys = {"greybench_diagram", "name", "input_hold",
-                                              "initial_covariance", "robust_huber", "parameters",
-                                              "blocks", "links", "layout"};
+  static const std::set<std::string> kKeys = {"greybench_diagram",
+                                              "name",
+                                              "input_hold",
+                                              "initial_covariance",
+                                              "robust_huber",
+                                              "parameters",
+                                              "blocks",
+                                              "links",
+                                              "layout"};
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (kKeys.count(it.key())) continue;
     std::string msg = fmt::format("unknown key '{}'", it.key());
@@ -178,15 +189,21 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
   }
   if (j.contains("input_hold")) {
     const auto& v = j["input_hold"];
-    if (v == "foh") d.input_hold = model::InputHold::kFoh;
-    else if (v == "zoh") d.input_hold = model::InputHold::kZoh;
-    else return r.Fail("input_hold", "expected \"zoh\" or \"foh\"");
+    if (v == "foh")
+      d.input_hold = model::InputHold::kFoh;
+    else if (v == "zoh")
+      d.input_hold = model::InputHold::kZoh;
+    else
+      return r.Fail("input_hold", "expected \"zoh\" or \"foh\"");
   }
   if (j.contains("initial_covariance")) {
     const auto& v = j["initial_covariance"];
-    if (v == "ctsm") d.initial_covariance = model::InitialCovariance::kCtsm;
-    else if (v == "stationary") d.initial_covariance = model::InitialCovariance::kStationary;
-    else return r.Fail("initial_covariance", "expected \"ctsm\" or \"stationary\"");
+    if (v == "ctsm")
+      d.initial_covariance = model::InitialCovariance::kCtsm;
+    else if (v == "stationary")
+      d.initial_covariance = model::InitialCovariance::kStationary;
+    else
+      return r.Fail("initial_covariance", "expected \"ctsm\" or \"stationary\"");
   }
   if (j.contains("robust_huber")) {
     const auto& v = j["robust_huber"];
@@ -225,7 +242,8 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
       if (!kind)
         return r.Fail(path + ".kind",
                       fmt::format("unknown kind '{}' (input, output, gain, sum, lag, integrator, "
-                                  "state, split, delay, noise)", *kind_name));
+                                  "state, split, delay, noise)",
+                                  *kind_name));
       Block b = MakeBlock(*kind);
       if (!jb.contains("id")) return r.Fail(path, "the block has no \"id\"");
       auto id = claim_id(jb["id"], path + ".id");

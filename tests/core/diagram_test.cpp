@@ -1,11 +1,13 @@
 // Block diagrams: edits that refuse with reasons, the compiler against the hand-written models of
 // the paper (eq. 13-14 and 15-16) and their closed forms, FromModel, and the JSON form.
+// Sections: 1. helpers  2. the bundled diagrams  3. edits (and Compile's problems)  4. FromModel
+//           5. JSON
 #include "core/diagram/diagram.h"
+
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "core/model/linear_model.h"
 #include "core/project/problem.h"
@@ -13,6 +15,8 @@
 
 namespace gb::diagram {
 namespace {
+
+// ---- 1. helpers ------------------------------------------------------------------------------
 
 const std::string kSource = GREYBENCH_SOURCE_DIR;
 constexpr double kMatrixTol = 1e-12;  // entries are the same rational expressions
@@ -103,7 +107,7 @@ double Loglik(const model::ModelSpec& spec, const model::ModelSpec& reference,
   return l->loglik;
 }
 
-// ---- the bundled diagrams --------------------------------------------------------------------
+// ---- 2. the bundled diagrams --------------------------------------------------------------------
 
 TEST(DiagramCompile, FuelFilmDiagramGivesTheMatricesOfEq13To14) {
   const model::ModelSpec got = CompileOrDie(LoadDiagram("fuel_film.json"));
@@ -193,7 +197,7 @@ TEST(DiagramCompile, ProjectNamesItsDiagram) {
   EXPECT_NE(none.error().message.find("no diagram"), std::string::npos);
 }
 
-// ---- edits -----------------------------------------------------------------------------------
+// ---- 3. edits -----------------------------------------------------------------------------------
 
 // u -> gain -> sum -> lag x -> output y, with parameters k, tau, s2.
 struct Small {
@@ -290,6 +294,27 @@ TEST(DiagramEdit, RefusesANameThatIsTaken) {
   EXPECT_TRUE(AddBlock(&s.d, MakeBlock(BlockKind::kOutput, "x")).ok());  // outputs apart
 }
 
+TEST(DiagramEdit, SetPortNamesKeepsTheNoiseLinkAndRechecksF) {
+  auto d = FromModel(LoadModel("crankshaft.json"));
+  ASSERT_TRUE(d.ok());
+  int n = 0;
+  for (const auto& b : d->blocks)
+    if (b.kind == BlockKind::kState) n = b.id;
+  // f reads theta and Tl: dropping Tl is refused, with the column of Tl in f.
+  auto r = SetPortNames(&*d, n, {"theta"});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("unknown name 'Tl'"), std::string::npos) << r.error().message;
+  // Adding a third port (unconnected) moves the noise port to index 3.
+  ASSERT_TRUE(SetPortNames(&*d, n, {"theta", "Tl", "extra"}).ok());
+  const Link* noise = d->LinkInto(In(n, 3));
+  ASSERT_NE(noise, nullptr);
+  EXPECT_EQ(d->FindBlock(noise->from.block)->kind, BlockKind::kNoise);
+  CompileResult c = Compile(*d);
+  ASSERT_FALSE(c.ok());
+  EXPECT_EQ(c.problems.front().block, n);
+  EXPECT_EQ(c.problems.front().in_port, 2);
+}
+
 TEST(DiagramEdit, RemoveBlockTakesItsLinksAndMoveOnlyTheLayout) {
   Small s = MakeSmall();
   ASSERT_TRUE(Move(&s.d, s.sum, {10, 20}).ok());
@@ -352,7 +377,7 @@ TEST(DiagramCompile, ReportsAnAlgebraicLoopAndAMisplacedDelayReadFromAFile) {
   EXPECT_TRUE(unknown) << r.Message();
 }
 
-// ---- FromModel -------------------------------------------------------------------------------
+// ---- 4. FromModel -------------------------------------------------------------------------------
 
 TEST(DiagramFromModel, CrankshaftAndFuelFilmCompileBackToTheSameMatrices) {
   for (const char* name : {"crankshaft.json", "fuel_film.json"}) {
@@ -389,7 +414,7 @@ TEST(DiagramFromModel, WiresStatesByWhatTheyRead) {
   EXPECT_EQ(d->FindBlock(noise->from.block)->kind, BlockKind::kNoise);
 }
 
-// ---- JSON ------------------------------------------------------------------------------------
+// ---- 5. JSON ------------------------------------------------------------------------------------
 
 TEST(DiagramJson, RoundTripKeepsEverything) {
   for (const char* name : {"fuel_film.json", "crankshaft.json"}) {

@@ -1,0 +1,110 @@
+#!/usr/bin/env bash
+# greybench-cli export-model: the model a project's block diagram compiles to. The bundled diagrams
+# export to models with the log-likelihood of the hand-written ones; a project without a diagram,
+# or with a diagram that does not compile, is bad input (exit 2) with a message naming the block.
+# Usage: export_model.sh GREYBENCH_CLI TEST_DATA_DIR
+set -u
+cli=$1
+assets=$(cd "$(dirname "$0")/../../assets" && pwd)
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+failures=0
+passes=0
+
+# expect CODE REGEX -- ARGS...: runs the CLI (10 s limit) and checks exit status and stderr.
+expect() {
+  local code=$1 pattern=$2
+  shift 3
+  local err status
+  err=$(timeout 10 "$cli" "$@" 2>&1 >/dev/null)
+  status=$?
+  if [ "$status" -ne "$code" ] || ! grep -Eq -- "$pattern" <<<"$err"; then
+    echo "FAIL: greybench-cli $*"
+    echo "      expected exit $code and /$pattern/, got exit $status: $err"
+    failures=$((failures + 1))
+  else
+    passes=$((passes + 1))
+  fi
+}
+
+# same_loglik MODEL_A MODEL_B DATA: both models give the same loglik output on DATA.
+same_loglik() {
+  local a b
+  a=$("$cli" loglik "$1" "$3" 2>&1)
+  b=$("$cli" loglik "$2" "$3" 2>&1)
+  if [ -z "$a" ] || [ "$a" != "$b" ]; then
+    echo "FAIL: loglik of $1 ($a) differs from $2 ($b) on $3"
+    failures=$((failures + 1))
+  else
+    passes=$((passes + 1))
+  fi
+}
+
+# project NAME DIAGRAM-JSON-OR-PATH: writes $tmp/NAME.json naming the fuel-film model and data.
+project() {
+  python3 - "$tmp/$1.json" "$2" "$assets" <<'PY'
+import json, sys
+out, diagram, assets = sys.argv[1], sys.argv[2], sys.argv[3]
+try:
+    diagram = json.loads(diagram)
+except ValueError:
+    pass
+p = {"greybench_project": 1, "name": "test", "model": assets + "/models/fuel_film.json",
+     "datasets": [assets + "/data/fuel_f1.csv"], "diagram": diagram}
+json.dump(p, open(out, "w"), indent=1)
+PY
+}
+
+# edit NAME PYTHON-ON-d: writes $tmp/NAME.json, a project with the fuel-film diagram inline, edited.
+edit() {
+  python3 - "$assets/diagrams/fuel_film.json" "$tmp/$1.json" "$2" "$assets" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+exec(sys.argv[3])
+assets = sys.argv[4]
+p = {"greybench_project": 1, "name": "test", "model": assets + "/models/fuel_film.json",
+     "datasets": [assets + "/data/fuel_f1.csv"], "diagram": d}
+json.dump(p, open(sys.argv[2], "w"), indent=1)
+PY
+}
+
+# --- the bundled diagrams export to the models of the paper ----------------------------------
+expect 0 "^$" -- export-model "$assets/projects/fuel_film_diagram.json" --out "$tmp/fuel.json"
+same_loglik "$tmp/fuel.json" "$assets/models/fuel_film.json" "$assets/data/fuel_f1.csv"
+
+project crank "$assets/diagrams/crankshaft.json"
+expect 0 "^$" -- export-model "$tmp/crank.json" --out "$tmp/crank_model.json"
+same_loglik "$tmp/crank_model.json" "$assets/models/crankshaft.json" "$assets/data/crankshaft.csv"
+
+edit inline 'pass'
+expect 0 "^$" -- export-model "$tmp/inline.json" --out "$tmp/inline_model.json"
+same_loglik "$tmp/inline_model.json" "$assets/models/fuel_film.json" "$assets/data/fuel_f1.csv"
+
+# --- bad input --------------------------------------------------------------------------------
+expect 2 "fuel_f1.json: the project has no diagram" -- export-model "$assets/projects/fuel_f1.json" --out "$tmp/x.json"
+
+project missing "nowhere.json"
+expect 2 "nowhere.json.*(cannot|no such)" -- export-model "$tmp/missing.json" --out "$tmp/x.json"
+
+edit unconnected 'd["links"] = [l for l in d["links"] if l["id"] != 16]'
+expect 2 "unconnected.json: block 6, in-port 0: in-port 'u' is not connected" -- export-model "$tmp/unconnected.json" --out "$tmp/x.json"
+
+edit unknown 'd["blocks"][2]["tau"] = "tau_fvv"'
+expect 2 "unknown.json: block 3.tau, column 1: unknown name 'tau_fvv' \(did you mean 'tau_fv'\?\)" -- export-model "$tmp/unknown.json" --out "$tmp/x.json"
+
+edit novariance 'del d["blocks"][7]["variance"]'
+expect 2 "block 8.variance: the output has no measurement variance" -- export-model "$tmp/novariance.json" --out "$tmp/x.json"
+
+edit delay 'd["links"] = [l for l in d["links"] if l["id"] not in (17, 18)] + [{"id": 30, "from": [5, 0], "to": [7, 0]}, {"id": 31, "from": [7, 0], "to": [6, 0]}, {"id": 32, "from": [6, 0], "to": [8, 0]}]'
+expect 2 "block 7: a delay may only sit directly in front of an output" -- export-model "$tmp/delay.json" --out "$tmp/x.json"
+
+edit kind 'd["blocks"][1]["kind"] = "spilt"'
+expect 2 "kind.json: diagram.blocks\[1\].kind: unknown kind 'spilt'" -- export-model "$tmp/kind.json" --out "$tmp/x.json"
+
+edit link 'd["links"][0]["to"] = [2, 3]'
+expect 2 "link.json: diagram.links\[0\].to\[1\]: .*has no in-port 3" -- export-model "$tmp/link.json" --out "$tmp/x.json"
+
+[ -e "$tmp/x.json" ] && { echo "FAIL: a refused export wrote its output"; failures=$((failures + 1)); }
+
+echo "$passes passed, $failures failed"
+[ "$failures" -eq 0 ]
