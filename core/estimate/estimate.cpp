@@ -133,11 +133,13 @@ class Fitter {
     std::vector<std::vector<double>> terms(points.size());
     std::vector<char> ok(points.size(), 0);
     ParallelFor(static_cast<int>(points.size()), threads_, [&](int p) {
+      if (Cancelled()) return;  // leave the rest undone: the caller stops
       std::vector<double> zp = z;
       zp[points[p].i] += points[p].step;
       evaluations_.fetch_add(1);
       ok[p] = lik_.Evaluate(Theta(zp), delay, &terms[p]).ok();
     });
+    if (Cancelled()) return false;
     const Eigen::Index n = static_cast<Eigen::Index>(f0_terms->size());
     Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n, k());
     for (int i = 0; i < k(); ++i) {
@@ -216,7 +218,10 @@ class Fitter {
       Eigen::VectorXd g;
       Eigen::MatrixXd info;
       if (!Scores(z, delay, &terms, &g, &info)) {
-        r.message = "the scores could not be computed (the log-likelihood fails near the point)";
+        r.cancelled = Cancelled();
+        r.message = r.cancelled ? "cancelled"
+                                : "the scores could not be computed (the log-likelihood fails "
+                                  "near the point)";
         return r;
       }
       ++iterations_;
@@ -263,7 +268,7 @@ class Fitter {
       const double tol = std::max(options_.ftol_rel * std::abs(f), 1e-12);
       if (expected < tol) {
         r.converged = true;
-        r.message = "converged: the expected improvement of log L is below the tolerance";
+        r.message = "the expected improvement of log L is below the tolerance";
         return r;
       }
       // Backtracking along the projected direction.
@@ -287,8 +292,13 @@ class Fitter {
         if (Cancelled()) break;
       }
       if (!accepted) {
+        if (Cancelled()) {
+          r.cancelled = true;
+          r.message = "cancelled";
+          return r;
+        }
         r.converged = expected < kNegligibleImprovement;
-        r.message = r.converged ? "converged to the precision of the log-likelihood"
+        r.message = r.converged ? "at the precision of the log-likelihood (no further increase is possible)"
                                 : "the line search found no increase of the log-likelihood";
         return r;
       }
@@ -304,12 +314,12 @@ class Fitter {
       }
       if (gain < tol && expected < kNegligibleImprovement) {
         r.converged = true;
-        r.message = "converged: the log-likelihood stopped increasing";
+        r.message = "the log-likelihood stopped increasing";
         return r;
       }
     }
     r.converged = last_expected < kNegligibleImprovement;
-    r.message = r.converged ? "converged to a negligible expected improvement"
+    r.message = r.converged ? "the expected improvement left is negligible"
                             : fmt::format("stopped after {} iterations without converging",
                                           max_iterations);
     return r;
@@ -379,7 +389,10 @@ class Fitter {
         ++self->iterations_;
         Eigen::VectorXd g;
         Eigen::MatrixXd info;
-        if (!self->Scores(zz, *d->delay, &terms, &g, &info)) g.setZero(self->k());
+        if (!self->Scores(zz, *d->delay, &terms, &g, &info)) {
+          if (self->Cancelled()) throw nlopt::forced_stop();
+          g.setZero(self->k());
+        }
         for (int i = 0; i < self->k(); ++i) grad[i] = -g(i);
         self->Report(*d->stage, d->best->z, d->best->loglik, *d->delay);
       }
@@ -405,7 +418,7 @@ class Fitter {
           result.message = fmt::format("stopped after {} evaluations without converging "
                                        "(raise the evaluation limit)", options_.max_evaluations);
           break;
-        default: result.message = "converged"; break;
+        default: result.message = "the optimiser reported success"; break;
       }
     } catch (const nlopt::forced_stop&) {
       result.cancelled = true;
@@ -414,7 +427,7 @@ class Fitter {
       // The objective's rounding noise stops further progress: at the optimum to the precision
       // the likelihood can be computed. Accept when the gradient is small there.
       result.converged = true;
-      result.message = "converged to the precision of the log-likelihood (roundoff-limited)";
+      result.message = "at the precision of the log-likelihood (roundoff-limited)";
     } catch (const std::exception& e) {
       result.message = fmt::format("the optimiser failed: {}", e.what());
     }
@@ -616,9 +629,13 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
 
 // ---- 5. Estimate -----------------------------------------------------------------------------
 
-Result<EstimateSummary> Estimate(const filter::Likelihood& lik, const EstimateOptions& options) {
+Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
+                                 const EstimateOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) return InputError("invalid estimation options: " + why);
+  // A copy (it shares the model and data) whose evaluations also watch the cancel flag.
+  filter::Likelihood lik = shared_likelihood;
+  lik.set_cancel(options.cancel);
   const auto start_time = Clock::now();
   const model::ModelSpec& spec = lik.model().spec();
   Fitter fitter(lik, options);
@@ -628,11 +645,23 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& lik, const EstimateOp
   s.model_name = spec.name;
   for (const auto& series : lik.series()) s.datasets.push_back(series->source);
 
+  // Cancellation can arrive in any stage; each stage ends by looking at the flag.
+  auto cancelled_summary = [&] {
+    s.cancelled = true;
+    s.converged = false;
+    s.message = "cancelled";
+    s.evaluations = fitter.evaluations();
+    s.iterations = fitter.iterations();
+    s.elapsed_s = std::chrono::duration<double>(Clock::now() - start_time).count();
+    return s;
+  };
+
   // The delay to start from: the best of the grid at the start values.
   const bool scanning = spec.HasDelayScan();
   std::vector<int> delay;
   {
     auto profile = lik.Profile(spec.Values());
+    if (fitter.Cancelled()) return cancelled_summary();
     if (!profile) return profile.error();
     if (profile->best < 0) {
       Error e = NumericalError("the log-likelihood cannot be evaluated at the start values: " +
@@ -653,7 +682,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& lik, const EstimateOp
     if (r.loglik > best.loglik) best = r;
   }
   // Alternate θ and delay until the delay settles.
-  for (int round = 0; scanning && !best.cancelled && round < 10; ++round) {
+  for (int round = 0; scanning && !best.cancelled && !fitter.Cancelled() && round < 10; ++round) {
     auto profile = lik.Profile(fitter.Theta(best.z));
     if (!profile || profile->best < 0) break;
     const auto& next = profile->candidates[profile->best].delay;
@@ -720,15 +749,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& lik, const EstimateOp
     }
     std::sort(profile_points.begin(), profile_points.end());
   }
-  if (best.cancelled) {
-    s.cancelled = true;
-    s.converged = false;
-    s.message = "cancelled";
-    s.evaluations = fitter.evaluations();
-    s.iterations = fitter.iterations();
-    s.elapsed_s = std::chrono::duration<double>(Clock::now() - start_time).count();
-    return s;
-  }
+  if (best.cancelled || fitter.Cancelled()) return cancelled_summary();
   if (!std::isfinite(best.loglik))
     return NumericalError("the log-likelihood could not be evaluated anywhere the optimiser went");
 
@@ -745,8 +766,13 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& lik, const EstimateOp
   s.aic = -2 * s.loglik + 2 * s.n_free;
   s.bic = -2 * s.loglik + s.n_free * std::log(static_cast<double>(s.n_obs));
 
+  if (fitter.Cancelled() || !std::isfinite(s.loglik)) {
+    if (fitter.Cancelled()) return cancelled_summary();
+    return NumericalError("the log-likelihood cannot be evaluated at the estimate");
+  }
   fitter.Report("standard errors", best.z, s.loglik, delay);
   Uncertainty u = ComputeUncertainty(fitter, best.z, s.loglik, delay, spec, threads);
+  if (fitter.Cancelled()) return cancelled_summary();
   s.warnings = u.warnings;
   const double dof = static_cast<double>(std::max<long>(1, s.n_obs - s.n_free));
   const boost::math::students_t t_dist(dof);

@@ -16,6 +16,9 @@ namespace {
 
 constexpr double kLog2Pi = 1.8378770664093454835606594728112;  // log(2π)
 
+// The loop looks at the cancel flag every this many samples (a few milliseconds at most).
+constexpr int kCancelCheckInterval = 4096;
+
 // Largest state dimension with a fixed-size instantiation of the loop.
 constexpr int kMaxFixedStates = 8;
 
@@ -173,7 +176,10 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
   }
 
   const int j_end = kTrace ? N - 1 : ctx.last_j;
+  const std::atomic<bool>* cancel = ctx.settings.cancel;
   for (int j = 0; j <= j_end; ++j) {
+    if (cancel && j % kCancelCheckInterval == 0 && cancel->load(std::memory_order_relaxed))
+      return NumericalError("cancelled");
     if constexpr (kTrace) {
       trace->x_pred.col(j) = x;
       trace->P_pred[j] = Eigen::Map<const Eigen::MatrixXd>(P.data(), n, n);

@@ -28,6 +28,7 @@
 // allocation per sample.
 #pragma once
 
+#include <atomic>
 #include <optional>
 #include <vector>
 
@@ -46,6 +47,9 @@ struct FilterSettings {
   std::optional<double> huber;        // Huber threshold c, or Gaussian
   std::vector<int> delay;             // per output, samples (empty = all 0)
   std::vector<int> first_obs;         // per output (empty = same as delay)
+  // When set to true (from any thread), the filter stops within a few thousand samples and
+  // returns an Error with kind kNumerical and message "cancelled".
+  const std::atomic<bool>* cancel = nullptr;
 
   // Hold, P0 and Huber from the model; each output's delay at its `min`.
   static FilterSettings FromModel(const model::ModelSpec& spec);

@@ -54,6 +54,8 @@ class Likelihood {
   const model::LinearModel& model() const { return *model_; }
   const std::vector<std::shared_ptr<const data::Series>>& series() const { return series_; }
   const FilterSettings& settings() const { return settings_; }
+  // Evaluations stop early (with an Error) once *cancel is true; nullptr: never.
+  void set_cancel(const std::atomic<bool>* cancel) { settings_.cancel = cancel; }
 
  private:
   Result<Loglik> EvaluateAt(const model::StateSpace& ss, std::span<const int> delay,
