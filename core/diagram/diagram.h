@@ -163,7 +163,8 @@ Status RemoveBlock(BlockDiagram* d, int block);
 Result<int> Connect(BlockDiagram* d, PortRef from, PortRef to);
 Status Disconnect(BlockDiagram* d, int link);
 // Sets one expression field. Refuses an unknown field, a syntax error or an unknown name (with
-// the column in `expr_col` and a suggestion).
+// the column in `expr_col` and a suggestion). An empty text unsets the field (Compile then
+// reports it, e.g. an output with no variance).
 Status SetBlockParameter(BlockDiagram* d, int block, const std::string& field,
                          const std::string& text);
 // Renames an input, output or state block (same rules as AddBlock).
