@@ -3,6 +3,8 @@
 #include "core/filter/kalman.h"
 
 #include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <cmath>
 #include <complex>
 #include <numbers>
@@ -17,7 +19,8 @@ namespace {
 constexpr double kLog2Pi = 1.8378770664093454835606594728112;  // log(2π)
 
 // The loop looks at the cancel flag every this many samples (a few milliseconds at most).
-constexpr int kCancelCheckInterval = 4096;
+constexpr int kCancelCheckInterval = 4096;  // a power of two
+static_assert((kCancelCheckInterval & (kCancelCheckInterval - 1)) == 0);
 
 // Largest state dimension with a fixed-size instantiation of the loop.
 constexpr int kMaxFixedStates = 8;
@@ -119,6 +122,32 @@ void Symmetrize(Mat& P) {
   }
 }
 
+// Σ log R over many R > 0 with one log at the end: the product is kept as mantissa × 2^exponent,
+// renormalised after every factor by moving the exponent bits out (no overflow or underflow for
+// any normal R). Rounding: one relative error per factor, as summing the logs would give.
+class LogProduct {
+ public:
+  void Multiply(double r) {
+    if (r < kTiny || r > kHuge) {  // far outside the normal range: take the log directly
+      direct_ += std::log(r);
+      return;
+    }
+    mantissa_ *= r;
+    const auto bits = std::bit_cast<std::uint64_t>(mantissa_);
+    exponent_ += static_cast<std::int64_t>((bits >> 52) & 0x7ff) - 1023;
+    mantissa_ = std::bit_cast<double>((bits & ~(std::uint64_t{0x7ff} << 52)) |
+                                      (std::uint64_t{1023} << 52));
+  }
+  double Log() const { return std::log(mantissa_) + exponent_ * kLn2 + direct_; }
+
+ private:
+  static constexpr double kTiny = 1e-290, kHuge = 1e290;
+  static constexpr double kLn2 = 0.69314718055994530941723212145818;
+  double mantissa_ = 1.0;  // in [1, 2) after every Multiply
+  std::int64_t exponent_ = 0;
+  double direct_ = 0.0;
+};
+
 template <int NX, bool kTrace>
 Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
   using Mat = Eigen::Matrix<double, NX, NX>;
@@ -176,9 +205,12 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
   }
 
   const int j_end = kTrace ? N - 1 : ctx.last_j;
+  // Without per-step terms, Σ log R is accumulated as a product (one log per series).
+  const bool per_step_log = kTrace || ctx.terms != nullptr;
+  LogProduct log_product;
   const std::atomic<bool>* cancel = ctx.settings.cancel;
   for (int j = 0; j <= j_end; ++j) {
-    if (cancel && j % kCancelCheckInterval == 0 && cancel->load(std::memory_order_relaxed))
+    if (cancel && (j & (kCancelCheckInterval - 1)) == 0 && cancel->load(std::memory_order_relaxed))
       return NumericalError("cancelled");
     if constexpr (kTrace) {
       trace->x_pred.col(j) = x;
@@ -215,7 +247,8 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
             series.source, o + 1, k + 1, series.time[k], R));
       }
       const double eps = y - yhat;
-      logdet += std::log(R);
+      if (per_step_log) logdet += std::log(R);
+      else log_product.Multiply(R);
       r2 += eps * eps / R;
       ++p_j;
       x.noalias() += PCt * (eps / R);
@@ -243,8 +276,13 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
     x_next += dd.g;
     if (has_inputs) {
       const double* u0 = U + static_cast<std::size_t>(j) * m;
-      x_next.noalias() += dd.Gamma0 * Eigen::Map<const Eigen::VectorXd>(u0, m);
-      if (foh) x_next.noalias() += dd.Gamma1 * Eigen::Map<const Eigen::VectorXd>(u0 + m, m);
+      if (m == 1) {  // the common case, without a dynamic-size product
+        x_next.noalias() += dd.Gamma0.col(0) * u0[0];
+        if (foh) x_next.noalias() += dd.Gamma1.col(0) * u0[1];
+      } else {
+        x_next.noalias() += dd.Gamma0 * Eigen::Map<const Eigen::VectorXd>(u0, m);
+        if (foh) x_next.noalias() += dd.Gamma1 * Eigen::Map<const Eigen::VectorXd>(u0 + m, m);
+      }
     }
     x = x_next;
     PhiP.noalias() = dd.Phi * P;
@@ -252,6 +290,7 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
     P += dd.Q;
     Symmetrize(P);
   }
+  if (!per_step_log) loglik -= 0.5 * log_product.Log();
   if (!std::isfinite(loglik))
     return NumericalError(fmt::format("{}: the log-likelihood is not finite at these parameter "
                                       "values", series.source));
