@@ -325,21 +325,6 @@ Json DelayJson(const model::DelaySpec& d) {
   return d.min;
 }
 
-Json ParametersJson(const std::vector<model::Parameter>& ps) {
-  Json out = Json::object();
-  for (const auto& par : ps) {
-    Json v;
-    v["value"] = par.value;
-    if (par.lower) v["lower"] = *par.lower;
-    if (par.upper) v["upper"] = *par.upper;
-    if (par.fixed) v["fixed"] = true;
-    if (!par.unit.empty()) v["unit"] = par.unit;
-    if (!par.description.empty()) v["description"] = par.description;
-    out[par.name] = v;
-  }
-  return out;
-}
-
 // Maps a model error ("drift.mfv", "observation.y") back to the block it came from.
 Problem ProblemFromModelError(const BlockDiagram& d, const Error& e) {
   Problem p;
@@ -381,7 +366,7 @@ CompileResult Compile(const BlockDiagram& d, const std::string& source) {
   j["states"] = states;
   j["inputs"] = inputs;
   j["outputs"] = outputs;
-  j["parameters"] = ParametersJson(d.parameters);
+  j["parameters"] = model::ParametersToJson(d.parameters);
   Json drift = Json::object(), diffusion = Json::object(), initial = Json::object();
   Json observation = Json::object(), variance = Json::object(), delays = Json::object();
 

@@ -488,15 +488,9 @@ Result<ModelSpec> LoadModelFile(const std::string& path) {
 
 // ---- 6. ToJson / Save ------------------------------------------------------------------------
 
-Json ToJson(const ModelSpec& m) {
-  Json j;
-  j["greybench_model"] = 1;
-  if (!m.name.empty()) j["name"] = m.name;
-  j["states"] = m.states;
-  j["inputs"] = m.inputs;
-  j["outputs"] = m.outputs;
+Json ParametersToJson(const std::vector<Parameter>& parameters) {
   Json ps = Json::object();
-  for (const auto& par : m.parameters) {
+  for (const auto& par : parameters) {
     Json v;
     v["value"] = par.value;
     if (par.lower) v["lower"] = *par.lower;
@@ -506,7 +500,17 @@ Json ToJson(const ModelSpec& m) {
     if (!par.description.empty()) v["description"] = par.description;
     ps[par.name] = v;
   }
-  j["parameters"] = ps;
+  return ps;
+}
+
+Json ToJson(const ModelSpec& m) {
+  Json j;
+  j["greybench_model"] = 1;
+  if (!m.name.empty()) j["name"] = m.name;
+  j["states"] = m.states;
+  j["inputs"] = m.inputs;
+  j["outputs"] = m.outputs;
+  j["parameters"] = ParametersToJson(m.parameters);
   auto put = [](Json* obj, const std::vector<std::string>& keys,
                 const std::vector<Formula>& fs) {
     *obj = Json::object();

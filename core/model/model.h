@@ -86,6 +86,8 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source);
 Result<ModelSpec> LoadModelFile(const std::string& path);
 // The model as a JSON object that ParseModel reads back to an equal model.
 Json ToJson(const ModelSpec& m);
+// The "parameters" object of a model file for `parameters` (file order kept).
+Json ParametersToJson(const std::vector<Parameter>& parameters);
 // Writes the model atomically (pretty-printed JSON).
 Status SaveModelFile(const ModelSpec& m, const std::string& path);
 
