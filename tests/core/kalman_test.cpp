@@ -12,31 +12,18 @@
 #include "core/filter/discretize.h"
 #include "core/model/linear_model.h"
 #include "core/util/json.h"
+#include "tests/core/filter_fixtures.h"
 
 namespace gb::filter {
 namespace {
 
+using fixtures::CompileModel;
+using fixtures::kTwoOutputModel;
+using fixtures::MakeSeries;
+using fixtures::RandomSeries;
+
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kLog2Pi = 1.8378770664093454835606594728112;
-
-model::LinearModel CompileModel(const char* json_text) {
-  auto spec = model::ParseModel(Json::parse(json_text), "test.json");
-  EXPECT_TRUE(spec.ok()) << (spec.ok() ? "" : spec.error().ToString());
-  auto lm = model::LinearModel::Compile(std::move(*spec));
-  EXPECT_TRUE(lm.ok()) << (lm.ok() ? "" : lm.error().ToString());
-  return std::move(*lm);
-}
-
-data::Series MakeSeries(const std::vector<double>& t, const Eigen::MatrixXd& U,
-                        const Eigen::MatrixXd& Y) {
-  data::Series s;
-  s.source = "test.csv";
-  s.time = t;
-  s.U = U;
-  s.Y = Y;
-  s.intervals = data::GroupIntervals(t);
-  return s;
-}
 
 // The joint density of every observed y_{o,k}, with the observations ordered by the state index
 // they see (j = k - d_o) and then by output, so that the Cholesky factor of the joint covariance
@@ -127,43 +114,12 @@ Dense BruteForce(const model::StateSpace& ss, const data::Series& s, const Filte
   return out;
 }
 
-// Two coupled states, two inputs, two outputs (one reading an input directly), constants
-// everywhere.
-const char* kTwoOutputModel = R"json({
-  "greybench_model": 1,
-  "states": ["x1", "x2"], "inputs": ["u1", "u2"], "outputs": ["y1", "y2"],
-  "parameters": {"a": 1.3, "b": 0.4, "k": 2.0, "s1": 0.3, "s2": 0.6, "r1": 0.05, "r2": 0.2,
-                 "m1": 0.5, "m2": -1.0},
-  "drift": {"x1": "-a*x1 + b*x2 + k*u1 + 0.1",
-            "x2": "-(x2 - x1)/k - 0.5*b*x1 + u2 - 0.2"},
-  "diffusion": {"x1": "s1", "x2": "s2"},
-  "observation": {"y1": "x1 + 0.5*x2 + 0.3*u2 + 1", "y2": "2*x2 - x1"},
-  "measurement_variance": {"y1": "r1", "y2": "r2"},
-  "initial_state": {"x1": "m1", "x2": "m2"}
-})json";
-
 struct Case {
   model::InputHold hold;
   model::InitialCovariance p0;
   std::vector<int> delay;
   std::vector<int> first_obs;
 };
-
-data::Series RandomSeries(int N, int p, double missing_fraction, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  std::vector<double> t(N);
-  t[0] = 0.3;
-  for (int k = 1; k < N; ++k) t[k] = t[k - 1] + (k % 3 == 0 ? 0.25 : 0.1 + 0.4 * unit(rng));
-  Eigen::MatrixXd U(2, N), Y(p, N);
-  for (int k = 0; k < N; ++k) {
-    U(0, k) = (k / 4) % 2 ? 1.0 : -1.0;
-    U(1, k) = std::sin(0.7 * k);
-    for (int o = 0; o < p; ++o) Y(o, k) = unit(rng) < missing_fraction ? kNaN : normal(rng) + 1;
-  }
-  return MakeSeries(t, U, Y);
-}
 
 TEST(LogLikelihood, EqualsDenseMultivariateNormalDensityOfTheStackedSeries) {
   const model::LinearModel lm = CompileModel(kTwoOutputModel);
