@@ -5,7 +5,8 @@
 namespace gb::ui {
 
 void DrawDiagramPanel(AppState& state) {
-  DrawUnavailable(state, View::kDiagram, "the block-diagram editor",
+  DrawUnavailable(state, View::kDiagram,
+                  "the node editor (diagrams compile already: greybench-cli export-model)",
                   "It will show the model as blocks linked by signals, and edits made there will "
                   "change the model.");
 }

@@ -5,7 +5,8 @@
 namespace gb::ui {
 
 void DrawOperatingPointsPanel(AppState& state) {
-  DrawUnavailable(state, View::kOperatingPoints, "the operating-point analysis",
+  DrawUnavailable(state, View::kOperatingPoints,
+                  "its plots (the sweep runs already: greybench-cli sweep)",
                   "It will compute the model's steady states and linearisations at chosen inputs.");
 }
 

@@ -5,7 +5,8 @@
 namespace gb::ui {
 
 void DrawPredictionsPanel(AppState& state) {
-  DrawUnavailable(state, View::kPredictions, "the Kalman filter",
+  DrawUnavailable(state, View::kPredictions,
+                  "its plots (the predictions are computed already: greybench-cli predict)",
                   "It will plot every output's measurements with the one-step predictions and "
                   "their uncertainty bands.");
 }

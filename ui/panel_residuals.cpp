@@ -5,7 +5,8 @@
 namespace gb::ui {
 
 void DrawResidualsPanel(AppState& state) {
-  DrawUnavailable(state, View::kResiduals, "the residual diagnostics",
+  DrawUnavailable(state, View::kResiduals,
+                  "its plots (the diagnostics are computed already: greybench-cli diagnose)",
                   "It will show the standardised residuals over time and their autocorrelation, to "
                   "judge whether the model explains the data.");
 }
