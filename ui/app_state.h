@@ -140,6 +140,9 @@ struct AppState {
   std::optional<model::ModelSpec> model;
   std::string model_error;  // why `model` is absent
   int model_revision = 0;   // counts the accepted edits
+  // Counts accepted edits that change what saving the project writes but not the model (e.g.
+  // a block moved in the diagram). Unsaved changes: either counter moved since the last save.
+  int layout_revision = 0;
 
   EstimationState estimation;
 
