@@ -313,4 +313,26 @@ void ApplyParameterEdits(AppState& state) {
     state.project->model_json["parameters"] = model::ToJson(*state.model)["parameters"];
 }
 
+void ApplyFormulaEdits(AppState& state) {
+  EquationsViewState& v = state.equations_view;
+  std::vector<FormulaEdit> edits = std::move(v.pending);
+  v.pending.clear();
+  if (!state.model) return;
+  for (const FormulaEdit& edit : edits) {
+    Result<model::ModelSpec> edited = ApplyFormulaEdit(*state.model, edit);
+    if (!edited) {
+      v.drafts[edit.path] = FormulaDraft{edit.text, edited.error()};
+      continue;
+    }
+    v.drafts.erase(edit.path);
+    state.model = std::move(edited).value();
+    ++state.model_revision;
+    // Keep the project's copy of the model in step (the view shows it; a save writes it).
+    if (state.project && state.project->model_json.is_object()) {
+      const std::size_t dot = edit.path.find('.');
+      state.project->model_json[edit.path.substr(0, dot)][edit.path.substr(dot + 1)] = edit.text;
+    }
+  }
+}
+
 }  // namespace gb::ui

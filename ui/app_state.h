@@ -11,6 +11,7 @@
 
 #include <array>
 #include <chrono>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -126,6 +127,18 @@ struct ParametersViewState {
   std::optional<ParameterRefusal> refusal;
 };
 
+// A formula typed in the Equations view that the model has not accepted (yet): kept, with the
+// reason, until the user corrects or reverts it, so nothing typed is lost.
+struct FormulaDraft {
+  std::string text;
+  std::optional<Error> error;  // why the model refuses `text`; absent while it is valid
+};
+
+struct EquationsViewState {
+  std::map<std::string, FormulaDraft> drafts;  // by JSON path ("drift.mff")
+  std::vector<FormulaEdit> pending;            // emitted while drawing, applied after the view
+};
+
 struct AppState {
   // The open project and its data, replaced as a whole when a loading job succeeds.
   std::optional<project::Project> project;
@@ -158,6 +171,7 @@ struct AppState {
   plot::PlotContext plots;
   DataViewState data_view;
   ParametersViewState parameters_view;
+  EquationsViewState equations_view;
 
   // greybench-snapshot: draw nothing that depends on the clock (elapsed times are shown as
   // kElapsedPlaceholder), so the same inputs give the same picture.
@@ -185,5 +199,9 @@ bool EstimationRunning(const AppState& state);
 // Applies state.parameters_view.pending (and a requested "use estimates as start values") to
 // state.model through core's validation; a refused edit is kept in parameters_view.refusal.
 void ApplyParameterEdits(AppState& state);
+
+// Applies state.equations_view.pending to state.model through core's validation (and to the
+// project's copy of the model JSON); a refused edit stays a draft with its reason.
+void ApplyFormulaEdits(AppState& state);
 
 }  // namespace gb::ui

@@ -1,9 +1,12 @@
 #include "ui/model_edit.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <utility>
+
+#include "core/model/linear_model.h"
 
 namespace gb::ui {
 namespace {
@@ -80,6 +83,27 @@ Result<model::ModelSpec> ApplyParameterEdit(const model::ModelSpec& spec,
       break;
   }
   return Validate(edited);
+}
+
+Result<model::ModelSpec> ApplyFormulaEdit(const model::ModelSpec& spec, const FormulaEdit& edit) {
+  const std::size_t dot = edit.path.find('.');
+  const std::string section = edit.path.substr(0, dot);
+  const std::string name = dot == std::string::npos ? "" : edit.path.substr(dot + 1);
+  const bool of_state = section == "drift" || section == "diffusion" || section == "initial_state";
+  const bool of_output = section == "observation" || section == "measurement_variance";
+  const std::vector<std::string>& names = of_state ? spec.states : spec.outputs;
+  if ((!of_state && !of_output) || std::find(names.begin(), names.end(), name) == names.end()) {
+    return InputError("'" + edit.path + "' is not a formula of the model");
+  }
+  Json j = model::ToJson(spec);
+  j[section][name] = edit.text;
+  // The parser's Error as it is: its path and expression column point into edit.text.
+  Result<model::ModelSpec> parsed = model::ParseModel(j, spec.source);
+  if (!parsed) return parsed;
+  // A formula that parses may still make the model nonlinear, which the filter cannot take.
+  Result<model::LinearModel> linear = model::LinearModel::Compile(*parsed);
+  if (!linear) return linear.error();
+  return parsed;
 }
 
 Result<model::ModelSpec> UseEstimatesAsStart(const model::ModelSpec& spec,

@@ -36,6 +36,19 @@ Result<ParameterEdit> ParseParameterEdit(const std::string& parameter, Parameter
 Result<model::ModelSpec> ApplyParameterEdit(const model::ModelSpec& spec,
                                             const ParameterEdit& edit);
 
+// An edit of one formula of the model, as the Equations view emits it. `path` is the formula's
+// JSON path in the model file: "drift.S", "diffusion.S", "initial_state.S" for a state S,
+// "observation.O", "measurement_variance.O" for an output O.
+struct FormulaEdit {
+  std::string path;
+  std::string text;  // the new expression
+};
+
+// The model with the formula at edit.path replaced, validated exactly as the model file would
+// be; refused with the parser's Error otherwise (Error::path names the formula and
+// Error::expr_col the 1-based column in edit.text where the expression is wrong).
+Result<model::ModelSpec> ApplyFormulaEdit(const model::ModelSpec& spec, const FormulaEdit& edit);
+
 // The model with every free parameter's start value set to its estimate in `summary` (matched
 // by name; fixed parameters and names the fit does not know are left alone).
 Result<model::ModelSpec> UseEstimatesAsStart(const model::ModelSpec& spec,
