@@ -101,6 +101,9 @@ case "$case_name" in
       --out "$out/op-sweep.png" || fail "snapshot with --estimate failed"
     "$png_check" "$out/op-sweep.png" 1280 800 --colour d62728:150 --colour 1f77b4:100 \
       || fail "op-sweep.png"
+    "$snapshot" --project "$sweep" --view operating-points --estimate \
+      --out "$out/op-sweep2.png" || fail "second snapshot with --estimate failed"
+    cmp "$out/op-sweep.png" "$out/op-sweep2.png" || fail "two renderings after the sweep differ"
     # A wrong key: --estimate refuses with the file and the JSON path.
     expect_error 2 "bad_project.json: operating_points.trend.tag" \
       "$snapshot" --project "$data/sweep/bad_project.json" --view operating-points --estimate \

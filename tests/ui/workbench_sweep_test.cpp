@@ -220,6 +220,51 @@ TEST(WorkbenchSweep, CancelStopsTheSweepWithin100msAndKeepsThePreviousTable) {
   EXPECT_NE(d.Text().find("from the previous sweep"), std::string::npos);
 }
 
+TEST(WorkbenchSweep, AFailedSweepNamesTheFileAndKeepsThePreviousTable) {
+  WorkbenchDriver d;
+  d.Open(kSweepProject);
+  ASSERT_TRUE(d.state.sweep.spec) << d.state.sweep.spec_error;
+  ASSERT_TRUE(StartSweep(d.state));
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.sweep.result) << d.state.sweep.last_failure;
+  const double loglik = d.state.sweep.result->result.rows[0].summary.loglik;
+
+  d.state.sweep.spec->datasets.push_back(kData + "no_such_point.csv");
+  std::string why;
+  ASSERT_TRUE(StartSweep(d.state, &why)) << why;
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.sweep.result);
+  EXPECT_EQ(d.state.sweep.result->result.rows[0].summary.loglik, loglik);
+  EXPECT_TRUE(d.state.sweep.last_failure_is_error);
+  EXPECT_NE(d.state.sweep.last_failure.find("no_such_point.csv"), std::string::npos)
+      << d.state.sweep.last_failure;
+  ASSERT_FALSE(d.state.messages.empty());
+  EXPECT_EQ(d.state.messages.back().severity, Severity::kError);
+  EXPECT_NE(d.state.messages.back().text.find("previous table is kept"), std::string::npos);
+}
+
+TEST(WorkbenchSweep, AProjectWithoutTheKeyCanSweepItsOwnDatasets) {
+  WorkbenchDriver d;
+  d.Open(kNoSweepProject);
+  ASSERT_TRUE(d.state.project);
+  // Two tagged datasets in the project (as if it listed them).
+  d.state.project->datasets = {kData + "p1.csv", kData + "p3.csv"};
+  d.state.view = View::kOperatingPoints;
+  d.Frame();
+  EXPECT_NE(d.Text().find("Sweep the project's 2 datasets"), std::string::npos);
+  SweepProjectDatasets(d.state);  // what the button does
+  ASSERT_TRUE(d.state.sweep.spec);
+  EXPECT_TRUE(d.state.sweep.spec->datasets_from_project);
+  EXPECT_EQ(d.state.sweep.spec->datasets, d.state.project->datasets);
+  std::string why;
+  ASSERT_TRUE(StartSweep(d.state, &why)) << why;
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.sweep.result) << d.state.sweep.last_failure;
+  ASSERT_EQ(d.state.sweep.result->columns.size(), 2u);
+  EXPECT_EQ(d.state.sweep.result->columns[0], "f1");
+  EXPECT_EQ(d.state.sweep.result->columns[1], "f7");
+}
+
 TEST(WorkbenchSweep, AWrongOperatingPointsKeyIsShownWithTheFileAndJsonPath) {
   WorkbenchDriver d;
   d.Open(kBadProject);
