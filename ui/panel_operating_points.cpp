@@ -8,6 +8,13 @@
 //
 // The sweep runs in AppState::sweep.job (StartSweep); this panel only reads the status record
 // and the installed result, and never waits for the job.
+//
+// Sections
+//   1. Run, Cancel and what the sweep is; the status of the run
+//   2. Table 2
+//   3. Plots: Fig. 3 and the trend (Fig. 4)
+//   4. What the view says before there is a sweep
+//   5. DrawOperatingPointsPanel
 #include <imgui.h>
 
 #include <algorithm>
@@ -53,7 +60,7 @@ std::string TagText(const project::OperatingPointsSpec& points, const std::strin
 }
 
 // ---------------------------------------------------------------------------------------------
-// Run, Cancel and what the sweep is
+// 1. Run, Cancel and what the sweep is
 
 void DrawToolbar(AppState& state) {
   const float s = state.fonts.scale;
@@ -145,7 +152,7 @@ void DrawResultStatus(AppState& state, const SweepFigures& f) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Table 2
+// 2. Table 2
 
 // The width the table takes with every column fitting its widest cell.
 float TableWidth(AppState& state, const SweepFigures& f, bool with_mean) {
@@ -222,7 +229,7 @@ void DrawTable(AppState& state, const SweepFigures& f) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Plots
+// 3. Plots
 
 void DrawDelayPlot(AppState& state, const SweepFigures& f, ImVec2 size) {
   const project::OperatingPointsSpec& p = f.points;
@@ -365,7 +372,7 @@ void DrawPlots(AppState& state, const SweepFigures& f) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// What the view says before there is a sweep
+// 4. What the view says before there is a sweep
 
 constexpr const char* kKeyExample =
     "\"operating_points\": {\n"
@@ -404,6 +411,9 @@ void DrawNothingYet(AppState& state) {
 }
 
 }  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// 5. DrawOperatingPointsPanel
 
 void DrawOperatingPointsPanel(AppState& state) {
   if (DrawNoProjectNotice(state)) return;
