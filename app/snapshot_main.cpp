@@ -8,7 +8,9 @@
 //
 // --estimate starts the estimation exactly as the Estimate view's Run button does
 // (StartEstimation: the same background job), waits for it, then renders. It runs with
-// threads = 1 and the other options at their defaults.
+// threads = 1 and the other options at their defaults. For the operating-points view, whose
+// computation is the sweep, it starts the sweep as that view's Run button does (StartSweep)
+// instead.
 //
 // Deterministic: a fixed frame time, no mouse, no clock-dependent content (AppState::
 // deterministic: every elapsed time, in the views and in the report text, is drawn as the
@@ -119,7 +121,16 @@ int Render(const Options& options, gb::ui::View view, std::vector<unsigned char>
     if (!d.data) return Fail(kExitBadInput, d.error);
   }
   int status = 0;
-  if (options.estimate) {
+  if (options.estimate && view == ui::View::kOperatingPoints) {
+    // The view shows the sweep: run it as its Run button does (its fits use one thread each).
+    std::string why;
+    if (!ui::StartSweep(state, &why)) return Fail(kExitBadInput, "--estimate: " + why);
+    ui::WaitForJobs(state);
+    if (!state.sweep.last_failure.empty()) {
+      std::fprintf(stderr, "greybench-snapshot: error: %s\n", state.sweep.last_failure.c_str());
+      status = kExitRenderFailed;
+    }
+  } else if (options.estimate) {
     state.estimation.settings.threads = 1;  // the same iterations on every machine
     std::string why;
     if (!ui::StartEstimation(state, &why)) return Fail(kExitBadInput, "--estimate: " + why);

@@ -99,6 +99,7 @@ void InstallProject(AppState& state, ProjectLoad load) {
   state.estimation.live_trace.Clear();
   state.estimation.trace_x.RequestFit();
   state.parameters_view = ParametersViewState{};
+  ResetSweep(state);
   if (!state.model)
     AddMessage(state, Severity::kError, "The model is not valid: " + state.model_error);
 }
@@ -192,6 +193,7 @@ void PollJobs(AppState& state) {
   if (std::optional<EstimationRun> run = e.job.TakeIfReady()) {
     InstallEstimation(state, std::move(*run));
   }
+  PollSweep(state);
 
   std::optional<ProjectLoad> load = state.load_job.TakeIfReady();
   if (!load) return;
@@ -222,10 +224,12 @@ void WaitForJobs(AppState& state) {
   PollJobs(state);
   state.estimation.job.Wait();
   PollJobs(state);
+  state.sweep.job.Wait();
+  PollJobs(state);
 }
 
 bool AnyJobActive(const AppState& state) {
-  return state.load_job.active() || state.estimation.job.active();
+  return state.load_job.active() || state.estimation.job.active() || state.sweep.job.active();
 }
 
 bool EstimationRunning(const AppState& state) { return state.estimation.job.active(); }

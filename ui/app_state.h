@@ -25,6 +25,7 @@
 #include "ui/estimation.h"
 #include "ui/job.h"
 #include "ui/model_edit.h"
+#include "ui/sweep.h"
 #include "ui/widgets/plot.h"
 
 namespace gb::ui {
@@ -158,6 +159,7 @@ struct AppState {
   int layout_revision = 0;
 
   EstimationState estimation;
+  SweepState sweep;  // the operating-point sweep
 
   View view = View::kData;
   std::vector<Message> messages;
@@ -195,6 +197,23 @@ bool StartEstimation(AppState& state, std::string* why = nullptr);
 // Asks the run under way to stop; PollJobs then reports it and keeps the previous result.
 void CancelEstimation(AppState& state);
 bool EstimationRunning(const AppState& state);
+
+// The operating-point sweep (ui/app_state_sweep.cpp), run like the estimation.
+// Reads the project's "operating_points" key into state.sweep and drops the last sweep (a new
+// project was installed).
+void ResetSweep(AppState& state);
+// Sweeps the project's own datasets with the default relations (the project names no sweep).
+void SweepProjectDatasets(AppState& state);
+// Starts fitting the model to every dataset of state.sweep.spec. Returns false and says why
+// when it cannot start (no sweep named, the key is wrong, no valid model, a run under way).
+bool StartSweep(AppState& state, std::string* why = nullptr);
+// Asks the sweep under way to stop; PollJobs then reports it and keeps the previous table.
+void CancelSweep(AppState& state);
+bool SweepRunning(const AppState& state);
+// Installs a finished sweep (PollJobs calls it every frame).
+void PollSweep(AppState& state);
+// The trend plot's parameter and tag (the Operating points view's choice).
+void SelectTrend(AppState& state, const std::string& parameter, const std::string& tag);
 
 // Applies state.parameters_view.pending (and a requested "use estimates as start values") to
 // state.model through core's validation; a refused edit is kept in parameters_view.refusal.

@@ -32,7 +32,7 @@ constexpr const char* kAboutPopup = "About greybench";
 // sidebar.
 bool ViewAvailable(View view) {
   return view == View::kData || view == View::kEquations || view == View::kEstimate ||
-         view == View::kParameters;
+         view == View::kParameters || view == View::kOperatingPoints;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -156,6 +156,8 @@ void DrawStatusBar(AppState& state, float height) {
     text = "Estimating \xE2\x80\x94 " + std::string(StageText(p.stage));
     if (p.any) text += ", iteration " + std::to_string(p.iteration);
     text += "\xE2\x80\xA6";
+  } else if (SweepRunning(state)) {
+    text = "Sweeping the operating points\xE2\x80\xA6";
   } else if (!state.messages.empty()) {
     const Message& m = state.messages.back();
     text = m.text;

@@ -1,11 +1,12 @@
 #include "core/estimate/sweep.h"
 
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-
-#include <Eigen/Dense>
-#include <fmt/format.h>
 
 #include "core/project/problem.h"
 #include "core/util/parallel.h"
@@ -15,8 +16,15 @@ namespace {
 
 constexpr const char* kTagPrefix = "# greybench:";
 
-// y = a + b x by least squares (with_intercept), or y = b x.
-LinearFit Fit(const std::vector<double>& x, const std::vector<double>& y, bool with_intercept) {
+const ParameterEstimate* FindParameter(const EstimateSummary& s, const std::string& name) {
+  for (const auto& p : s.parameters)
+    if (p.name == name) return &p;
+  return nullptr;
+}
+
+}  // namespace
+
+LinearFit FitLine(const std::vector<double>& x, const std::vector<double>& y, bool with_intercept) {
   LinearFit f;
   f.n = static_cast<int>(x.size());
   const int p = with_intercept ? 2 : 1;
@@ -45,14 +53,6 @@ LinearFit Fit(const std::vector<double>& x, const std::vector<double>& y, bool w
   return f;
 }
 
-const ParameterEstimate* FindParameter(const EstimateSummary& s, const std::string& name) {
-  for (const auto& p : s.parameters)
-    if (p.name == name) return &p;
-  return nullptr;
-}
-
-}  // namespace
-
 Result<OperatingPoint> ReadOperatingPoint(const std::string& path) {
   std::ifstream in(path);
   if (!in) {
@@ -76,8 +76,10 @@ Result<OperatingPoint> ReadOperatingPoint(const std::string& path) {
     }
     if (!j.contains("operating_point") || !j["operating_point"].is_object()) continue;
     for (const auto& [key, value] : j["operating_point"].items()) {
-      if (key == "name" && value.is_string()) point.name = value.get<std::string>();
-      else if (value.is_number()) point.values[key] = value.get<double>();
+      if (key == "name" && value.is_string())
+        point.name = value.get<std::string>();
+      else if (value.is_number())
+        point.values[key] = value.get<double>();
     }
   }
   return point;
@@ -88,8 +90,11 @@ Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<std::s
   SweepResult result;
   result.rows.resize(datasets.size());
   std::vector<std::optional<Error>> errors(datasets.size());
+  std::vector<char> fitted(datasets.size(), 0);  // not vector<bool>: set from several threads
+  const std::atomic<bool>* cancel = options.estimate.cancel;
+  auto cancelled = [cancel] { return cancel && cancel->load(); };
   const int parallel = options.parallel > 0 ? options.parallel : HardwareThreads();
-  ParallelFor(static_cast<int>(datasets.size()), parallel, [&](int i) {
+  auto fit_one = [&](int i) {
     auto point = ReadOperatingPoint(datasets[i]);
     if (!point) {
       errors[i] = point.error();
@@ -112,10 +117,26 @@ Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<std::s
       errors[i] = summary.error();
       return;
     }
+    if (summary->cancelled) return;
     const auto& t = problem->series[0]->time;
     const double interval = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
     result.rows[i] = {datasets[i], std::move(*point), interval, std::move(*summary)};
+    fitted[i] = 1;
+  };
+  ParallelFor(static_cast<int>(datasets.size()), parallel, [&](int i) {
+    if (cancelled()) return;  // the remaining datasets are not started
+    if (options.progress) options.progress({i, false});
+    fit_one(i);
+    if (options.progress) options.progress({i, true});
   });
+  // A cancelled sweep reports what it finished; errors of fits stopped half-way do not count.
+  if (cancelled()) {
+    SweepResult partial;
+    partial.cancelled = true;
+    for (std::size_t i = 0; i < datasets.size(); ++i)
+      if (fitted[i]) partial.rows.push_back(std::move(result.rows[i]));
+    return partial;
+  }
   for (const auto& e : errors)
     if (e) return *e;
 
@@ -129,7 +150,8 @@ Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<std::s
     mean /= static_cast<double>(v.size());
     double ss = 0;
     for (double x : v) ss += (x - mean) * (x - mean);
-    result.means[name] = {mean, v.size() > 1 ? std::sqrt(ss / static_cast<double>(v.size() - 1)) : 0.0};
+    result.means[name] = {mean,
+                          v.size() > 1 ? std::sqrt(ss / static_cast<double>(v.size() - 1)) : 0.0};
   }
   // Δt = c / n, the delay in seconds (estimated samples times the data's sample interval).
   {
@@ -142,7 +164,7 @@ Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<std::s
       delay_s.push_back(r.summary.delays[0].estimate * r.sample_interval);
     }
     if (inv_n.size() >= 2) {
-      LinearFit f = Fit(inv_n, delay_s, false);
+      LinearFit f = FitLine(inv_n, delay_s, false);
       f.y = "delay_s";
       f.x = "1/" + options.speed_tag;
       result.delay_vs_speed = f;
@@ -158,7 +180,7 @@ Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<std::s
       y.push_back(p->estimate);
     }
     if (x.size() >= 3) {
-      LinearFit f = Fit(x, y, true);
+      LinearFit f = FitLine(x, y, true);
       f.y = options.trend_parameter;
       f.x = options.trend_tag;
       result.trend = f;
@@ -194,22 +216,25 @@ std::string SweepResult::Markdown() const {
         line += " |";
         continue;
       }
-      line += p->std_error ? fmt::format(" {:.4g} ({:.2g}) |", p->estimate, *p->std_error)
-                           : fmt::format(" {:.4g}{} |", p->estimate, p->at_bound ? " (at bound)" : "");
+      line += p->std_error
+                  ? fmt::format(" {:.4g} ({:.2g}) |", p->estimate, *p->std_error)
+                  : fmt::format(" {:.4g}{} |", p->estimate, p->at_bound ? " (at bound)" : "");
     }
     line += fmt::format(" {:.2f} |\n", r.summary.loglik);
     out += line;
   }
   out += "\nEstimates with standard errors in brackets.\n";
   for (const auto& [name, ms] : means)
-    out += fmt::format("\nMean of {} over the points: {:.4g} (SD {:.2g}).", name, ms.first, ms.second);
+    out +=
+        fmt::format("\nMean of {} over the points: {:.4g} (SD {:.2g}).", name, ms.first, ms.second);
   if (delay_vs_speed)
-    out += fmt::format("\nDelay against speed: delay = c / n with c = {:.4g} ± {:.2g} (R² {:.3f}, {} points).",
-                       delay_vs_speed->b, delay_vs_speed->se_b, delay_vs_speed->r2, delay_vs_speed->n);
+    out += fmt::format(
+        "\nDelay against speed: delay = c / n with c = {:.4g} ± {:.2g} (R² {:.3f}, {} points).",
+        delay_vs_speed->b, delay_vs_speed->se_b, delay_vs_speed->r2, delay_vs_speed->n);
   if (trend)
-    out += fmt::format("\nTrend: {} = {:.4g} (± {:.2g}) + {:.4g} (± {:.2g}) · {} (R² {:.3f}, {} points).",
-                       trend->y, trend->a, trend->se_a, trend->b, trend->se_b, trend->x, trend->r2,
-                       trend->n);
+    out += fmt::format(
+        "\nTrend: {} = {:.4g} (± {:.2g}) + {:.4g} (± {:.2g}) · {} (R² {:.3f}, {} points).",
+        trend->y, trend->a, trend->se_a, trend->b, trend->se_b, trend->x, trend->r2, trend->n);
   return out + "\n";
 }
 

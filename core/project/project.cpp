@@ -33,13 +33,13 @@ void LineCol(const std::string& text, std::size_t pos, int* line, int* col) {
   }
 }
 
-std::string Resolve(const std::string& base_dir, const std::string& p) {
+}  // namespace
+
+std::string ResolvePath(const std::string& base_dir, const std::string& p) {
   fs::path path(p);
   if (path.is_absolute() || base_dir.empty()) return path.lexically_normal().string();
   return (fs::path(base_dir) / path).lexically_normal().string();
 }
-
-}  // namespace
 
 Result<Json> ReadJsonFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -84,7 +84,7 @@ Result<Project> LoadProject(const std::string& path) {
   if (!j.contains("model")) return FileError(path, "the project names no model", "model");
   const auto& m = j["model"];
   if (m.is_string()) {
-    p.model_path = Resolve(p.base_dir, m.get<std::string>());
+    p.model_path = ResolvePath(p.base_dir, m.get<std::string>());
     auto model = ReadJsonFile(p.model_path);
     if (!model) return model.error();
     p.model_json = *model;
@@ -99,7 +99,7 @@ Result<Project> LoadProject(const std::string& path) {
     for (std::size_t i = 0; i < d.size(); ++i) {
       if (!d[i].is_string())
         return FileError(path, "expected a file name (a string)", fmt::format("datasets[{}]", i));
-      p.datasets.push_back(Resolve(p.base_dir, d[i].get<std::string>()));
+      p.datasets.push_back(ResolvePath(p.base_dir, d[i].get<std::string>()));
     }
   }
   if (p.name.empty()) p.name = fs::path(path).stem().string();

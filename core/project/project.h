@@ -31,6 +31,9 @@ struct Project {
 // `case.json: datasets[1]: expected a file name (a string)`.
 Result<Project> LoadProject(const std::string& path);
 
+// `path` as given in a project file: relative paths are taken from `base_dir`.
+std::string ResolvePath(const std::string& base_dir, const std::string& path);
+
 // Reads a JSON file with errors of the form `FILE:LINE:COL: JSON syntax error: ...`.
 Result<Json> ReadJsonFile(const std::string& path);
 

@@ -5,7 +5,7 @@
 #   snapshot_test.sh CASE SNAPSHOT_EXE PNG_CHECK_EXE DATA_DIR OUT_DIR [GREYBENCH_EXE SOURCE_DIR]
 #
 # CASE: data | equations | placeholder | deterministic | bad-project | bad-view | estimate |
-#       estimate-deterministic | estimate-case-study | window.
+#       estimate-deterministic | estimate-case-study | operating-points | window.
 # Exit 0 pass, 1 fail, 77 skipped (window test without xvfb-run).
 set -uo pipefail
 
@@ -37,7 +37,7 @@ case "$case_name" in
     "$png_check" "$out/equations.png" 1024 700 || fail "equations.png"
     ;;
   placeholder)
-    for view in diagram estimate predictions residuals parameters operating-points; do
+    for view in diagram estimate predictions residuals parameters; do
       "$snapshot" --project "$project" --view "$view" --out "$out/$view.png" \
         --width 800 --height 500 || fail "snapshot of $view failed"
       "$png_check" "$out/$view.png" 800 500 || fail "$view.png"
@@ -86,6 +86,28 @@ case "$case_name" in
         || fail "run $i"
     done
     cmp "$out/est-det1.png" "$out/est-det2.png" || fail "two renderings after --estimate differ"
+    ;;
+  operating-points)
+    # The sweep of tests/data/ui/sweep (three short tagged datasets). Exact colours prove the
+    # sweep is drawn: the red fitted c / n curve and least-squares line, the blue error bars.
+    sweep="$data/sweep/project.json"
+    "$snapshot" --project "$sweep" --view operating-points --out "$out/op-no-sweep.png" \
+      || fail "snapshot without --estimate failed"
+    "$png_check" "$out/op-no-sweep.png" 1280 800 || fail "op-no-sweep.png"
+    if "$png_check" "$out/op-no-sweep.png" 1280 800 --colour d62728:150 >/dev/null 2>&1; then
+      fail "the view shows fitted curves without a sweep"
+    fi
+    "$snapshot" --project "$sweep" --view operating-points --estimate \
+      --out "$out/op-sweep.png" || fail "snapshot with --estimate failed"
+    "$png_check" "$out/op-sweep.png" 1280 800 --colour d62728:150 --colour 1f77b4:100 \
+      || fail "op-sweep.png"
+    "$snapshot" --project "$sweep" --view operating-points --estimate \
+      --out "$out/op-sweep2.png" || fail "second snapshot with --estimate failed"
+    cmp "$out/op-sweep.png" "$out/op-sweep2.png" || fail "two renderings after the sweep differ"
+    # A wrong key: --estimate refuses with the file and the JSON path.
+    expect_error 2 "bad_project.json: operating_points.trend.tag" \
+      "$snapshot" --project "$data/sweep/bad_project.json" --view operating-points --estimate \
+      --out "$out/op-bad.png"
     ;;
   window)
     greybench="$6"; source_dir="$7"

@@ -1,0 +1,323 @@
+// The operating points view driven through synthetic ImGui input: click Run, watch the sweep
+// job finish, read Table 2; cancel a long sweep and keep the previous table; a wrong
+// "operating_points" key and a project without one.
+//
+// The table the GUI installs is checked against core's Sweep run directly on the same files
+// with options written out here (the GUI must add nothing and lose nothing on the way).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "core/estimate/sweep.h"
+#include "core/model/model.h"
+#include "tests/ui/workbench_driver.h"
+#include "ui/format.h"
+
+#ifndef GREYBENCH_SOURCE_DIR
+#error "GREYBENCH_SOURCE_DIR must name the source tree (tests/ui/CMakeLists.txt sets it)"
+#endif
+
+namespace gb::ui {
+namespace {
+
+using std::chrono::milliseconds;
+using testing::WorkbenchDriver;
+
+const std::string kSource = GREYBENCH_SOURCE_DIR;
+const std::string kData = kSource + "/tests/data/ui/sweep/";
+const std::string kSweepProject = kData + "project.json";
+const std::string kBadProject = kData + "bad_project.json";
+const std::string kNoSweepProject = kSource + "/tests/data/ui/project.json";
+constexpr milliseconds kSweepTimeout{120000};
+constexpr milliseconds kCancelDeadline{100};
+
+// The first cell `name` and the `n` cells after it of a table row, from ImGui's log of a table
+// ("| tau_fv [s] | 0.07555 (0.0051) | ... |"; a row ending in an empty cell runs on into the
+// next on the same log line); empty when there is no such row.
+std::vector<std::string> Row(const std::string& log, const std::string& name, std::size_t n) {
+  const std::size_t start = log.find("| " + name + " |");
+  if (start == std::string::npos) return {};
+  std::vector<std::string> cells;
+  std::size_t at = start + 2;
+  for (std::size_t end; cells.size() <= n && (end = log.find(" |", at)) != std::string::npos;
+       at = end + 3)
+    cells.push_back(log.substr(at, end - at));
+  return cells;
+}
+
+// core's sweep of the test project: the case study's model on its three files, the project's
+// relations, one thread per fit (as the GUI runs it).
+estimate::SweepResult SweepDirectly() {
+  auto spec = model::LoadModelFile(kSource + "/assets/models/fuel_film.json");
+  EXPECT_TRUE(spec.ok());
+  estimate::SweepOptions options;
+  options.estimate.threads = 1;
+  options.speed_tag = "n_rpm";
+  options.trend_parameter = "X";
+  options.trend_tag = "alpha_deg";
+  options.mean_of = {"tau_fv", "tau_ff"};
+  auto result =
+      estimate::Sweep(*spec, {kData + "p1.csv", kData + "p2.csv", kData + "p3.csv"}, options);
+  EXPECT_TRUE(result.ok()) << result.error().ToString();
+  return *result;
+}
+
+std::optional<ImVec2> FindButton(WorkbenchDriver& d, const char* label) {
+  return d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId(label));
+}
+
+TEST(WorkbenchSweep, ClickingRunInstallsTheSweepCoreComputesAndTheViewShowsTable2) {
+  WorkbenchDriver d;
+  d.Open(kSweepProject);
+  ASSERT_TRUE(d.state.model) << d.state.model_error;
+  ASSERT_TRUE(d.state.sweep.spec) << d.state.sweep.spec_error;
+  d.state.view = View::kOperatingPoints;
+  d.Frame();
+  EXPECT_NE(d.Text().find("No sweep yet"), std::string::npos);
+
+  const std::optional<ImVec2> run = FindButton(d, "Run");
+  ASSERT_TRUE(run) << "the Run button was not found in the operating points view";
+  d.Click(*run);
+  EXPECT_TRUE(SweepRunning(d.state) || d.state.sweep.result);
+  ASSERT_TRUE(d.FramesUntil([&] { return !SweepRunning(d.state); }, kSweepTimeout));
+  d.Frame();
+  ASSERT_TRUE(d.state.sweep.result) << d.state.sweep.last_failure;
+
+  const estimate::SweepResult& gui = d.state.sweep.result->result;
+  const estimate::SweepResult direct = SweepDirectly();
+  ASSERT_EQ(gui.rows.size(), 3u);
+  ASSERT_EQ(gui.rows.size(), direct.rows.size());
+  for (std::size_t i = 0; i < direct.rows.size(); ++i) {
+    const estimate::SweepRow& g = gui.rows[i];
+    const estimate::SweepRow& c = direct.rows[i];
+    EXPECT_EQ(g.point.name, c.point.name);
+    EXPECT_EQ(g.point.values, c.point.values);
+    EXPECT_DOUBLE_EQ(g.summary.loglik, c.summary.loglik) << c.point.name;
+    EXPECT_EQ(g.summary.delays[0].estimate, c.summary.delays[0].estimate) << c.point.name;
+    ASSERT_EQ(g.summary.parameters.size(), c.summary.parameters.size());
+    for (std::size_t k = 0; k < c.summary.parameters.size(); ++k) {
+      EXPECT_DOUBLE_EQ(g.summary.parameters[k].estimate, c.summary.parameters[k].estimate)
+          << c.point.name << " " << c.summary.parameters[k].name;
+    }
+  }
+  ASSERT_TRUE(gui.delay_vs_speed && direct.delay_vs_speed);
+  EXPECT_DOUBLE_EQ(gui.delay_vs_speed->b, direct.delay_vs_speed->b);
+  ASSERT_TRUE(gui.trend && direct.trend);
+  EXPECT_DOUBLE_EQ(gui.trend->b, direct.trend->b);
+  EXPECT_DOUBLE_EQ(gui.means.at("tau_fv").first, direct.means.at("tau_fv").first);
+
+  // The view's table: a column per point, the tags with the project's labels, estimates with
+  // standard errors, the mean over the points.
+  const std::string log = d.Text();
+  const std::vector<std::string> header = Row(log, "Point", 4);
+  ASSERT_EQ(header.size(), 5u) << log;
+  for (std::size_t i = 0; i < direct.rows.size(); ++i)
+    EXPECT_EQ(header[i + 1], direct.rows[i].point.name);
+  const std::vector<std::string> speed = Row(log, "n [rpm]", 4);
+  ASSERT_EQ(speed.size(), 5u) << log;
+  EXPECT_EQ(speed[1], FormatSig(direct.rows[0].point.values.at("n_rpm"), 4));
+  const std::vector<std::string> tau = Row(log, "tau_fv [s]", 4);
+  ASSERT_EQ(tau.size(), 5u) << log;
+  for (std::size_t i = 0; i < direct.rows.size(); ++i) {
+    const estimate::ParameterEstimate& p = direct.rows[i].summary.parameters[0];
+    ASSERT_EQ(p.name, "tau_fv");
+    ASSERT_TRUE(p.std_error);
+    EXPECT_EQ(tau[i + 1], FormatSig(p.estimate, 4) + " (" + FormatSig(*p.std_error, 2) + ")");
+  }
+  const auto [mean, sd] = direct.means.at("tau_fv");
+  EXPECT_EQ(tau[4], FormatSig(mean, 4) + " (" + FormatSig(sd, 2) + ")");
+  const std::vector<std::string> delay = Row(log, "\xCE\x94t [s]", 4);
+  ASSERT_EQ(delay.size(), 5u) << log;
+  EXPECT_EQ(delay[1], FormatSig(direct.rows[0].summary.delays[0].estimate * 0.0125, 4));
+  EXPECT_EQ(log.find("nan"), std::string::npos) << log;
+
+  // Fig. 3's arrays: the points by ascending speed (f3, f1, f7), the curve c / n.
+  const SweepFigures& f = *d.state.sweep.result;
+  ASSERT_EQ(f.speed.size(), 3u);
+  for (std::size_t k : {0u, 1u, 2u}) {
+    const estimate::SweepRow& r = direct.rows[k == 0 ? 1 : k == 1 ? 0 : 2];
+    EXPECT_EQ(f.speed[k], r.point.values.at("n_rpm"));
+    EXPECT_DOUBLE_EQ(f.delay[k], r.summary.delays[0].estimate * r.sample_interval);
+    EXPECT_DOUBLE_EQ(f.delay_half_sample[k], 0.5 * r.sample_interval);
+  }
+  ASSERT_FALSE(f.curve_speed.empty());
+  EXPECT_EQ(f.curve_speed.front(), f.speed.front());
+  EXPECT_EQ(f.curve_speed.back(), f.speed.back());
+  for (std::size_t k = 0; k < f.curve_speed.size(); ++k)
+    EXPECT_DOUBLE_EQ(f.curve_delay[k], direct.delay_vs_speed->b / f.curve_speed[k]);
+
+  // The trend plot follows the choice of parameter.
+  SelectTrend(d.state, "tau_ff", "alpha_deg");
+  EXPECT_EQ(d.state.sweep.trend.parameter, "tau_ff");
+  ASSERT_EQ(d.state.sweep.trend.y.size(), 3u);
+  ASSERT_TRUE(d.state.sweep.trend.fit);
+  std::vector<double> x, y;
+  for (const estimate::SweepRow& r : direct.rows) {
+    x.push_back(r.point.values.at("alpha_deg"));
+    y.push_back(r.summary.parameters[1].estimate);  // tau_ff
+  }
+  EXPECT_DOUBLE_EQ(d.state.sweep.trend.fit->b, estimate::FitLine(x, y, true).b);
+}
+
+TEST(WorkbenchSweep, CancelStopsTheSweepWithin100msAndKeepsThePreviousTable) {
+  WorkbenchDriver d;
+  d.Open(kSweepProject);
+  ASSERT_TRUE(d.state.sweep.spec) << d.state.sweep.spec_error;
+  d.state.view = View::kOperatingPoints;
+  ASSERT_TRUE(StartSweep(d.state));
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.sweep.result) << d.state.sweep.last_failure;
+  const estimate::SweepResult first = d.state.sweep.result->result;
+  d.Frame();
+
+  // A long sweep (the six full-length case-study datasets), cancelled while it fits.
+  d.state.sweep.spec->datasets.clear();
+  for (const char* point : {"f1", "f2", "f3", "f4", "f7", "f8"})
+    d.state.sweep.spec->datasets.push_back(kSource + "/assets/data/fuel_" + point + ".csv");
+  const std::optional<ImVec2> run = FindButton(d, "Run");
+  ASSERT_TRUE(run);
+  d.Click(*run);
+  ASSERT_TRUE(SweepRunning(d.state));
+  ASSERT_TRUE(d.FramesUntil(
+      [&] {
+        if (!d.state.sweep.status) return false;
+        for (SweepStatus::PointState s : d.state.sweep.status->states())
+          if (s == SweepStatus::PointState::kFitting) return true;
+        return false;
+      },
+      kSweepTimeout));
+  EXPECT_NE(d.Text().find("Sweeping"), std::string::npos);
+  const std::optional<ImVec2> cancel =
+      d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId("Cancel"), run->y);
+  ASSERT_TRUE(cancel) << "the Cancel button was not found next to Run";
+  ASSERT_TRUE(SweepRunning(d.state)) << "the sweep ended before it could be cancelled";
+  d.MouseTo(*cancel);
+  d.Press();
+  const auto clicked = std::chrono::steady_clock::now();
+  d.Release();  // the button acts here: CancelSweep
+  d.state.sweep.job.Wait();
+  const auto stopped = std::chrono::steady_clock::now();
+  EXPECT_LT(stopped - clicked, kCancelDeadline);
+  RecordProperty(
+      "cancel_ms",
+      static_cast<int>(std::chrono::duration_cast<milliseconds>(stopped - clicked).count()));
+
+  d.Frame();  // installs the outcome
+  EXPECT_FALSE(SweepRunning(d.state));
+  ASSERT_TRUE(d.state.sweep.result);
+  const estimate::SweepResult& kept = d.state.sweep.result->result;
+  ASSERT_EQ(kept.rows.size(), first.rows.size());
+  for (std::size_t i = 0; i < first.rows.size(); ++i) {
+    EXPECT_EQ(kept.rows[i].dataset, first.rows[i].dataset);
+    EXPECT_EQ(kept.rows[i].summary.theta, first.rows[i].summary.theta);
+  }
+  EXPECT_NE(d.state.sweep.last_failure.find("cancelled"), std::string::npos);
+  ASSERT_FALSE(d.state.messages.empty());
+  EXPECT_EQ(d.state.messages.back().severity, Severity::kWarning);
+  EXPECT_NE(d.state.messages.back().text.find("previous table is kept"), std::string::npos);
+  EXPECT_NE(d.Text().find("from the previous sweep"), std::string::npos);
+}
+
+TEST(WorkbenchSweep, AFailedSweepNamesTheFileAndKeepsThePreviousTable) {
+  WorkbenchDriver d;
+  d.Open(kSweepProject);
+  ASSERT_TRUE(d.state.sweep.spec) << d.state.sweep.spec_error;
+  ASSERT_TRUE(StartSweep(d.state));
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.sweep.result) << d.state.sweep.last_failure;
+  const double loglik = d.state.sweep.result->result.rows[0].summary.loglik;
+
+  d.state.sweep.spec->datasets.push_back(kData + "no_such_point.csv");
+  std::string why;
+  ASSERT_TRUE(StartSweep(d.state, &why)) << why;
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.sweep.result);
+  EXPECT_EQ(d.state.sweep.result->result.rows[0].summary.loglik, loglik);
+  EXPECT_TRUE(d.state.sweep.last_failure_is_error);
+  EXPECT_NE(d.state.sweep.last_failure.find("no_such_point.csv"), std::string::npos)
+      << d.state.sweep.last_failure;
+  ASSERT_FALSE(d.state.messages.empty());
+  EXPECT_EQ(d.state.messages.back().severity, Severity::kError);
+  EXPECT_NE(d.state.messages.back().text.find("previous table is kept"), std::string::npos);
+}
+
+TEST(WorkbenchSweep, AProjectWithoutTheKeyCanSweepItsOwnDatasets) {
+  WorkbenchDriver d;
+  d.Open(kNoSweepProject);
+  ASSERT_TRUE(d.state.project);
+  // Two tagged datasets in the project (as if it listed them).
+  d.state.project->datasets = {kData + "p1.csv", kData + "p3.csv"};
+  d.state.view = View::kOperatingPoints;
+  d.Frame();
+  EXPECT_NE(d.Text().find("Sweep the project's 2 datasets"), std::string::npos);
+  SweepProjectDatasets(d.state);  // what the button does
+  ASSERT_TRUE(d.state.sweep.spec);
+  EXPECT_TRUE(d.state.sweep.spec->datasets_from_project);
+  EXPECT_EQ(d.state.sweep.spec->datasets, d.state.project->datasets);
+  std::string why;
+  ASSERT_TRUE(StartSweep(d.state, &why)) << why;
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.sweep.result) << d.state.sweep.last_failure;
+  ASSERT_EQ(d.state.sweep.result->columns.size(), 2u);
+  EXPECT_EQ(d.state.sweep.result->columns[0], "f1");
+  EXPECT_EQ(d.state.sweep.result->columns[1], "f7");
+}
+
+TEST(WorkbenchSweep, AWrongOperatingPointsKeyIsShownWithTheFileAndJsonPath) {
+  WorkbenchDriver d;
+  d.Open(kBadProject);
+  ASSERT_TRUE(d.state.project) << d.state.open_error;  // the rest of the project is fine
+  EXPECT_FALSE(d.state.sweep.spec);
+  const std::string& error = d.state.sweep.spec_error;
+  EXPECT_NE(error.find("bad_project.json"), std::string::npos) << error;
+  EXPECT_NE(error.find("operating_points.trend.tag"), std::string::npos) << error;
+  std::string why;
+  EXPECT_FALSE(StartSweep(d.state, &why));
+  EXPECT_EQ(why, error);
+  d.state.view = View::kOperatingPoints;
+  d.Frame();
+  const std::string log = d.Text();
+  EXPECT_NE(log.find("operating_points.trend.tag"), std::string::npos) << log;
+  ASSERT_FALSE(d.state.messages.empty());
+  bool reported = false;
+  for (const Message& m : d.state.messages)
+    reported = reported || (m.severity == Severity::kError &&
+                            m.text.find("operating_points.trend.tag") != std::string::npos);
+  EXPECT_TRUE(reported);
+}
+
+TEST(WorkbenchSweep, AProjectWithoutTheKeyIsToldHowToAddOne) {
+  WorkbenchDriver d;
+  d.Open(kNoSweepProject);
+  ASSERT_TRUE(d.state.project);
+  EXPECT_FALSE(d.state.sweep.spec);
+  EXPECT_TRUE(d.state.sweep.spec_error.empty());
+  std::string why;
+  EXPECT_FALSE(StartSweep(d.state, &why));
+  EXPECT_NE(why.find("operating_points"), std::string::npos) << why;
+  d.state.view = View::kOperatingPoints;
+  d.Frame();
+  const std::string log = d.Text();
+  EXPECT_NE(log.find("names no operating points"), std::string::npos) << log;
+  EXPECT_NE(log.find("\"operating_points\""), std::string::npos) << log;
+  // One dataset: nothing to sweep, so no offer to.
+  EXPECT_EQ(log.find("Sweep the project's"), std::string::npos) << log;
+}
+
+TEST(WorkbenchSweep, ANameTheModelLacksIsRefusedWithTheJsonPath) {
+  WorkbenchDriver d;
+  d.Open(kSweepProject);
+  ASSERT_TRUE(d.state.sweep.spec);
+  d.state.sweep.spec->trend_parameter = "Y";
+  std::string why;
+  EXPECT_FALSE(StartSweep(d.state, &why));
+  EXPECT_NE(why.find("project.json: operating_points.trend.parameter: the model has no "
+                     "parameter 'Y'"),
+            std::string::npos)
+      << why;
+}
+
+}  // namespace
+}  // namespace gb::ui
