@@ -188,9 +188,14 @@ void DrawEquationsPanel(AppState& state) {
   ImGui::PushFont(state.fonts.bold);
   ImGui::TextUnformatted(MemberText(model, "name", "(unnamed model)").c_str());
   ImGui::PopFont();
-  ImGui::TextDisabled("%s", project.model_path.empty() ? ("inline in " + project.path).c_str()
-                                                       : project.model_path.c_str());
-  ImGui::TextDisabled("As written in the model file; the model is checked when it is compiled.");
+  if (state.diagram_view.model_from_diagram) {
+    ImGui::TextDisabled("The model is compiled from the block diagram of %s (Diagram view).",
+                        FileName(project.path).c_str());
+  } else {
+    ImGui::TextDisabled("%s", project.model_path.empty() ? ("inline in " + project.path).c_str()
+                                                         : project.model_path.c_str());
+    ImGui::TextDisabled("As written in the model file; the model is checked when it is compiled.");
+  }
   if (!model.is_object()) {
     DrawNotice(state, "The model is not a JSON object", Text(model), Severity::kError);
     ImGui::EndChild();

@@ -5,7 +5,7 @@
 #   snapshot_test.sh CASE SNAPSHOT_EXE PNG_CHECK_EXE DATA_DIR OUT_DIR [GREYBENCH_EXE SOURCE_DIR]
 #
 # CASE: data | equations | placeholder | deterministic | bad-project | bad-view | estimate |
-#       estimate-deterministic | estimate-case-study | window.
+#       estimate-deterministic | estimate-case-study | diagram | window.
 # Exit 0 pass, 1 fail, 77 skipped (window test without xvfb-run).
 set -uo pipefail
 
@@ -37,7 +37,7 @@ case "$case_name" in
     "$png_check" "$out/equations.png" 1024 700 || fail "equations.png"
     ;;
   placeholder)
-    for view in diagram estimate predictions residuals parameters operating-points; do
+    for view in estimate predictions residuals parameters operating-points; do
       "$snapshot" --project "$project" --view "$view" --out "$out/$view.png" \
         --width 800 --height 500 || fail "snapshot of $view failed"
       "$png_check" "$out/$view.png" 800 500 || fail "$view.png"
@@ -86,6 +86,19 @@ case "$case_name" in
         || fail "run $i"
     done
     cmp "$out/est-det1.png" "$out/est-det2.png" || fail "two renderings after --estimate differ"
+    ;;
+  diagram)
+    # The block diagram of Fig. 1 (a project with a diagram) and FromModel's picture of the
+    # equations-only test project. The orange of the process-noise ports and links (d67814)
+    # proves the editor drew the noise blocks' wiring.
+    source_dir="$7"
+    "$snapshot" --project "$source_dir/assets/projects/fuel_film_diagram.json" --view diagram \
+      --out "$out/diagram-fig1.png" || fail "snapshot of the fuel-film diagram failed"
+    "$png_check" "$out/diagram-fig1.png" 1280 800 --colour d67814:20 || fail "diagram-fig1.png"
+    "$snapshot" --project "$project" --view diagram --out "$out/diagram-from-model.png" \
+      --width 1024 --height 700 || fail "snapshot of the equations-only diagram failed"
+    "$png_check" "$out/diagram-from-model.png" 1024 700 --colour d67814:20 \
+      || fail "diagram-from-model.png"
     ;;
   window)
     greybench="$6"; source_dir="$7"
