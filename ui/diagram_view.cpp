@@ -29,7 +29,9 @@ void Recompile(AppState& state) {
 
 void Install(AppState& state, diagram::BlockDiagram d, const diagram::BlockDiagram& before) {
   DiagramViewState& v = state.diagram_view;
-  const bool semantic = !SameSemantics(before, d);
+  // The first edit of FromModel's picture makes it the project's diagram, and its model the
+  // workbench's (the same equations, compiled from the blocks).
+  const bool semantic = !SameSemantics(before, d) || v.from_model;
   v.diagram = std::move(d);
   v.from_model = false;
   if (state.project) state.project->extra["diagram"] = diagram::ToJson(*v.diagram);
@@ -137,8 +139,8 @@ void ApplyDiagramEdits(AppState& state) {
       DiagramRefusal r;
       r.kind = edit.kind;
       r.id = edit.id;
-      r.field = edit.kind == DiagramEditKind::kSetParameter ? edit.parameter.name : edit.field;
-      r.text = edit.text;
+      r.field = edit.field;
+      r.text = edit.kind == DiagramEditKind::kSetParameter ? edit.parameter.name : edit.text;
       r.reason = s.error().ToString();
       v.refusal = std::move(r);
       continue;

@@ -190,7 +190,7 @@ std::string CompileStatus(const AppState& state, Severity* severity) {
     *severity = Severity::kError;
     const std::size_t n = v.problems.size();
     return std::to_string(n) + (n == 1 ? " problem" : " problems") +
-           " (listed on the right): the workbench keeps the last model that compiled";
+           " (listed below): the workbench keeps the last model that compiled";
   }
   if (v.from_model)
     return "Drawn from the equations-only model; the first edit makes it the project's diagram";
@@ -308,12 +308,9 @@ void DrawPalette(AppState& state) {
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", p.help);
   }
   ImGui::PopStyleVar();
-  ImGui::Dummy(ImVec2(0, 6.0f * s));
+  ImGui::Dummy(ImVec2(0, 4.0f * s));
   ImGui::PushTextWrapPos(0.0f);
-  ImGui::TextDisabled(
-      "Measurement noise is the variance field of an output block.\n\nDrag from an out-port "
-      "(right edge) to an in-port (left edge) to link. Wheel: zoom; middle drag or space+drag: "
-      "pan; Del: delete.");
+  ImGui::TextDisabled("Measurement noise: the variance of an output block.");
   ImGui::PopTextWrapPos();
 }
 
@@ -529,8 +526,13 @@ void DrawInspector(AppState& state) {
     ImGui::TextUnformatted(d.name.empty() ? "Diagram" : d.name.c_str());
     ImGui::PopTextWrapPos();
     ImGui::PopFont();
-    ImGui::TextDisabled("%zu blocks, %zu links. Click a block to edit it.", d.blocks.size(),
-                        d.links.size());
+    ImGui::TextDisabled("%zu blocks, %zu links.", d.blocks.size(), d.links.size());
+    ImGui::PushTextWrapPos(0.0f);
+    ImGui::TextDisabled(
+        "Click a block to edit its name and fields. Drag from an out-port (right edge) to an "
+        "in-port (left edge) to link them. Wheel: zoom; middle drag or space + drag: pan; drag "
+        "on empty canvas: select a box (shift or ctrl adds); Del or right click: delete.");
+    ImGui::PopTextWrapPos();
   }
   DrawProblems(state);
 }

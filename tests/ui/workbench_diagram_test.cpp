@@ -8,6 +8,7 @@
 // and assets/data/fuel_f1.csv, not from anything the GUI computed.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -407,6 +408,30 @@ TEST(WorkbenchDiagram, MovingBlocksChangesOnlyTheLayoutAndDelDeletes) {
   EXPECT_FALSE(state.diagram_view.problems.empty());
   EXPECT_EQ(state.model_revision, model_revision);
   ASSERT_TRUE(state.model);
+}
+
+TEST(WorkbenchDiagram, AStartValueEditedInTheParametersViewSurvivesTheNextRecompile) {
+  DiagramDriver dd(kDiagramProject);
+  AppState& state = dd.d.state;
+  ParameterEdit edit;
+  edit.parameter = "tau_fv";
+  edit.number = 0.12;
+  edit.text = "0.12";
+  state.parameters_view.pending.push_back(edit);
+  ApplyParameterEdits(state);
+  ASSERT_EQ(state.model->parameters[state.model->ParameterIndex("tau_fv")].value, 0.12);
+  const auto& table = dd.diagram().parameters;
+  const auto it = std::find_if(table.begin(), table.end(),
+                               [](const model::Parameter& p) { return p.name == "tau_fv"; });
+  ASSERT_NE(it, table.end());
+  EXPECT_EQ(it->value, 0.12);
+  EXPECT_EQ(state.project->extra["diagram"], dd.DiagramJson());
+  // A diagram edit recompiles from the diagram's table: the new start value stays.
+  dd.d.Click(dd.BlockOnScreen(6));  // the gain
+  ASSERT_EQ(dd.Selected(), 6);
+  ASSERT_TRUE(dd.TypeField("k", "2*Kb"));
+  EXPECT_FALSE(state.diagram_view.refusal);
+  EXPECT_EQ(state.model->parameters[state.model->ParameterIndex("tau_fv")].value, 0.12);
 }
 
 }  // namespace

@@ -115,7 +115,7 @@ BlockShape LayoutBlock(const Block& b, std::array<double, 2> position, const Tex
   s.title = b.name.empty() ? diagram::KindName(b.kind) : b.name;
   const std::vector<diagram::PortInfo> ins = diagram::InPorts(b);
   const std::vector<diagram::PortInfo> outs = diagram::OutPorts(b);
-  // A lone signal port named "u" or "out" needs no label.
+  // A lone signal in-port named "u" needs no label.
   auto label = [](const diagram::PortInfo& p, const char* obvious, std::size_t count) {
     return count == 1 && p.name == obvious ? std::string() : p.name;
   };
@@ -136,7 +136,8 @@ BlockShape LayoutBlock(const Block& b, std::array<double, 2> position, const Tex
   std::vector<std::string> in_labels, out_labels;
   for (const auto& p : ins)
     in_labels.push_back(p.type == PortType::kNoise ? p.name : label(p, "u", signal_ins));
-  for (const auto& p : outs) out_labels.push_back(label(p, "out", outs.size()));
+  // A lone out-port is the block's output: no label ("out", or a noise block's "noise").
+  for (const auto& p : outs) out_labels.push_back(outs.size() == 1 ? std::string() : p.name);
   for (std::size_t r = 0; r < rows; ++r) {
     const float a = r < in_labels.size() ? width(in_labels[r]) : 0.0f;
     const float c = r < out_labels.size() ? width(out_labels[r]) : 0.0f;

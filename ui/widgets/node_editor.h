@@ -89,7 +89,7 @@ Transform Fit(ImVec2 origin, ImVec2 size, ImVec2 min, ImVec2 max, float margin, 
 struct PortShape {
   diagram::PortRef ref;
   diagram::PortType type = diagram::PortType::kSignal;
-  std::string label;  // "" when obvious (a lone "u" or "out")
+  std::string label;  // "" when obvious (a lone signal in-port "u", a lone out-port)
   ImVec2 pos;         // canvas
 };
 
