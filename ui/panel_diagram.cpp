@@ -42,6 +42,7 @@ constexpr float kInspectorHeight = 230.0f;  // pixels at scale 1
 constexpr float kMinCanvasHeight = 160.0f;  // pixels at scale 1
 constexpr float kPlacedWidth = 150.0f;      // canvas units reserved for a block placed
 const ImVec4 kErrorText(0.78f, 0.12f, 0.13f, 1.0f);
+const ImVec4 kRefusedFieldBg(1.0f, 0.93f, 0.93f, 1.0f);
 
 // ---------------------------------------------------------------------------------------------
 // 1. Helpers
@@ -148,11 +149,18 @@ std::optional<std::string> TextRow(AppState& state, int block, const std::string
   ImGui::TextDisabled("%s", label);
   ImGui::TableNextColumn();
   ImGui::SetNextItemWidth(-FLT_MIN);
-  if (refused) ImGui::PushStyleColor(ImGuiCol_Border, SeverityColor(Severity::kError));
+  if (refused) {
+    ImGui::PushStyleColor(ImGuiCol_Border, SeverityColor(Severity::kError));
+    ImGui::PushStyleColor(ImGuiCol_FrameBg, kRefusedFieldBg);
+    ImGui::PushStyleVar(ImGuiStyleVar_FrameBorderSize, 1.0f);
+  }
   ImGui::PushFont(state.fonts.mono);
   ImGui::InputTextWithHint(("##" + field).c_str(), hint, text, ImGuiInputTextFlags_AutoSelectAll);
   ImGui::PopFont();
-  if (refused) ImGui::PopStyleColor();
+  if (refused) {
+    ImGui::PopStyleVar();
+    ImGui::PopStyleColor(2);
+  }
   if (ImGui::IsItemActivated()) {
     v.editing_block = block;
     v.editing_field = field;
@@ -320,8 +328,10 @@ void DrawPalette(AppState& state) {
 void DrawBlockInspector(AppState& state, const Block& b) {
   const int id = b.id;
   ImGui::PushFont(state.fonts.bold);
-  ImGui::Text("%s block %d", diagram::KindName(b.kind), id);
+  ImGui::Text("Block %d", id);
   ImGui::PopFont();
+  ImGui::SameLine();
+  ImGui::TextDisabled("%s", node_editor::KindSummary(b.kind));
   if (!ImGui::BeginTable("##fields", 2, ImGuiTableFlags_SizingStretchProp)) return;
   ImGui::TableSetupColumn("label", ImGuiTableColumnFlags_WidthFixed);
   ImGui::TableSetupColumn("value", ImGuiTableColumnFlags_WidthStretch);
@@ -386,9 +396,10 @@ void DrawBlockInspector(AppState& state, const Block& b) {
     }
   }
   ImGui::EndTable();
-  ImGui::TextDisabled(
-      "Fields are expressions of the parameters; in-port names are read by f or "
-      "h.");
+  ImGui::TextDisabled("%s", b.kind == BlockKind::kState || b.kind == BlockKind::kOutput
+                                ? "Fields are expressions of the parameters; f or h reads the "
+                                  "in-ports by name."
+                                : "Fields are expressions of the parameters.");
   if (ImGui::Button("Delete block")) {
     DiagramEdit e;
     e.kind = DiagramEditKind::kRemoveBlock;

@@ -434,5 +434,39 @@ TEST(WorkbenchDiagram, AStartValueEditedInTheParametersViewSurvivesTheNextRecomp
   EXPECT_EQ(state.model->parameters[state.model->ParameterIndex("tau_fv")].value, 0.12);
 }
 
+TEST(WorkbenchDiagram, BoxSelectThenDragMovesTheSelectionAsOneUndoStep) {
+  DiagramDriver dd(kDiagramProject);
+  AppState& state = dd.d.state;
+  const Json before = dd.DiagramJson();
+  // A box around the gain (6) and the delay (7), dragged from empty canvas above-left of the gain
+  // to below-right of the delay.
+  const auto shapes =
+      node_editor::LayoutDiagram(dd.diagram(), node_editor::FontTextWidth(state.fonts.regular));
+  ImVec2 lo(FLT_MAX, FLT_MAX), hi(-FLT_MAX, -FLT_MAX);
+  for (const auto& s : shapes) {
+    if (s.id != 6 && s.id != 7) continue;
+    lo = ImVec2(std::min(lo.x, s.min.x), std::min(lo.y, s.min.y));
+    hi = ImVec2(std::max(hi.x, s.max.x), std::max(hi.y, s.max.y));
+  }
+  const node_editor::Transform t = dd.CanvasTransform();
+  dd.Drag(t.ToScreen(ImVec2(lo.x - 5, lo.y - 30)), t.ToScreen(ImVec2(hi.x - 5, hi.y + 20)));
+  auto selected = state.diagram_view.editor.selected_blocks;
+  std::sort(selected.begin(), selected.end());
+  EXPECT_EQ(selected, (std::vector<int>{6, 7}));
+  EXPECT_EQ(dd.DiagramJson(), before) << "selecting is not an edit";
+
+  const auto gain = dd.diagram().layout.positions.at(6);
+  const auto delay = dd.diagram().layout.positions.at(7);
+  const ImVec2 grab = dd.BlockOnScreen(7);
+  dd.Drag(grab, ImVec2(grab.x, grab.y + 60));
+  const double dy = dd.diagram().layout.positions.at(6)[1] - gain[1];
+  EXPECT_NEAR(dy, 60 / t.zoom, 1.0);
+  EXPECT_EQ(dd.diagram().layout.positions.at(7)[1] - delay[1], dy) << "moved together";
+  EXPECT_EQ(dd.diagram().layout.positions.at(6)[0], gain[0]);
+  ASSERT_EQ(state.diagram_view.undo.size(), 1u);
+  ASSERT_TRUE(dd.ClickToolbar("Undo"));
+  EXPECT_EQ(dd.DiagramJson(), before);
+}
+
 }  // namespace
 }  // namespace gb::ui

@@ -351,7 +351,9 @@ ImU32 HeaderColour(BlockKind kind) {
   }
 }
 
-const char* KindTitle(BlockKind kind) {
+}  // namespace
+
+const char* KindSummary(BlockKind kind) {
   switch (kind) {
     case BlockKind::kInput:
       return "input u";
@@ -376,6 +378,8 @@ const char* KindTitle(BlockKind kind) {
   }
   return "";
 }
+
+namespace {
 
 const PortShape* FindPort(const std::vector<BlockShape>& blocks, const PortRef& ref) {
   for (const BlockShape& b : blocks) {
@@ -732,7 +736,7 @@ void DrawTooltip(const Frame& f) {
                   p.optional ? ", may stay unconnected" : "");
     }
   } else {
-    ImGui::TextUnformatted(KindTitle(b->kind));
+    ImGui::TextUnformatted(KindSummary(b->kind));
   }
   for (const std::string& l : lines)
     ImGui::TextColored(ImVec4(0.84f, 0.15f, 0.16f, 1.0f), "%s", l.c_str());

@@ -171,6 +171,9 @@ struct Options {
   Metrics metrics;
 };
 
+// What a block of `kind` does, in one line ("first-order lag: dx = (K u - x)/tau dt").
+const char* KindSummary(diagram::BlockKind kind);
+
 // Text widths measured with `font` (nullptr: the current font) at m.text_size.
 TextWidth FontTextWidth(ImFont* font, const Metrics& m = {});
 
