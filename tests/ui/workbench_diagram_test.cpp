@@ -468,5 +468,36 @@ TEST(WorkbenchDiagram, BoxSelectThenDragMovesTheSelectionAsOneUndoStep) {
   EXPECT_EQ(dd.DiagramJson(), before);
 }
 
+TEST(WorkbenchDiagram, WheelZoomsAboutTheCursorAndMiddleDragPans) {
+  DiagramDriver dd(kDiagramProject);
+  AppState& state = dd.d.state;
+  const Json before = dd.DiagramJson();
+  const node_editor::Transform t0 = dd.CanvasTransform();
+  const ImVec2 cursor = ImFloor(dd.BlockOnScreen(5));  // ImGui floors the mouse position
+  const ImVec2 under = t0.ToCanvas(cursor);
+  dd.d.MouseTo(cursor);
+  ImGuiIO& io = ImGui::GetIO();
+  io.MouseWheel = 2.0f;
+  dd.d.Frame();
+  io.MouseWheel = 0.0f;
+  dd.d.Frame();
+  const node_editor::Transform t1 = dd.CanvasTransform();
+  EXPECT_GT(t1.zoom, t0.zoom * 1.2f);
+  EXPECT_NEAR(t1.ToCanvas(cursor).x, under.x, 0.01);
+  EXPECT_NEAR(t1.ToCanvas(cursor).y, under.y, 0.01);
+
+  // Middle drag by (40, -25) pixels: the canvas follows the mouse.
+  io.MouseDown[2] = true;
+  dd.d.Frame();
+  dd.d.MouseTo(ImVec2(cursor.x + 40, cursor.y - 25));
+  io.MouseDown[2] = false;
+  dd.d.Frame();
+  const node_editor::Transform t2 = dd.CanvasTransform();
+  EXPECT_NEAR(t2.ToCanvas(ImVec2(cursor.x + 40, cursor.y - 25)).x, under.x, 0.01);
+  EXPECT_NEAR(t2.ToCanvas(ImVec2(cursor.x + 40, cursor.y - 25)).y, under.y, 0.01);
+  EXPECT_EQ(dd.DiagramJson(), before) << "the view is not the diagram";
+  EXPECT_EQ(state.layout_revision, 0);
+}
+
 }  // namespace
 }  // namespace gb::ui
