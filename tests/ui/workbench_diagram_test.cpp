@@ -18,6 +18,7 @@
 #include "core/diagram/diagram.h"
 #include "core/model/model.h"
 #include "core/project/problem.h"
+#include "core/project/project.h"
 #include "tests/ui/workbench_driver.h"
 #include "ui/widgets/node_editor.h"
 
@@ -497,6 +498,30 @@ TEST(WorkbenchDiagram, WheelZoomsAboutTheCursorAndMiddleDragPans) {
   EXPECT_NEAR(t2.ToCanvas(ImVec2(cursor.x + 40, cursor.y - 25)).y, under.y, 0.01);
   EXPECT_EQ(dd.DiagramJson(), before) << "the view is not the diagram";
   EXPECT_EQ(state.layout_revision, 0);
+}
+
+TEST(WorkbenchDiagram, AnUnreadableDiagramIsNamedAndTheModelFileIsUsed) {
+  const std::string path = ::testing::TempDir() + "/greybench_bad_diagram_project.json";
+  {
+    Json project = {
+        {"greybench_project", 1},
+        {"name", "bad diagram"},
+        {"model", kHandWritten},
+        {"datasets", Json::array({kF1})},
+        {"diagram",
+         {{"greybench_diagram", 1}, {"blocks", Json::array({{{"id", 1}, {"kind", "spilt"}}})}}}};
+    ASSERT_TRUE(project::WriteFileAtomic(path, project.dump()).ok());
+  }
+  DiagramDriver dd(path);
+  AppState& state = dd.d.state;
+  EXPECT_FALSE(state.diagram_view.diagram);
+  EXPECT_NE(state.diagram_view.error.find("diagram.blocks[0].kind"), std::string::npos)
+      << state.diagram_view.error;
+  EXPECT_NE(state.diagram_view.error.find("spilt"), std::string::npos);
+  ASSERT_TRUE(state.model) << "the model file is still used";
+  EXPECT_FALSE(state.diagram_view.model_from_diagram);
+  const std::string log = dd.d.Text();
+  EXPECT_NE(log.find("spilt"), std::string::npos) << log;
 }
 
 }  // namespace
