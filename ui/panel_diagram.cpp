@@ -228,7 +228,10 @@ void DrawToolbar(AppState& state) {
   ImGui::SameLine();
   if (ImGui::Button("Fit view")) v.editor.RequestFit();
   ImGui::SameLine();
-  if (ImGui::Button("New diagram") && state.model) {
+  ImGui::BeginDisabled(!state.model);
+  const bool new_diagram = ImGui::Button("New diagram");
+  ImGui::EndDisabled();
+  if (new_diagram && state.model) {
     DiagramEdit e;
     e.kind = DiagramEditKind::kReplace;
     e.diagram = EmptyDiagramLike(*state.model);
@@ -236,7 +239,7 @@ void DrawToolbar(AppState& state) {
     v.editor.selected_blocks.clear();
     v.editor.selected_links.clear();
   }
-  if (ImGui::IsItemHovered())
+  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled))
     ImGui::SetTooltip("An empty diagram with the model's parameters and options (undo restores)");
   ImGui::SameLine(0, 16.0f * state.fonts.scale);
   Severity severity = Severity::kInfo;
