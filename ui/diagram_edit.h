@@ -40,6 +40,8 @@ struct DiagramEdit {
   diagram::Block block;
   std::array<double, 2> position = {0, 0};
   diagram::PortRef from, to;
+  // kSetField: the field; other inspector edits name their control ("name", "ports", "signs",
+  // "delay", "parameter") so a refusal is shown next to it; "" for canvas edits.
   std::string field;
   std::string text;
   std::vector<std::string> names;
@@ -48,12 +50,8 @@ struct DiagramEdit {
   std::optional<diagram::BlockDiagram> diagram;
 };
 
-// True for edits that can change what the diagram means (everything but kMove).
-bool ChangesSemantics(const DiagramEdit& edit);
 // Applies one edit to `d` through core; on refusal `d` is unchanged and the error says why.
 Status ApplyDiagramEdit(diagram::BlockDiagram* d, const DiagramEdit& edit);
-// A one-line description for messages ("link block 1 out 0 -> block 2 in 0").
-std::string Describe(const DiagramEdit& edit);
 // Whether two diagrams mean the same (everything but the layout is equal).
 bool SameSemantics(const diagram::BlockDiagram& a, const diagram::BlockDiagram& b);
 

@@ -6,7 +6,10 @@
 //   - a step that changes the semantics recompiles; when the diagram compiles, its model becomes
 //     state.model (and the project's model JSON) and state.model_revision counts up; when it does
 //     not, the problems are kept for the editor and state.model stays the last model that compiled;
-//   - a step that only moves blocks counts state.layout_revision up instead.
+//   - a step that only moves blocks counts state.layout_revision up instead;
+//   - undo and redo restore whole diagrams (a history of values, at most kDiagramHistory steps).
+// Parameter values edited in the Parameters view are copied into the diagram's parameter table
+// (SyncDiagramParameters), so a recompile keeps them.
 #pragma once
 
 #include <optional>
@@ -25,7 +28,8 @@ struct AppState;
 struct DiagramRefusal {
   DiagramEditKind kind = DiagramEditKind::kMove;
   int id = 0;         // the block (or link) concerned, 0 if none
-  std::string field;  // kSetField: the field; kRename: "name"; ...
+  std::string field;  // the field ("tau"), or "name", "ports", "signs", "delay", "parameter";
+                      // "" for canvas edits (links, deletes), shown in the toolbar
   std::string text;   // what the user entered
   std::string reason;
 };

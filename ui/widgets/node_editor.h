@@ -60,11 +60,13 @@ struct EditorContext {
   diagram::PortRef link_start;       // kLink: the port the link is drawn from
   int menu_block = 0;                // the block or link the context menu is for
   int menu_link = 0;
-  // The centre of the visible canvas in the last frame (where the palette places blocks), and
-  // the blocks' boxes drawn there (to find a free spot).
+  // The centre of the visible canvas in the last frame (where the palette places blocks).
   ImVec2 view_centre = ImVec2(0, 0);
 
-  void Select(int block) { selected_blocks = {block}, selected_links.clear(); }
+  void Select(int block) {
+    selected_blocks = {block};
+    selected_links.clear();
+  }
   bool IsSelected(int block) const;
   void RequestFit() { fit_requested = true; }
 };
