@@ -100,6 +100,7 @@ void InstallProject(AppState& state, ProjectLoad load) {
   state.estimation.trace_x.RequestFit();
   state.parameters_view = ParametersViewState{};
   ResetSweep(state);
+  InstallDiagram(state);  // a project's diagram that compiles supplies the model
   if (!state.model)
     AddMessage(state, Severity::kError, "The model is not valid: " + state.model_error);
 }
@@ -315,6 +316,7 @@ void ApplyParameterEdits(AppState& state) {
   // Keep the project's copy of the model in step, so the other views show the edited values.
   if (state.project && state.project->model_json.is_object())
     state.project->model_json["parameters"] = model::ToJson(*state.model)["parameters"];
+  SyncDiagramParameters(state);
 }
 
 void ApplyFormulaEdits(AppState& state) {

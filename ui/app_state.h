@@ -22,6 +22,7 @@
 #include "core/model/model.h"
 #include "core/project/project.h"
 #include "ui/data_summary.h"
+#include "ui/diagram_view.h"
 #include "ui/estimation.h"
 #include "ui/job.h"
 #include "ui/model_edit.h"
@@ -174,6 +175,7 @@ struct AppState {
   DataViewState data_view;
   ParametersViewState parameters_view;
   EquationsViewState equations_view;
+  DiagramViewState diagram_view;
 
   // greybench-snapshot: draw nothing that depends on the clock (elapsed times are shown as
   // kElapsedPlaceholder), so the same inputs give the same picture.

@@ -67,8 +67,7 @@ bool Editable(const AppState& state, std::string* why) {
     *why = "The model does not compile, so it is shown as written; correct the file and reload.";
     return false;
   }
-  if (state.project && state.project->extra.is_object() &&
-      state.project->extra.contains("diagram")) {
+  if (state.diagram_view.model_from_diagram) {
     *why = "This model is drawn as a block diagram: edit it in the Diagram view.";
     return false;
   }
@@ -338,8 +337,13 @@ void DrawEquationsPanel(AppState& state) {
   ImGui::PushFont(state.fonts.bold);
   ImGui::TextUnformatted(MemberText(model, "name", "(unnamed model)").c_str());
   ImGui::PopFont();
-  ImGui::TextDisabled("%s", project.model_path.empty() ? ("inline in " + project.path).c_str()
-                                                       : project.model_path.c_str());
+  if (state.diagram_view.model_from_diagram) {
+    ImGui::TextDisabled("The model is compiled from the block diagram of %s (Diagram view).",
+                        FileName(project.path).c_str());
+  } else {
+    ImGui::TextDisabled("%s", project.model_path.empty() ? ("inline in " + project.path).c_str()
+                                                         : project.model_path.c_str());
+  }
   std::string why;
   const bool editable = Editable(state, &why);
   ImGui::PushTextWrapPos(0.0f);

@@ -5,7 +5,7 @@
 #   snapshot_test.sh CASE SNAPSHOT_EXE PNG_CHECK_EXE DATA_DIR OUT_DIR [GREYBENCH_EXE SOURCE_DIR]
 #
 # CASE: data | equations | placeholder | deterministic | bad-project | bad-view | estimate |
-#       estimate-deterministic | estimate-case-study | operating-points | window.
+#       estimate-deterministic | estimate-case-study | operating-points | diagram | window.
 # Exit 0 pass, 1 fail, 77 skipped (window test without xvfb-run).
 set -uo pipefail
 
@@ -37,7 +37,7 @@ case "$case_name" in
     "$png_check" "$out/equations.png" 1024 700 || fail "equations.png"
     ;;
   placeholder)
-    for view in diagram estimate predictions residuals parameters; do
+    for view in estimate predictions residuals parameters; do
       "$snapshot" --project "$project" --view "$view" --out "$out/$view.png" \
         --width 800 --height 500 || fail "snapshot of $view failed"
       "$png_check" "$out/$view.png" 800 500 || fail "$view.png"
@@ -108,6 +108,19 @@ case "$case_name" in
     expect_error 2 "bad_project.json: operating_points.trend.tag" \
       "$snapshot" --project "$data/sweep/bad_project.json" --view operating-points --estimate \
       --out "$out/op-bad.png"
+    ;;
+  diagram)
+    # The block diagram of Fig. 1 (a project with a diagram) and FromModel's picture of the
+    # equations-only test project. The orange of the process-noise ports and links (d67814)
+    # proves the editor drew the noise blocks' wiring.
+    source_dir="$7"
+    "$snapshot" --project "$source_dir/assets/projects/fuel_film_diagram.json" --view diagram \
+      --out "$out/diagram-fig1.png" || fail "snapshot of the fuel-film diagram failed"
+    "$png_check" "$out/diagram-fig1.png" 1280 800 --colour d67814:20 || fail "diagram-fig1.png"
+    "$snapshot" --project "$project" --view diagram --out "$out/diagram-from-model.png" \
+      --width 1024 --height 700 || fail "snapshot of the equations-only diagram failed"
+    "$png_check" "$out/diagram-from-model.png" 1024 700 --colour d67814:20 \
+      || fail "diagram-from-model.png"
     ;;
   window)
     greybench="$6"; source_dir="$7"
