@@ -20,6 +20,7 @@
 #include "core/data/dataset.h"
 #include "core/model/model.h"
 #include "core/project/project.h"
+#include "ui/analysis.h"
 #include "ui/data_summary.h"
 #include "ui/estimation.h"
 #include "ui/job.h"
@@ -107,6 +108,37 @@ struct EstimationState {
   Severity last_failure_severity = Severity::kInfo;
 };
 
+// The predictions and residual diagnostics (ui/analysis.h), computed in the background at the
+// last fit's estimates (or the model's current values) and recomputed whenever the request
+// changes (PollJobs); and what the Predictions and Residuals views let the user choose.
+struct AnalysisState {
+  Job<AnalysisRun> job;
+  std::optional<AnalysisRequest> running;    // the request of the job under way
+  std::optional<AnalysisRequest> attempted;  // the last request started, whatever its outcome
+  bool cancel_requested = false;             // by the user (not superseded by a newer request)
+  // The last analysis that finished; a failed or cancelled run leaves it alone.
+  std::optional<Analysis> result;
+  std::string last_failure;  // how the last run ended when it left no result
+  Severity last_failure_severity = Severity::kInfo;
+
+  bool use_current_values = false;  // evaluate at the model's values even when a fit exists
+  int horizon = 10;                 // h of the h-step-ahead overlay
+  bool show_ahead = false;
+  bool show_simulation = false;
+  int dataset = 0;  // shown in both views
+  int output = 0;   // the Residuals view's output
+  int input = 0;    // the Residuals view's cross-correlation input
+  // Time axes of the predictions and the residuals against time (linked with each other),
+  // and the x ranges of the diagnostics plots; refitted when a new result or selection arrives.
+  plot::LinkedRange time_x;
+  plot::LinkedRange acf_x, pacf_x, ccf_x, periodogram_x, histogram_x, qq_x;
+  void RequestFit() {
+    for (plot::LinkedRange* r :
+         {&time_x, &acf_x, &pacf_x, &ccf_x, &periodogram_x, &histogram_x, &qq_x})
+      r->RequestFit();
+  }
+};
+
 // A parameter edit the model refused, shown in the Parameters view next to the table.
 struct ParameterRefusal {
   std::string parameter;
@@ -145,6 +177,7 @@ struct AppState {
   int layout_revision = 0;
 
   EstimationState estimation;
+  AnalysisState analysis;
 
   View view = View::kData;
   std::vector<Message> messages;
@@ -181,6 +214,18 @@ bool StartEstimation(AppState& state, std::string* why = nullptr);
 // Asks the run under way to stop; PollJobs then reports it and keeps the previous result.
 void CancelEstimation(AppState& state);
 bool EstimationRunning(const AppState& state);
+
+// The analysis (ui/analysis_state.cpp). PollJobs installs a finished run and starts a new one
+// when the request it would make differs from the last one started; CancelAnalysis stops the
+// run under way (the previous result is kept and the same request is not retried until
+// RecomputeAnalysis). AnalysisRequestNow is that request, or nothing when there is nothing to
+// analyse (no project, no valid model), with why.
+std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state,
+                                                  std::string* why = nullptr);
+void PollAnalysis(AppState& state);
+void CancelAnalysis(AppState& state);
+void RecomputeAnalysis(AppState& state);
+bool AnalysisRunning(const AppState& state);
 
 // Applies state.parameters_view.pending (and a requested "use estimates as start values") to
 // state.model through core's validation; a refused edit is kept in parameters_view.refusal.
