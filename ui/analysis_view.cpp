@@ -63,7 +63,7 @@ void DrawControls(AppState& state) {
   AnalysisState& a = state.analysis;
   const bool has_fit = state.estimation.result.has_value();
   ImGui::BeginDisabled(!has_fit);
-  ImGui::Checkbox("Model's current values", &a.use_current_values);
+  ImGui::Checkbox("At the model's values", &a.use_current_values);
   ImGui::EndDisabled();
   if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) {
     ImGui::SetTooltip("%s", has_fit ? "Show the model at the values of the Parameters view "
@@ -87,7 +87,7 @@ void DrawControls(AppState& state) {
 
 std::string SamplesText(int n) { return std::to_string(n) + (n == 1 ? " sample" : " samples"); }
 
-const DatasetAnalysis* DrawAnalysisHeader(AppState& state) {
+const DatasetAnalysis* DrawAnalysisHeader(AppState& state, bool (*view_controls)(AppState&)) {
   if (DrawNoProjectNotice(state)) return nullptr;
   if (!state.model) {
     DrawNotice(state, "The model is not valid", state.model_error, Severity::kError);
@@ -101,8 +101,12 @@ const DatasetAnalysis* DrawAnalysisHeader(AppState& state) {
   const Analysis* r = a.result ? &*a.result : nullptr;
   const bool running = AnalysisRunning(state);
 
+  // The toolbar: framed fields, so they read as such on the white background.
+  ImGui::PushStyleVar(ImGuiStyleVar_FrameBorderSize, 1.0f);
   DrawDatasetSelector(state, r);
+  if (r && view_controls && view_controls(state)) ImGui::SameLine(0, 1.6f * ImGui::GetFontSize());
   DrawControls(state);
+  ImGui::PopStyleVar();
   if (r) {
     ImGui::PushTextWrapPos(0.0f);
     ImGui::TextDisabled("%s", SourceText(state, *r).c_str());

@@ -10,8 +10,10 @@
 namespace gb::ui {
 
 // Draws the header and returns the selected dataset's analysis, or nullptr when there is
-// nothing to plot (a notice saying why has been drawn then).
-const DatasetAnalysis* DrawAnalysisHeader(AppState& state);
+// nothing to plot (a notice saying why has been drawn then). `view_controls` (may be null)
+// draws the view's own controls on the toolbar line, after the dataset selector, and returns
+// whether it drew any; it is called only when a result exists.
+const DatasetAnalysis* DrawAnalysisHeader(AppState& state, bool (*view_controls)(AppState&));
 
 // "delay 6 samples" and the like.
 std::string SamplesText(int n);

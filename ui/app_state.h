@@ -125,9 +125,10 @@ struct AnalysisState {
   int horizon = 10;                 // h of the h-step-ahead overlay
   bool show_ahead = false;
   bool show_simulation = false;
-  int dataset = 0;  // shown in both views
-  int output = 0;   // the Residuals view's output
-  int input = 0;    // the Residuals view's cross-correlation input
+  bool show_raw_ccf = false;  // also the CCF with the input as measured
+  int dataset = 0;            // shown in both views
+  int output = 0;             // the Residuals view's output
+  int input = 0;              // the Residuals view's cross-correlation input
   // Time axes of the predictions and the residuals against time (linked with each other),
   // and the x ranges of the diagnostics plots; refitted when a new result or selection arrives.
   plot::LinkedRange time_x;

@@ -20,9 +20,9 @@ namespace {
 constexpr float kMinPlotHeight = 150.0f;  // pixels at scale 1; below it the plots scroll
 constexpr float kHorizonWidth = 96.0f;
 
-void DrawOverlayControls(AppState& state) {
+bool DrawOverlayControls(AppState& state) {
   AnalysisState& a = state.analysis;
-  ImGui::Checkbox("Predictions", &a.show_ahead);
+  ImGui::Checkbox("Predicted", &a.show_ahead);
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "Predictions k samples ahead: from the filtered state k samples earlier, "
@@ -39,6 +39,7 @@ void DrawOverlayControls(AppState& state) {
     ImGui::SetTooltip(
         "The deterministic response of the model to the measured inputs from its "
         "initial state: no measurement is assimilated");
+  return true;
 }
 
 std::string PlotTitle(const OutputAnalysis& o) {
@@ -90,9 +91,8 @@ void DrawOutputPlot(AppState& state, const DatasetAnalysis& d, const OutputAnaly
 }  // namespace
 
 void DrawPredictionsPanel(AppState& state) {
-  const DatasetAnalysis* d = DrawAnalysisHeader(state);
+  const DatasetAnalysis* d = DrawAnalysisHeader(state, DrawOverlayControls);
   if (!d) return;
-  DrawOverlayControls(state);
   for (const OutputAnalysis& o : d->outputs) {
     if (state.analysis.show_ahead && !o.ahead_error.empty()) {
       ImGui::TextColored(SeverityColor(Severity::kWarning), "No %s-ahead predictions for %s: %s",

@@ -22,15 +22,15 @@ namespace {
 
 constexpr float kMinPlotHeight = 150.0f;  // pixels at scale 1; below it the view scrolls
 constexpr float kSelectorWidth = 160.0f;
-constexpr float kTimeRowShare = 0.26f;  // of the plots' height; the two grid rows share the rest
-constexpr double kLagPadding = 0.03;    // the end stems do not sit on the frame
+constexpr float kTimeRowShare = 0.34f;  // of the plots' height; the two grid rows share the rest
+constexpr double kLagPadding = 0.03;   // the end stems do not sit on the frame
 constexpr float kBandAlpha = 0.16f;
 
-// Output and input selectors (only when there is a choice).
-void DrawSelectors(AppState& state, const DatasetAnalysis& d) {
+// Output and input selectors (only when there is a choice), on the header's toolbar line.
+bool DrawSelectors(AppState& state) {
   AnalysisState& a = state.analysis;
   const Analysis& r = *a.result;
-  a.output = std::clamp(a.output, 0, std::max(0, static_cast<int>(d.outputs.size()) - 1));
+  a.output = std::clamp(a.output, 0, std::max(0, static_cast<int>(r.outputs.size()) - 1));
   a.input = std::clamp(a.input, 0, std::max(0, static_cast<int>(r.inputs.size()) - 1));
   bool any = false;
   auto selector = [&](const char* label, const char* id, int* index,
@@ -55,6 +55,12 @@ void DrawSelectors(AppState& state, const DatasetAnalysis& d) {
   };
   selector("Output", "##output", &a.output, r.outputs);
   selector("Cross-correlation with", "##input", &a.input, r.inputs);
+  if (r.inputs.empty()) return any;
+  if (any) ImGui::SameLine(0, 1.6f * ImGui::GetFontSize());
+  ImGui::Checkbox("Raw cross-correlation", &a.show_raw_ccf);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("Also the cross-correlation with the input as measured (not prewhitened)");
+  return true;
 }
 
 // The verdict in a tinted box: green when the residuals look white and normal, amber when
@@ -95,20 +101,29 @@ void DrawVerdict(AppState& state, const diagnose::ResidualDiagnostics& st) {
   dl->ChannelsMerge();
 }
 
+// "label value" pairs left to right, a pair moving to the next line when it does not fit.
 void DrawFigures(const OutputAnalysis& o, const diagnose::ResidualDiagnostics& st) {
   const diagnose::LjungBox& lb = st.ljung_box;
   const diagnose::Normality& nm = st.normality;
-  const char* dot = "  \xC2\xB7  ";
-  const std::string text =
-      "Ljung-Box Q = " + FormatSig(lb.statistic, 4) + " on " + std::to_string(lb.lags) + " lags (" +
-      std::to_string(lb.df) + " df), p = " + FormatPValue(lb.p_value) + dot + "Jarque-Bera " +
-      FormatSig(nm.jarque_bera, 4) + ", p = " + FormatPValue(nm.p_value) + dot + "skewness " +
-      FormatSig(nm.skewness, 3) + dot + "excess kurtosis " + FormatSig(nm.excess_kurtosis, 3) +
-      dot + "sd of z " + FormatSig(nm.sd, 3) + dot + "RMS of \xCE\xB5 " + FormatSig(o.rms, 4) +
-      dot + "n = " + GroupedCount(st.n);
-  ImGui::PushTextWrapPos(0.0f);
-  ImGui::TextUnformatted(text.c_str());
-  ImGui::PopTextWrapPos();
+  const float gap = 1.6f * ImGui::GetFontSize();
+  const float right = ImGui::GetWindowPos().x + ImGui::GetContentRegionMax().x;
+  bool first = true;
+  auto figure = [&](const char* label, const std::string& value) {
+    const float w = ImGui::CalcTextSize(label).x + 0.5f * ImGui::GetFontSize() +
+                    ImGui::CalcTextSize(value.c_str()).x;
+    if (!first && ImGui::GetItemRectMax().x + gap + w <= right) ImGui::SameLine(0, gap);
+    first = false;
+    LabelValue(label, value);
+  };
+  const std::string df = lb.df == lb.lags ? "" : " (" + std::to_string(lb.df) + " df)";
+  figure("Ljung-Box", "Q = " + FormatSig(lb.statistic, 4) + " on " + std::to_string(lb.lags) +
+                          " lags" + df + ", p = " + FormatPValue(lb.p_value));
+  figure("Jarque-Bera", FormatSig(nm.jarque_bera, 4) + ", p = " + FormatPValue(nm.p_value));
+  figure("Skewness", FormatSig(nm.skewness, 3));
+  figure("Excess kurtosis", FormatSig(nm.excess_kurtosis, 3));
+  figure("sd of z", FormatSig(nm.sd, 3));
+  figure("RMS of \xCE\xB5", FormatSig(o.rms, 4));
+  figure("n", GroupedCount(st.n));
 }
 
 plot::ItemStyle Style(ImU32 color, float alpha = 0.22f) {
@@ -184,6 +199,7 @@ void DrawHistogram(AppState& state, const DiagnosticsPlot& p, ImVec2 size) {
   options.y_label = "density";
   options.linked_x = &state.analysis.histogram_x;
   options.legend = plot::Legend::kShow;
+  options.legend_corner = plot::LegendCorner::kTopLeft;  // the tails are low
   if (!plot::BeginPlot(state.plots, "##histogram", size, options)) return;
   const int n = static_cast<int>(p.hist_x.size());
   plot::PlotBand(state.plots, "##bins", p.hist_x.data(), p.hist_zero.data(), p.hist_density.data(),
@@ -203,7 +219,7 @@ void DrawQQ(AppState& state, const DiagnosticsPlot& p, ImVec2 size) {
   options.y_label = "z";
   options.linked_x = &state.analysis.qq_x;
   options.legend = plot::Legend::kShow;
-  options.legend_corner = plot::LegendCorner::kBottomRight;
+  options.legend_corner = plot::LegendCorner::kTopLeft;  // the points run bottom-left to top-right
   options.x_padding = kLagPadding;
   if (!plot::BeginPlot(state.plots, "##qq", size, options)) return;
   plot::ItemStyle points = Style(kPredictionColor);
@@ -246,9 +262,11 @@ void DrawGrid(AppState& state, const DatasetAnalysis& d, const OutputAnalysis& o
   ImGui::SameLine();
   const auto i = static_cast<std::size_t>(a.input);
   if (i < p.ccf.size() && !p.stats.ccf[i].constant) {
-    const std::string title = "Cross-correlation of z with " + p.stats.ccf[i].input;
+    // The prewhitened input locates a peak (the verdict uses it); the input as measured, on
+    // request, shows how its own correlation smears it.
+    const std::string title = "CCF of z with prewhitened " + p.stats.ccf[i].input;
     DrawCorrelogram(state, "##ccf", title.c_str(), "lag (input leads)", p.ccf_prewhitened[i],
-                    &p.ccf[i], &a.ccf_x, ImVec2(-1, row_h));
+                    a.show_raw_ccf ? &p.ccf[i] : nullptr, &a.ccf_x, ImVec2(-1, row_h));
   } else {
     ImGui::BeginChild("##no_ccf", ImVec2(-1, row_h));
     ImGui::PushTextWrapPos(0.0f);
@@ -269,10 +287,10 @@ void DrawGrid(AppState& state, const DatasetAnalysis& d, const OutputAnalysis& o
 }  // namespace
 
 void DrawResidualsPanel(AppState& state) {
-  const DatasetAnalysis* d = DrawAnalysisHeader(state);
-  if (!d) return;
-  if (d->outputs.empty()) return;
-  DrawSelectors(state, *d);
+  const DatasetAnalysis* d = DrawAnalysisHeader(state, DrawSelectors);
+  if (!d || d->outputs.empty()) return;
+  state.analysis.output =
+      std::clamp(state.analysis.output, 0, static_cast<int>(d->outputs.size()) - 1);
   const OutputAnalysis& o = d->outputs[static_cast<std::size_t>(state.analysis.output)];
   if (o.diagnostics) {
     DrawVerdict(state, o.diagnostics->stats);
