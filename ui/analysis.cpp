@@ -105,8 +105,15 @@ Result<std::vector<int>> ChooseDelays(const AnalysisRequest& request, const mode
   return profile->candidates[static_cast<std::size_t>(profile->best)].delay;
 }
 
+// The state space of the preview at the model's current values: none (no preview), the
+// analysis' own (the values are θ), or its own.
+struct Preview {
+  bool same_as_theta = false;
+  std::optional<model::StateSpace> ss;
+};
+
 // One dataset at θ. Returns false when cancelled.
-bool AnalyseSeries(const model::StateSpace& ss, const data::Series& series,
+bool AnalyseSeries(const model::StateSpace& ss, const Preview& preview, const data::Series& series,
                    const filter::FilterSettings& settings, const Analysis& a, DatasetAnalysis* out,
                    JobControl& control) {
   Result<filter::OneStepPredictions> pred = filter::PredictOneStep(ss, series, settings);
@@ -121,6 +128,8 @@ bool AnalyseSeries(const model::StateSpace& ss, const data::Series& series,
       filter::PredictAhead(ss, series, settings, a.request.horizon);
   if (control.cancel) return false;
   Result<sim::Simulation> simulated = sim::DeterministicResponse(ss, series, settings);
+  std::optional<Result<sim::Simulation>> previewed;
+  if (preview.ss) previewed = sim::DeterministicResponse(*preview.ss, series, settings);
   if (control.cancel) return false;
 
   std::vector<std::vector<double>> input_values;
@@ -163,6 +172,11 @@ bool AnalyseSeries(const model::StateSpace& ss, const data::Series& series,
       oa.ahead_error = ahead.error().ToString();
     }
     if (simulated) oa.simulated = Row(simulated->Y, r);
+    if (preview.same_as_theta) {
+      oa.preview = oa.simulated;
+    } else if (previewed && previewed->ok()) {
+      oa.preview = Row((*previewed)->Y, r);
+    }
 
     Result<diagnose::ResidualDiagnostics> d = diagnose::Diagnose(oa.standardized, inputs);
     if (d) {
@@ -237,6 +251,17 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
     run.error = ss.error().ToString();
     return run;
   }
+  Preview preview;
+  if (request.preview_theta == request.theta) {
+    preview.same_as_theta = true;
+  } else if (request.preview_theta.size() == request.theta.size()) {
+    Result<model::StateSpace> p = lm->Evaluate(request.preview_theta);
+    if (p) {
+      preview.ss = std::move(p).value();
+    } else {
+      a.preview_error = p.error().ToString();
+    }
+  }
   Result<std::vector<int>> delay = ChooseDelays(request, m, *likelihood, &a.delay_source);
   if (control.cancel) {
     run.cancelled = true;
@@ -272,7 +297,7 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
                 std::to_string(series.size()) + " rows";
       continue;
     }
-    if (!AnalyseSeries(*ss, series, settings, a, &d, control)) {
+    if (!AnalyseSeries(*ss, preview, series, settings, a, &d, control)) {
       run.cancelled = true;
       return run;
     }

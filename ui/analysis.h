@@ -13,6 +13,7 @@
 //   residual     ε_{o,k} = y_{o,k} - ŷ_{o,k|k-1}, band 0 ± 2 sd
 //   ahead        ŷ_{o,k|k-h}: the h-step prediction (PredictAhead), h chosen in the view
 //   simulated    the deterministic response from x0 (core/sim/response.h): no data assimilated
+//   preview      the same at the model's current values (the Data view's overlay), whatever θ is
 //   rms          sqrt(mean ε²) over the n_observed observations the likelihood uses (k >= the
 //                output's largest delay, y observed)
 //   diagnostics  core/diagnose on the standardised residuals z = ε / sd of those observations,
@@ -48,9 +49,10 @@ struct AnalysisRequest {
   int project_generation = 0;  // AppState::project_generation
   int model_revision = 0;      // AppState::model_revision
   AnalysisSource source = AnalysisSource::kCurrentValues;
-  std::vector<double> theta;  // every parameter, in model order
-  std::vector<int> delay;     // per output (the fit's); empty: chosen as described above
-  int horizon = 1;            // h of the h-step predictions, >= 1
+  std::vector<double> theta;          // every parameter, in model order
+  std::vector<int> delay;             // per output (the fit's); empty: chosen as described above
+  int horizon = 1;                    // h of the h-step predictions, >= 1
+  std::vector<double> preview_theta;  // the model's current values, for `preview`
   bool operator==(const AnalysisRequest&) const = default;
 };
 
@@ -97,6 +99,7 @@ struct OutputAnalysis {
   std::vector<double> ahead;         // h-step predictions (empty when they failed: ahead_error)
   std::string ahead_error;
   std::vector<double> simulated;
+  std::vector<double> preview;  // empty when the model's values cannot be evaluated
   int n_observed = 0;
   double rms = 0.0;  // NaN when n_observed = 0
   std::optional<DiagnosticsPlot> diagnostics;
@@ -118,8 +121,9 @@ struct Analysis {
   AnalysisRequest request;
   std::vector<std::string> parameter_names;
   std::vector<std::string> inputs, outputs;
-  std::vector<int> delay;    // used, per output
-  std::string delay_source;  // "fit", "model", "profile likelihood at these values"
+  std::vector<int> delay;     // used, per output
+  std::string delay_source;   // "fit", "model", "profile likelihood at these values"
+  std::string preview_error;  // why there is no preview (the model's values do not evaluate)
   std::vector<DatasetAnalysis> datasets;
 };
 

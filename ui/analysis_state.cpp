@@ -93,6 +93,7 @@ std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state, std::st
   r.project_generation = state.project_generation;
   r.model_revision = state.model_revision;
   r.horizon = std::clamp(a.horizon, 1, kMaxHorizon);
+  r.preview_theta = m.Values();
   const FitResult* fit = state.estimation.result ? &*state.estimation.result : nullptr;
   if (fit && !a.use_current_values && FitMatchesModel(fit->summary, m)) {
     r.source = AnalysisSource::kFit;

@@ -86,6 +86,8 @@ struct ProjectLoad {
 struct DataViewState {
   // One per dataset: the plots of a dataset's columns pan and zoom together in x.
   std::vector<plot::LinkedRange> x_ranges;
+  // Over each output, the model's simulated response at its current values (from the analysis).
+  bool show_preview = true;
 };
 
 // The estimation: options, the job under way, and the last finished fit.

@@ -183,6 +183,7 @@ TEST(WorkbenchAnalysis, WithoutAFitThePredictionsAreCoresAtTheModelsValues) {
   EXPECT_EQ(a.delay_source, "profile likelihood at these values");
   const Direct direct = ComputeDirectly(d.state.model->Values(), {});
   ExpectMatchesCore(a, direct, LargestDelay(*d.state.model));
+  EXPECT_EQ(a.datasets[0].outputs[0].preview.size(), a.datasets[0].outputs[0].simulated.size());
 
   // The views draw it, and say plainly that there is no fit.
   d.state.view = View::kPredictions;
@@ -224,6 +225,20 @@ TEST(WorkbenchAnalysis, AFitRestartsItAtTheEstimatesAndACancelledRunKeepsThem) {
   d.Frame();
   EXPECT_NE(d.Text().find("At the estimates of the last fit"), std::string::npos);
 
+  // The Data view's preview stays at the model's current values (the start values), not at
+  // the estimates.
+  ASSERT_NE(d.state.model->Values(), fit.theta);
+  const Direct current = ComputeDirectly(d.state.model->Values(), {fit.delays[0].estimate});
+  auto preview = sim::DeterministicResponse(current.ss, *current.series, current.settings);
+  ASSERT_TRUE(preview.ok());
+  const OutputAnalysis& o = a.datasets[0].outputs[0];
+  ASSERT_EQ(o.preview.size(), o.measured.size());
+  for (std::size_t k = 0; k < o.preview.size(); ++k)
+    EXPECT_TRUE(Same(o.preview[k], preview->Y(0, static_cast<Eigen::Index>(k)))) << "k = " << k;
+  d.state.view = View::kData;
+  d.Frame();
+  EXPECT_NE(d.Text().find("at the model's current values"), std::string::npos);
+
   // A new request (another horizon), cancelled at once: the fit's results stay, and the
   // cancelled request is not retried by itself.
   const int horizon = a.request.horizon;
@@ -239,6 +254,7 @@ TEST(WorkbenchAnalysis, AFitRestartsItAtTheEstimatesAndACancelledRunKeepsThem) {
   ASSERT_FALSE(d.state.messages.empty());
   EXPECT_EQ(d.state.messages.back().severity, Severity::kWarning);
   EXPECT_NE(d.state.messages.back().text.find("previous results are kept"), std::string::npos);
+  d.state.view = View::kPredictions;
   d.Frame();
   EXPECT_FALSE(AnalysisRunning(d.state));
   EXPECT_NE(d.Text().find("The plots show the previous results"), std::string::npos);
