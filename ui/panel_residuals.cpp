@@ -23,7 +23,7 @@ namespace {
 constexpr float kMinPlotHeight = 150.0f;  // pixels at scale 1; below it the view scrolls
 constexpr float kSelectorWidth = 160.0f;
 constexpr float kTimeRowShare = 0.34f;  // of the plots' height; the two grid rows share the rest
-constexpr double kLagPadding = 0.03;   // the end stems do not sit on the frame
+constexpr double kLagPadding = 0.03;    // the end stems do not sit on the frame
 constexpr float kBandAlpha = 0.16f;
 
 // Output and input selectors (only when there is a choice), on the header's toolbar line.
