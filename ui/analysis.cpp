@@ -192,6 +192,10 @@ bool AnalyseSeries(const model::StateSpace& ss, const Preview& preview, const da
 
 AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
   AnalysisRun run;
+  if (control.cancel) {  // superseded before it began
+    run.cancelled = true;
+    return run;
+  }
   const AnalysisRequest& request = input.request;
   if (request.theta.size() != input.spec.parameters.size()) {
     run.error = "the parameter values do not match the model (" +
