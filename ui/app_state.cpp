@@ -101,6 +101,10 @@ void InstallProject(AppState& state, ProjectLoad load) {
   state.parameters_view = ParametersViewState{};
   ResetSweep(state);
   InstallDiagram(state);  // a project's diagram that compiles supplies the model
+  // So was the analysis; PollAnalysis starts the new project's (a run under way is superseded).
+  state.analysis.result.reset();
+  state.analysis.last_failure.clear();
+  state.analysis.dataset = state.analysis.output = state.analysis.input = 0;
   if (!state.model)
     AddMessage(state, Severity::kError, "The model is not valid: " + state.model_error);
 }
@@ -197,7 +201,10 @@ void PollJobs(AppState& state) {
   PollSweep(state);
 
   std::optional<ProjectLoad> load = state.load_job.TakeIfReady();
-  if (!load) return;
+  if (!load) {
+    PollAnalysis(state);
+    return;
+  }
   state.loading_path.clear();
   if (!load->project) {
     state.open_error = load->error;
@@ -218,19 +225,26 @@ void PollJobs(AppState& state) {
                      (state.datasets.size() == 1 ? " dataset" : " datasets");
   if (failed > 0) text += ", " + std::to_string(failed) + " could not be read";
   AddMessage(state, failed > 0 ? Severity::kWarning : Severity::kInfo, text + ")");
+  PollAnalysis(state);
 }
 
 void WaitForJobs(AppState& state) {
-  state.load_job.Wait();
-  PollJobs(state);
-  state.estimation.job.Wait();
-  PollJobs(state);
-  state.sweep.job.Wait();
-  PollJobs(state);
+  // Installing one job's result may start another (a fit restarts the analysis).
+  do {
+    state.load_job.Wait();
+    PollJobs(state);
+    state.estimation.job.Wait();
+    PollJobs(state);
+    state.sweep.job.Wait();
+    PollJobs(state);
+    state.analysis.job.Wait();
+    PollJobs(state);
+  } while (AnyJobActive(state));
 }
 
 bool AnyJobActive(const AppState& state) {
-  return state.load_job.active() || state.estimation.job.active() || state.sweep.job.active();
+  return state.load_job.active() || state.estimation.job.active() || state.sweep.job.active() ||
+         state.analysis.job.active();
 }
 
 bool EstimationRunning(const AppState& state) { return state.estimation.job.active(); }

@@ -21,6 +21,7 @@
 #include "core/data/dataset.h"
 #include "core/model/model.h"
 #include "core/project/project.h"
+#include "ui/analysis.h"
 #include "ui/data_summary.h"
 #include "ui/diagram_view.h"
 #include "ui/estimation.h"
@@ -88,6 +89,8 @@ struct ProjectLoad {
 struct DataViewState {
   // One per dataset: the plots of a dataset's columns pan and zoom together in x.
   std::vector<plot::LinkedRange> x_ranges;
+  // Over each output, the model's simulated response at its current values (from the analysis).
+  bool show_preview = true;
 };
 
 // The estimation: options, the job under way, and the last finished fit.
@@ -108,6 +111,38 @@ struct EstimationState {
   // How the last run ended when it left no result: "cancelled after 1.2 s", or the error.
   std::string last_failure;
   Severity last_failure_severity = Severity::kInfo;
+};
+
+// The predictions and residual diagnostics (ui/analysis.h), computed in the background at the
+// last fit's estimates (or the model's current values) and recomputed whenever the request
+// changes (PollJobs); and what the Predictions and Residuals views let the user choose.
+struct AnalysisState {
+  Job<AnalysisRun> job;
+  std::optional<AnalysisRequest> running;    // the request of the job under way
+  std::optional<AnalysisRequest> attempted;  // the last request started, whatever its outcome
+  bool cancel_requested = false;             // by the user (not superseded by a newer request)
+  // The last analysis that finished; a failed or cancelled run leaves it alone.
+  std::optional<Analysis> result;
+  std::string last_failure;  // how the last run ended when it left no result
+  Severity last_failure_severity = Severity::kInfo;
+
+  bool use_current_values = false;  // evaluate at the model's values even when a fit exists
+  int horizon = 10;                 // h of the h-step-ahead overlay
+  bool show_ahead = false;
+  bool show_simulation = false;
+  bool show_raw_ccf = false;  // also the CCF with the input as measured
+  int dataset = 0;            // shown in both views
+  int output = 0;             // the Residuals view's output
+  int input = 0;              // the Residuals view's cross-correlation input
+  // Time axes of the predictions and the residuals against time (linked with each other),
+  // and the x ranges of the diagnostics plots; refitted when a new result or selection arrives.
+  plot::LinkedRange time_x;
+  plot::LinkedRange acf_x, pacf_x, ccf_x, periodogram_x, histogram_x, qq_x;
+  void RequestFit() {
+    for (plot::LinkedRange* r :
+         {&time_x, &acf_x, &pacf_x, &ccf_x, &periodogram_x, &histogram_x, &qq_x})
+      r->RequestFit();
+  }
 };
 
 // A parameter edit the model refused, shown in the Parameters view next to the table.
@@ -161,6 +196,7 @@ struct AppState {
 
   EstimationState estimation;
   SweepState sweep;  // the operating-point sweep
+  AnalysisState analysis;
 
   View view = View::kData;
   std::vector<Message> messages;
@@ -216,6 +252,17 @@ bool SweepRunning(const AppState& state);
 void PollSweep(AppState& state);
 // The trend plot's parameter and tag (the Operating points view's choice).
 void SelectTrend(AppState& state, const std::string& parameter, const std::string& tag);
+// The analysis (ui/analysis_state.cpp). PollJobs installs a finished run and starts a new one
+// when the request it would make differs from the last one started; CancelAnalysis stops the
+// run under way (the previous result is kept and the same request is not retried until
+// RecomputeAnalysis). AnalysisRequestNow is that request, or nothing when there is nothing to
+// analyse (no project, no valid model), with why.
+std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state,
+                                                  std::string* why = nullptr);
+void PollAnalysis(AppState& state);
+void CancelAnalysis(AppState& state);
+void RecomputeAnalysis(AppState& state);
+bool AnalysisRunning(const AppState& state);
 
 // Applies state.parameters_view.pending (and a requested "use estimates as start values") to
 // state.model through core's validation; a refused edit is kept in parameters_view.refusal.

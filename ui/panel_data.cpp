@@ -1,6 +1,8 @@
 // The data view: per dataset a summary (samples, sample time, time span), a table of the
 // columns (role in the model, missing values, range) and one plot per column against time,
-// stacked, their x axes linked.
+// stacked, their x axes linked. Over each output, on request, a preview of the model's
+// simulated response at its current values (the deterministic response to the measured inputs,
+// computed by the analysis job: AppState::analysis, ui/analysis.h).
 #include <algorithm>
 #include <cstdio>
 #include <string>
@@ -14,6 +16,7 @@ namespace {
 
 constexpr float kMinPlotHeight = 150.0f;  // pixels at scale 1; below it the plots scroll
 constexpr int kMaxTableRows = 8;          // more columns than this scroll inside the table
+constexpr ImU32 kPreviewColor = IM_COL32(20, 24, 30, 255);  // apart from every palette colour
 
 // The names listed under `key` ("inputs", "outputs") in the model JSON; tolerant of a model
 // that core/model would reject (the data view shows the data even then).
@@ -126,6 +129,50 @@ void DrawColumnTable(AppState& state, const LoadedDataset& d) {
   }
 }
 
+// The preview of output `name` in dataset `index`, or null (not an output, none computed yet,
+// or the model's values cannot be simulated).
+const std::vector<double>* Preview(const AppState& state, std::size_t index,
+                                   const std::string& name) {
+  const std::optional<Analysis>& r = state.analysis.result;
+  if (!state.data_view.show_preview || !r || index >= r->datasets.size()) return nullptr;
+  const DatasetAnalysis& d = r->datasets[index];
+  if (d.time.size() != state.datasets[index].data->rows()) return nullptr;
+  for (const OutputAnalysis& o : d.outputs) {
+    if (o.name == name && o.preview.size() == d.time.size()) return &o.preview;
+  }
+  return nullptr;
+}
+
+// The preview's switch and what it shows.
+void DrawPreviewToggle(AppState& state) {
+  ImGui::Checkbox("Simulated response", &state.data_view.show_preview);
+  if (ImGui::IsItemHovered()) {
+    ImGui::SetTooltip(
+        "Over each output: the model's deterministic response to the measured inputs at its "
+        "current values (the Parameters view), from its initial state; no measurement is "
+        "assimilated");
+  }
+  if (!state.data_view.show_preview) return;
+  ImGui::SameLine();
+  ImGui::AlignTextToFramePadding();
+  const AnalysisState& a = state.analysis;
+  const bool current =
+      a.result && a.result->request.preview_theta ==
+                      AnalysisRequestNow(state).value_or(AnalysisRequest{}).preview_theta;
+  if (!state.model) {
+    ImGui::TextDisabled("(the model is not valid)");
+  } else if (a.result && !a.result->preview_error.empty()) {
+    ImGui::TextColored(SeverityColor(Severity::kWarning), "(not at these values: %s)",
+                       a.result->preview_error.c_str());
+  } else if (!current && AnalysisRunning(state)) {
+    ImGui::TextDisabled("(computing\xE2\x80\xA6)");
+  } else if (!current && !a.last_failure.empty()) {
+    ImGui::TextColored(SeverityColor(a.last_failure_severity), "(%s)", a.last_failure.c_str());
+  } else {
+    ImGui::TextDisabled("at the model's current values");
+  }
+}
+
 void DrawColumnPlots(AppState& state, std::size_t index) {
   const LoadedDataset& d = state.datasets[index];
   const data::Dataset& data = *d.data;
@@ -160,7 +207,8 @@ void DrawColumnPlots(AppState& state, std::size_t index) {
     options.x_label = data.time_name.c_str();
     options.x_title = last;
     options.linked_x = &state.data_view.x_ranges[index];
-    options.legend = plot::Legend::kHide;
+    const std::vector<double>* preview = Preview(state, index, column.name);
+    options.legend = preview ? plot::Legend::kShow : plot::Legend::kHide;
     ImGui::PushID(shown[k]);
     if (plot::BeginPlot(state.plots, "##column", ImVec2(-1, last ? height + title_h : height),
                         options)) {
@@ -168,6 +216,11 @@ void DrawColumnPlots(AppState& state, std::size_t index) {
       style.color = palette[static_cast<std::size_t>(shown[k]) % palette.size()];
       plot::PlotLine(state.plots, column.name.c_str(), data.time.data(), column.values.data(),
                      n_time, style);
+      if (preview) {
+        plot::ItemStyle sim;
+        sim.color = kPreviewColor;
+        plot::PlotLine(state.plots, "simulated", data.time.data(), preview->data(), n_time, sim);
+      }
       plot::EndPlot(state.plots);
     }
     ImGui::PopID();
@@ -186,6 +239,7 @@ void DrawDataset(AppState& state, std::size_t index) {
   ImGui::Spacing();
   DrawColumnTable(state, d);
   ImGui::Spacing();
+  DrawPreviewToggle(state);
   ImGui::TextDisabled(
       "Wheel: zoom time \xC2\xB7 drag: pan \xC2\xB7 right-drag: zoom to box \xC2\xB7 "
       "double-click: fit \xC2\xB7 over the y axis, wheel and drag act on y \xC2\xB7 "

@@ -32,7 +32,8 @@ constexpr const char* kAboutPopup = "About greybench";
 // sidebar.
 bool ViewAvailable(View view) {
   return view == View::kData || view == View::kEquations || view == View::kEstimate ||
-         view == View::kParameters || view == View::kOperatingPoints || view == View::kDiagram;
+         view == View::kParameters || view == View::kOperatingPoints || view == View::kDiagram ||
+         view == View::kPredictions || view == View::kResiduals;
 }
 
 // ---------------------------------------------------------------------------------------------

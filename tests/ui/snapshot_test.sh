@@ -5,7 +5,8 @@
 #   snapshot_test.sh CASE SNAPSHOT_EXE PNG_CHECK_EXE DATA_DIR OUT_DIR [GREYBENCH_EXE SOURCE_DIR]
 #
 # CASE: data | equations | placeholder | deterministic | bad-project | bad-view | estimate |
-#       estimate-deterministic | estimate-case-study | operating-points | diagram | window.
+#       estimate-deterministic | estimate-case-study | operating-points | diagram | predictions |
+#       residuals | window.
 # Exit 0 pass, 1 fail, 77 skipped (window test without xvfb-run).
 set -uo pipefail
 
@@ -37,7 +38,7 @@ case "$case_name" in
     "$png_check" "$out/equations.png" 1024 700 || fail "equations.png"
     ;;
   placeholder)
-    for view in estimate predictions residuals parameters; do
+    for view in estimate parameters; do
       "$snapshot" --project "$project" --view "$view" --out "$out/$view.png" \
         --width 800 --height 500 || fail "snapshot of $view failed"
       "$png_check" "$out/$view.png" 800 500 || fail "$view.png"
@@ -121,6 +122,27 @@ case "$case_name" in
       --width 1024 --height 700 || fail "snapshot of the equations-only diagram failed"
     "$png_check" "$out/diagram-from-model.png" 1024 700 --colour d67814:20 \
       || fail "diagram-from-model.png"
+    ;;
+  predictions|residuals)
+    # The view at the model's values (no fit) and after --estimate, on the test project and the
+    # case study. Exact colours prove what is drawn: predictions, the blue one-step prediction
+    # line and the dark measurement markers; residuals, the verdict's stripe and word, red
+    # ("not white") at the start values and green ("white and normal") at the estimates.
+    source_dir="$7"
+    for p in "$project" "$source_dir/assets/projects/case_study.json"; do
+      name="$case_name-$(basename "$p" .json)"
+      if [[ $case_name == predictions ]]; then
+        no_fit=(--colour 1f77b4:1000 --colour 3c4048:200); fit=("${no_fit[@]}")
+      else
+        no_fit=(--colour c72929:200); fit=(--colour 228b22:200)
+      fi
+      "$snapshot" --project "$p" --view "$case_name" --out "$out/$name-no-fit.png" \
+        || fail "snapshot of $name without a fit failed"
+      "$png_check" "$out/$name-no-fit.png" 1280 800 "${no_fit[@]}" || fail "$name-no-fit.png"
+      "$snapshot" --project "$p" --view "$case_name" --estimate --out "$out/$name-fit.png" \
+        || fail "snapshot of $name after --estimate failed"
+      "$png_check" "$out/$name-fit.png" 1280 800 "${fit[@]}" || fail "$name-fit.png"
+    done
     ;;
   window)
     greybench="$6"; source_dir="$7"

@@ -42,6 +42,9 @@ class WorkbenchDriver {
     io.Fonts->GetTexDataAsRGBA32(&pixels, &w, &h);  // builds the atlas (no renderer here)
     io.DisplaySize = ImVec2(kWidth, kHeight);
     io.DeltaTime = 1.0f / 60.0f;
+    // As ui/render/fixed_gl_renderer.cpp: a plot of 10 000 points needs more than 65 536
+    // vertices, which ImGui then draws in several parts of one draw list.
+    io.BackendFlags |= ImGuiBackendFlags_RendererHasVtxOffset;
     io.KeyMap[ImGuiKey_Enter] = kEnterKey;
     io.MousePos = ImVec2(-FLT_MAX, -FLT_MAX);
   }
