@@ -5,7 +5,7 @@
 #   snapshot_test.sh CASE SNAPSHOT_EXE PNG_CHECK_EXE DATA_DIR OUT_DIR [GREYBENCH_EXE SOURCE_DIR]
 #
 # CASE: data | equations | placeholder | deterministic | bad-project | bad-view | estimate |
-#       estimate-deterministic | estimate-case-study | window.
+#       estimate-deterministic | estimate-case-study | dialog | window.
 # Exit 0 pass, 1 fail, 77 skipped (window test without xvfb-run).
 set -uo pipefail
 
@@ -86,6 +86,16 @@ case "$case_name" in
         || fail "run $i"
     done
     cmp "$out/est-det1.png" "$out/est-det2.png" || fail "two renderings after --estimate differ"
+    ;;
+  dialog)
+    # The shell's dialogs drawn over the data view (--dialog), and an unknown one refused.
+    for dialog in open-project save-project-as new-project keyboard-shortcuts unsaved-changes; do
+      "$snapshot" --project "$project" --view data --dialog "$dialog" \
+        --out "$out/dialog-$dialog.png" || fail "snapshot of $dialog failed"
+      "$png_check" "$out/dialog-$dialog.png" 1280 800 || fail "dialog-$dialog.png"
+    done
+    expect_error 2 "dialog 'print'" \
+      "$snapshot" --project "$project" --view data --dialog print --out "$out/bad.png"
     ;;
   window)
     greybench="$6"; source_dir="$7"
