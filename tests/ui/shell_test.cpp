@@ -11,12 +11,15 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "core/model/model.h"
 #include "core/project/project.h"
@@ -55,6 +58,10 @@ class ShellTest : public ::testing::Test {
       fs::copy_file(kUiData / f, dir_ / "work" / f);
     // The project was saved a while ago (the recovery file must be newer to be offered).
     fs::last_write_time(project(), fs::file_time_type::clock::now() - std::chrono::hours(1));
+    for (const char* var : kEnvironment) {
+      const char* value = std::getenv(var);
+      saved_env_.push_back(value ? std::optional<std::string>(value) : std::nullopt);
+    }
     ::setenv("HOME", (dir_ / "home").c_str(), 1);
     ::setenv("XDG_CONFIG_HOME", (dir_ / "config").c_str(), 1);
     ::setenv("XDG_STATE_HOME", (dir_ / "state").c_str(), 1);
@@ -62,6 +69,13 @@ class ShellTest : public ::testing::Test {
   }
   void TearDown() override {
     driver_.reset();
+    for (std::size_t i = 0; i < kEnvironment.size(); ++i) {
+      if (saved_env_[i]) {
+        ::setenv(kEnvironment[i], saved_env_[i]->c_str(), 1);
+      } else {
+        ::unsetenv(kEnvironment[i]);
+      }
+    }
     std::error_code ec;
     fs::remove_all(dir_, ec);
   }
@@ -119,6 +133,8 @@ class ShellTest : public ::testing::Test {
 
   // Clicks the button `label` in the popup (or window) whose name starts with `window`.
   bool ClickIn(const char* window, const char* label) {
+    driver_->Frame();  // an auto-sized popup takes the size of new content a frame later
+    driver_->Frame();
     ImGuiWindow* w = WorkbenchDriver::FindWindow(window);
     if (!w || !w->Active) return false;
     std::optional<ImVec2> at = driver_->Find(w, ImHashStr(label, 0, w->ID));
@@ -138,6 +154,9 @@ class ShellTest : public ::testing::Test {
   }
 
  private:
+  static constexpr std::array<const char*, 3> kEnvironment = {"HOME", "XDG_CONFIG_HOME",
+                                                              "XDG_STATE_HOME"};
+  std::vector<std::optional<std::string>> saved_env_;  // restored after the test
   fs::path dir_;
   std::unique_ptr<WorkbenchDriver> driver_;
 };
@@ -345,6 +364,42 @@ TEST_F(ShellTest, AddDatasetAndReplaceModelAreSavedWithTheProject) {
   ASSERT_TRUE(raw.ok());
   EXPECT_EQ((*raw)["model"], "other_model.json");
   EXPECT_EQ((*raw)["datasets"], Json::array({"f1.csv", "f1_copy.csv"}));
+}
+
+TEST_F(ShellTest, NewProjectWritesTheProjectFileAndOpensIt) {
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  ASSERT_TRUE(OpenDialogByName(d.state, "new-project"));
+  d.Frame();
+  ASSERT_TRUE(PopupOpen("New project"));
+  // Create refuses an empty form and says what is missing.
+  ASSERT_TRUE(ClickIn("New project", "Create"));
+  EXPECT_NE(d.state.shell.new_form.error.find("model"), std::string::npos);
+  EXPECT_TRUE(PopupOpen("New project"));
+
+  fs::create_directories(dir() / "new");
+  NewProjectForm& f = d.state.shell.new_form;
+  f.model = (dir() / "work/fuel_film.json").string();
+  f.datasets = {(dir() / "work/f1.csv").string(), (dir() / "work/missing.csv").string()};
+  f.project = (dir() / "new/fresh").string();  // .json is added
+  ASSERT_TRUE(ClickIn("New project", "Create"));
+  EXPECT_NE(f.error.find("missing.csv"), std::string::npos) << f.error;
+
+  f.datasets.pop_back();
+  ASSERT_TRUE(ClickIn("New project", "Create"));
+  ASSERT_TRUE(WaitLoaded());
+  d.Frame();
+  EXPECT_FALSE(PopupOpen("New project"));
+  const std::string fresh = (dir() / "new/fresh.json").string();
+  ASSERT_TRUE(d.state.project);
+  EXPECT_EQ(d.state.project->path, fresh);
+  ASSERT_EQ(d.state.datasets.size(), 1u);
+  EXPECT_TRUE(d.state.datasets[0].data);
+  EXPECT_TRUE(d.state.model);
+  auto raw = project::ReadJsonFile(fresh);
+  ASSERT_TRUE(raw.ok());
+  EXPECT_EQ((*raw)["model"], "../work/fuel_film.json");
+  EXPECT_EQ((*raw)["datasets"], Json::array({"../work/f1.csv"}));
 }
 
 TEST(FileBrowser, ListsFoldersFirstFiltersAndReportsUnreadableFolders) {
