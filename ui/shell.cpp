@@ -259,7 +259,8 @@ void FinishRestore(AppState& state) {
 // 4. Model and dataset edits
 
 void InstallDataset(AppState& state, DatasetRead read) {
-  if (!state.project) return;
+  // Another project was opened while the file was read: it was not meant for that one.
+  if (!state.project || state.shell.dataset_generation != state.project_generation) return;
   if (!read.data) {
     AddMessage(state, Severity::kError, "Could not add the dataset: " + read.error);
     return;
@@ -714,6 +715,7 @@ Status ReplaceModel(AppState& state, const std::string& path) {
 
 void AddDataset(AppState& state, const std::string& path) {
   if (!state.project || state.shell.dataset_job.active()) return;
+  state.shell.dataset_generation = state.project_generation;
   state.shell.dataset_job.Start([path = Absolute(path)](JobControl&) {
     DatasetRead out;
     out.path = path;

@@ -91,6 +91,7 @@ struct ShellState {
   NewProjectForm new_form;
 
   Job<DatasetRead> dataset_job;  // File > Add dataset
+  int dataset_generation = 0;    // AppState::project_generation it was started for
 
   bool show_shortcuts = false;  // Help > Keyboard shortcuts
 
