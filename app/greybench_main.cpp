@@ -17,12 +17,17 @@
 
 #include "ui/app_state.h"
 #include "ui/render/png.h"
+#include "ui/shell.h"
 #include "ui/theme.h"
 #include "ui/workbench.h"
 
 #ifndef GREYBENCH_ASSETS_DIR
 #error "GREYBENCH_ASSETS_DIR must name the assets directory (app/CMakeLists.txt sets it)"
 #endif
+
+// The shell's shortcuts name GLFW key codes without including GLFW.
+static_assert(gb::ui::kKeyF5 == GLFW_KEY_F5 && gb::ui::kKeyEqual == GLFW_KEY_EQUAL &&
+              gb::ui::kKeyMinus == GLFW_KEY_MINUS && GLFW_KEY_O == 'O' && GLFW_KEY_1 == '1');
 
 namespace {
 
@@ -120,13 +125,6 @@ bool WriteScreenshot(GLFWwindow* window, const std::string& path) {
   return true;
 }
 
-std::string WindowTitle(const gb::ui::AppState& state) {
-  if (!state.project) return "greybench";
-  const gb::project::Project& p = *state.project;
-  return "greybench \xE2\x80\x94 " +
-         (p.name.empty() ? std::filesystem::path(p.path).filename().string() : p.name);
-}
-
 int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
   namespace ui = gb::ui;
   float xscale = 1.0f, yscale = 1.0f;
@@ -137,6 +135,7 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
   ui::SetUpWorkbench(state, scale);
   ImGui_ImplGlfw_InitForOpenGL(window, true);
   ImGui_ImplOpenGL3_Init(glsl_version);
+  if (options.screenshot.empty()) ui::StartSession(state);  // scripted screenshots touch no files
 
   if (!options.project.empty()) {
     ui::OpenProject(state, options.project);
@@ -154,7 +153,15 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
   int frames_drawn_loaded = 0;  // frames drawn with no job under way (for --screenshot)
   int busy_frames = kFramesAfterInput;
   std::string title;
-  while (!glfwWindowShouldClose(window) && !state.quit_requested) {
+  float zoom = 1.0f;
+  while (!state.quit_requested) {
+    // Closing the window is File > Quit: it asks to save changes first.
+    if (glfwWindowShouldClose(window)) {
+      glfwSetWindowShouldClose(window, GLFW_FALSE);
+      ui::RequestQuit(state);
+      if (state.quit_requested) break;
+      busy_frames = kFramesAfterInput;
+    }
     // A job under way redraws every frame: its progress shows, and its result is installed
     // (and a cancel acknowledged) at the next frame.
     const bool busy = busy_frames > 0 || ui::AnyJobActive(state) || !options.screenshot.empty() ||
@@ -168,13 +175,20 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
       if (glfwGetTime() - t0 < 0.9 * kIdleWaitSeconds) busy_frames = kFramesAfterInput;
     }
 
+    if (state.shell.zoom != zoom) {  // View > Zoom: fonts and style rebuilt at the new scale
+      zoom = state.shell.zoom;
+      ImGui::GetIO().Fonts->Clear();
+      ui::SetUpWorkbench(state, scale * zoom);
+      ImGui_ImplOpenGL3_DestroyFontsTexture();
+      ImGui_ImplOpenGL3_CreateFontsTexture();
+    }
     ImGui_ImplOpenGL3_NewFrame();
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
     ui::DrawWorkbench(state);
     ImGui::Render();
 
-    if (const std::string t = WindowTitle(state); t != title) {
+    if (const std::string t = ui::WindowTitle(state); t != title) {
       title = t;
       glfwSetWindowTitle(window, title.c_str());
     }

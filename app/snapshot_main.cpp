@@ -1,7 +1,7 @@
 // greybench-snapshot: renders one view of the workbench offscreen (OSMesa) to a PNG.
 // CONTRACT section 6:
 //   greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png [--width W --height H]
-//                      [--estimate]
+//                      [--estimate] [--dialog DIALOG]
 // Exit status: 0 written; 2 bad command line or bad input (stderr names the file); 1 the
 // rendering or the PNG writing failed, or --estimate's estimation failed (the PNG is still
 // written: it shows why).
@@ -11,6 +11,9 @@
 // threads = 1 and the other options at their defaults. For the operating-points view, whose
 // computation is the sweep, it starts the sweep as that view's Run button does (StartSweep)
 // instead.
+//
+// --dialog opens one of the shell's dialogs over the view, as its menu item does (the file
+// browser lists a real folder, so its dates make that picture depend on the machine).
 //
 // Deterministic: a fixed frame time, no mouse, no clock-dependent content (AppState::
 // deterministic: every elapsed time, in the views and in the report text, is drawn as the
@@ -30,6 +33,7 @@
 #include "ui/app_state.h"
 #include "ui/render/fixed_gl_renderer.h"
 #include "ui/render/png.h"
+#include "ui/shell.h"
 #include "ui/theme.h"
 #include "ui/workbench.h"
 
@@ -51,12 +55,14 @@ struct Options {
   int width = 1280;
   int height = 800;
   bool estimate = false;
+  std::string dialog;  // a dialog of the shell drawn over the view (ui/shell.h)
 };
 
 constexpr const char* kUsage =
     "usage: greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png\n"
-    "                          [--width W] [--height H] [--estimate]\n"
-    "VIEW: data diagram equations estimate predictions residuals parameters operating-points\n";
+    "                          [--width W] [--height H] [--estimate] [--dialog DIALOG]\n"
+    "VIEW: data diagram equations estimate predictions residuals parameters operating-points\n"
+    "DIALOG: open-project save-project-as new-project keyboard-shortcuts unsaved-changes\n";
 
 int Fail(int status, const std::string& message) {
   std::fprintf(stderr, "greybench-snapshot: error: %s\n", message.c_str());
@@ -80,7 +86,7 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
     }
     if (arg == "--help" || arg == "-h") return "help";
     const bool takes_value = arg == "--project" || arg == "--view" || arg == "--out" ||
-                             arg == "--width" || arg == "--height";
+                             arg == "--width" || arg == "--height" || arg == "--dialog";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
@@ -90,6 +96,8 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       o->view = value;
     } else if (arg == "--out") {
       o->out = value;
+    } else if (arg == "--dialog") {
+      o->dialog = value;
     } else {
       const std::optional<int> size = ParseSize(value);
       if (!size) {
@@ -140,6 +148,11 @@ int Render(const Options& options, gb::ui::View view, std::vector<unsigned char>
                    state.estimation.last_failure.c_str());
       status = kExitRenderFailed;
     }
+  }
+
+  if (!options.dialog.empty() && !ui::OpenDialogByName(state, options.dialog)) {
+    return Fail(kExitBadInput,
+                "--dialog '" + options.dialog + "': expected one of " + ui::kDialogNames);
   }
 
   ImGuiIO& io = ImGui::GetIO();

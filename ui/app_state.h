@@ -27,6 +27,7 @@
 #include "ui/estimation.h"
 #include "ui/job.h"
 #include "ui/model_edit.h"
+#include "ui/shell_state.h"
 #include "ui/sweep.h"
 #include "ui/widgets/plot.h"
 
@@ -202,9 +203,8 @@ struct AppState {
   std::vector<Message> messages;
   bool show_messages = false;
   bool show_about = false;
-  bool open_dialog_requested = false;
-  std::string open_dialog_path;
-  bool quit_requested = false;
+  bool open_dialog_requested = false;  // opens the file browser for File > Open project
+  bool quit_requested = false;         // set once the user has answered "save changes?"
 
   Fonts fonts;
   plot::PlotContext plots;
@@ -212,6 +212,7 @@ struct AppState {
   ParametersViewState parameters_view;
   EquationsViewState equations_view;
   DiagramViewState diagram_view;
+  ShellState shell;  // files, recent projects, unsaved changes, recovery (ui/shell.h)
 
   // greybench-snapshot: draw nothing that depends on the clock (elapsed times are shown as
   // kElapsedPlaceholder), so the same inputs give the same picture.

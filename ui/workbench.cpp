@@ -4,7 +4,7 @@
 //   1. Menu bar
 //   2. Sidebar: project, views, datasets
 //   3. Status bar and the messages window
-//   4. Dialogs: open project, about
+//   4. Dialogs: about (the File menu's dialogs are in ui/shell.cpp)
 //   5. DrawWorkbench
 #include "ui/workbench.h"
 
@@ -16,6 +16,7 @@
 
 #include "ui/panel_common.h"
 #include "ui/panels.h"
+#include "ui/shell.h"
 
 #ifndef GREYBENCH_VERSION
 #define GREYBENCH_VERSION "unknown"
@@ -25,7 +26,6 @@ namespace gb::ui {
 namespace {
 
 constexpr float kSidebarWidth = 220.0f;  // pixels at scale 1
-constexpr const char* kOpenPopup = "Open project";
 constexpr const char* kAboutPopup = "About greybench";
 
 // Views whose feature exists; the others show an honest placeholder and are dimmed in the
@@ -41,30 +41,27 @@ bool ViewAvailable(View view) {
 
 void DrawMenuBar(AppState& state) {
   if (!ImGui::BeginMainMenuBar()) return;
-  const bool loading = state.load_job.active();
   if (ImGui::BeginMenu("File")) {
-    if (ImGui::MenuItem("Open project\xE2\x80\xA6", nullptr, false, !loading)) {
-      state.open_dialog_requested = true;
-    }
-    if (ImGui::MenuItem("Reload project", nullptr, false, !loading && state.project)) {
-      OpenProject(state, state.project->path);
-    }
-    ImGui::Separator();
-    if (ImGui::MenuItem("Quit")) state.quit_requested = true;
+    DrawFileMenu(state);
     ImGui::EndMenu();
   }
   if (ImGui::BeginMenu("View")) {
     for (View v : kAllViews) {
       const std::string title(ViewTitle(v));
-      if (ImGui::MenuItem(title.c_str(), nullptr, state.view == v)) state.view = v;
+      const std::string keys = ViewShortcut(v);
+      if (ImGui::MenuItem(title.c_str(), keys.c_str(), state.view == v)) state.view = v;
     }
     ImGui::Separator();
     if (ImGui::MenuItem("Messages", nullptr, state.show_messages)) {
       state.show_messages = !state.show_messages;
     }
+    ImGui::Separator();
+    DrawZoomMenuItems(state);
     ImGui::EndMenu();
   }
   if (ImGui::BeginMenu("Help")) {
+    if (ImGui::MenuItem("Keyboard shortcuts", nullptr, state.shell.show_shortcuts))
+      state.shell.show_shortcuts = !state.shell.show_shortcuts;
     if (ImGui::MenuItem("About greybench")) state.show_about = true;
     ImGui::EndMenu();
   }
@@ -221,34 +218,6 @@ void DrawMessagesWindow(AppState& state) {
 // ---------------------------------------------------------------------------------------------
 // 4. Dialogs
 
-void DrawOpenDialog(AppState& state) {
-  if (state.open_dialog_requested) {
-    state.open_dialog_requested = false;
-    if (state.open_dialog_path.empty() && state.project)
-      state.open_dialog_path = state.project->path;
-    ImGui::OpenPopup(kOpenPopup);
-  }
-  const ImGuiViewport* vp = ImGui::GetMainViewport();
-  ImGui::SetNextWindowPos(
-      ImVec2(vp->WorkPos.x + vp->WorkSize.x * 0.5f, vp->WorkPos.y + vp->WorkSize.y * 0.35f),
-      ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
-  if (!ImGui::BeginPopupModal(kOpenPopup, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
-  ImGui::TextUnformatted("Project file (JSON, CONTRACT section 7):");
-  ImGui::SetNextItemWidth(560.0f * state.fonts.scale);
-  if (ImGui::IsWindowAppearing()) ImGui::SetKeyboardFocusHere();
-  const bool enter =
-      ImGui::InputTextWithHint("##path", "path/to/project.json", &state.open_dialog_path,
-                               ImGuiInputTextFlags_EnterReturnsTrue);
-  const bool can_open = !state.open_dialog_path.empty();
-  ImGui::BeginDisabled(!can_open);
-  const bool open = ImGui::Button("Open") || (enter && can_open);
-  ImGui::EndDisabled();
-  ImGui::SameLine();
-  if (ImGui::Button("Cancel") || open) ImGui::CloseCurrentPopup();
-  if (open) OpenProject(state, state.open_dialog_path);
-  ImGui::EndPopup();
-}
-
 void DrawAboutDialog(AppState& state) {
   if (state.show_about) {
     state.show_about = false;
@@ -301,6 +270,7 @@ void DrawPanel(AppState& state, View view) {
 
 void DrawWorkbench(AppState& state) {
   PollJobs(state);
+  UpdateShell(state);
   DrawMenuBar(state);
 
   const float s = state.fonts.scale;
@@ -356,7 +326,7 @@ void DrawWorkbench(AppState& state) {
   ImGui::SetCursorScreenPos(ImVec2(ImGui::GetWindowPos().x,
                                    ImGui::GetWindowPos().y + ImGui::GetWindowHeight() - status_h));
   DrawStatusBar(state, status_h);
-  DrawOpenDialog(state);
+  DrawShellDialogs(state);
   DrawAboutDialog(state);
   ImGui::End();
 

@@ -8,7 +8,8 @@
 namespace gb::ui {
 
 // Draws one frame of the workbench, between ImGui::NewFrame() and ImGui::Render(). Installs the
-// results of finished jobs first. Sets state.quit_requested when the user chooses File > Quit.
+// results of finished jobs first. Sets state.quit_requested when the user has chosen File > Quit
+// (or RequestQuit was called) and answered "save changes?".
 void DrawWorkbench(AppState& state);
 
 }  // namespace gb::ui

@@ -1,11 +1,11 @@
 #include "core/project/project.h"
 
+#include <fmt/format.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-
-#include <fmt/format.h>
 
 namespace gb::project {
 namespace fs = std::filesystem;
@@ -40,6 +40,19 @@ std::string ResolvePath(const std::string& base_dir, const std::string& p) {
   if (path.is_absolute() || base_dir.empty()) return path.lexically_normal().string();
   return (fs::path(base_dir) / path).lexically_normal().string();
 }
+
+namespace {
+
+// `p` as written into a project file in `dir`: relative when it can be, "/" separated.
+std::string PathForFile(const std::string& p, const fs::path& dir, bool relative) {
+  const fs::path absolute = fs::absolute(fs::path(p)).lexically_normal();
+  if (!relative) return absolute.generic_string();
+  const fs::path rel = absolute.lexically_relative(dir);
+  if (rel.empty()) return absolute.generic_string();
+  return rel.generic_string();
+}
+
+}  // namespace
 
 Result<Json> ReadJsonFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -109,6 +122,29 @@ Result<Project> LoadProject(const std::string& path) {
       p.extra[it.key()] = it.value();
   }
   return p;
+}
+
+Json ProjectToJson(const Project& p, const std::string& path, bool relative_paths) {
+  const fs::path dir = fs::absolute(fs::path(path)).lexically_normal().parent_path();
+  Json j = Json::object();
+  j["greybench_project"] = 1;
+  j["name"] = p.name;
+  if (!p.model_path.empty()) {
+    j["model"] = PathForFile(p.model_path, dir, relative_paths);
+  } else {
+    j["model"] = p.model_json;
+  }
+  Json datasets = Json::array();
+  for (const std::string& d : p.datasets) datasets.push_back(PathForFile(d, dir, relative_paths));
+  j["datasets"] = std::move(datasets);
+  if (p.extra.is_object()) {
+    for (auto it = p.extra.begin(); it != p.extra.end(); ++it) j[it.key()] = it.value();
+  }
+  return j;
+}
+
+Status SaveProject(const Project& p, const std::string& path, bool relative_paths) {
+  return WriteFileAtomic(path, ProjectToJson(p, path, relative_paths).dump(1) + "\n");
 }
 
 Status WriteFileAtomic(const std::string& path, const std::string& text) {

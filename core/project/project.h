@@ -37,6 +37,20 @@ std::string ResolvePath(const std::string& base_dir, const std::string& path);
 // Reads a JSON file with errors of the form `FILE:LINE:COL: JSON syntax error: ...`.
 Result<Json> ReadJsonFile(const std::string& path);
 
+// The project file for `p` saved at `path` (CONTRACT section 7), the inverse of LoadProject:
+//   "name"     p.name;
+//   "model"    when p.model_path is set, that file's path (the caller has checked that it holds
+//              the model to save); otherwise p.model_json inline;
+//   "datasets" p.datasets;
+//   every key of p.extra, untouched (diagrams, layout).
+// With `relative_paths`, model and dataset paths are written relative to the directory of
+// `path` (as LoadProject resolves them); otherwise absolute (e.g. for a recovery file kept
+// elsewhere). A path on another root than `path` stays absolute.
+Json ProjectToJson(const Project& p, const std::string& path, bool relative_paths = true);
+
+// Writes ProjectToJson(p, path) to `path` atomically. Errors name the file.
+Status SaveProject(const Project& p, const std::string& path, bool relative_paths = true);
+
 // Writes `text` to `path` atomically (a temporary file beside it, flushed, then renamed).
 Status WriteFileAtomic(const std::string& path, const std::string& text);
 

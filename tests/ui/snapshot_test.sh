@@ -5,8 +5,8 @@
 #   snapshot_test.sh CASE SNAPSHOT_EXE PNG_CHECK_EXE DATA_DIR OUT_DIR [GREYBENCH_EXE SOURCE_DIR]
 #
 # CASE: data | equations | placeholder | deterministic | bad-project | bad-view | estimate |
-#       estimate-deterministic | estimate-case-study | operating-points | diagram | predictions |
-#       residuals | window.
+#       estimate-deterministic | estimate-case-study | operating-points | diagram | dialog |
+#       predictions | residuals | window.
 # Exit 0 pass, 1 fail, 77 skipped (window test without xvfb-run).
 set -uo pipefail
 
@@ -143,6 +143,16 @@ case "$case_name" in
         || fail "snapshot of $name after --estimate failed"
       "$png_check" "$out/$name-fit.png" 1280 800 "${fit[@]}" || fail "$name-fit.png"
     done
+    ;;
+  dialog)
+    # The shell's dialogs drawn over the data view (--dialog), and an unknown one refused.
+    for dialog in open-project save-project-as new-project keyboard-shortcuts unsaved-changes; do
+      "$snapshot" --project "$project" --view data --dialog "$dialog" \
+        --out "$out/dialog-$dialog.png" || fail "snapshot of $dialog failed"
+      "$png_check" "$out/dialog-$dialog.png" 1280 800 || fail "dialog-$dialog.png"
+    done
+    expect_error 2 "dialog 'print'" \
+      "$snapshot" --project "$project" --view data --dialog print --out "$out/bad.png"
     ;;
   window)
     greybench="$6"; source_dir="$7"

@@ -1,0 +1,436 @@
+// The application shell driven as a user drives it (synthetic keys and clicks on the headless
+// workbench): save as and open again through the file browser, "save changes?" before quitting,
+// the recent-projects list (and a corrupt one), restoring an edit from the recovery file after
+// a crash, the keyboard shortcuts, adding a dataset and replacing the model.
+//
+// Every test runs in a fresh temporary directory and points HOME, XDG_CONFIG_HOME and
+// XDG_STATE_HOME there, so nothing is written into the user's home.
+#include "ui/shell.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/model/model.h"
+#include "core/project/project.h"
+#include "tests/ui/workbench_driver.h"
+#include "ui/widgets/file_browser.h"
+
+#ifndef GREYBENCH_SOURCE_DIR
+#error "GREYBENCH_SOURCE_DIR must name the source tree (tests/ui/CMakeLists.txt sets it)"
+#endif
+
+namespace gb::ui {
+namespace {
+namespace fs = std::filesystem;
+using std::chrono::milliseconds;
+using testing::WorkbenchDriver;
+
+const fs::path kUiData = fs::path(GREYBENCH_SOURCE_DIR) / "tests/data/ui";
+constexpr milliseconds kTimeout{30000};
+
+// Key codes the tests map ImGui's named keys to (GLFW's, as in greybench).
+constexpr int kKeyEscape = 256;
+constexpr int kKeyBackspace = 259;
+constexpr int kKeyDown = 264;
+constexpr int kKeyUp = 265;
+constexpr int kKeyA = 'A';
+
+class ShellTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    static int counter = 0;
+    dir_ = fs::temp_directory_path() /
+           ("greybench-shell-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ / "work");
+    for (const char* f : {"project.json", "fuel_film.json", "f1.csv"})
+      fs::copy_file(kUiData / f, dir_ / "work" / f);
+    // The project was saved a while ago (the recovery file must be newer to be offered).
+    fs::last_write_time(project(), fs::file_time_type::clock::now() - std::chrono::hours(1));
+    for (const char* var : kEnvironment) {
+      const char* value = std::getenv(var);
+      saved_env_.push_back(value ? std::optional<std::string>(value) : std::nullopt);
+    }
+    ::setenv("HOME", (dir_ / "home").c_str(), 1);
+    ::setenv("XDG_CONFIG_HOME", (dir_ / "config").c_str(), 1);
+    ::setenv("XDG_STATE_HOME", (dir_ / "state").c_str(), 1);
+    fs::create_directories(dir_ / "home");
+  }
+  void TearDown() override {
+    driver_.reset();
+    for (std::size_t i = 0; i < kEnvironment.size(); ++i) {
+      if (saved_env_[i]) {
+        ::setenv(kEnvironment[i], saved_env_[i]->c_str(), 1);
+      } else {
+        ::unsetenv(kEnvironment[i]);
+      }
+    }
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+
+  std::string project() const { return (dir_ / "work/project.json").string(); }
+  fs::path dir() const { return dir_; }
+
+  // A new workbench (as if greybench started), with the session files on.
+  WorkbenchDriver& Start() {
+    driver_.reset();
+    driver_ = std::make_unique<WorkbenchDriver>();
+    ImGuiIO& io = ImGui::GetIO();
+    io.KeyMap[ImGuiKey_Escape] = kKeyEscape;
+    io.KeyMap[ImGuiKey_Backspace] = kKeyBackspace;
+    io.KeyMap[ImGuiKey_DownArrow] = kKeyDown;
+    io.KeyMap[ImGuiKey_UpArrow] = kKeyUp;
+    io.KeyMap[ImGuiKey_A] = kKeyA;
+    StartSession(driver_->state);
+    return *driver_;
+  }
+
+  // Presses and releases `key` (with Ctrl / Shift held).
+  void Key(int key, bool ctrl = false, bool shift = false) {
+    ImGuiIO& io = ImGui::GetIO();
+    io.KeyCtrl = ctrl;
+    io.KeyShift = shift;
+    io.KeysDown[key] = true;
+    driver_->Frame();
+    io.KeysDown[key] = false;
+    io.KeyCtrl = false;
+    io.KeyShift = false;
+    driver_->Frame();
+  }
+
+  bool WaitLoaded() {
+    return driver_->FramesUntil([&] { return !driver_->state.load_job.active(); }, kTimeout);
+  }
+
+  // The start value of `name` in the workbench's model.
+  double Value(const std::string& name) const {
+    const model::ModelSpec& m = *driver_->state.model;
+    return m.parameters[m.ParameterIndex(name)].value;
+  }
+
+  // Edits a start value the way the Parameters view does.
+  void EditValue(const std::string& name, double value) {
+    ParameterEdit e;
+    e.parameter = name;
+    e.number = value;
+    e.text = std::to_string(value);
+    driver_->state.parameters_view.pending.push_back(e);
+    ApplyParameterEdits(driver_->state);
+    driver_->Frame();
+  }
+
+  // Clicks the button `label` in the popup (or window) whose name starts with `window`.
+  bool ClickIn(const char* window, const char* label) {
+    driver_->Frame();  // an auto-sized popup takes the size of new content a frame later
+    driver_->Frame();
+    ImGuiWindow* w = WorkbenchDriver::FindWindow(window);
+    if (!w || !w->Active) return false;
+    std::optional<ImVec2> at = driver_->Find(w, ImHashStr(label, 0, w->ID));
+    if (!at) return false;
+    driver_->Click(*at);
+    return true;
+  }
+
+  static bool PopupOpen(const char* name) {
+    ImGuiWindow* w = WorkbenchDriver::FindWindow(name);
+    return w && w->Active;
+  }
+  // The file browser is open with the title `title`.
+  bool BrowserOpen(const std::string& title) const {
+    ImGuiWindow* w = WorkbenchDriver::FindWindow("", "###file_browser");
+    return w && w->Active && driver_->state.shell.browser.request.title == title;
+  }
+
+ private:
+  static constexpr std::array<const char*, 3> kEnvironment = {"HOME", "XDG_CONFIG_HOME",
+                                                              "XDG_STATE_HOME"};
+  std::vector<std::optional<std::string>> saved_env_;  // restored after the test
+  fs::path dir_;
+  std::unique_ptr<WorkbenchDriver> driver_;
+};
+
+TEST_F(ShellTest, SaveAsAndOpenAgainThroughTheFileBrowser) {
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  ASSERT_TRUE(d.state.project && d.state.model);
+  EXPECT_FALSE(HasUnsavedChanges(d.state));
+  EXPECT_EQ(WindowTitle(d.state).back(), 'm');  // "greybench — UI test: fuel film", no marker
+
+  EditValue("tau_fv", 0.123);
+  EXPECT_TRUE(HasUnsavedChanges(d.state));
+  EXPECT_EQ(WindowTitle(d.state).substr(WindowTitle(d.state).size() - 2), " *");
+
+  // Ctrl+Shift+S: the browser opens in the project's folder with its name in the field.
+  Key('S', /*ctrl=*/true, /*shift=*/true);
+  ASSERT_TRUE(BrowserOpen("Save project as"));
+  EXPECT_EQ(d.state.shell.browser.directory, (dir() / "work").string());
+  Key(kKeyA, /*ctrl=*/true);  // select the proposed name, then type over it
+  d.Type("saved");            // the .json of the filter is added
+  d.PressEnter();
+  d.Frame();
+  const std::string saved = (dir() / "work/saved.json").string();
+  ASSERT_TRUE(fs::exists(saved)) << "messages: " << d.state.messages.back().text;
+  EXPECT_FALSE(BrowserOpen("Save project as"));
+  EXPECT_EQ(d.state.project->path, saved);
+  EXPECT_FALSE(HasUnsavedChanges(d.state));
+
+  // The file holds the edited model inline (the model file no longer holds it) and the data
+  // relative to the project.
+  auto raw = project::ReadJsonFile(saved);
+  ASSERT_TRUE(raw.ok());
+  EXPECT_TRUE((*raw)["model"].is_object());
+  EXPECT_EQ((*raw)["datasets"][0], "f1.csv");
+  EXPECT_EQ((*raw)["model"]["parameters"]["tau_fv"]["value"], 0.123);
+  const Json model_before = model::ToJson(*d.state.model);
+
+  // Open it again with the keyboard: Ctrl+O, Down to saved.json, Enter.
+  EditValue("tau_fv", 0.2);  // an edit that must not survive: Discard it below
+  Key('O', /*ctrl=*/true);
+  ASSERT_TRUE(BrowserOpen("Open project"));
+  const FileBrowserState& b = d.state.shell.browser;
+  for (int i = 0; i < 10 && (b.selected < 0 || b.entries[b.selected].name != "saved.json"); ++i)
+    Key(kKeyDown);
+  ASSERT_GE(b.selected, 0);
+  ASSERT_EQ(b.entries[b.selected].name, "saved.json");
+  d.PressEnter();
+  ASSERT_TRUE(PopupOpen("Unsaved changes"));  // the 0.2 edit
+  ASSERT_TRUE(ClickIn("Unsaved changes", "Discard changes"));
+  ASSERT_TRUE(WaitLoaded());
+  d.Frame();
+  ASSERT_TRUE(d.state.project);
+  EXPECT_EQ(d.state.project->path, saved);
+  EXPECT_EQ(model::ToJson(*d.state.model), model_before);
+  EXPECT_EQ(Value("tau_fv"), 0.123);
+  EXPECT_FALSE(HasUnsavedChanges(d.state));
+}
+
+TEST_F(ShellTest, QuitAsksToSaveAndCancelKeepsTheWork) {
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  // No edit: quitting asks nothing.
+  RequestQuit(d.state);
+  EXPECT_TRUE(d.state.quit_requested);
+  d.state.quit_requested = false;
+
+  EditValue("X", 0.3);
+  Key('Q', /*ctrl=*/true);
+  EXPECT_FALSE(d.state.quit_requested);
+  ASSERT_TRUE(PopupOpen("Unsaved changes"));
+  ASSERT_TRUE(ClickIn("Unsaved changes", "Cancel"));
+  d.Frame();
+  EXPECT_FALSE(PopupOpen("Unsaved changes"));
+  EXPECT_FALSE(d.state.quit_requested);
+  EXPECT_EQ(Value("X"), 0.3);
+  EXPECT_TRUE(HasUnsavedChanges(d.state));
+
+  // Save in the prompt: the project file gets the edit, then greybench quits.
+  Key('Q', /*ctrl=*/true);
+  ASSERT_TRUE(ClickIn("Unsaved changes", "Save"));
+  EXPECT_TRUE(d.state.quit_requested);
+  auto back = project::LoadProject(project());
+  ASSERT_TRUE(back.ok()) << back.error().ToString();
+  auto spec = model::ParseModel(back->model_json, project());
+  ASSERT_TRUE(spec.ok());
+  EXPECT_EQ(spec->parameters[spec->ParameterIndex("X")].value, 0.3);
+}
+
+TEST_F(ShellTest, RecentProjectsUpdateAndSurviveACorruptFile) {
+  const fs::path recent = dir() / "config/greybench/recent.json";
+  fs::create_directories(recent.parent_path());
+  std::ofstream(recent) << "{\"greybench_recent\": 1, \"projects\": [tru";
+  WorkbenchDriver& d = Start();
+  EXPECT_TRUE(d.state.shell.recent.empty());
+  ASSERT_FALSE(d.state.messages.empty());
+  EXPECT_NE(d.state.messages.back().text.find("ignored"), std::string::npos);
+  EXPECT_NE(d.state.messages.back().text.find("recent.json"), std::string::npos);
+
+  d.Open(project());
+  d.Frame();
+  ASSERT_EQ(d.state.shell.recent.size(), 1u);
+  EXPECT_EQ(d.state.shell.recent[0], project());
+
+  // A second project goes to the front; the list is written and read back by a new session.
+  const std::string second = (dir() / "work/second.json").string();
+  fs::copy_file(project(), second);
+  RequestOpenProject(d.state, second);
+  ASSERT_TRUE(WaitLoaded());
+  d.Frame();
+  ASSERT_EQ(d.state.shell.recent.size(), 2u);
+  EXPECT_EQ(d.state.shell.recent[0], second);
+  WorkbenchDriver& again = Start();
+  ASSERT_EQ(again.state.shell.recent.size(), 2u);
+  EXPECT_EQ(again.state.shell.recent[0], second);
+  EXPECT_EQ(again.state.shell.recent[1], project());
+
+  // At most kMaxRecent, newest first, no duplicates.
+  for (int i = 0; i < kMaxRecent + 2; ++i)
+    AddRecent(again.state, (dir() / ("p" + std::to_string(i) + ".json")).string());
+  AddRecent(again.state, second);
+  ASSERT_EQ(again.state.shell.recent.size(), static_cast<std::size_t>(kMaxRecent));
+  EXPECT_EQ(again.state.shell.recent[0], second);
+
+  // A recent project that has gone away is dropped when opening it fails.
+  fs::remove(second);
+  RequestOpenProject(again.state, second);
+  ASSERT_TRUE(WaitLoaded());
+  again.Frame();
+  EXPECT_EQ(std::count(again.state.shell.recent.begin(), again.state.shell.recent.end(), second),
+            0);
+}
+
+TEST_F(ShellTest, RecoveryFileRestoresAnEditAfterACrash) {
+  {
+    WorkbenchDriver& d = Start();
+    d.Open(project());
+    d.state.shell.autosave_seconds = 0.0;
+    EditValue("tau_fv", 0.0777);
+    d.Frame();
+    ASSERT_TRUE(fs::exists(RecoveryPath(d.state, project())));
+    // The workbench goes away without saving (a crash): the next Start() replaces it.
+  }
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  d.Frame();
+  EXPECT_NE(Value("tau_fv"), 0.0777);  // the project file as saved
+  ASSERT_TRUE(PopupOpen("Restore unsaved work?"));
+  ASSERT_TRUE(ClickIn("Restore unsaved work?", "Restore"));
+  ASSERT_TRUE(WaitLoaded());
+  d.Frame();
+  ASSERT_TRUE(d.state.project && d.state.model);
+  EXPECT_EQ(d.state.project->path, project());
+  EXPECT_EQ(Value("tau_fv"), 0.0777);
+  EXPECT_TRUE(HasUnsavedChanges(d.state));
+  EXPECT_TRUE(d.state.project->extra.is_null() ||
+              !d.state.project->extra.contains("greybench_recovery"));
+
+  Key('S', /*ctrl=*/true);
+  EXPECT_FALSE(HasUnsavedChanges(d.state));
+  EXPECT_FALSE(fs::exists(RecoveryPath(d.state, project())));
+  auto back = project::LoadProject(project());
+  ASSERT_TRUE(back.ok());
+  auto spec = model::ParseModel(back->model_json, project());
+  ASSERT_TRUE(spec.ok());
+  EXPECT_EQ(spec->parameters[spec->ParameterIndex("tau_fv")].value, 0.0777);
+}
+
+TEST_F(ShellTest, ShortcutsSwitchViewsAndRunAndCancelTheEstimation) {
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  for (std::size_t i = 0; i < kAllViews.size(); ++i) {
+    Key('1' + static_cast<int>(i), /*ctrl=*/true);
+    EXPECT_EQ(d.state.view, kAllViews[i]) << i;
+  }
+  d.state.estimation.settings.multistart = 50;  // long enough to cancel
+  Key(kKeyF5);
+  ASSERT_TRUE(EstimationRunning(d.state));
+  Key(kKeyEscape);
+  ASSERT_TRUE(d.FramesUntil([&] { return !EstimationRunning(d.state); }, kTimeout));
+  EXPECT_NE(d.state.estimation.last_failure.find("cancelled"), std::string::npos);
+}
+
+TEST_F(ShellTest, AddDatasetAndReplaceModelAreSavedWithTheProject) {
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  fs::copy_file(dir() / "work/f1.csv", dir() / "work/f1_copy.csv");
+  AddDataset(d.state, (dir() / "work/f1_copy.csv").string());
+  ASSERT_TRUE(d.FramesUntil([&] { return d.state.datasets.size() == 2; }, kTimeout));
+  EXPECT_TRUE(d.state.datasets[1].data);
+  EXPECT_TRUE(HasUnsavedChanges(d.state));
+
+  // The model replaced by a file with another start value: the project names that file.
+  auto spec = model::LoadModelFile((dir() / "work/fuel_film.json").string());
+  ASSERT_TRUE(spec.ok());
+  ASSERT_TRUE(model::SetParameter(&*spec, "tau_fv", 0.0555).ok());
+  const std::string other = (dir() / "work/other_model.json").string();
+  ASSERT_TRUE(model::SaveModelFile(*spec, other).ok());
+  ASSERT_TRUE(ReplaceModel(d.state, other).ok());
+  EXPECT_EQ(Value("tau_fv"), 0.0555);
+  EXPECT_FALSE(ReplaceModel(d.state, (dir() / "work/f1.csv").string()).ok());  // not a model
+
+  ASSERT_TRUE(SaveCurrentProject(d.state).ok());
+  auto raw = project::ReadJsonFile(project());
+  ASSERT_TRUE(raw.ok());
+  EXPECT_EQ((*raw)["model"], "other_model.json");
+  EXPECT_EQ((*raw)["datasets"], Json::array({"f1.csv", "f1_copy.csv"}));
+}
+
+TEST_F(ShellTest, NewProjectWritesTheProjectFileAndOpensIt) {
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  ASSERT_TRUE(OpenDialogByName(d.state, "new-project"));
+  d.Frame();
+  ASSERT_TRUE(PopupOpen("New project"));
+  // Create refuses an empty form and says what is missing.
+  ASSERT_TRUE(ClickIn("New project", "Create"));
+  EXPECT_NE(d.state.shell.new_form.error.find("model"), std::string::npos);
+  EXPECT_TRUE(PopupOpen("New project"));
+
+  fs::create_directories(dir() / "new");
+  NewProjectForm& f = d.state.shell.new_form;
+  f.model = (dir() / "work/fuel_film.json").string();
+  f.datasets = {(dir() / "work/f1.csv").string(), (dir() / "work/missing.csv").string()};
+  f.project = (dir() / "new/fresh").string();  // .json is added
+  ASSERT_TRUE(ClickIn("New project", "Create"));
+  EXPECT_NE(f.error.find("missing.csv"), std::string::npos) << f.error;
+
+  f.datasets.pop_back();
+  ASSERT_TRUE(ClickIn("New project", "Create"));
+  ASSERT_TRUE(WaitLoaded());
+  d.Frame();
+  EXPECT_FALSE(PopupOpen("New project"));
+  const std::string fresh = (dir() / "new/fresh.json").string();
+  ASSERT_TRUE(d.state.project);
+  EXPECT_EQ(d.state.project->path, fresh);
+  ASSERT_EQ(d.state.datasets.size(), 1u);
+  EXPECT_TRUE(d.state.datasets[0].data);
+  EXPECT_TRUE(d.state.model);
+  auto raw = project::ReadJsonFile(fresh);
+  ASSERT_TRUE(raw.ok());
+  EXPECT_EQ((*raw)["model"], "../work/fuel_film.json");
+  EXPECT_EQ((*raw)["datasets"], Json::array({"../work/f1.csv"}));
+}
+
+TEST(FileBrowser, ListsFoldersFirstFiltersAndReportsUnreadableFolders) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("greybench-browser-test-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "zeta");
+  fs::create_directories(dir / "Alpha");
+  for (const char* f : {"b.json", "a.csv", "C.JSON", ".hidden.json"}) std::ofstream(dir / f) << f;
+  FileBrowserState b;
+  FileBrowserRequest r;
+  r.filters = {{"Projects", {".json"}}, {"All", {}}};
+  r.start = dir.string();
+  OpenFileBrowser(b, r);
+  ASSERT_TRUE(b.error.empty()) << b.error;
+  std::vector<std::string> names;
+  for (const FileEntry& e : b.entries) names.push_back(e.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"Alpha", "zeta", "b.json", "C.JSON"}));
+
+  b.descending = true;
+  b.filter = 1;
+  ASSERT_TRUE(ChangeDirectory(b, dir.string()));
+  names.clear();
+  for (const FileEntry& e : b.entries) names.push_back(e.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"zeta", "Alpha", "C.JSON", "b.json", "a.csv"}));
+
+  EXPECT_FALSE(ChangeDirectory(b, (dir / "missing").string()));
+  EXPECT_NE(b.error.find((dir / "missing").string()), std::string::npos) << b.error;
+  EXPECT_EQ(b.directory, dir.string());  // stays where it was
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace gb::ui
