@@ -1,7 +1,7 @@
 // greybench-snapshot: renders one view of the workbench offscreen (OSMesa) to a PNG.
 // CONTRACT section 6:
 //   greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png [--width W --height H]
-//                      [--estimate] [--dialog DIALOG]
+//                      [--estimate] [--dialog DIALOG] [--time T0:T1]
 // Exit status: 0 written; 2 bad command line or bad input (stderr names the file); 1 the
 // rendering or the PNG writing failed, or --estimate's estimation failed (the PNG is still
 // written: it shows why).
@@ -23,6 +23,7 @@
 #include <imgui.h>
 
 #include <cfloat>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
@@ -55,12 +56,14 @@ struct Options {
   int width = 1280;
   int height = 800;
   bool estimate = false;
+  std::optional<gb::ui::plot::Range> time;  // --time: the time axes' range (else the whole record)
   std::string dialog;  // a dialog of the shell drawn over the view (ui/shell.h)
 };
 
 constexpr const char* kUsage =
     "usage: greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png\n"
     "                          [--width W] [--height H] [--estimate] [--dialog DIALOG]\n"
+    "                          [--time T0:T1]\n"
     "VIEW: data diagram equations estimate predictions residuals parameters operating-points\n"
     "DIALOG: open-project save-project-as new-project keyboard-shortcuts unsaved-changes\n";
 
@@ -86,7 +89,8 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
     }
     if (arg == "--help" || arg == "-h") return "help";
     const bool takes_value = arg == "--project" || arg == "--view" || arg == "--out" ||
-                             arg == "--width" || arg == "--height" || arg == "--dialog";
+                             arg == "--width" || arg == "--height" || arg == "--dialog" ||
+                             arg == "--time";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
@@ -98,6 +102,14 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       o->out = value;
     } else if (arg == "--dialog") {
       o->dialog = value;
+    } else if (arg == "--time") {
+      double t0 = 0, t1 = 0;
+      char rest = 0;
+      if (std::sscanf(value.c_str(), "%lf:%lf%c", &t0, &t1, &rest) != 2 || !std::isfinite(t0) ||
+          !std::isfinite(t1) || !(t0 < t1)) {
+        return "--time '" + value + "': expected T0:T1 with T0 < T1 (in the data's time unit)";
+      }
+      o->time = gb::ui::plot::Range{t0, t1};
     } else {
       const std::optional<int> size = ParseSize(value);
       if (!size) {
@@ -159,11 +171,21 @@ int Render(const Options& options, gb::ui::View view, std::vector<unsigned char>
   io.DisplaySize = ImVec2(static_cast<float>(options.width), static_cast<float>(options.height));
   io.DisplayFramebufferScale = ImVec2(1.0f, 1.0f);
   io.DeltaTime = kFrameTime;
-  for (int frame = 0; frame < kSettleFrames; ++frame) {
-    io.MousePos = ImVec2(-FLT_MAX, -FLT_MAX);
-    ImGui::NewFrame();
-    ui::DrawWorkbench(state);
-    ImGui::Render();
+  auto settle = [&] {
+    for (int frame = 0; frame < kSettleFrames; ++frame) {
+      io.MousePos = ImVec2(-FLT_MAX, -FLT_MAX);
+      ImGui::NewFrame();
+      ui::DrawWorkbench(state);
+      ImGui::Render();
+    }
+  };
+  settle();
+  if (options.time) {
+    // Once the plots have fitted the whole record, show only the asked-for stretch of time on
+    // every time axis (the data view's and the predictions/residuals one), as a zoom would.
+    for (ui::plot::LinkedRange& r : state.data_view.x_ranges) r.range = *options.time;
+    state.analysis.time_x.range = *options.time;
+    settle();
   }
   const ImVec4 bg = ImGui::GetStyle().Colors[ImGuiCol_WindowBg];
   glClearColor(bg.x, bg.y, bg.z, 1.0f);

@@ -24,6 +24,9 @@ render() {  # NAME VIEW WIDTH HEIGHT [--estimate]
 # points named in the project's "operating_points" key.
 render operating-points operating-points 1600 900 --estimate
 
-# ---- Fig. 5-6 (one-step predictions): add them here when the predictions view lands, e.g.
-# render fig5-predictions predictions 1280 720 --estimate
-# ----
+# Fig. 5 (one-step predictions of 1/λ with the measurements) and Fig. 6 (of the engine speed N):
+# the predictions view after the fit, on a stretch of the record short enough to tell the curves
+# apart, as the paper does.
+render fig5-predictions-fuel predictions 1280 720 --estimate --time 20:30
+project="$root/assets/projects/crankshaft.json"
+render fig6-predictions-crankshaft predictions 1280 900 --estimate --time 40:70

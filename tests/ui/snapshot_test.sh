@@ -58,6 +58,8 @@ case "$case_name" in
   bad-view)
     expect_error 2 "unknown view 'plots'" \
       "$snapshot" --project "$project" --view plots --out "$out/bad.png"
+    expect_error 2 "--time '30:20': expected T0:T1 with T0 < T1" \
+      "$snapshot" --project "$project" --view predictions --time 30:20 --out "$out/bad.png"
     ;;
   estimate|estimate-case-study)
     # The estimate and parameters views after --estimate. Exact colours prove the fit is drawn:
