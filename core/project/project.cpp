@@ -1,5 +1,6 @@
 #include "core/project/project.h"
 
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -70,7 +71,8 @@ Result<Project> LoadProject(const std::string& path) {
   if (!j.is_object()) return FileError(path, "a project file holds a JSON object");
   if (!j.contains("greybench_project"))
     return FileError(path, "not a greybench project: the key \"greybench_project\": 1 is missing");
-  if (!j["greybench_project"].is_number_integer() || j["greybench_project"].get<int>() != 1)
+  if (!j["greybench_project"].is_number_integer() ||
+      j["greybench_project"].get<std::int64_t>() != 1)
     return FileError(path, "unsupported project version (this greybench reads version 1)",
                      "greybench_project");
 
