@@ -60,6 +60,13 @@ Result<Json> ReadJsonFile(const std::string& path) {
     const auto at = what.find("syntax error while parsing ");
     if (at != std::string::npos) e.message += ": " + what.substr(at + 27);
     return e;
+  } catch (const Json::out_of_range& ex) {
+    // A number too large for a double (1e400) is not a syntax error to nlohmann; its message
+    // names the number but not the place: "number overflow parsing '1e400'".
+    const std::string what = ex.what();
+    const auto at = what.find("] ");
+    return FileError(path, "JSON number out of range: " +
+                               (at == std::string::npos ? what : what.substr(at + 2)));
   }
   return j;
 }
