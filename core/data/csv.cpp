@@ -299,13 +299,15 @@ Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::stri
   FieldSplitter splitter(DetectSeparator(line));
   if (Status s = ReadHeader(splitter, line, lines.number(), d.get()); !s) return s.error();
 
-  // Reserving for every remaining line avoids regrowing the columns (most lines are rows).
-  const std::size_t max_rows = CountLineEnds(text) + 1;
+  // Reserving for every remaining line avoids regrowing the columns (most lines are rows). A row
+  // of n fields takes at least n bytes (separators and line end), which bounds the reservation
+  // by the size of the text: blank or comment lines under a wide header reserve nothing.
+  const std::size_t n_fields = d->columns.size() + 1;
+  const std::size_t max_rows = std::min(CountLineEnds(text) + 1, text.size() / n_fields + 1);
   d->time.reserve(max_rows);
   d->row_line.reserve(max_rows);
   for (Column& c : d->columns) c.values.reserve(max_rows);
 
-  const std::size_t n_fields = d->columns.size() + 1;
   const std::size_t time_index = static_cast<std::size_t>(d->time_field - 1);
   int bad_field = 0;
   std::string problem;

@@ -1,7 +1,9 @@
 // Sections: 1. writing  2. reading  3. files and projects
 #include <fmt/format.h>
 
+#include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <set>
 
 #include "core/diagram/diagram.h"
@@ -94,6 +96,13 @@ class Reader {
 
   Result<int> Int(const Json& v, const std::string& path) const {
     if (!v.is_number_integer()) return Fail(path, "expected a whole number, found " + TypeName(v));
+    // get<int>() would wrap a larger number silently (4294967297 reads as 1).
+    constexpr auto kMin = std::numeric_limits<int>::min();
+    constexpr auto kMax = std::numeric_limits<int>::max();
+    const bool fits = v.is_number_unsigned()
+                          ? v.get<std::uint64_t>() <= std::uint64_t{kMax}
+                          : v.get<std::int64_t>() >= kMin && v.get<std::int64_t>() <= kMax;
+    if (!fits) return Fail(path, "the number " + v.dump() + " is out of range");
     return v.get<int>();
   }
 
@@ -177,8 +186,8 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
       msg += fmt::format(" (did you mean '{}'?)", *s);
     return r.Fail(it.key(), msg);
   }
-  if (j.contains("greybench_diagram") &&
-      (!j["greybench_diagram"].is_number_integer() || j["greybench_diagram"].get<int>() != 1))
+  if (j.contains("greybench_diagram") && (!j["greybench_diagram"].is_number_integer() ||
+                                          j["greybench_diagram"].get<std::int64_t>() != 1))
     return r.Fail("greybench_diagram", "unsupported diagram version (this greybench reads 1)");
 
   BlockDiagram d;
@@ -222,7 +231,10 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
   auto claim_id = [&](const Json& v, const std::string& path) -> Result<int> {
     auto id = r.Int(v, path);
     if (!id) return id.error();
-    if (*id < 1) return r.Fail(path, "ids are positive whole numbers");
+    // The largest int is refused too: the next id (max + 1) must exist.
+    if (*id < 1 || *id == std::numeric_limits<int>::max())
+      return r.Fail(path, fmt::format("ids are whole numbers from 1 to {}",
+                                      std::numeric_limits<int>::max() - 1));
     if (!ids.insert(*id).second) return r.Fail(path, fmt::format("id {} is used twice", *id));
     max_id = std::max(max_id, *id);
     return *id;

@@ -56,7 +56,9 @@ ExprPtr Variable(std::string name, int column = 0);
 // "expected ')' to close '(' at column 3", "unknown function 'expp'", "'min' takes 2 arguments",
 // "unexpected character '#'", "empty expression". `file`/`path` are left empty for the caller.
 // The `sign` function is internal (it appears in derivatives of abs) and is not accepted by Parse.
-// Nesting deeper than 256 levels (parentheses, unary minus, a^b^c...) is refused.
+// Nesting deeper than 256 levels (parentheses, unary minus, a^b^c...) is refused, and so is a
+// tree more than 1024 levels tall (a chain a+b+c+... of over 1000 operators, at column of the
+// operator that passes the limit): "expression too long: more than 1024 levels of operations".
 Result<ExprPtr> Parse(std::string_view text);
 
 // Text that parses back to an equal tree (except that a negative constant reads back as a negated

@@ -2,6 +2,7 @@
 //
 // Parse functions return nullptr after recording the first error, and every caller passes the
 // nullptr on; so the error reported is the first one met in reading order.
+#include <algorithm>
 #include <charconv>
 #include <optional>
 #include <string>
@@ -14,8 +15,13 @@ namespace gb::expr {
 namespace {
 
 // Deeper nesting (parentheses, unary minus chains, a^b^c...) is refused, which bounds the
-// recursion of the parser and of every function that walks the tree.
+// recursion of the parser.
 constexpr int kMaxNesting = 256;
+// A taller tree is refused. Nesting alone does not bound the height: a+b+c+... is a chain one
+// level per operator, and every function that walks the tree (printing, simplifying,
+// differentiating, even freeing it) recurses once per level, so a long enough sum in a file
+// would overflow the stack.
+constexpr int kMaxHeight = 1024;
 
 bool IsDigit(char c) { return c >= '0' && c <= '9'; }
 bool IsNameStart(char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_'; }
@@ -169,14 +175,27 @@ class Parser {
 
   // ----- Grammar -----------------------------------------------------------------------------
 
+  // Every parse function leaves the height of the tree it returns in height_ (a leaf is 1).
+  // Records the height of a node over children of heights `a` and `b`; false (after recording
+  // the error at `column`) when it exceeds kMaxHeight.
+  bool SetHeight(int a, int b, int column) {
+    height_ = std::max(a, b) + 1;
+    if (height_ <= kMaxHeight) return true;
+    Fail(column, "expression too long: more than " + std::to_string(kMaxHeight) +
+                     " levels of operations (group long sums or products in parentheses)");
+    return false;
+  }
+
   // sum := product (('+' | '-') product)*
   ExprPtr ParseSum() {
     ExprPtr left = ParseProduct();
     while (left && (Is('+') || Is('-'))) {
       const Op op = Is('+') ? Op::kAdd : Op::kSub;
+      const int column = tok_.column;
+      const int left_height = height_;
       if (!Advance()) return nullptr;
       ExprPtr right = ParseProduct();
-      if (!right) return nullptr;
+      if (!right || !SetHeight(left_height, height_, column)) return nullptr;
       left = internal::MakeNode(op, {left, right}, left->column);
     }
     return left;
@@ -187,9 +206,11 @@ class Parser {
     ExprPtr left = ParseUnary();
     while (left && (Is('*') || Is('/'))) {
       const Op op = Is('*') ? Op::kMul : Op::kDiv;
+      const int column = tok_.column;
+      const int left_height = height_;
       if (!Advance()) return nullptr;
       ExprPtr right = ParseUnary();
-      if (!right) return nullptr;
+      if (!right || !SetHeight(left_height, height_, column)) return nullptr;
       left = internal::MakeNode(op, {left, right}, left->column);
     }
     return left;
@@ -209,7 +230,10 @@ class Parser {
       const bool minus = Is('-');
       const int column = tok_.column;
       if (Advance()) e = ParseUnary();
-      if (e && minus) e = internal::MakeNode(Op::kNeg, {e}, column);
+      if (e && minus) {
+        if (!SetHeight(height_, 0, column)) return nullptr;
+        e = internal::MakeNode(Op::kNeg, {e}, column);
+      }
     } else {
       e = ParsePower();
     }
@@ -221,9 +245,11 @@ class Parser {
   ExprPtr ParsePower() {
     ExprPtr base = ParseAtom();
     if (!base || !Is('^')) return base;
+    const int column = tok_.column;
+    const int base_height = height_;
     if (!Advance()) return nullptr;
     ExprPtr exponent = ParseUnary();
-    if (!exponent) return nullptr;
+    if (!exponent || !SetHeight(base_height, height_, column)) return nullptr;
     return internal::MakeNode(Op::kPow, {base, exponent}, base->column);
   }
 
@@ -232,11 +258,13 @@ class Parser {
     const Token t = tok_;
     if (t.kind == Tok::kNumber) {
       if (!Advance()) return nullptr;
+      height_ = 1;
       return Constant(t.value, t.column);
     }
     if (t.kind == Tok::kName) {
       if (!Advance()) return nullptr;
       if (Is('(')) return ParseCall(t);
+      height_ = 1;
       return Variable(std::string(t.text), t.column);
     }
     if (!Is('(')) return FailUnexpected();
@@ -263,9 +291,11 @@ class Parser {
       return nullptr;
     }
     std::vector<ExprPtr> args;
+    int args_height = 0;
     for (;;) {
       ExprPtr arg = ParseSum();
       if (!arg) return nullptr;
+      args_height = std::max(args_height, height_);
       args.push_back(std::move(arg));
       if (!Is(',')) break;
       if (!Advance()) return nullptr;
@@ -275,6 +305,7 @@ class Parser {
       Fail(name.column, arity_message);
       return nullptr;
     }
+    if (!SetHeight(args_height, 0, name.column)) return nullptr;
     return internal::MakeRawCall(*f, std::move(args), name.column);
   }
 
@@ -291,6 +322,7 @@ class Parser {
   std::size_t pos_ = 0;
   Token tok_;
   int depth_ = 0;
+  int height_ = 0;
   std::optional<Error> error_;
 };
 

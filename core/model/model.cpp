@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <set>
 
@@ -322,7 +323,7 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
   if (!j.is_object()) return p.Fail("", "a model file holds a JSON object, found " + JsonTypeName(j));
   if (!j.contains("greybench_model"))
     return p.Fail("", "not a greybench model: the key \"greybench_model\": 1 is missing");
-  if (!j["greybench_model"].is_number_integer() || j["greybench_model"].get<int>() != 1)
+  if (!j["greybench_model"].is_number_integer() || j["greybench_model"].get<std::int64_t>() != 1)
     return p.Fail("greybench_model", "unsupported model version (this greybench reads version 1)");
 
   static const std::set<std::string> kKeys = {

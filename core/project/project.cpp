@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -72,6 +73,13 @@ Result<Json> ReadJsonFile(const std::string& path) {
     const auto at = what.find("syntax error while parsing ");
     if (at != std::string::npos) e.message += ": " + what.substr(at + 27);
     return e;
+  } catch (const Json::out_of_range& ex) {
+    // A number too large for a double (1e400) is not a syntax error to nlohmann; its message
+    // names the number but not the place: "number overflow parsing '1e400'".
+    const std::string what = ex.what();
+    const auto at = what.find("] ");
+    return FileError(path, "JSON number out of range: " +
+                               (at == std::string::npos ? what : what.substr(at + 2)));
   }
   return j;
 }
@@ -83,7 +91,8 @@ Result<Project> LoadProject(const std::string& path) {
   if (!j.is_object()) return FileError(path, "a project file holds a JSON object");
   if (!j.contains("greybench_project"))
     return FileError(path, "not a greybench project: the key \"greybench_project\": 1 is missing");
-  if (!j["greybench_project"].is_number_integer() || j["greybench_project"].get<int>() != 1)
+  if (!j["greybench_project"].is_number_integer() ||
+      j["greybench_project"].get<std::int64_t>() != 1)
     return FileError(path, "unsupported project version (this greybench reads version 1)",
                      "greybench_project");
 

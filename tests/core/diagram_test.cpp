@@ -456,5 +456,36 @@ TEST(DiagramJson, ErrorsNameTheJsonPath) {
   EXPECT_EQ(r3.error().path.rfind("parameters.X", 0), 0u) << r3.error().ToString();
 }
 
+// Found by review for tests/fuzz/project_fuzz: ids were read with get<int>(), which wraps
+// 4294967297 to 1, and the id 2147483647 made next_id = max + 1 overflow (undefined behaviour).
+TEST(DiagramJson, RefusesIdsOutsideTheRangeOfInt) {
+  const Json good = ToJson(LoadDiagram("fuel_film.json"));
+  const int first_id = good["blocks"][0]["id"].get<int>();
+  for (const Json& id : {Json(4294967297LL), Json(2147483647), Json(-4294967295LL)}) {
+    SCOPED_TRACE(id.dump());
+    Json j = good;
+    j["blocks"][0]["id"] = id;
+    auto r = FromJson(j, "p.json", "diagram");
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().path, "diagram.blocks[0].id");
+  }
+  Json wrapped_version = good;
+  wrapped_version["greybench_diagram"] = 4294967297LL;  // 2^32 + 1
+  EXPECT_FALSE(FromJson(wrapped_version).ok());
+  Json largest = good;
+  largest["blocks"][0]["id"] = 2147483646;
+  for (Json& l : largest["links"]) {
+    if (l["from"][0] == first_id) l["from"][0] = 2147483646;
+    if (l["to"][0] == first_id) l["to"][0] = 2147483646;
+  }
+  if (largest.contains("layout") && largest["layout"].contains(std::to_string(first_id))) {
+    largest["layout"]["2147483646"] = largest["layout"][std::to_string(first_id)];
+    largest["layout"].erase(std::to_string(first_id));
+  }
+  auto r = FromJson(largest);
+  ASSERT_TRUE(r.ok()) << r.error().ToString();
+  EXPECT_EQ(r->next_id, 2147483647);
+}
+
 }  // namespace
 }  // namespace gb::diagram

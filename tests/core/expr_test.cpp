@@ -232,6 +232,34 @@ TEST(ExprParseErrors, RefuseNestingDeeperThanTheLimit) {
   EXPECT_EQ(Eval(fine), 1.0);
 }
 
+// Found by review for tests/fuzz/model_fuzz: a long chain is one tree level per operator, and
+// every walk of the tree (even freeing it) recursed that deep; a 2 MB sum overflowed the stack.
+TEST(ExprParseErrors, RefuseChainsTallerThanTheLimitAtTheOperator) {
+  std::string sum = "x";
+  for (int i = 0; i < 1'000'000; ++i) sum += "+x";
+  auto r = Parse(sum);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("expression too long"), std::string::npos);
+  // 1024 levels: 1023 operators fit, the 1024th '+' (at column 2*1024) is refused.
+  EXPECT_EQ(r.error().expr_col, 2 * 1024);
+
+  std::string product = "-y";
+  for (int i = 0; i < 5000; ++i) product += "*y^2";
+  EXPECT_FALSE(Parse(product).ok());
+
+  // 1000 terms are fine, and so is any length grouped in parentheses.
+  std::string fine = "1";
+  for (int i = 0; i < 999; ++i) fine += "+1";
+  EXPECT_EQ(Eval(fine), 1000.0);
+  std::string grouped;
+  for (int g = 0; g < 100; ++g) {
+    grouped += g == 0 ? "(1" : "+(1";
+    for (int i = 0; i < 99; ++i) grouped += "+1";
+    grouped += ")";
+  }
+  EXPECT_EQ(Eval(grouped), 10000.0);
+}
+
 // ---------------------------------------------------------------------------------------------
 // ExprToString
 

@@ -1,6 +1,9 @@
 #include "core/model/model.h"
 
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
 
 #include <gtest/gtest.h>
 
@@ -250,6 +253,24 @@ TEST(SetParameter, RefusesUnknownNamesAndValuesOutsideBounds) {
   EXPECT_NE(bad.error().message.find("did you mean 'X'"), std::string::npos);
   EXPECT_FALSE(SetParameter(&*m, "X", 1.5).ok());
   EXPECT_TRUE(SetParameter(&*m, "Kb", 7.0).ok()) << "a fixed parameter has no bounds to respect";
+}
+
+// Found by tests/fuzz/project_fuzz (a project file holding 1e400): nlohmann reports a number
+// too large for a double as out_of_range, not parse_error, and the exception escaped ReadJsonFile,
+// so greybench-cli terminated on such a model or project file.
+TEST(LoadModelFile, ReportsANumberTooLargeForADoubleInsteadOfThrowing) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "greybench_model_test_1e400.json").string();
+  {
+    std::ofstream out(path);
+    out << R"({"greybench_model": 1, "states": ["x"], "parameters": {"a": {"value": 1e400}}})";
+  }
+  Result<ModelSpec> m = LoadModelFile(path);
+  std::remove(path.c_str());
+  ASSERT_FALSE(m.ok());
+  EXPECT_EQ(m.error().file, path);
+  EXPECT_NE(m.error().message.find("out of range"), std::string::npos) << m.error().message;
+  EXPECT_NE(m.error().message.find("1e400"), std::string::npos) << m.error().message;
 }
 
 }  // namespace
