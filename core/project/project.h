@@ -34,7 +34,11 @@ Result<Project> LoadProject(const std::string& path);
 // Reads a JSON file with errors of the form `FILE:LINE:COL: JSON syntax error: ...`.
 Result<Json> ReadJsonFile(const std::string& path);
 
-// Writes `text` to `path` atomically (a temporary file beside it, flushed, then renamed).
+// Writes `text` to `path` atomically: a temporary file beside it (unique to this call), written,
+// fsync'ed, closed, then renamed over `path`, and the directory fsync'ed. On any failure `path`
+// keeps its old content, the temporary is removed, and the Error names `path` and the reason
+// (e.g. "cannot write the file (cannot create ...: Permission denied)"). The new file gets the
+// default permissions (0666 less the umask), not those of the file it replaces.
 Status WriteFileAtomic(const std::string& path, const std::string& text);
 
 }  // namespace gb::project
