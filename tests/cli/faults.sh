@@ -102,6 +102,8 @@ mkdir "$tmp/occupied.csv" && touch "$tmp/occupied.csv/keep"
 expect 2 "occupied.csv: cannot replace the file" -- predict "$model" "$csv" --out "$tmp/occupied.csv"
 check "the directory in the way is untouched" test -e "$tmp/occupied.csv/keep"
 check "no temporary file is left behind" bash -c "! ls -A '$tmp' | grep -q tmp-greybench"
+# A directory nobody can write to, root included (/proc).
+expect 2 "/proc/greybench-faults.csv: cannot write the file" -- predict "$model" "$csv" --out /proc/greybench-faults.csv
 if [ "$(id -u)" -ne 0 ]; then  # as root, permissions do not stop a write
   mkdir "$tmp/readonly" && "$cli" predict "$model" "$csv" --out "$tmp/readonly/p.csv" >/dev/null
   cp "$tmp/readonly/p.csv" "$tmp/before.csv" && chmod a-w "$tmp/readonly"

@@ -622,6 +622,18 @@ TEST_F(AtomicWrite, AFailedWriteKeepsTheOldFileAndLeavesNoTemporary) {
   EXPECT_EQ(FilesIn(), 1);
 }
 
+TEST_F(AtomicWrite, ADirectoryNobodyCanWriteToIsAMessageNamingTheFile) {
+  // /proc refuses new files even to root, so this failure path is tested wherever tests run.
+  if (!std::filesystem::is_directory("/proc/self")) GTEST_SKIP() << "no /proc";
+  const std::string path = "/proc/greybench-faults-test.json";
+  const auto st = project::WriteFileAtomic(path, "text\n");
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().file, path);
+  EXPECT_NE(st.error().message.find("cannot write the file"), std::string::npos)
+      << st.error().message;
+  EXPECT_FALSE(std::filesystem::exists(path));
+}
+
 TEST_F(AtomicWrite, ATargetThatCannotBeReplacedKeepsItsContentAndLeavesNoTemporary) {
   // The target is a non-empty directory: the temporary is written, the rename fails, and the
   // temporary must go (this failure path works as root too).
