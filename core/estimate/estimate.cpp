@@ -47,6 +47,8 @@ constexpr int kMaxBhhhIterations = 500;
 constexpr int kProfileIterations = 10;       // BHHH iterations for a fit at a non-best delay
 constexpr double kArmijo = 1e-4;             // sufficient increase along the BHHH direction
 constexpr int kMaxHalvings = 40;
+constexpr double kFirstDamping = 1e-10;      // Levenberg damping of a singular BHHH information,
+constexpr int kDampingSteps = 8;             // then x100 per step up to 1e4
 // An expected improvement of log L below this (in log-likelihood units, far below the 0.5 that
 // one standard error is worth) counts as converged when rounding stops further progress.
 constexpr double kNegligibleImprovement = 1e-4;
@@ -171,7 +173,9 @@ class Fitter {
       gF(a) = g(F[a]);
       for (int b = 0; b < m; ++b) I(a, b) = info(F[a], F[b]);
     }
-    for (double mu = 0.0; mu < 1e6; mu = mu == 0.0 ? 1e-10 : mu * 100) {
+    // Damping μ = 0, then 1e-10, 1e-8, ..., 1e4 (an integer counter: no float loop counter).
+    for (int attempt = 0; attempt <= kDampingSteps; ++attempt) {
+      const double mu = attempt == 0 ? 0.0 : kFirstDamping * std::pow(100.0, attempt - 1);
       Eigen::MatrixXd M = I;
       M.diagonal() += mu * I.diagonal().cwiseMax(1e-300) + Eigen::VectorXd::Constant(m, mu);
       Eigen::LLT<Eigen::MatrixXd> llt(M);

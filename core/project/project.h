@@ -16,6 +16,10 @@
 
 namespace gb::project {
 
+// clang-tidy's bugprone-exception-escape reports the implicit move constructor: it moves two
+// nlohmann::ordered_json members, whose ordered_map storage is not declared noexcept-movable;
+// such a move can only throw std::bad_alloc, which no caller could handle better.
+// NOLINTNEXTLINE(bugprone-exception-escape)
 struct Project {
   std::string path;                   // the project file as given ("" for an unsaved project)
   std::string base_dir;               // directory that relative paths are resolved against
