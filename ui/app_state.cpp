@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <utility>
 
+#include "ui/format.h"
+
 namespace gb::ui {
 namespace {
 
@@ -146,12 +148,10 @@ void InstallEstimation(AppState& state, EstimationRun run) {
     return;
   }
   const estimate::EstimateSummary& s = *run.summary;
-  char loglik[64];
-  std::snprintf(loglik, sizeof loglik, "%.6g", s.loglik);
   std::string text =
       std::string(s.converged ? "Estimation converged" : "Estimation did NOT converge") +
-      ": log L = " + loglik + ", " + std::to_string(s.iterations) + " iterations, " +
-      Seconds(state, s.elapsed_s);
+      ": log L = " + FormatSig(s.loglik, 6) + ", " + std::to_string(s.iterations) +
+      " iterations, " + Seconds(state, s.elapsed_s);
   if (!s.warnings.empty()) {
     text += " (" + std::to_string(s.warnings.size()) +
             (s.warnings.size() == 1 ? " warning)" : " warnings)");

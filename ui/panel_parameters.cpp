@@ -41,6 +41,7 @@ constexpr ImU32 kRefusedCellBg = IM_COL32(250, 222, 222, 255);
 // The text a number cell shows: 6 significant digits (a bound that is absent: empty).
 std::string CellText(const std::optional<double>& v) {
   if (!v) return "";
+  if (!std::isfinite(*v)) return kDash;
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.6g", *v);
   return buf;

@@ -26,6 +26,8 @@ Result<model::ModelSpec> LoadModelWithOverrides(const std::string& path,
     double value = 0;
     const char* end = text.data() + text.size();
     auto [ptr, ec] = std::from_chars(text.data(), end, value);
+    if (ec == std::errc::result_out_of_range && ptr == end)
+      return InputError(fmt::format("--set {}: '{}' is out of the range of a double", name, text));
     if (ec != std::errc() || ptr != end || text.empty())
       return InputError(fmt::format("--set {}: '{}' is not a number", name, text));
     if (auto st = model::SetParameter(&*spec, name, value); !st) return st.error();

@@ -173,6 +173,8 @@ Result<std::shared_ptr<const Series>> Bind(const Dataset& data, std::span<const 
     }
   }
   series->intervals = GroupIntervals(series->time);
+  series->outputs.assign(outputs.begin(), outputs.end());
+  series->row_line = data.row_line;
   return std::shared_ptr<const Series>(std::move(series));
 }
 

@@ -64,7 +64,7 @@ Cell ParseCell(std::string_view s, double* value) {
   }
   std::string_view digits = s;
   // from_chars takes '-' but not '+'; "+-1" must stay invalid.
-  if (digits.front() == '+') {
+  if (!digits.empty() && digits.front() == '+') {
     digits.remove_prefix(1);
     if (digits.empty() || digits.front() == '-') return Cell::kNotANumber;
   }

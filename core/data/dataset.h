@@ -93,6 +93,9 @@ struct Series {
   Eigen::MatrixXd U;               // n_inputs x N, every entry finite
   Eigen::MatrixXd Y;               // n_outputs x N, NaN = missing observation
   Intervals intervals;
+  // For messages only (both may be empty, e.g. for a series built in memory):
+  std::vector<std::string> outputs;  // the names of Y's rows
+  std::vector<int> row_line;         // 1-based file line of each row
   std::size_t size() const { return time.size(); }
 };
 

@@ -41,11 +41,14 @@ bool EstimateOptions::IsValid(std::string* why) const {
 namespace {
 
 constexpr double kFailedObjective = 1e300;   // -log L reported to NLopt where log L fails
+                                             // before any point could be evaluated
 constexpr double kGradientStep = 1e-5;       // ≈ eps^(1/3): central differences in scaled units
 constexpr int kMaxBhhhIterations = 500;
 constexpr int kProfileIterations = 10;       // BHHH iterations for a fit at a non-best delay
 constexpr double kArmijo = 1e-4;             // sufficient increase along the BHHH direction
 constexpr int kMaxHalvings = 40;
+constexpr double kFirstDamping = 1e-10;      // Levenberg damping of a singular BHHH information,
+constexpr int kDampingSteps = 8;             // then x100 per step up to 1e4
 // An expected improvement of log L below this (in log-likelihood units, far below the 0.5 that
 // one standard error is worth) counts as converged when rounding stops further progress.
 constexpr double kNegligibleImprovement = 1e-4;
@@ -170,7 +173,9 @@ class Fitter {
       gF(a) = g(F[a]);
       for (int b = 0; b < m; ++b) I(a, b) = info(F[a], F[b]);
     }
-    for (double mu = 0.0; mu < 1e6; mu = mu == 0.0 ? 1e-10 : mu * 100) {
+    // Damping μ = 0, then 1e-10, 1e-8, ..., 1e4 (an integer counter: no float loop counter).
+    for (int attempt = 0; attempt <= kDampingSteps; ++attempt) {
+      const double mu = attempt == 0 ? 0.0 : kFirstDamping * std::pow(100.0, attempt - 1);
       Eigen::MatrixXd M = I;
       M.diagonal() += mu * I.diagonal().cwiseMax(1e-300) + Eigen::VectorXd::Constant(m, mu);
       Eigen::LLT<Eigen::MatrixXd> llt(M);
@@ -353,6 +358,27 @@ class Fitter {
     return Fit(std::move(z), delay, stage, max_iterations);
   }
 
+  // What NLopt sees at a point z where log L cannot be evaluated: worse than every point seen,
+  // by the spread of the values seen so far (at least 1), and a gradient that points back to the
+  // best point. A finite, moderate value keeps BOBYQA's quadratic models and the quasi-Newton
+  // line searches usable: 1e300 would swamp them, and a zero gradient reads as a stationary
+  // point. The optimiser then shortens its step or turns away, as it would from a steep wall.
+  static double FailedObjective(const std::vector<double>& z, std::vector<double>& grad,
+                                const FitResult& best, double worst_loglik) {
+    if (!std::isfinite(best.loglik)) {
+      std::fill(grad.begin(), grad.end(), 0.0);
+      return kFailedObjective;
+    }
+    const double gap = std::max(1.0, best.loglik - worst_loglik);
+    if (!grad.empty()) {
+      double dist2 = 0;
+      for (std::size_t i = 0; i < z.size(); ++i) dist2 += (z[i] - best.z[i]) * (z[i] - best.z[i]);
+      for (std::size_t i = 0; i < z.size(); ++i)
+        grad[i] = dist2 > 0 ? gap * (z[i] - best.z[i]) / dist2 : 0.0;
+    }
+    return -worst_loglik + gap;
+  }
+
   // One NLopt run.
   FitResult FitNlopt(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
                      nlopt::algorithm algo, double ftol_rel) {
@@ -370,17 +396,16 @@ class Fitter {
       const std::vector<int>* delay;
       FitResult* best;
       const std::string* stage;
-    } data{this, &delay, &result, &stage};
+      double worst_loglik;  // the lowest finite log L seen
+    } data{this, &delay, &result, &stage, HUGE_VAL};
     auto objective = [](const std::vector<double>& zz, std::vector<double>& grad, void* raw) {
       auto* d = static_cast<Data*>(raw);
       Fitter* self = d->self;
       if (self->Cancelled()) throw nlopt::forced_stop();
       std::vector<double> terms;
       const double f = self->LogLik(zz, *d->delay, nullptr, grad.empty() ? nullptr : &terms);
-      if (!std::isfinite(f)) {
-        if (!grad.empty()) std::fill(grad.begin(), grad.end(), 0.0);
-        return kFailedObjective;
-      }
+      if (!std::isfinite(f)) return FailedObjective(zz, grad, *d->best, d->worst_loglik);
+      d->worst_loglik = std::min(d->worst_loglik, f);
       if (f > d->best->loglik) {
         d->best->loglik = f;
         d->best->z = zz;
@@ -662,7 +687,11 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   {
     auto profile = lik.Profile(spec.Values());
     if (fitter.Cancelled()) return cancelled_summary();
-    if (!profile) return profile.error();
+    if (!profile) {
+      Error e = profile.error();  // the model cannot be evaluated at θ0: say that it is the start
+      e.message = "the log-likelihood cannot be evaluated at the start values: " + e.message;
+      return e;
+    }
     if (profile->best < 0) {
       Error e = NumericalError("the log-likelihood cannot be evaluated at the start values: " +
                                profile->candidates.front().message);

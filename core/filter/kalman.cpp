@@ -148,6 +148,21 @@ class LogProduct {
   double direct_ = 0.0;
 };
 
+// R_k is not positive definite: its pivot for output o at row k is R (zero, negative or NaN).
+Error NotPositiveInnovationVariance(const data::Series& series, int o, int k, double R) {
+  const std::string output = o < static_cast<int>(series.outputs.size())
+                                 ? fmt::format("'{}'", series.outputs[o])
+                                 : fmt::format("{}", o + 1);
+  Error e = NumericalError(fmt::format(
+      "the innovation variance of output {} at row {} (t = {:g}) is {:g}, not positive: the "
+      "model claims to predict this observation exactly (a measurement variance of zero, and "
+      "no uncertainty in the state?)",
+      output, k + 1, series.time[k], R));
+  e.file = series.source;
+  if (k < static_cast<int>(series.row_line.size())) e.line = series.row_line[k];
+  return e;
+}
+
 template <int NX, bool kTrace>
 Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
   using Mat = Eigen::Matrix<double, NX, NX>;
@@ -240,12 +255,7 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
       }
       PCt.noalias() = P * C[o].transpose();
       const double R = C[o].dot(PCt) + ss.S(o);
-      if (!(R > 0.0)) {
-        return NumericalError(fmt::format(
-            "{}: the innovation variance of output {} at row {} (t = {:g}) is {:g}, not positive "
-            "(a zero measurement variance with a degenerate state covariance?)",
-            series.source, o + 1, k + 1, series.time[k], R));
-      }
+      if (!(R > 0.0)) return NotPositiveInnovationVariance(series, o, k, R);
       const double eps = y - yhat;
       if (per_step_log) logdet += std::log(R);
       else log_product.Multiply(R);

@@ -118,15 +118,31 @@ Result<LinearModel> LinearModel::Compile(ModelSpec spec) {
   return lm;
 }
 
+// Names the entry and the values of the parameters it uses, so that the user sees the cause
+// ("log(p)" with p = -1) without evaluating the expression by hand.
+Error LinearModel::NotFinite(std::size_t k, double value, std::span<const double> theta) const {
+  std::set<std::string> used;
+  expr::CollectNames(entries_[k], &used);
+  std::string values;
+  for (const auto& name : used) {
+    const int i = spec_.ParameterIndex(name);
+    if (i < 0) continue;
+    values += fmt::format("{}{} = {:g}", values.empty() ? "" : ", ", name, theta[i]);
+  }
+  Error e = NumericalError(fmt::format("{} is {} at these parameter values{}", entry_names_[k],
+                                       std::isnan(value) ? "not a number" : "infinite",
+                                       values.empty() ? "" : " (" + values + ")"));
+  e.file = spec_.source;
+  return e;
+}
+
 Result<StateSpace> LinearModel::Evaluate(std::span<const double> theta) const {
   assert(theta.size() == spec_.parameters.size() && "θ has one entry per parameter");
   const int n = n_states(), m = n_inputs(), p = n_outputs();
   std::vector<double> v(tape_.size());
   tape_.Eval(theta, v);
   for (std::size_t k = 0; k < v.size(); ++k) {
-    if (!std::isfinite(v[k]))
-      return NumericalError(fmt::format("{} is {} at these parameter values", entry_names_[k],
-                                        std::isnan(v[k]) ? "not a number" : "infinite"));
+    if (!std::isfinite(v[k])) return NotFinite(k, v[k], theta);
   }
   StateSpace ss;
   std::size_t k = 0;

@@ -44,7 +44,8 @@ class LinearModel {
   static Result<LinearModel> Compile(ModelSpec spec);
 
   // Evaluates every entry at θ. Fails (kNumerical) when an entry is not finite or a variance is
-  // negative, naming it: "measurement_variance.y = -0.1 is negative at these parameter values".
+  // negative, naming it: "measurement_variance.y = -0.1 is negative at these parameter values",
+  // "diffusion.x is not a number at these parameter values (p = -1)".
   Result<StateSpace> Evaluate(std::span<const double> theta) const;
 
   const ModelSpec& spec() const { return spec_; }
@@ -58,6 +59,8 @@ class LinearModel {
   const std::vector<expr::ExprPtr>& entries() const { return entries_; }
 
  private:
+  Error NotFinite(std::size_t k, double value, std::span<const double> theta) const;
+
   ModelSpec spec_;
   std::vector<expr::ExprPtr> entries_;
   std::vector<std::string> entry_names_;  // "A[mfv,mff]" or the formula path, for messages

@@ -1,9 +1,14 @@
 #include "core/project/project.h"
 
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <unistd.h>
 
+#include <atomic>
+#include <cerrno>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -74,12 +79,19 @@ Result<Json> ReadJsonFile(const std::string& path) {
     if (at != std::string::npos) e.message += ": " + what.substr(at + 27);
     return e;
   } catch (const Json::out_of_range& ex) {
-    // A number too large for a double (1e400) is not a syntax error to nlohmann; its message
-    // names the number but not the place: "number overflow parsing '1e400'".
+    // A number beyond the range of a double ("1e999"): nlohmann names the literal but not its
+    // place, so the first occurrence of that literal is reported.
     const std::string what = ex.what();
-    const auto at = what.find("] ");
-    return FileError(path, "JSON number out of range: " +
-                               (at == std::string::npos ? what : what.substr(at + 2)));
+    const auto open = what.find('\'');
+    const auto close = what.rfind('\'');
+    const std::string literal =
+        open != std::string::npos && close > open ? what.substr(open + 1, close - open - 1) : "";
+    Error e = FileError(path, "the number " + literal + " is out of range for a double");
+    const auto pos = literal.empty() ? std::string::npos : text.find(literal);
+    if (pos != std::string::npos) LineCol(text, pos, &e.line, &e.col);
+    return e;
+  } catch (const Json::exception& ex) {
+    return FileError(path, std::string("cannot read the JSON: ") + ex.what());
   }
   return j;
 }
@@ -157,23 +169,45 @@ Status SaveProject(const Project& p, const std::string& path, bool relative_path
 }
 
 Status WriteFileAtomic(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp-greybench";
-  {
-    std::FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) return FileError(path, "cannot write the file (cannot create " + tmp + ")");
-    const bool written = std::fwrite(text.data(), 1, text.size(), f) == text.size();
-    const bool flushed = std::fflush(f) == 0;
-    const bool closed = std::fclose(f) == 0;
-    if (!written || !flushed || !closed) {
-      std::remove(tmp.c_str());
-      return FileError(path, "cannot write the file (disk full or no permission?)");
-    }
+  // A name no other writer uses (process id and a counter), so that two saves of the same file
+  // never share a temporary.
+  static std::atomic<unsigned> counter{0};
+  const std::string tmp =
+      fmt::format("{}.tmp-greybench-{}-{}", path, static_cast<long>(::getpid()), counter++);
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd < 0)
+    return FileError(path, fmt::format("cannot write the file (cannot create {}: {})", tmp,
+                                       std::strerror(errno)));
+  // Every byte reaches the disk before the rename makes the new file visible: after a crash or
+  // a power cut the path holds either the old content or the new, never a truncated file.
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    done += static_cast<std::size_t>(n);
   }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    std::remove(tmp.c_str());
-    return FileError(path, "cannot replace the file: " + ec.message());
+  const int write_errno = done == text.size() ? 0 : errno;
+  const bool synced = done == text.size() && ::fsync(fd) == 0;
+  const int sync_errno = synced ? 0 : errno;
+  const bool closed = ::close(fd) == 0;
+  if (!synced || !closed) {
+    const int err = write_errno ? write_errno : sync_errno ? sync_errno : errno;
+    ::unlink(tmp.c_str());
+    return FileError(path, fmt::format("cannot write the file: {}", std::strerror(err)));
+  }
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    return FileError(path, fmt::format("cannot replace the file: {}", std::strerror(err)));
+  }
+  // The rename itself is durable once the directory is synced. A failure here loses nothing
+  // that is not already visible, so it is not reported.
+  const fs::path dir = fs::path(path).parent_path();
+  const int dir_fd = ::open(dir.empty() ? "." : dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir_fd >= 0) {
+    ::fsync(dir_fd);
+    ::close(dir_fd);
   }
   return Ok{};
 }

@@ -11,19 +11,22 @@
 #include <vector>
 
 #include "core/util/json.h"
-
 #include "core/util/result.h"
 
 namespace gb::project {
 
+// clang-tidy's bugprone-exception-escape reports the implicit move constructor: it moves two
+// nlohmann::ordered_json members, whose ordered_map storage is not declared noexcept-movable;
+// such a move can only throw std::bad_alloc, which no caller could handle better.
+// NOLINTNEXTLINE(bugprone-exception-escape)
 struct Project {
-  std::string path;                   // the project file as given ("" for an unsaved project)
-  std::string base_dir;               // directory that relative paths are resolved against
+  std::string path;      // the project file as given ("" for an unsaved project)
+  std::string base_dir;  // directory that relative paths are resolved against
   std::string name;
   std::string model_path;             // resolved path of the model file; "" when inline
-  Json model_json;          // the model object (read from model_path, or inline)
+  Json model_json;                    // the model object (read from model_path, or inline)
   std::vector<std::string> datasets;  // resolved paths
-  Json extra;               // every other top-level key, preserved on save
+  Json extra;                         // every other top-level key, preserved on save
 };
 
 // Reads a project file and the model file it names (the model is only read as JSON here;
@@ -51,7 +54,11 @@ Json ProjectToJson(const Project& p, const std::string& path, bool relative_path
 // Writes ProjectToJson(p, path) to `path` atomically. Errors name the file.
 Status SaveProject(const Project& p, const std::string& path, bool relative_paths = true);
 
-// Writes `text` to `path` atomically (a temporary file beside it, flushed, then renamed).
+// Writes `text` to `path` atomically: a temporary file beside it (unique to this call), written,
+// fsync'ed, closed, then renamed over `path`, and the directory fsync'ed. On any failure `path`
+// keeps its old content, the temporary is removed, and the Error names `path` and the reason
+// (e.g. "cannot write the file (cannot create ...: Permission denied)"). The new file gets the
+// default permissions (0666 less the umask), not those of the file it replaces.
 Status WriteFileAtomic(const std::string& path, const std::string& text);
 
 }  // namespace gb::project

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "ui/widgets/heatmap.h"
+#include "ui/widgets/plot_axis.h"
 
 namespace gb::ui {
 namespace {
@@ -19,6 +20,21 @@ TEST(Format, NonFiniteAndAbsentValuesAreADashNotNan) {
   EXPECT_EQ(FormatSig(std::optional<double>{}, 4), kDash);
   EXPECT_EQ(FormatFixed(std::numeric_limits<double>::quiet_NaN(), 2), kDash);
   EXPECT_EQ(FormatPValue(std::nullopt), kDash);
+}
+
+TEST(Format, EveryNonFiniteValueIsADashInEveryFormat) {
+  const double kInf = std::numeric_limits<double>::infinity();
+  const double kNaN = std::numeric_limits<double>::quiet_NaN();
+  for (double v : {kNaN, -kNaN, kInf, -kInf}) {
+    EXPECT_EQ(FormatSig(v, 6), kDash);
+    EXPECT_EQ(FormatSig(std::optional<double>(v), 3), kDash);
+    EXPECT_EQ(FormatFixed(v, 3), kDash);
+    EXPECT_EQ(FormatPValue(v), kDash);
+    EXPECT_EQ(plot::FormatValue(v), std::isnan(v) ? "missing" : "not finite");
+  }
+  // The largest and smallest finite numbers are still numbers.
+  EXPECT_EQ(FormatSig(std::numeric_limits<double>::max(), 3), "1.8e+308");
+  EXPECT_EQ(FormatSig(std::numeric_limits<double>::denorm_min(), 2), "4.9e-324");
 }
 
 TEST(Format, SignificantDigitsWithoutExponentForWholeNumbers) {

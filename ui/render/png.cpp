@@ -3,7 +3,10 @@
 #include <stb_image_write.h>  // the implementation is in libstb: no STB_IMAGE_WRITE_IMPLEMENTATION
 
 #include <cstddef>
+#include <string>
 #include <vector>
+
+#include "core/project/project.h"
 
 namespace gb::ui {
 
@@ -25,8 +28,19 @@ bool WritePngFromGl(const std::string& path, int width, int height, const unsign
       dst[3 * x + 2] = src[4 * x + 2];
     }
   }
-  if (!stbi_write_png(path.c_str(), width, height, 3, rgb.data(), width * 3)) {
-    *error = path + ": cannot write the PNG file";
+  // Encoded in memory, then written atomically like every other file (a snapshot that fails
+  // half-way never leaves a truncated PNG in place of the previous one).
+  std::string png;
+  auto append = [](void* context, void* data, int size) {
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data),
+                                               static_cast<std::size_t>(size));
+  };
+  if (!stbi_write_png_to_func(append, &png, width, height, 3, rgb.data(), width * 3)) {
+    *error = path + ": cannot encode the PNG image";
+    return false;
+  }
+  if (auto st = project::WriteFileAtomic(path, png); !st) {
+    *error = st.error().ToString();
     return false;
   }
   return true;

@@ -65,6 +65,7 @@ std::string FormatTick(double value, const Ticks& ticks) {
 
 std::string FormatValue(double value) {
   if (std::isnan(value)) return "missing";
+  if (std::isinf(value)) return "not finite";
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.6g", value);
   return buf;
