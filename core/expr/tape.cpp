@@ -4,8 +4,9 @@
 // operator) and ends in a store to its output. Operators use the arithmetic of internal.h, the
 // same as EvaluateTree, so the two agree bit for bit.
 #include <algorithm>
+#include <bit>
 #include <cassert>
-#include <cstring>
+#include <cstdint>
 #include <optional>
 #include <string>
 
@@ -72,7 +73,9 @@ Result<Tape> Tape::Compile(std::span<const ExprPtr> exprs,
 
     int ConstantIndex(double v) {
       for (std::size_t i = 0; i < constants->size(); ++i) {  // same bits: one entry
-        if (std::memcmp(&(*constants)[i], &v, sizeof v) == 0) return static_cast<int>(i);
+        if (std::bit_cast<std::uint64_t>((*constants)[i]) == std::bit_cast<std::uint64_t>(v)) {
+          return static_cast<int>(i);
+        }
       }
       constants->push_back(v);
       return static_cast<int>(constants->size()) - 1;
@@ -129,7 +132,7 @@ Result<Tape> Tape::Compile(std::span<const ExprPtr> exprs,
     assert(c.height == 0);
   }
   tape.n_outputs_ = exprs.size();
-  tape.n_slots_ = static_cast<std::size_t>(c.max_slot + 1);
+  tape.n_slots_ = static_cast<std::size_t>(c.max_slot) + 1;
   tape.max_stack_ = c.max_height;
   return tape;
 }
@@ -137,7 +140,9 @@ Result<Tape> Tape::Compile(std::span<const ExprPtr> exprs,
 void Tape::Eval(std::span<const double> slots, std::span<double> out) const {
   assert(out.size() == n_outputs_ && "Tape::Eval: one output per compiled expression");
   assert(slots.size() >= n_slots_ && "Tape::Eval: fewer slots than the tape uses");
-  double stack[kMaxStack];
+  // Zeroed so that no path can read an unwritten entry (the compiler checked the tape's
+  // height; the analyzer cannot see that). One evaluation per parameter vector: cheap.
+  double stack[kMaxStack] = {};
   int sp = 0;  // stack[sp - 1] is the top
   for (const Instr& in : code_) {
     switch (in.code) {

@@ -58,7 +58,7 @@ expect 2 "nan_input.csv:3:2: .*missing" -- loglik "$model" "$tmp/nan_input.csv"
 sed 's/"value": 0.175,/"value": 1e999,/' "$model" >"$tmp/inf_value.json"
 expect 2 "inf_value.json:10:[0-9]+: the number 1e999 is out of range for a double" -- loglik "$tmp/inf_value.json" "$csv"
 sed 's/"lower": 0.005,/"lower": -1e999,/' "$model" >"$tmp/inf_bound.json"
-expect 2 "inf_bound.json:8:[0-9]+: the number -?1e999 is out of the range" -- estimate "$tmp/inf_bound.json" "$csv"
+expect 2 "inf_bound.json:8:[0-9]+: the number -?1e999 is out of range for a double" -- estimate "$tmp/inf_bound.json" "$csv"
 expect 2 "--set X: the value must be a finite number" -- loglik "$model" "$csv" --set X=nan
 expect 2 "--set X: the value must be a finite number" -- loglik "$model" "$csv" --set X=inf
 expect 2 "--set X: the value must be a finite number" -- estimate "$model" "$csv" --set X=-infinity
