@@ -62,14 +62,21 @@ void DrawNotice(AppState& state, const char* title, const std::string& text, Sev
   dl->ChannelsMerge();
 }
 
-void DrawUnavailable(AppState& state, View view, const char* arrives_with, const char* will_show) {
-  std::string text = "The ";
-  text += ViewTitle(view);
-  text += " view arrives with ";
-  text += arrives_with;
-  text += ".\n\n";
-  text += will_show;
-  DrawNotice(state, "Not available yet", text);
+void StatusLine(AppState& state, ImU32 color, const char* word, const std::string& rest) {
+  const float r = 4.0f * state.fonts.scale;
+  const ImVec2 p = ImGui::GetCursorScreenPos();
+  ImGui::GetWindowDrawList()->AddCircleFilled(
+      ImVec2(p.x + r, p.y + 0.5f * ImGui::GetTextLineHeight()), r, color, 12);
+  ImGui::Dummy(ImVec2(2.0f * r, ImGui::GetTextLineHeight()));
+  ImGui::SameLine(0, 0.6f * ImGui::GetFontSize());
+  ImGui::PushFont(state.fonts.bold);
+  ImGui::TextUnformatted(word);
+  ImGui::PopFont();
+  if (rest.empty()) return;
+  ImGui::SameLine(0, 0.6f * ImGui::GetFontSize());
+  ImGui::PushTextWrapPos(0.0f);
+  ImGui::TextDisabled("%s", rest.c_str());
+  ImGui::PopTextWrapPos();
 }
 
 void SectionHeading(AppState& state, const char* text) {

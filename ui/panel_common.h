@@ -16,8 +16,9 @@ bool DrawNoProjectNotice(AppState& state);
 void DrawNotice(AppState& state, const char* title, const std::string& text,
                 Severity severity = Severity::kInfo);
 
-// The honest placeholder of a view whose feature is not built yet.
-void DrawUnavailable(AppState& state, View view, const char* arrives_with, const char* will_show);
+// A status line: a coloured dot and a bold word, then the rest of the line dimmed ("Running
+// iteration 12 ...", "Converged ...").
+void StatusLine(AppState& state, ImU32 color, const char* word, const std::string& rest);
 
 // A bold heading with a rule under it.
 void SectionHeading(AppState& state, const char* text);

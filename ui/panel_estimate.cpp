@@ -38,25 +38,6 @@ double RunningSeconds(const AppState& state) {
       .count();
 }
 
-// A coloured dot and a bold word, then the rest of the line dimmed.
-void StatusLine(AppState& state, ImU32 color, const char* word, const std::string& rest) {
-  const float s = state.fonts.scale;
-  const float r = 4.0f * s;
-  const ImVec2 p = ImGui::GetCursorScreenPos();
-  ImGui::GetWindowDrawList()->AddCircleFilled(
-      ImVec2(p.x + r, p.y + 0.5f * ImGui::GetTextLineHeight()), r, color, 12);
-  ImGui::Dummy(ImVec2(2.0f * r, ImGui::GetTextLineHeight()));
-  ImGui::SameLine(0, 0.6f * ImGui::GetFontSize());
-  ImGui::PushFont(state.fonts.bold);
-  ImGui::TextUnformatted(word);
-  ImGui::PopFont();
-  if (rest.empty()) return;
-  ImGui::SameLine(0, 0.6f * ImGui::GetFontSize());
-  ImGui::PushTextWrapPos(0.0f);
-  ImGui::TextDisabled("%s", rest.c_str());
-  ImGui::PopTextWrapPos();
-}
-
 // ---------------------------------------------------------------------------------------------
 // Options, Run and Cancel
 

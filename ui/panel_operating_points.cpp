@@ -101,24 +101,6 @@ void DrawToolbar(AppState& state) {
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", FileList(p.datasets, 100).c_str());
 }
 
-// A coloured dot, a bold word, then the rest of the line dimmed.
-void StatusLine(AppState& state, ImU32 color, const char* word, const std::string& rest) {
-  const float r = 4.0f * state.fonts.scale;
-  const ImVec2 p = ImGui::GetCursorScreenPos();
-  ImGui::GetWindowDrawList()->AddCircleFilled(
-      ImVec2(p.x + r, p.y + 0.5f * ImGui::GetTextLineHeight()), r, color, 12);
-  ImGui::Dummy(ImVec2(2.0f * r, ImGui::GetTextLineHeight()));
-  ImGui::SameLine(0, 0.6f * ImGui::GetFontSize());
-  ImGui::PushFont(state.fonts.bold);
-  ImGui::TextUnformatted(word);
-  ImGui::PopFont();
-  if (rest.empty()) return;
-  ImGui::SameLine(0, 0.6f * ImGui::GetFontSize());
-  ImGui::PushTextWrapPos(0.0f);
-  ImGui::TextDisabled("%s", rest.c_str());
-  ImGui::PopTextWrapPos();
-}
-
 void DrawRunning(AppState& state) {
   const SweepState& w = state.sweep;
   const std::vector<SweepStatus::PointState> states =

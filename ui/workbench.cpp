@@ -28,14 +28,6 @@ namespace {
 constexpr float kSidebarWidth = 220.0f;  // pixels at scale 1
 constexpr const char* kAboutPopup = "About greybench";
 
-// Views whose feature exists; the others show an honest placeholder and are dimmed in the
-// sidebar.
-bool ViewAvailable(View view) {
-  return view == View::kData || view == View::kEquations || view == View::kEstimate ||
-         view == View::kParameters || view == View::kOperatingPoints || view == View::kDiagram ||
-         view == View::kPredictions || view == View::kResiduals;
-}
-
 // ---------------------------------------------------------------------------------------------
 // 1. Menu bar
 
@@ -102,13 +94,7 @@ void DrawSidebar(AppState& state) {
   const float row_h = ImGui::GetTextLineHeight() + 8.0f * s;
   for (View v : kAllViews) {
     const std::string title(ViewTitle(v));
-    if (!ViewAvailable(v))
-      ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetColorU32(ImGuiCol_TextDisabled));
     if (ImGui::Selectable(title.c_str(), state.view == v, 0, ImVec2(0, row_h))) state.view = v;
-    if (!ViewAvailable(v)) {
-      ImGui::PopStyleColor();
-      if (ImGui::IsItemHovered()) ImGui::SetTooltip("Not available yet");
-    }
   }
   ImGui::PopStyleVar();
 
