@@ -7,24 +7,7 @@ cli=$1
 data=$2
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-failures=0
-passes=0
-
-# expect CODE REGEX -- ARGS...: runs the CLI (10 s limit) and checks exit status and stderr.
-expect() {
-  local code=$1 pattern=$2
-  shift 3
-  local err status
-  err=$(timeout 10 "$cli" "$@" 2>&1 >/dev/null)
-  status=$?
-  if [ "$status" -ne "$code" ] || ! grep -Eq -- "$pattern" <<<"$err"; then
-    echo "FAIL: greybench-cli $*"
-    echo "      expected exit $code and /$pattern/, got exit $status: $err"
-    failures=$((failures + 1))
-  else
-    passes=$((passes + 1))
-  fi
-}
+source "$(dirname "${BASH_SOURCE[0]}")/expect.bash"
 
 model=$data/cli/fuel.json
 csv=$data/cli/fuel.csv

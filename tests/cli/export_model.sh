@@ -8,24 +8,7 @@ cli=$1
 assets=$(cd "$(dirname "$0")/../../assets" && pwd)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-failures=0
-passes=0
-
-# expect CODE REGEX -- ARGS...: runs the CLI (10 s limit) and checks exit status and stderr.
-expect() {
-  local code=$1 pattern=$2
-  shift 3
-  local err status
-  err=$(timeout 10 "$cli" "$@" 2>&1 >/dev/null)
-  status=$?
-  if [ "$status" -ne "$code" ] || ! grep -Eq -- "$pattern" <<<"$err"; then
-    echo "FAIL: greybench-cli $*"
-    echo "      expected exit $code and /$pattern/, got exit $status: $err"
-    failures=$((failures + 1))
-  else
-    passes=$((passes + 1))
-  fi
-}
+source "$(dirname "${BASH_SOURCE[0]}")/expect.bash"
 
 # same_loglik MODEL_A MODEL_B DATA: both models give the same loglik output on DATA.
 same_loglik() {

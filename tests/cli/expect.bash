@@ -1,0 +1,21 @@
+# The checks the command-line tests share; sourced (not a test itself: CMake runs tests/cli/*.sh).
+# The sourcing script sets `cli` (the greybench-cli executable) first, and may set
+# EXPECT_TIMEOUT (seconds one run may take; default 10).
+failures=0
+passes=0
+
+# expect CODE REGEX -- ARGS...: runs the CLI and checks its exit status and that stderr matches.
+expect() {
+  local code=$1 pattern=$2
+  shift 3
+  local err status
+  err=$(timeout "${EXPECT_TIMEOUT:-10}" "$cli" "$@" 2>&1 >/dev/null)
+  status=$?
+  if [ "$status" -ne "$code" ] || ! grep -Eq -- "$pattern" <<<"$err"; then
+    echo "FAIL: greybench-cli $*"
+    echo "      expected exit $code and /$pattern/, got exit $status: $err"
+    failures=$((failures + 1))
+  else
+    passes=$((passes + 1))
+  fi
+}
