@@ -79,6 +79,16 @@ void StatusLine(AppState& state, ImU32 color, const char* word, const std::strin
   ImGui::PopTextWrapPos();
 }
 
+bool PrimaryButton(const char* label, ImVec2 size) {
+  ImGui::PushStyleColor(ImGuiCol_Button, IM_COL32(47, 111, 219, 255));
+  ImGui::PushStyleColor(ImGuiCol_ButtonHovered, IM_COL32(66, 129, 235, 255));
+  ImGui::PushStyleColor(ImGuiCol_ButtonActive, IM_COL32(33, 92, 190, 255));
+  ImGui::PushStyleColor(ImGuiCol_Text, IM_COL32(255, 255, 255, 255));
+  const bool clicked = ImGui::Button(label, size);
+  ImGui::PopStyleColor(4);
+  return clicked;
+}
+
 void SectionHeading(AppState& state, const char* text) {
   ImGui::Dummy(ImVec2(0, 4.0f * state.fonts.scale));
   ImGui::PushFont(state.fonts.bold);

@@ -20,6 +20,9 @@ void DrawNotice(AppState& state, const char* title, const std::string& text,
 // iteration 12 ...", "Converged ...").
 void StatusLine(AppState& state, ImU32 color, const char* word, const std::string& rest);
 
+// The view's main action (Run): a blue button with white text. True when clicked.
+bool PrimaryButton(const char* label, ImVec2 size);
+
 // A bold heading with a rule under it.
 void SectionHeading(AppState& state, const char* text);
 

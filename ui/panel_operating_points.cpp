@@ -68,12 +68,7 @@ void DrawToolbar(AppState& state) {
   const bool running = SweepRunning(state);
   const bool can_run = !running && w.spec && state.model && !state.load_job.active();
   ImGui::BeginDisabled(!can_run);
-  ImGui::PushStyleColor(ImGuiCol_Button, IM_COL32(47, 111, 219, 255));
-  ImGui::PushStyleColor(ImGuiCol_ButtonHovered, IM_COL32(66, 129, 235, 255));
-  ImGui::PushStyleColor(ImGuiCol_ButtonActive, IM_COL32(33, 92, 190, 255));
-  ImGui::PushStyleColor(ImGuiCol_Text, IM_COL32(255, 255, 255, 255));
-  const bool run = ImGui::Button("Run", ImVec2(80.0f * s, 0));
-  ImGui::PopStyleColor(4);
+  const bool run = PrimaryButton("Run", ImVec2(80.0f * s, 0));
   ImGui::EndDisabled();
   if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) {
     ImGui::SetTooltip("%s", !state.model ? "The model is not valid (see the Equations view)"
