@@ -25,6 +25,7 @@
 #include <cstdlib>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ui/format.h"
@@ -328,6 +329,16 @@ void DrawPalette(AppState& state) {
 // ---------------------------------------------------------------------------------------------
 // 4. Inspector
 
+// An edit typed into the inspector's row `field` of block `id`.
+DiagramEdit InspectorEdit(DiagramEditKind kind, int id, std::string field, std::string text) {
+  DiagramEdit e;
+  e.kind = kind;
+  e.id = id;
+  e.field = std::move(field);
+  e.text = std::move(text);
+  return e;
+}
+
 void DrawBlockInspector(AppState& state, const Block& b) {
   const int id = b.id;
   ImGui::PushFont(state.fonts.bold);
@@ -341,31 +352,19 @@ void DrawBlockInspector(AppState& state, const Block& b) {
   const bool model_name =
       b.kind == BlockKind::kInput || b.kind == BlockKind::kOutput || diagram::HoldsState(b.kind);
   if (auto t = TextRow(state, id, "name", model_name ? "name" : "label", b.name)) {
-    DiagramEdit e;
-    e.kind = DiagramEditKind::kRename;
-    e.id = id;
-    e.field = "name";
-    e.text = *t;
+    DiagramEdit e = InspectorEdit(DiagramEditKind::kRename, id, "name", *t);
     Emit(state, std::move(e));
   }
   if (b.kind == BlockKind::kState || b.kind == BlockKind::kOutput) {
     if (auto t = TextRow(state, id, "ports", "in-ports", JoinPorts(b.ports), "a, b")) {
-      DiagramEdit e;
-      e.kind = DiagramEditKind::kSetPorts;
-      e.id = id;
-      e.field = "ports";
-      e.text = *t;
+      DiagramEdit e = InspectorEdit(DiagramEditKind::kSetPorts, id, "ports", *t);
       e.names = SplitPorts(*t);
       Emit(state, std::move(e));
     }
   }
   if (b.kind == BlockKind::kSum) {
     if (auto t = TextRow(state, id, "signs", "signs", b.signs, "+-")) {
-      DiagramEdit e;
-      e.kind = DiagramEditKind::kSetSigns;
-      e.id = id;
-      e.field = "signs";
-      e.text = *t;
+      DiagramEdit e = InspectorEdit(DiagramEditKind::kSetSigns, id, "signs", *t);
       Emit(state, std::move(e));
     }
   }
@@ -373,21 +372,13 @@ void DrawBlockInspector(AppState& state, const Block& b) {
     const auto it = b.fields.find(field);
     const std::string current = it == b.fields.end() ? "" : it->second;
     if (auto t = TextRow(state, id, field, field.c_str(), current, "expression")) {
-      DiagramEdit e;
-      e.kind = DiagramEditKind::kSetField;
-      e.id = id;
-      e.field = field;
-      e.text = *t;
+      DiagramEdit e = InspectorEdit(DiagramEditKind::kSetField, id, field, *t);
       Emit(state, std::move(e));
     }
   }
   if (b.kind == BlockKind::kDelay || b.kind == BlockKind::kOutput) {
     if (auto t = TextRow(state, id, "delay", "delay", DelayText(b.delay), "3 or 0..10")) {
-      DiagramEdit e;
-      e.kind = DiagramEditKind::kSetDelay;
-      e.id = id;
-      e.field = "delay";
-      e.text = *t;
+      DiagramEdit e = InspectorEdit(DiagramEditKind::kSetDelay, id, "delay", *t);
       if (std::optional<model::DelaySpec> d = ParseDelay(*t)) {
         e.delay = *d;
         Emit(state, std::move(e));
