@@ -15,9 +15,10 @@ build=build-asan
 jobs=${GREYBENCH_JOBS:-2}
 
 sanitize="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
-# -O1 -g keeps stack traces readable and the suite fast enough; assertions stay on (no NDEBUG).
+# -O2 -g: at -O1 Eigen is not inlined and the slowest test takes 281 s instead of 22 s; stack
+# traces stay readable with frame pointers. Assertions stay on (no NDEBUG).
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g" \
   -DCMAKE_CXX_FLAGS="$sanitize" \
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
   -DGREYBENCH_BUILD_BENCHMARKS=OFF ${GREYBENCH_CMAKE_ARGS:-}

@@ -11,6 +11,9 @@ namespace gb::cli {
 int RunEstimate(const EstimateArgs& args) {
   auto loaded = LoadLikelihood(args.model, args.data, args.sets);
   if (!loaded) return Fail(loaded.error());
+  // A fit may take minutes: a result file that cannot be written is reported before it.
+  if (!args.out.empty())
+    if (auto st = project::CheckWritable(args.out); !st) return Fail(st.error());
   const filter::Likelihood* lik = &loaded->likelihood;
   estimate::EstimateOptions options;
   options.threads = args.threads;

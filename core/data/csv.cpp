@@ -20,6 +20,7 @@
 #include <system_error>
 
 #include "core/data/dataset.h"
+#include "core/util/file.h"
 
 namespace gb::data {
 namespace {
@@ -373,6 +374,10 @@ Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::stri
 // Files
 
 Result<std::shared_ptr<const Dataset>> ReadCsvFile(const std::string& path) {
+  // Data files are read whole; 4 GiB is some 100 million rows of a few columns.
+  constexpr std::uintmax_t kMaxCsvBytes = std::uintmax_t{4} << 30;
+  if (const std::string why = WhyNotReadable(path, kMaxCsvBytes); !why.empty())
+    return FileError(path, 0, 0, why);
   std::error_code ec;
   const std::uintmax_t size = std::filesystem::file_size(path, ec);
   if (ec) return FileError(path, 0, 0, "cannot read the file: " + ec.message());

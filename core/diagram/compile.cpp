@@ -188,12 +188,40 @@ class Compiler {
                "block on it)");
       return nullptr;
     }
+    // Composing recurses once per block along the chain, and the formula grows with it: a chain
+    // from a hostile file could overflow the stack. Real diagrams are a few blocks deep.
+    if (visiting_.size() >= kMaxChain) {
+      if (!chain_reported_) {
+        chain_reported_ = true;
+        Report(*b, fmt::format("the signal here passes through more than {} blocks from the "
+                               "nearest input or state: the chain is too long to compile",
+                               kMaxChain));
+      }
+      return nullptr;
+    }
     visiting_.insert(block);
     ExprPtr s = Compose(*b, out);
     visiting_.erase(block);
+    if (s && TooLarge(*b, s)) s = nullptr;
     if (s) s = expr::Simplify(s);
     signals_[key] = s;
     return s;
+  }
+
+  // Whether `e`, formed at block `b`, is too large a formula to go on with (then reported on b).
+  // Every walk of a tree recurses once per level, and a shared signal (a split feeding both
+  // inputs of a sum, stage after stage) is written out in full wherever it is used.
+  bool TooLarge(const Block& b, const ExprPtr& e) {
+    const expr::Extent x = expr::Measure(e);
+    if (x.height <= expr::kMaxHeight && x.nodes <= kMaxNodes) return false;
+    Report(b, x.height > expr::kMaxHeight
+                  ? fmt::format("the formula here is more than {} levels of operations tall: the "
+                                "chain of blocks before it is too long to compile",
+                                expr::kMaxHeight)
+                  : fmt::format("the formula here, written out, has more than {} operations: the "
+                                "blocks before it use the same signals too many times over",
+                                kMaxNodes));
+    return true;
   }
 
   ExprPtr Compose(const Block& b, int out) {
@@ -316,8 +344,11 @@ class Compiler {
  private:
   const BlockDiagram& d_;
   std::map<std::pair<int, int>, ExprPtr> signals_;
+  static constexpr std::size_t kMaxChain = 256;
+  static constexpr std::size_t kMaxNodes = 100'000;
   std::set<int> visiting_;
   std::set<int> loop_reported_;
+  bool chain_reported_ = false;
 };
 
 Json DelayJson(const model::DelaySpec& d) {
@@ -372,11 +403,11 @@ CompileResult Compile(const BlockDiagram& d, const std::string& source) {
 
   for (const auto& b : d.blocks) {
     if (HoldsState(b.kind)) {
-      if (ExprPtr f = c.Drift(b)) drift[b.name] = Text(f);
+      if (ExprPtr f = c.Drift(b); f && !c.TooLarge(b, f)) drift[b.name] = Text(f);
       if (ExprPtr x0 = c.Field(b, "x0", "the initial state x0 is not set"))
         initial[b.name] = Text(x0);
     } else if (b.kind == BlockKind::kOutput) {
-      if (ExprPtr h = c.Observation(b)) observation[b.name] = Text(h);
+      if (ExprPtr h = c.Observation(b); h && !c.TooLarge(b, h)) observation[b.name] = Text(h);
       if (ExprPtr s = c.Field(b, "variance", "the output has no measurement variance"))
         variance[b.name] = Text(s);
       if (auto delay = c.Delay(b); delay && (delay->min != 0 || delay->max != 0))

@@ -244,6 +244,14 @@ Result<expr::ExprPtr> ParseField(const BlockDiagram& d, const Block& b, const st
   return e;
 }
 
+std::string SignsProblem(const std::string& signs) {
+  if (signs.empty() || signs.find_first_not_of("+-") != std::string::npos)
+    return "a sum needs one '+' or '-' per input, e.g. \"+-\"";
+  if (signs.size() > kMaxSumInputs)
+    return fmt::format("a sum takes at most {} inputs, not {}", kMaxSumInputs, signs.size());
+  return "";
+}
+
 bool ClosesAlgebraicLoop(const BlockDiagram& d, int from_block, int to_block) {
   const Block* from = d.FindBlock(from_block);
   const Block* to = d.FindBlock(to_block);
@@ -340,9 +348,8 @@ Status CheckBlock(const BlockDiagram& d, const Block& b, int self) {
     if (auto e = internal::ParseField(d, b, field, text); !e) return e.error();
   }
   if (b.kind == BlockKind::kSum) {
-    if (b.signs.empty() || b.signs.find_first_not_of("+-") != std::string::npos)
-      return Refuse(fmt::format("block {}.signs", b.id),
-                    "a sum needs one '+' or '-' per input, e.g. \"+-\"");
+    if (auto why = internal::SignsProblem(b.signs); !why.empty())
+      return Refuse(fmt::format("block {}.signs", b.id), why);
   }
   if (b.delay.min < 0 || b.delay.max < b.delay.min)
     return Refuse(
@@ -499,9 +506,8 @@ Status SetSumSigns(BlockDiagram* d, int block, const std::string& signs) {
   if (!b) return NoSuchBlock(block);
   if (b->kind != BlockKind::kSum)
     return Refuse(fmt::format("block {}.signs", block), BlockLabel(*b) + " is not a sum");
-  if (signs.empty() || signs.find_first_not_of("+-") != std::string::npos)
-    return Refuse(fmt::format("block {}.signs", block),
-                  "a sum needs one '+' or '-' per input, e.g. \"+-\"");
+  if (auto why = internal::SignsProblem(signs); !why.empty())
+    return Refuse(fmt::format("block {}.signs", block), why);
   b->signs = signs;
   const int n = static_cast<int>(signs.size());
   std::erase_if(d->links, [&](const Link& l) { return l.to.block == block && l.to.index >= n; });

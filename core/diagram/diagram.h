@@ -177,6 +177,9 @@ Status SetDelay(BlockDiagram* d, int block, model::DelaySpec delay);
 Status SetPortNames(BlockDiagram* d, int block, const std::vector<std::string>& ports);
 // Sets the signs of a sum block (one per in-port); links into ports that disappear are removed.
 Status SetSumSigns(BlockDiagram* d, int block, const std::string& signs);
+
+// The most inputs a sum block takes (each is a port drawn on the block).
+inline constexpr std::size_t kMaxSumInputs = 64;
 // Adds a parameter or replaces the one of the same name (bounds checked as in a model file).
 Status SetParameterEntry(BlockDiagram* d, model::Parameter parameter);
 // Layout only.

@@ -281,8 +281,7 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
         } else if (key == "signs" && *kind == BlockKind::kSum) {
           auto s = r.String(*it, kpath);
           if (!s) return s.error();
-          if (s->empty() || s->find_first_not_of("+-") != std::string::npos)
-            return r.Fail(kpath, "expected one '+' or '-' per input, e.g. \"+-\"");
+          if (auto why = internal::SignsProblem(*s); !why.empty()) return r.Fail(kpath, why);
           b.signs = *s;
         } else if (key == "delay" && (*kind == BlockKind::kDelay || *kind == BlockKind::kOutput)) {
           auto dl = r.Delay(*it, kpath);

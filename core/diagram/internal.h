@@ -10,6 +10,10 @@
 namespace gb::diagram::internal {
 
 bool IsIdentifier(const std::string& s);
+
+// Why `signs` is not a sum block's signs (one '+' or '-' per input, at most kMaxSumInputs), or
+// "" when it is.
+std::string SignsProblem(const std::string& signs);
 bool IsFunctionName(const std::string& s);
 
 // "block 7" and "block 7 (lag mfv)" for messages; the Error path of a block's field.

@@ -7,8 +7,10 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include "core/project/problem.h"
+#include "core/util/file.h"
 #include "core/util/parallel.h"
 
 namespace gb::estimate {
@@ -54,9 +56,15 @@ LinearFit FitLine(const std::vector<double>& x, const std::vector<double>& y, bo
 }
 
 Result<OperatingPoint> ReadOperatingPoint(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) {
-    Error e = InputError("cannot open the file");
+  // The tags are in the leading lines, but a line of a device never ends.
+  std::string why = WhyNotReadable(path, std::numeric_limits<std::uintmax_t>::max());
+  std::ifstream in;
+  if (why.empty()) {
+    in.open(path);
+    if (!in) why = "cannot open the file";
+  }
+  if (!why.empty()) {
+    Error e = InputError(why);
     e.file = path;
     return e;
   }

@@ -2,10 +2,14 @@
 // Simplify/Substitute in simplify.cpp, Differentiate in differentiate.cpp, Tape in tape.cpp.
 #include "core/expr/expr.h"
 
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
+#include <limits>
+#include <unordered_map>
 #include <utility>
+#include <vector>
 
 #include "core/expr/internal.h"
 
@@ -75,6 +79,37 @@ ExprPtr Variable(std::string name, int column) {
   n->name = std::move(name);
   n->column = column;
   return n;
+}
+
+Extent Measure(const ExprPtr& e) {
+  // Post-order over an explicit stack: a node is finished once all its operands are.
+  constexpr std::size_t kSaturated = std::numeric_limits<std::size_t>::max();
+  std::unordered_map<const Node*, Extent> done;
+  std::vector<const Node*> stack = {e.get()};
+  while (!stack.empty()) {
+    const Node* n = stack.back();
+    if (done.count(n)) {
+      stack.pop_back();
+      continue;
+    }
+    Extent x{0, 1};
+    bool ready = true;
+    for (const auto& a : n->args) {
+      const auto it = done.find(a.get());
+      if (it == done.end()) {
+        stack.push_back(a.get());
+        ready = false;
+      } else if (ready) {
+        x.height = std::max(x.height, it->second.height);
+        x.nodes = it->second.nodes > kSaturated - x.nodes ? kSaturated : x.nodes + it->second.nodes;
+      }
+    }
+    if (!ready) continue;
+    ++x.height;
+    done[n] = x;
+    stack.pop_back();
+  }
+  return done[e.get()];
 }
 
 // ---------------------------------------------------------------------------------------------

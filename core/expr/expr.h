@@ -61,6 +61,21 @@ ExprPtr Variable(std::string name, int column = 0);
 // operator that passes the limit): "expression too long: more than 1024 levels of operations".
 Result<ExprPtr> Parse(std::string_view text);
 
+// The tallest tree Parse accepts. Every function that walks a tree recurses once per level, so
+// code that builds trees (the diagram compiler) keeps to it too.
+inline constexpr int kMaxHeight = 1024;
+
+// The size of a tree as every walk sees it: its height (a leaf is 1) and its number of nodes
+// with each shared subtree counted every time it occurs (saturating at SIZE_MAX), which is the
+// length of its printed form and the work of simplifying it. Found without recursion, visiting
+// each shared subtree once, so it is cheap even when `nodes` is astronomical (a diagram whose
+// split blocks feed sums doubles the written-out formula at every stage).
+struct Extent {
+  int height = 0;
+  std::size_t nodes = 0;
+};
+Extent Measure(const ExprPtr& e);
+
 // Text that parses back to an equal tree (except that a negative constant reads back as a negated
 // positive one, the same value); minimal parentheses; each number in the shortest form that reads
 // back exactly (at most 17 significant digits, integers as "2"). A non-finite constant, which only

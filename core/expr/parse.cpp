@@ -17,11 +17,10 @@ namespace {
 // Deeper nesting (parentheses, unary minus chains, a^b^c...) is refused, which bounds the
 // recursion of the parser.
 constexpr int kMaxNesting = 256;
-// A taller tree is refused. Nesting alone does not bound the height: a+b+c+... is a chain one
-// level per operator, and every function that walks the tree (printing, simplifying,
-// differentiating, even freeing it) recurses once per level, so a long enough sum in a file
-// would overflow the stack.
-constexpr int kMaxHeight = 1024;
+// A tree taller than kMaxHeight (expr.h) is refused. Nesting alone does not bound the height:
+// a+b+c+... is a chain one level per operator, and every function that walks the tree (printing,
+// simplifying, differentiating, even freeing it) recurses once per level, so a long enough sum
+// in a file would overflow the stack.
 
 bool IsDigit(char c) { return c >= '0' && c <= '9'; }
 bool IsNameStart(char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_'; }

@@ -13,6 +13,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/util/file.h"
+
 namespace gb::project {
 namespace fs = std::filesystem;
 
@@ -61,6 +63,10 @@ std::string PathForFile(const std::string& p, const fs::path& dir, bool relative
 }  // namespace
 
 Result<Json> ReadJsonFile(const std::string& path) {
+  // Model, project and diagram files are a few KB; 256 MiB leaves room for inline data tables.
+  constexpr std::uintmax_t kMaxJsonBytes = std::uintmax_t{256} << 20;
+  if (const std::string why = WhyNotReadable(path, kMaxJsonBytes); !why.empty())
+    return FileError(path, why);
   std::ifstream in(path, std::ios::binary);
   if (!in) return FileError(path, "cannot open the file");
   std::stringstream buffer;
@@ -168,16 +174,38 @@ Status SaveProject(const Project& p, const std::string& path, bool relative_path
   return WriteFileAtomic(path, ProjectToJson(p, path, relative_paths).dump(1) + "\n");
 }
 
-Status WriteFileAtomic(const std::string& path, const std::string& text) {
-  // A name no other writer uses (process id and a counter), so that two saves of the same file
-  // never share a temporary.
+namespace {
+
+// The temporary beside `path` that one write uses: a name no other writer uses (process id and a
+// counter), so that two saves of the same file never share a temporary.
+std::string TemporaryFor(const std::string& path) {
   static std::atomic<unsigned> counter{0};
-  const std::string tmp =
-      fmt::format("{}.tmp-greybench-{}-{}", path, static_cast<long>(::getpid()), counter++);
+  return fmt::format("{}.tmp-greybench-{}-{}", path, static_cast<long>(::getpid()), counter++);
+}
+
+Error CannotCreate(const std::string& path, const std::string& tmp, int err) {
+  return FileError(path,
+                   fmt::format("cannot write the file (cannot create {}: {})", tmp, std::strerror(err)));
+}
+
+}  // namespace
+
+Status CheckWritable(const std::string& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec))
+    return FileError(path, fmt::format("cannot replace the file: {}", std::strerror(EISDIR)));
+  const std::string tmp = TemporaryFor(path);
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+  if (fd < 0) return CannotCreate(path, tmp, errno);
+  ::close(fd);
+  ::unlink(tmp.c_str());
+  return Ok{};
+}
+
+Status WriteFileAtomic(const std::string& path, const std::string& text) {
+  const std::string tmp = TemporaryFor(path);
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-  if (fd < 0)
-    return FileError(path, fmt::format("cannot write the file (cannot create {}: {})", tmp,
-                                       std::strerror(errno)));
+  if (fd < 0) return CannotCreate(path, tmp, errno);
   // Every byte reaches the disk before the rename makes the new file visible: after a crash or
   // a power cut the path holds either the old content or the new, never a truncated file.
   std::size_t done = 0;

@@ -61,4 +61,9 @@ Status SaveProject(const Project& p, const std::string& path, bool relative_path
 // default permissions (0666 less the umask), not those of the file it replaces.
 Status WriteFileAtomic(const std::string& path, const std::string& text);
 
+// Whether WriteFileAtomic(path, ...) could write now: creates and removes the temporary it would
+// use, and refuses a folder in the way. For commands that write after a long run, so that a bad
+// --out is reported before the run, not after. Same messages as WriteFileAtomic.
+Status CheckWritable(const std::string& path);
+
 }  // namespace gb::project

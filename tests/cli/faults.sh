@@ -95,5 +95,21 @@ if [ "$(id -u)" -ne 0 ]; then  # as root, permissions do not stop a write
   check "the old prediction file is intact" cmp -s "$tmp/readonly/p.csv" "$tmp/before.csv"
 fi
 
+# A long run with an output that cannot be written says so before the run, not after it.
+expect 2 "/proc/greybench-faults.json: cannot write the file" -- estimate "$model" "$csv" --out /proc/greybench-faults.json
+check "estimate refuses the --out before fitting (no report)" \
+  bash -c "[ -z \"\$('$cli' estimate '$model' '$csv' --out /proc/greybench-faults.json 2>/dev/null)\" ]"
+expect 2 "occupied.csv: cannot replace the file: Is a directory" -- sweep "$model" "$csv" --out-csv "$tmp/occupied.csv"
+check "sweep refuses the --out-csv before fitting (no table)" \
+  bash -c "[ -z \"\$('$cli' sweep '$model' '$csv' --out-csv '$tmp/occupied.csv' 2>/dev/null)\" ]"
+check "the early check leaves no temporary file" bash -c "! ls -A '$tmp' | grep -q tmp-greybench"
+
+# Files that cannot be read to their end: a device that never ends, a folder.
+expect 2 "/dev/zero: cannot read the file: it is a device or a pipe" -- loglik /dev/zero "$csv"
+expect 2 "/dev/zero: cannot read the file: it is a device or a pipe" -- loglik "$model" /dev/zero
+expect 2 "$tmp: cannot read the file: it is a folder" -- loglik "$tmp" "$csv"
+mkfifo "$tmp/pipe.json"
+expect 2 "pipe.json: cannot read the file: it is a device or a pipe" -- loglik "$tmp/pipe.json" "$csv"
+
 echo "$passes passed, $failures failed"
 [ "$failures" -eq 0 ]

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -375,6 +376,98 @@ TEST(DiagramCompile, ReportsAnAlgebraicLoopAndAMisplacedDelayReadFromAFile) {
   EXPECT_TRUE(loop) << r.Message();
   EXPECT_TRUE(delay) << r.Message();
   EXPECT_TRUE(unknown) << r.Message();
+}
+
+// Hostile diagrams (a file can hold any of these; edits cannot build them quickly): the compiler
+// recursed once per block of a chain and wrote shared signals out in full. Each is now a problem
+// on a block, found in bounded time and stack.
+Json ChainJson(const Small& s, int n, const char* kind, const char* signs) {
+  // u -> n blocks of `kind` -> the lag's input (in place of the small diagram's gain and sum).
+  Json j = ToJson(s.d);
+  Json links = Json::array();
+  for (const Json& l : j["links"])
+    if (l["to"][0] != s.lag) links.push_back(l);
+  int from = s.u, id = 1000;
+  for (int i = 0; i < n; ++i, ++id) {
+    Json b = {{"id", id}, {"kind", kind}};
+    if (std::string(kind) == "gain") b["k"] = "k";
+    if (std::string(kind) == "sum") b["signs"] = signs;
+    j["blocks"].push_back(b);
+    for (int port = 0; port < static_cast<int>(std::string(signs).size()); ++port)
+      links.push_back({{"id", 1000000 + 64 * i + port}, {"from", {from, 0}}, {"to", {id, port}}});
+    from = id;
+  }
+  links.push_back({{"id", 9000000}, {"from", {from, 0}}, {"to", {s.lag, 0}}});
+  j["links"] = links;
+  return j;
+}
+
+Small SmallReadyToCompile() {
+  Small s = MakeSmall();
+  EXPECT_TRUE(SetSumSigns(&s.d, s.sum, "+").ok());
+  EXPECT_TRUE(SetBlockParameter(&s.d, s.y, "variance", "s2").ok());
+  EXPECT_TRUE(SetBlockParameter(&s.d, s.gain, "k", "k").ok());
+  EXPECT_TRUE(SetBlockParameter(&s.d, s.lag, "tau", "tau").ok());
+  return s;
+}
+
+bool HasProblem(const CompileResult& r, const std::string& text) {
+  return std::any_of(r.problems.begin(), r.problems.end(), [&](const Problem& p) {
+    return p.message.find(text) != std::string::npos;
+  });
+}
+
+TEST(DiagramHostile, AChainOfGainsCompilesUpToItsLimitAndIsAProblemBeyond) {
+  const Small s = SmallReadyToCompile();
+  auto short_chain = FromJson(ChainJson(s, 200, "gain", "+"));
+  ASSERT_TRUE(short_chain.ok()) << short_chain.error().ToString();
+  CompileResult ok = Compile(*short_chain);
+  EXPECT_TRUE(ok.ok()) << ok.Message();
+  // A chain of n blocks used to recurse n deep, and further into the formula's tree.
+  auto long_chain = FromJson(ChainJson(s, 3000, "gain", "+"));
+  ASSERT_TRUE(long_chain.ok()) << long_chain.error().ToString();
+  CompileResult r = Compile(*long_chain);
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(HasProblem(r, "more than 256 blocks")) << r.Message();
+  EXPECT_LE(r.problems.size(), 2u) << r.Message();  // said once, not once per block
+}
+
+TEST(DiagramHostile, SharedSignalsThatWouldBeWrittenOutAstronomicallyLongAreAProblem) {
+  // Each sum adds its input to itself: the written-out formula doubles at every stage, 2^60
+  // terms after 60 stages, though the diagram holds 60 blocks.
+  const Small s = SmallReadyToCompile();
+  auto d = FromJson(ChainJson(s, 60, "sum", "++"));
+  ASSERT_TRUE(d.ok()) << d.error().ToString();
+  CompileResult r = Compile(*d);
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(HasProblem(r, "more than 100000 operations")) << r.Message();
+  // Ten stages (1024 terms) are an ordinary, if odd, model: dx/dt = (1024 u - x)/tau.
+  auto ten = FromJson(ChainJson(s, 10, "sum", "++"));
+  ASSERT_TRUE(ten.ok());
+  CompileResult fine = Compile(*ten);
+  ASSERT_TRUE(fine.ok()) << fine.Message();
+  auto linear = model::LinearModel::Compile(*fine.model);
+  ASSERT_TRUE(linear.ok()) << linear.error().ToString();
+  auto m = linear->Evaluate(std::vector<double>(fine.model->parameters.size(), 1.0));
+  ASSERT_TRUE(m.ok()) << m.error().ToString();
+  EXPECT_EQ(m->B(0, 0), 1024.0);
+}
+
+TEST(DiagramHostile, ASumTakesAtMost64Inputs) {
+  Small s = MakeSmall();
+  const std::string wide(kMaxSumInputs + 1, '+');
+  auto edit = SetSumSigns(&s.d, s.sum, wide);
+  ASSERT_FALSE(edit.ok());
+  EXPECT_NE(edit.error().message.find("at most 64 inputs, not 65"), std::string::npos)
+      << edit.error().message;
+  EXPECT_TRUE(SetSumSigns(&s.d, s.sum, std::string(kMaxSumInputs, '-')).ok());
+  Json j = ToJson(s.d);
+  for (Json& b : j["blocks"])
+    if (b["id"] == s.sum) b["signs"] = std::string(1000000, '+');
+  auto read = FromJson(j, "p.json", "diagram");
+  ASSERT_FALSE(read.ok());
+  EXPECT_NE(read.error().message.find("at most 64 inputs, not 1000000"), std::string::npos)
+      << read.error().ToString();
 }
 
 // ---- 4. FromModel -------------------------------------------------------------------------------

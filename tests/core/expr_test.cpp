@@ -9,6 +9,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <memory>
 #include <numbers>
@@ -569,6 +570,31 @@ TEST(ExprTape, RefusesExpressionsNeedingMoreThanItsStack) {
   for (int i = 0; i < 100; ++i) shallow = "x + x*(" + shallow + ")";
   const ExprPtr ok = P(shallow);
   EXPECT_TRUE(Tape::Compile(std::span<const ExprPtr>(&ok, 1), SlotOfXyz).ok());
+}
+
+TEST(ExprMeasure, CountsHeightAndWrittenOutNodesWithoutExpandingSharedSubtrees) {
+  auto e = Parse("a + b*c");
+  ASSERT_TRUE(e.ok());
+  EXPECT_EQ(Measure(*e).height, 3);
+  EXPECT_EQ(Measure(*e).nodes, 5u);
+  // s_{k+1} = s_k + s_k, shared: 2^(k+1) - 1 nodes written out, k + 1 levels.
+  ExprPtr s = Variable("u");
+  for (int k = 0; k < 20; ++k) {
+    auto n = std::make_shared<Node>();
+    n->op = Op::kAdd;
+    n->args = {s, s};
+    s = n;
+  }
+  EXPECT_EQ(Measure(s).height, 21);
+  EXPECT_EQ(Measure(s).nodes, (std::size_t{1} << 21) - 1);
+  for (int k = 20; k < 200; ++k) {  // 2^200 nodes: the count saturates, in 200 steps
+    auto n = std::make_shared<Node>();
+    n->op = Op::kAdd;
+    n->args = {s, s};
+    s = n;
+  }
+  EXPECT_EQ(Measure(s).height, 201);
+  EXPECT_EQ(Measure(s).nodes, std::numeric_limits<std::size_t>::max());
 }
 
 }  // namespace

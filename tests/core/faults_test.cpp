@@ -654,5 +654,50 @@ TEST_F(AtomicWrite, AMissingDirectoryIsAMessageNamingTheFile) {
   EXPECT_EQ(FilesIn(), 0);
 }
 
+TEST_F(AtomicWrite, CheckWritableForeseesEachFailureOfTheWriteAndLeavesNothing) {
+  // Each case of the tests above, checked before any write: the same verdict, the same message.
+  const auto occupied = dir_ / "occupied";
+  std::filesystem::create_directories(occupied / "inside");
+  const std::string missing = (dir_ / "no" / "dir" / "out.csv").string();
+  const std::string proc = "/proc/greybench-faults-test.json";
+  for (const std::string& path : {occupied.string(), missing, proc}) {
+    if (path == proc && !std::filesystem::is_directory("/proc/self")) continue;
+    const auto check = project::CheckWritable(path);
+    const auto write = project::WriteFileAtomic(path, "x\n");
+    ASSERT_FALSE(check.ok()) << path;
+    ASSERT_FALSE(write.ok()) << path;
+    EXPECT_EQ(check.error().file, path);
+    // The temporary's name differs between the two calls; the rest of the message does not.
+    const auto reason = [](const std::string& m) { return m.substr(m.rfind(':')); };
+    EXPECT_EQ(reason(check.error().message), reason(write.error().message)) << path;
+  }
+  const auto fine = dir_ / "result.json";
+  EXPECT_TRUE(project::CheckWritable(fine.string()).ok());
+  EXPECT_FALSE(std::filesystem::exists(fine));
+  EXPECT_EQ(FilesIn(), 1);  // the occupied folder only
+}
+
+// Files that cannot be read to their end are refused before reading: a device would be read
+// until memory runs out (found reading the code: `greybench-cli loglik /dev/zero` never ended).
+TEST(UnreadableFiles, DevicesPipesAndFoldersAreRefusedNamingTheFile) {
+  if (std::filesystem::exists("/dev/zero")) {
+    const auto json = project::ReadJsonFile("/dev/zero");
+    ASSERT_FALSE(json.ok());
+    EXPECT_EQ(json.error().file, "/dev/zero");
+    EXPECT_NE(json.error().message.find("a device or a pipe"), std::string::npos)
+        << json.error().message;
+    const auto csv = data::ReadCsvFile("/dev/zero");
+    ASSERT_FALSE(csv.ok());
+    EXPECT_NE(csv.error().message.find("a device or a pipe"), std::string::npos)
+        << csv.error().message;
+  }
+  const std::string folder = std::filesystem::temp_directory_path().string();
+  const auto project = project::LoadProject(folder);
+  ASSERT_FALSE(project.ok());
+  EXPECT_EQ(project.error().file, folder);
+  EXPECT_NE(project.error().message.find("it is a folder"), std::string::npos)
+      << project.error().message;
+}
+
 }  // namespace
 }  // namespace gb

@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# The quality gates of docs/quality.md, one after another, as CI runs them after the test suite:
+#   1. scripts/sanitize.sh       the whole test suite under ASan + UBSan (build-asan/)
+#   2. scripts/fuzz.sh SECONDS   each libFuzzer target for SECONDS (default 60; build-fuzz/)
+#   3. scripts/static-checks.sh  clang-tidy and cppcheck on core/ (needs build/, from dev.sh)
+# Installs what the gates need and the normal set-up does not (clang with the libFuzzer runtime,
+# clang-tidy, cppcheck) with apt-get when missing. Runs every gate even when one fails, prints a
+# summary with each gate's time, and exits 1 if any failed.
+#   scripts/quality.sh [SECONDS]
+set -uo pipefail
+cd "$(dirname "$0")/.."
+seconds=${1:-60}
+
+packages=(clang libclang-rt-dev clang-tidy cppcheck)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "quality: installing ${missing[*]}"
+  sudo=""
+  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends \
+    "${missing[@]}" || exit 2
+fi
+if [ ! -f build/compile_commands.json ]; then
+  echo "quality: build/ is not configured; run scripts/dev.sh build first" >&2
+  exit 2
+fi
+
+summary=()
+status=0
+gate() {
+  local name=$1
+  shift
+  echo "quality: === $name: $*"
+  local start=$SECONDS rc=0
+  "$@" || rc=$?
+  local took=$((SECONDS - start))
+  if [ "$rc" -eq 0 ]; then
+    summary+=("passed  $name ($((took / 60)) min $((took % 60)) s)")
+  else
+    summary+=("FAILED  $name, exit $rc ($((took / 60)) min $((took % 60)) s)")
+    status=1
+  fi
+}
+gate sanitizers scripts/sanitize.sh
+gate fuzzing scripts/fuzz.sh "$seconds"
+gate static-checks env JOBS="$(nproc)" scripts/static-checks.sh build
+
+echo "quality: summary"
+printf '  %s\n' "${summary[@]}"
+exit "$status"
