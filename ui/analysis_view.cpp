@@ -101,12 +101,9 @@ const DatasetAnalysis* DrawAnalysisHeader(AppState& state, bool (*view_controls)
   const Analysis* r = a.result ? &*a.result : nullptr;
   const bool running = AnalysisRunning(state);
 
-  // The toolbar: framed fields, so they read as such on the white background.
-  ImGui::PushStyleVar(ImGuiStyleVar_FrameBorderSize, 1.0f);
   DrawDatasetSelector(state, r);
   if (r && view_controls && view_controls(state)) ImGui::SameLine(0, 1.6f * ImGui::GetFontSize());
   DrawControls(state);
-  ImGui::PopStyleVar();
   if (r) {
     ImGui::PushTextWrapPos(0.0f);
     ImGui::TextDisabled("%s", SourceText(state, *r).c_str());

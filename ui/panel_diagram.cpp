@@ -153,15 +153,11 @@ std::optional<std::string> TextRow(AppState& state, int block, const std::string
   if (refused) {
     ImGui::PushStyleColor(ImGuiCol_Border, SeverityColor(Severity::kError));
     ImGui::PushStyleColor(ImGuiCol_FrameBg, kRefusedFieldBg);
-    ImGui::PushStyleVar(ImGuiStyleVar_FrameBorderSize, 1.0f);
   }
   ImGui::PushFont(state.fonts.mono);
   ImGui::InputTextWithHint(("##" + field).c_str(), hint, text, ImGuiInputTextFlags_AutoSelectAll);
   ImGui::PopFont();
-  if (refused) {
-    ImGui::PopStyleVar();
-    ImGui::PopStyleColor(2);
-  }
+  if (refused) ImGui::PopStyleColor(2);
   if (ImGui::IsItemActivated()) {
     v.editing_block = block;
     v.editing_field = field;

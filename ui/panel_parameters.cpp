@@ -213,13 +213,12 @@ void DrawTable(AppState& state, const FitResult* result) {
   const ImGuiTableFlags flags = ImGuiTableFlags_BordersOuter | ImGuiTableFlags_BordersInnerH |
                                 ImGuiTableFlags_BordersInnerV | ImGuiTableFlags_RowBg |
                                 ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_NoSavedSettings;
-  // Compact rows; the editable cells framed so they read as fields.
+  // Compact rows.
   ImGui::PushStyleVar(ImGuiStyleVar_FramePadding,
                       ImVec2(ImGui::GetStyle().FramePadding.x, 2.0f * s));
-  ImGui::PushStyleVar(ImGuiStyleVar_FrameBorderSize, 1.0f);
   const float row_h = ImGui::GetFrameHeight() + 2.0f * ImGui::GetStyle().CellPadding.y;
   if (!ImGui::BeginTable("##parameters", columns, flags)) {
-    ImGui::PopStyleVar(2);
+    ImGui::PopStyleVar();
     return;
   }
   ImGui::TableSetupColumn("Parameter");
@@ -286,7 +285,7 @@ void DrawTable(AppState& state, const FitResult* result) {
     ImGui::PopID();
   }
   ImGui::EndTable();
-  ImGui::PopStyleVar(2);
+  ImGui::PopStyleVar();
 }
 
 void DrawRefusal(AppState& state) {

@@ -310,8 +310,18 @@ void Autosave(AppState& state) {
   }
   if (now < sh.autosave_at) return;
   sh.autosave_due = false;
-  if (Status st = WriteRecovery(state); !st)
-    AddMessage(state, Severity::kWarning, "Autosave failed: " + st.error().ToString());
+  // A folder that cannot be written stays so: the warning is given once, not every 30 s, and
+  // the next write that works says so.
+  if (Status st = WriteRecovery(state); !st) {
+    if (!sh.autosave_failing)
+      AddMessage(state, Severity::kWarning,
+                 "Autosave failed: " + st.error().ToString() +
+                     ". It will go on trying; save the project to keep your changes.");
+    sh.autosave_failing = true;
+  } else if (sh.autosave_failing) {
+    sh.autosave_failing = false;
+    AddMessage(state, Severity::kInfo, "Autosave works again.");
+  }
 }
 
 bool Pressed(int key) { return key >= 0 && ImGui::IsKeyPressed(key, false); }
@@ -540,7 +550,6 @@ void DrawNewProjectDialog(AppState& state) {
   if (!ImGui::BeginPopupModal(kNewPopup, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
   const float s = state.fonts.scale;
   NewProjectForm& f = sh.new_form;
-  ImGui::PushStyleVar(ImGuiStyleVar_FrameBorderSize, 1.0f);  // fields on the white popup
   ImGui::TextDisabled("A project names a model file and the data files it is fitted to.");
   ImGui::Spacing();
   ImGui::AlignTextToFramePadding();
@@ -602,7 +611,6 @@ void DrawNewProjectDialog(AppState& state) {
   if (ImGui::Button("Create")) CreateProject(state);
   ImGui::SameLine();
   if (ImGui::Button("Cancel")) ImGui::CloseCurrentPopup();
-  ImGui::PopStyleVar();
   DrawBrowser(state, /*inside_new_dialog=*/true);
   ImGui::EndPopup();
 }

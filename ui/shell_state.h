@@ -80,6 +80,7 @@ struct ShellState {
   int autosaved_layout_revision = -1;
   bool autosave_due = false;
   std::chrono::steady_clock::time_point autosave_at;
+  bool autosave_failing = false;  // said once; retried quietly until a write works again
 
   // Recovery: a recovery file newer than the project just opened, offered for restoring.
   std::string recovery_offer;

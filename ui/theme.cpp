@@ -70,7 +70,8 @@ void ApplyStyle(float scale) {
   s.WindowBorderSize = 0;
   s.ChildBorderSize = 1;
   s.PopupBorderSize = 1;
-  s.FrameBorderSize = 0;
+  // Fields are white like popups, tables and plot areas: a border shows where to type.
+  s.FrameBorderSize = 1;
   s.TabBorderSize = 0;
   s.WindowRounding = 0;
   s.ChildRounding = 0;

@@ -30,6 +30,7 @@ Result<Simulation> Simulate(const model::StateSpace& ss, const data::Series& ser
   NormalRng rng(options.seed);
   const std::vector<filter::Discrete> disc = filter::DiscretizeIntervals(ss, series, settings.hold);
   std::vector<Eigen::MatrixXd> q_factor;
+  q_factor.reserve(disc.size());
   for (const auto& d : disc) q_factor.push_back(PsdFactor(d.Q));
 
   Simulation sim;

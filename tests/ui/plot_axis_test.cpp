@@ -2,7 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
+#include <utility>
+#include <vector>
 #include <set>
 
 namespace gb::ui::plot {
@@ -38,6 +42,50 @@ TEST(NiceTicks, TicksAreInsideTheRangeEquallySpacedAndAtMostAsMany) {
     EXPECT_LT(t.values.front() - t.step, r.min);
     EXPECT_GT(t.values.back() + t.step, r.max);
   }
+}
+
+// Every 1-2-5 step from 1e-12 to 1e12 and the number of its multiples inside `r`, by brute force.
+std::vector<std::pair<double, int>> AllStepsAndCounts(Range r) {
+  std::vector<std::pair<double, int>> out;
+  for (int e = -12; e <= 12; ++e) {
+    for (double m : {1.0, 2.0, 5.0}) {
+      const double step = m * std::pow(10.0, e);
+      const double n = std::floor(r.max / step + 1e-9) - std::ceil(r.min / step - 1e-9) + 1;
+      out.emplace_back(step, static_cast<int>(std::clamp(n, 0.0, 1e9)));
+    }
+  }
+  return out;
+}
+
+TEST(NiceTicks, NeverASingleTickAndNoMoreThanAskedUnlessNoStepGivesTwoToThatMany) {
+  // Found in the QQ and residual plots: a short axis with room for two labels got one.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> centre(-5.0, 5.0), log_span(-6.0, 6.0);
+  for (int trial = 0; trial < 2000; ++trial) {
+    const double span = std::pow(10.0, log_span(rng));
+    const double lo = centre(rng) * span;
+    const Range r{lo, lo + span};
+    for (int max_ticks = 2; max_ticks <= 6; ++max_ticks) {
+      const Ticks t = NiceTicks(r, max_ticks);
+      ASSERT_GE(t.values.size(), 2u) << r.min << " " << r.max << " max " << max_ticks;
+      bool some_step_fits = false;
+      for (const auto& [step, n] : AllStepsAndCounts(r))
+        if (n >= 2 && n <= max_ticks) some_step_fits = true;
+      if (some_step_fits) {
+        EXPECT_LE(static_cast<int>(t.values.size()), max_ticks) << r.min << " " << r.max;
+      }
+      // Over the limit only when no larger step gives two ticks.
+      if (static_cast<int>(t.values.size()) > max_ticks) {
+        for (const auto& [step, n] : AllStepsAndCounts(r)) {
+          if (step > t.step * (1 + 1e-9)) {
+            EXPECT_LT(n, 2) << "step " << step << " gives " << n;
+          }
+        }
+      }
+    }
+  }
+  const Ticks short_axis = NiceTicks({0.13, 0.71}, 2);  // step 1 fits no tick; 0.5 one; 0.2 three
+  EXPECT_EQ(short_axis.values.size(), 3u);
 }
 
 TEST(NiceTicks, TimeAxisOfFortySevenSeconds) {

@@ -325,6 +325,30 @@ TEST_F(ShellTest, RecoveryFileRestoresAnEditAfterACrash) {
   EXPECT_EQ(spec->parameters[spec->ParameterIndex("tau_fv")].value, 0.0777);
 }
 
+TEST_F(ShellTest, AnAutosaveThatCannotWriteWarnsOnceAndSaysWhenItWorksAgain) {
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  d.state.shell.autosave_seconds = 0.0;  // every frame after an edit
+  const std::string writable = d.state.shell.recovery_dir;
+  d.state.shell.recovery_dir = "/proc/greybench-no-recovery";  // refused even to root
+  auto count = [&](const std::string& text) {
+    return std::count_if(d.state.messages.begin(), d.state.messages.end(),
+                         [&](const Message& m) { return m.text.find(text) != std::string::npos; });
+  };
+  for (double tau : {0.0771, 0.0772, 0.0773}) {
+    EditValue("tau_fv", tau);
+    d.Frame();
+    d.Frame();
+  }
+  EXPECT_EQ(count("Autosave failed"), 1);
+  EXPECT_EQ(count("Autosave works again"), 0);
+  d.state.shell.recovery_dir = writable;
+  d.Frame();
+  EXPECT_TRUE(fs::exists(RecoveryPath(d.state, project())));
+  EXPECT_EQ(count("Autosave works again"), 1);
+  EXPECT_EQ(count("Autosave failed"), 1);
+}
+
 TEST_F(ShellTest, ShortcutsSwitchViewsAndRunAndCancelTheEstimation) {
   WorkbenchDriver& d = Start();
   d.Open(project());

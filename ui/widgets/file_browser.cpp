@@ -335,8 +335,6 @@ std::optional<std::string> DrawFileBrowser(FileBrowserState& b, float scale) {
     ImGui::CloseCurrentPopup();
   };
 
-  // The popup is white like the fields: a border shows where to type and click.
-  ImGui::PushStyleVar(ImGuiStyleVar_FrameBorderSize, 1.0f);
   DrawToolbar(b);
   const int activated = DrawList(b, scale);
   if (activated >= 0) {
@@ -413,7 +411,6 @@ std::optional<std::string> DrawFileBrowser(FileBrowserState& b, float scale) {
   ImGui::EndDisabled();
   ImGui::SameLine();
   if (ImGui::Button("Cancel")) ImGui::CloseCurrentPopup();
-  ImGui::PopStyleVar();
   ImGui::EndPopup();
   return chosen;
 }

@@ -27,6 +27,29 @@ double NiceStep(double span, int max_ticks) {
   return nice * magnitude;
 }
 
+// The 1-2-5 step below `step`: 5 -> 2 -> 1 -> 0.5 -> 0.2 ...
+double SmallerStep(double step) {
+  const double magnitude = std::pow(10.0, std::floor(std::log10(step) + 1e-9));
+  const double mantissa = step / magnitude;  // 1, 2 or 5
+  if (mantissa > 3.5) return 2.0 * magnitude;
+  if (mantissa > 1.5) return magnitude;
+  return 0.5 * magnitude;
+}
+
+// The multiples of `step` inside `range`. Integer multiples, so labels do not accumulate
+// rounding error.
+std::vector<double> Multiples(Range range, double step) {
+  std::vector<double> values;
+  const double first = std::ceil(range.min / step - 1e-9);
+  const double last = std::floor(range.max / step + 1e-9);
+  for (double k = first; k <= last; k += 1.0) {
+    double v = k * step;
+    if (std::abs(v) < step * 1e-9) v = 0.0;
+    values.push_back(v);
+  }
+  return values;
+}
+
 }  // namespace
 
 Ticks NiceTicks(Range range, int max_ticks) {
@@ -36,13 +59,14 @@ Ticks NiceTicks(Range range, int max_ticks) {
   max_ticks = std::max(2, max_ticks);
 
   ticks.step = NiceStep(span, max_ticks);
-  // Integer multiples of the step, so labels do not accumulate rounding error.
-  const double first = std::ceil(range.min / ticks.step - 1e-9);
-  const double last = std::floor(range.max / ticks.step + 1e-9);
-  for (double k = first; k <= last; k += 1.0) {
-    double v = k * ticks.step;
-    if (std::abs(v) < ticks.step * 1e-9) v = 0.0;
-    ticks.values.push_back(v);
+  ticks.values = Multiples(range, ticks.step);
+  // One label alone shows no scale. A short axis, 0.13 to 0.71 with room for two labels, gets
+  // the step 1 and no tick at all; smaller steps are taken until two ticks fit. NiceStep's step
+  // is at most 2.5 times the span and each step down divides it by 2 or 2.5, so three steps
+  // down reach half the span, where two ticks always fit.
+  for (int i = 0; i < 4 && ticks.values.size() < 2; ++i) {
+    ticks.step = SmallerStep(ticks.step);
+    ticks.values = Multiples(range, ticks.step);
   }
 
   const double magnitude = std::max(std::abs(range.min), std::abs(range.max));

@@ -28,8 +28,10 @@ struct Ticks {
   int exponent = 0;  // labels show value / 10^exponent; 0 = plain numbers
 };
 
-// Ticks at multiples of a 1-2-5 step, at most `max_ticks` of them (at least 2 are asked for),
-// inside `range`. A range that is empty, inverted or not finite gives no ticks.
+// Ticks at multiples of a 1-2-5 step inside `range`: the largest step that gives at most
+// `max_ticks` of them (at least 2 are asked for), except that a single tick shows no scale, so
+// when that step gives fewer than two the step shrinks until two fit (a short axis may then get
+// more than max_ticks). A range that is empty, inverted or not finite gives no ticks.
 Ticks NiceTicks(Range range, int max_ticks);
 
 // The label of one tick value ("0.25", "-3", "1.5").
