@@ -121,6 +121,8 @@ namespace {
 // requires or gets parentheses.
 enum Prec { kSum = 1, kProduct = 2, kUnary = 3, kPower = 4, kAtom = 5 };
 
+bool IsProduct(const Node& n) { return n.op == Op::kMul || n.op == Op::kDiv; }
+
 Prec PrecOf(const Node& n) {
   switch (n.op) {
     case Op::kAdd:
@@ -129,8 +131,8 @@ Prec PrecOf(const Node& n) {
     case Op::kMul:
     case Op::kDiv:
       return kProduct;
-    case Op::kNeg:
-      return kUnary;
+    case Op::kNeg:  // -(a*b) is written -a*b, which binds as a product
+      return IsProduct(*n.args[0]) ? kProduct : kUnary;
     case Op::kPow:
       return kPower;
     case Op::kConst:
@@ -172,10 +174,18 @@ void Print(const Node& n, std::string* out) {
     case Op::kVar:
       *out += n.name;
       return;
-    case Op::kNeg:
+    case Op::kNeg: {
+      // -(a*b) is written -a*b and -(a/b) is -a/b: the parser reads them as (-a)*b and (-a)/b,
+      // which are the same numbers, since negation commutes exactly with rounding. A second
+      // minus gets a space ("- -x"), not parentheses. Neither adds a level of nesting the
+      // source did not have, so text that parsed prints to text that parses (nesting is
+      // limited, parse.cpp).
       *out += '-';
-      PrintOperand(*n.args[0], PrecOf(*n.args[0]) <= kUnary, out);  // "-(-x)", not "--x"
+      const std::size_t start = out->size();
+      PrintOperand(*n.args[0], PrecOf(*n.args[0]) == kSum, out);
+      if ((*out)[start] == '-') out->insert(start, 1, ' ');
       return;
+    }
     case Op::kCall:
       *out += internal::Info(n.func).name;
       *out += '(';

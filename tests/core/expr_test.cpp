@@ -272,14 +272,20 @@ TEST(ExprToString, UsesMinimalParentheses) {
   EXPECT_EQ(ToString(P("(a-b)-c")), "a - b - c");
   EXPECT_EQ(ToString(P("a/(b*c)")), "a/(b*c)");
   EXPECT_EQ(ToString(P("(a/b)*c")), "a/b*c");
-  EXPECT_EQ(ToString(P("-(a*b)")), "-(a*b)");
+  EXPECT_EQ(ToString(P("-(a*b)")), "-a*b");  // (-a)*b: the same number
+  EXPECT_EQ(ToString(P("-(a/b)*c")), "-a/b*c");
+  EXPECT_EQ(ToString(P("-(a + b)")), "-(a + b)");
   EXPECT_EQ(ToString(P("-(a^b)")), "-a^b");
   EXPECT_EQ(ToString(P("(-a)^b")), "(-a)^b");
   EXPECT_EQ(ToString(P("a^(b^c)")), "a^b^c");
   EXPECT_EQ(ToString(P("(a^b)^c")), "(a^b)^c");
   EXPECT_EQ(ToString(P("a^(-b)")), "a^-b");
   EXPECT_EQ(ToString(P("a*(-b)")), "a*-b");
-  EXPECT_EQ(ToString(P("-(-a)")), "-(-a)");
+  EXPECT_EQ(ToString(P("-(-a)")), "- -a");
+  EXPECT_EQ(ToString(P("-(-2*a)")), "- -2*a");
+  EXPECT_EQ(ToString(P("c^-(a*b)")), "c^(-a*b)");
+  EXPECT_EQ(ToString(P("c*-(a*b)")), "c*(-a*b)");
+  EXPECT_EQ(ToString(P("c - -(a*b)")), "c - -a*b");
   EXPECT_EQ(ToString(P("exp(-x) + min(a, b)")), "exp(-x) + min(a, b)");
 }
 
@@ -298,7 +304,24 @@ TEST(ExprToString, ParenthesizesSyntheticNegativeConstants) {
   EXPECT_EQ(ToString(Node2(Op::kPow, Constant(-2.0), x)), "(-2)^x");
   EXPECT_EQ(ToString(Node2(Op::kPow, x, Constant(-2.0))), "x^-2");
   EXPECT_EQ(ToString(Node2(Op::kSub, x, Constant(-2.0))), "x - -2");
-  EXPECT_EQ(ToString(NegOf(Constant(-2.0))), "-(-2)");
+  EXPECT_EQ(ToString(NegOf(Constant(-2.0))), "- -2");
+}
+
+// Found by tests/fuzz/model_fuzz (CI, 2026-11-22): "-(-(-x))" was printed for "---x", two
+// levels of nesting per minus, so 130 minus signs printed to text over the nesting limit.
+TEST(ExprToString, NeverNestsDeeperThanTheTextItWasParsedFrom) {
+  for (const std::string& text :
+       {"2 - " + std::string(250, '-') + "x", std::string(255, '-') + "x*y",
+        "a^-" + std::string(200, '-') + "(b*c)", std::string(127, '(') + "-x*-y" +
+            std::string(127, ')')}) {
+    auto e = Parse(text);
+    ASSERT_TRUE(e.ok()) << e.error().ToString();
+    auto again = Parse(ToString(*e));
+    ASSERT_TRUE(again.ok()) << again.error().ToString();
+    EXPECT_EQ(ToString(*again), ToString(*e));
+    auto simple = Parse(ToString(Simplify(*e)));
+    EXPECT_TRUE(simple.ok()) << simple.error().ToString();
+  }
 }
 
 TEST(ExprToString, RoundTripsToIdenticalValues) {
@@ -312,6 +335,17 @@ TEST(ExprToString, RoundTripsToIdenticalValues) {
   exprs.push_back(Node2(Op::kPow, NegOf(x), Constant(3.0)));
   exprs.push_back(Node2(Op::kMul, Constant(-0.7), Node2(Op::kAdd, x, Constant(-1e-7))));
   exprs.push_back(NegOf(NegOf(Node2(Op::kPow, x, NegOf(y)))));
+  // A negated product prints as a product (-x*y): every place it can stand.
+  const ExprPtr neg_xy = NegOf(Node2(Op::kMul, x, y));
+  const ExprPtr neg_x_over_y = NegOf(Node2(Op::kDiv, x, y));
+  for (const ExprPtr& n : {neg_xy, neg_x_over_y, NegOf(Node2(Op::kMul, Constant(-2.0), x))}) {
+    exprs.push_back(n);
+    exprs.push_back(NegOf(n));
+    for (Op op : {Op::kAdd, Op::kSub, Op::kMul, Op::kDiv, Op::kPow}) {
+      exprs.push_back(Node2(op, n, z));
+      exprs.push_back(Node2(op, z, n));
+    }
+  }
   for (const char* v : {"x", "y", "z"}) exprs.push_back(Differentiate(exprs[1], v));
 
   for (const ExprPtr& e : exprs) {
@@ -344,7 +378,7 @@ TEST(ExprSimplify, AppliesTheDocumentedIdentities) {
       {"x*0", "0"},         {"0*x", "0"},       {"0/x", "0"},        {"x^1", "x"},
       {"x^0", "1"},         {"1^x", "1"},       {"-(-x)", "x"},      {"x - 0", "x"},
       {"0 - x", "-x"},      {"x/1", "x"},       {"x + -y", "x - y"}, {"x - -y", "x + y"},
-      {"x*2", "2*x"},       {"-(2*x)", "-2*x"}, {"x*-y", "-(x*y)"},  {"-x/-y", "x/y"},
+      {"x*2", "2*x"},       {"-(2*x)", "-2*x"}, {"x*-y", "-x*y"},  {"-x/-y", "x/y"},
       {"pow(x, 2)", "x^2"},
   };
   for (const auto& [in, out] : cases) EXPECT_EQ(ToString(Simplify(P(in))), out) << in;
