@@ -9,6 +9,7 @@
 #include <climits>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <random>
 
@@ -524,6 +525,167 @@ std::vector<std::vector<double>> StartPoints(const Fitter& f, int extra, std::ui
 
 // ---- 4. Hessian and uncertainties ------------------------------------------------------------
 
+// The Hessian of -log L in scaled units by finite differences over the parameters `active`
+// (steps h), from the value f0 = log L(z). Each parameter's differences are central, or, where
+// log L cannot be evaluated on one side of the estimate (a model that fails just below it, say),
+// one-sided of second order:
+//   central:  f'  ≈ (f₁ - f₋₁)/2h                f'' ≈ (f₁ - 2f₀ + f₋₁)/h²
+//   one-sided: f' ≈ (-3f₀ + 4f₁ - f₂)/2h         f'' ≈ (2f₀ - 5f₁ + 4f₂ - f₃)/h²
+// (fₖ = f(z + k d h e_a), d = ±1 the side that works). A mixed derivative is the product of the
+// two parameters' first-derivative stencils; with every parameter central these are the usual
+// 4-corner formulas. A parameter whose differences fail on both sides, or whose one-sided
+// stencil would leave its bounds, is dropped: its row and column are left zero.
+class HessianByDifferences {
+ public:
+  HessianByDifferences(Fitter& f, const std::vector<double>& z, double f0,
+                       const std::vector<int>& delay, const std::vector<int>& active,
+                       std::vector<double> h, int threads)
+      : f_(f), z_(z), f0_(f0), delay_(delay), active_(active), h_(std::move(h)),
+        threads_(threads), dir_(active.size(), 0), dropped_(active.size(), false) {}
+
+  int direction(int a) const { return dir_[a]; }  // 0 central, +1 forward, -1 backward
+  bool dropped(int a) const { return dropped_[a]; }
+
+  Eigen::MatrixXd Run() {
+    const int m = static_cast<int>(active_.size());
+    // Each round either ends with a finite Hessian or makes a parameter one-sided or drops it.
+    for (int round = 0; round <= 2 * m; ++round) {
+      Evaluate(NeededPoints());
+      if (f_.Cancelled()) return Eigen::MatrixXd::Zero(m, m);
+      Eigen::MatrixXd H = Assemble();
+      if (H.allFinite() || !Mend()) return H;
+    }
+    return Assemble();  // not reached: Mend changes something at most 2m times
+  }
+
+ private:
+  // A point: up to two parameters displaced, by a whole number of their steps (a < b, or b = -1).
+  struct Point {
+    int a = -1, oa = 0, b = -1, ob = 0;
+    auto operator<=>(const Point&) const = default;
+  };
+  using Stencil = std::vector<std::pair<int, double>>;  // (offset in steps, weight)
+
+  Stencil First(int a) const {
+    const int d = dir_[a];
+    if (d == 0) return {{1, 0.5}, {-1, -0.5}};
+    return {{0, -1.5 * d}, {d, 2.0 * d}, {2 * d, -0.5 * d}};
+  }
+  Stencil Second(int a) const {
+    const int d = dir_[a];
+    if (d == 0) return {{1, 1.0}, {0, -2.0}, {-1, 1.0}};
+    return {{0, 2.0}, {d, -5.0}, {2 * d, 4.0}, {3 * d, -1.0}};
+  }
+  static Point Make(int a, int oa, int b, int ob) {
+    if (oa == 0) a = -1;
+    if (ob == 0) b = -1;
+    if (a < 0) std::swap(a, b), std::swap(oa, ob);
+    if (b >= 0 && b < a) std::swap(a, b), std::swap(oa, ob);
+    return {a, a < 0 ? 0 : oa, b, b < 0 ? 0 : ob};
+  }
+
+  // Calls visit(point, weight) for every term of H(a, b).
+  template <class Visit>
+  void Terms(int a, int b, const Visit& visit) const {
+    if (a == b) {
+      for (const auto& [o, w] : Second(a)) visit(Make(a, o, -1, 0), w);
+      return;
+    }
+    for (const auto& [oa, wa] : First(a))
+      for (const auto& [ob, wb] : First(b)) visit(Make(a, oa, b, ob), wa * wb);
+  }
+
+  std::vector<Point> NeededPoints() const {
+    const int m = static_cast<int>(active_.size());
+    std::vector<Point> need;
+    for (int a = 0; a < m; ++a)
+      for (int b = a; b < m; ++b) {
+        if (dropped_[a] || dropped_[b]) continue;
+        Terms(a, b, [&](const Point& p, double) {
+          if (p.a >= 0 && !values_.count(p)) need.push_back(p);
+        });
+      }
+    std::sort(need.begin(), need.end());
+    need.erase(std::unique(need.begin(), need.end()), need.end());
+    return need;
+  }
+
+  void Evaluate(const std::vector<Point>& points) {
+    std::vector<double> v(points.size());
+    ParallelFor(static_cast<int>(points.size()), threads_, [&](int c) {
+      const Point& p = points[c];
+      std::vector<double> zp = z_;
+      zp[active_[p.a]] += p.oa * h_[p.a];
+      if (p.b >= 0) zp[active_[p.b]] += p.ob * h_[p.b];
+      v[c] = -f_.LogLik(zp, delay_);
+    });
+    for (std::size_t c = 0; c < points.size(); ++c) values_[points[c]] = v[c];
+  }
+
+  double Value(const Point& p) const { return p.a < 0 ? -f0_ : values_.at(p); }
+
+  Eigen::MatrixXd Assemble() const {
+    const int m = static_cast<int>(active_.size());
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m, m);
+    for (int a = 0; a < m; ++a)
+      for (int b = a; b < m; ++b) {
+        if (dropped_[a] || dropped_[b]) continue;
+        double sum = 0.0;
+        Terms(a, b, [&](const Point& p, double w) { sum += w * Value(p); });
+        H(a, b) = H(b, a) = sum / (h_[a] * h_[b]);
+      }
+    return H;
+  }
+
+  // After a Hessian with non-finite entries: makes central parameters one-sided, away from the
+  // side where their points fail; when none can be, drops the parameter that takes part in the
+  // most failed points. False when nothing could be changed.
+  bool Mend() {
+    const int m = static_cast<int>(active_.size());
+    std::vector<int> failed_plus(m, 0), failed_minus(m, 0);
+    for (int a = 0; a < m; ++a)
+      for (int b = a; b < m; ++b) {
+        if (dropped_[a] || dropped_[b]) continue;
+        Terms(a, b, [&](const Point& p, double) {
+          if (p.a < 0 || std::isfinite(Value(p))) return;
+          for (auto [q, o] : {std::pair{p.a, p.oa}, std::pair{p.b, p.ob}})
+            if (q >= 0) ++(o > 0 ? failed_plus : failed_minus)[q];
+        });
+      }
+    bool changed = false;
+    for (int a = 0; a < m; ++a) {
+      if (dropped_[a] || dir_[a] != 0 || (failed_plus[a] > 0) == (failed_minus[a] > 0)) continue;
+      const int d = failed_minus[a] > 0 ? 1 : -1;
+      const int i = active_[a];
+      const double room = d > 0 ? f_.upper(i) - z_[i] : z_[i] - f_.lower(i);
+      if (!(3 * h_[a] < room)) continue;  // the one-sided stencil would leave the bounds
+      dir_[a] = d;
+      changed = true;
+    }
+    if (changed) return true;
+    int worst = -1;
+    for (int a = 0; a < m; ++a) {
+      const int n = failed_plus[a] + failed_minus[a];
+      if (!dropped_[a] && n > 0 && (worst < 0 || n > failed_plus[worst] + failed_minus[worst]))
+        worst = a;
+    }
+    if (worst < 0) return false;
+    dropped_[worst] = true;
+    return true;
+  }
+
+  Fitter& f_;
+  const std::vector<double>& z_;
+  double f0_;
+  const std::vector<int>& delay_;
+  const std::vector<int>& active_;
+  std::vector<double> h_;
+  int threads_;
+  std::vector<int> dir_;
+  std::vector<bool> dropped_;
+  std::map<Point, double> values_;  // -log L at the points evaluated so far
+};
+
 struct Uncertainty {
   std::vector<std::optional<double>> std_error;  // per free parameter
   std::vector<bool> at_bound;
@@ -555,49 +717,35 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
     h.push_back(step);
   }
   const int m = static_cast<int>(active.size());
-  // Points: for each (a <= b) the 4 (or 2 on the diagonal) corners.
-  struct Corner {
-    int a, b, sa, sb;
-  };
-  std::vector<Corner> corners;
+  auto name = [&](int a) { return spec.parameters[f.free()[active[a]]].name; };
+  HessianByDifferences hd(f, z, f0, delay, active, std::move(h), threads);
+  Eigen::MatrixXd H = hd.Run();
+  if (f.Cancelled()) return u;
   for (int a = 0; a < m; ++a) {
-    corners.push_back({a, a, 1, 0});
-    corners.push_back({a, a, -1, 0});
-    for (int b = a + 1; b < m; ++b)
-      for (int sa : {1, -1})
-        for (int sb : {1, -1}) corners.push_back({a, b, sa, sb});
+    if (hd.dropped(a))
+      u.warnings.push_back(fmt::format(
+          "the log-likelihood cannot be evaluated on either side of {} near the estimate: no "
+          "standard error for {}; the others' are computed with it held at its estimate",
+          name(a), name(a)));
+    else if (hd.direction(a) != 0)
+      u.warnings.push_back(fmt::format(
+          "the log-likelihood cannot be evaluated just {} the estimate of {} (the model fails "
+          "there): its standard error uses one-sided differences",
+          hd.direction(a) > 0 ? "below" : "above", name(a)));
   }
-  std::vector<double> values(corners.size());
-  ParallelFor(static_cast<int>(corners.size()), threads, [&](int c) {
-    std::vector<double> zp = z;
-    zp[active[corners[c].a]] += corners[c].sa * h[corners[c].a];
-    if (corners[c].b != corners[c].a) zp[active[corners[c].b]] += corners[c].sb * h[corners[c].b];
-    values[c] = -f.LogLik(zp, delay);
-  });
+  if (!H.allFinite()) {  // every point finite, yet the differences overflow
+    u.warnings.push_back("the Hessian could not be computed (the differences of the "
+                         "log-likelihood near the estimate overflow): no standard errors");
+    return u;
+  }
   // Hessian of -log L in scaled units, then to the natural scale: θ_i = s_i z_i.
-  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m, m);
-  std::size_t c = 0;
-  const double g0 = -f0;
-  for (int a = 0; a < m; ++a) {
-    const double plus = values[c++], minus = values[c++];
-    H(a, a) = (plus - 2 * g0 + minus) / (h[a] * h[a]);
-    for (int b = a + 1; b < m; ++b) {
-      const double pp = values[c++], pm = values[c++], mp = values[c++], mm = values[c++];
-      H(a, b) = H(b, a) = (pp - pm - mp + mm) / (4 * h[a] * h[b]);
-    }
-  }
   for (int a = 0; a < m; ++a)
     for (int b = 0; b < m; ++b) H(a, b) /= f.scale()[active[a]] * f.scale()[active[b]];
 
-  auto name = [&](int a) { return spec.parameters[f.free()[active[a]]].name; };
-  if (!H.allFinite()) {
-    u.warnings.push_back("the Hessian could not be computed (the log-likelihood fails near the "
-                         "estimate): no standard errors");
-    return u;
-  }
   // Parameters whose own curvature is not positive are not determined by the data at all.
   std::vector<int> keep;
   for (int a = 0; a < m; ++a) {
+    if (hd.dropped(a)) continue;
     if (H(a, a) > 0) keep.push_back(a);
     else
       u.warnings.push_back(fmt::format("the log-likelihood is flat or curves upward in {}: the "

@@ -25,7 +25,10 @@
 // free parameters that are not at a bound. Cov = H⁻¹, standard errors sqrt(diag Cov),
 // t = θ̂ / SE, p = two-sided P(|T| > |t|) for Student's t with n_obs - n_free degrees of freedom
 // (as CTSM reports). When H is not positive definite the directions it fails in are named and
-// those parameters get no standard error (never a misleadingly small one).
+// those parameters get no standard error (never a misleadingly small one). Where log L cannot
+// be evaluated on one side of an estimate, that parameter's differences are one-sided (second
+// order); where it fails on both sides, the parameter gets no standard error and the others'
+// hold it at its estimate. Both are warned about.
 #pragma once
 
 #include <atomic>
