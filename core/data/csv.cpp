@@ -15,7 +15,6 @@
 #include <cstdio>
 #include <cstring>
 #include <deque>
-#include <filesystem>
 #include <limits>
 #include <system_error>
 
@@ -376,11 +375,9 @@ Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::stri
 Result<std::shared_ptr<const Dataset>> ReadCsvFile(const std::string& path) {
   // Data files are read whole; 4 GiB is some 100 million rows of a few columns.
   constexpr std::uintmax_t kMaxCsvBytes = std::uintmax_t{4} << 30;
-  if (const std::string why = WhyNotReadable(path, kMaxCsvBytes); !why.empty())
+  std::uintmax_t size = 0;
+  if (const std::string why = WhyNotReadable(path, kMaxCsvBytes, &size); !why.empty())
     return FileError(path, 0, 0, why);
-  std::error_code ec;
-  const std::uintmax_t size = std::filesystem::file_size(path, ec);
-  if (ec) return FileError(path, 0, 0, "cannot read the file: " + ec.message());
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (f == nullptr) {
     return FileError(path, 0, 0, "cannot open the file: " + std::generic_category().message(errno));

@@ -2,7 +2,8 @@
 //
 // A folder cannot; a device or a pipe (`/dev/zero`, `/dev/urandom`, a FIFO) may never end and
 // would be read until memory runs out; a file larger than the reader's limit is not one of ours.
-// WhyNotReadable says why, in the words an error message needs, or returns "" when it can be read.
+// WhyNotReadable says why, in the words an error message needs, or returns "" when it can be read
+// (and then, given `size`, its size in bytes).
 #pragma once
 
 #include <cstdint>
@@ -12,7 +13,8 @@
 
 namespace gb {
 
-inline std::string WhyNotReadable(const std::string& path, std::uintmax_t max_bytes) {
+inline std::string WhyNotReadable(const std::string& path, std::uintmax_t max_bytes,
+                                  std::uintmax_t* size_out = nullptr) {
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
   if (ec) return "cannot read the file: " + ec.message();
@@ -26,6 +28,7 @@ inline std::string WhyNotReadable(const std::string& path, std::uintmax_t max_by
            " MiB, and files of this kind are read up to " + std::to_string(max_bytes >> 20) +
            " MiB";
   }
+  if (size_out) *size_out = size;
   return "";
 }
 
