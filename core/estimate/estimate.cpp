@@ -12,6 +12,7 @@
 #include <map>
 #include <mutex>
 #include <random>
+#include <tuple>
 
 #include <Eigen/Dense>
 #include <boost/math/distributions/chi_squared.hpp>
@@ -555,14 +556,20 @@ class HessianByDifferences {
       Eigen::MatrixXd H = Assemble();
       if (H.allFinite() || !Mend()) return H;
     }
-    return Assemble();  // not reached: Mend changes something at most 2m times
+    Evaluate(NeededPoints());  // not reached: Mend changes something at most 2m times
+    return Assemble();
   }
 
  private:
   // A point: up to two parameters displaced, by a whole number of their steps (a < b, or b = -1).
   struct Point {
     int a = -1, oa = 0, b = -1, ob = 0;
-    auto operator<=>(const Point&) const = default;
+    bool operator<(const Point& o) const {
+      return std::tie(a, oa, b, ob) < std::tie(o.a, o.oa, o.b, o.ob);
+    }
+    bool operator==(const Point& o) const {
+      return std::tie(a, oa, b, ob) == std::tie(o.a, o.oa, o.b, o.ob);
+    }
   };
   using Stencil = std::vector<std::pair<int, double>>;  // (offset in steps, weight)
 
