@@ -14,8 +14,12 @@ namespace {
 constexpr double kShortNorm = 0.25;
 constexpr int kMaxTaylorTerms = 30;
 
+// A norm that is not finite (A·Δ overflowed: an interval of 1e308 s) needs no doubling: no
+// number of them helps, the result is not finite, and the filter reports the interval
+// (FindNonFiniteInterval). A finite norm needs at most 1027.
 int DoublingSteps(double norm) {
-  return norm > kShortNorm ? static_cast<int>(std::ceil(std::log2(norm / kShortNorm))) : 0;
+  if (!(norm > kShortNorm) || !std::isfinite(norm)) return 0;
+  return static_cast<int>(std::ceil(std::log2(norm / kShortNorm)));
 }
 
 double Norm1(const Eigen::MatrixXd& M) { return M.cwiseAbs().colwise().sum().maxCoeff(); }

@@ -48,6 +48,28 @@ std::vector<Discrete> DiscretizeIntervals(const model::StateSpace& ss, const dat
   return out;
 }
 
+std::optional<Error> FindNonFiniteInterval(const std::vector<Discrete>& disc,
+                                           const data::Series& series) {
+  const auto finite = [](const Discrete& d) {
+    return d.Phi.allFinite() && d.Gamma0.allFinite() && d.Gamma1.allFinite() && d.g.allFinite() &&
+           d.Q.allFinite();
+  };
+  if (std::all_of(disc.begin(), disc.end(), finite)) return std::nullopt;
+  const auto& group = series.intervals.group;
+  for (std::size_t k = 0; k < group.size(); ++k) {
+    if (finite(disc[group[k]])) continue;
+    Error e = NumericalError(fmt::format(
+        "the model cannot be discretised over the {:g} s from row {} (t = {:g}) to the next: "
+        "e^(A dt) or its integrals overflow at these parameter values (an interval this long, or "
+        "a mode this unstable)",
+        series.time[k + 1] - series.time[k], k + 1, series.time[k]));
+    e.file = series.source;
+    if (k < series.row_line.size()) e.line = series.row_line[k];
+    return e;
+  }
+  return std::nullopt;
+}
+
 namespace {
 
 Result<Eigen::MatrixXd> InitialCovarianceFrom(const model::StateSpace& ss,
@@ -348,6 +370,7 @@ Result<Loglik> Run(const model::StateSpace& ss, const data::Series& series,
                                   series.source, *std::max_element(delay.begin(), delay.end()), N));
 
   const std::vector<Discrete> disc = DiscretizeIntervals(ss, series, settings.hold);
+  if (auto bad = FindNonFiniteInterval(disc, series)) return *bad;
   auto P0 = InitialCovarianceFrom(ss, series, settings, &disc);
   if (!P0) return P0.error();
   if (terms) terms->assign(N, 0.0);

@@ -29,6 +29,7 @@ Result<Simulation> Simulate(const model::StateSpace& ss, const data::Series& ser
   const int N = static_cast<int>(series.size());
   NormalRng rng(options.seed);
   const std::vector<filter::Discrete> disc = filter::DiscretizeIntervals(ss, series, settings.hold);
+  if (auto bad = filter::FindNonFiniteInterval(disc, series)) return *bad;
   std::vector<Eigen::MatrixXd> q_factor;
   q_factor.reserve(disc.size());
   for (const auto& d : disc) q_factor.push_back(PsdFactor(d.Q));

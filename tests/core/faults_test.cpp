@@ -494,6 +494,35 @@ TEST(Faults, NonFiniteDataCellsAreRefusedNamingLineAndColumnOrMissing) {
   EXPECT_EQ(input.error().line, 3);
 }
 
+// Found by tests/fuzz/csv_fuzz (2026-11-23): a time column jumping to 1e308 made A·Δ overflow, and
+// the number of doublings of the matrix exponential was log2(inf) converted to int (undefined).
+TEST(Faults, AnIntervalTooLongToDiscretiseIsNamedByItsRowAndLine) {
+  auto model = Compile(ScalarModel(-10, 1, 0.1));  // A·Δ = -1e309 over the second interval
+  const auto d = data::ParseCsv("t,y\n# a comment\n0,1\n0.2,2\n1e308,3\n", "long.csv");
+  ASSERT_TRUE(d.ok()) << d.error().ToString();
+  const std::vector<std::string> no_inputs, outputs = {"y"};
+  const auto series = data::Bind(**d, no_inputs, outputs);
+  ASSERT_TRUE(series.ok()) << series.error().ToString();
+  const auto ss = *model->Evaluate(model->spec().Values());
+  const auto settings = filter::FilterSettings::FromModel(model->spec());
+  const auto l = filter::LogLikelihood(ss, **series, settings);
+  ASSERT_FALSE(l.ok());
+  EXPECT_EQ(l.error().kind, ErrorKind::kNumerical);
+  EXPECT_EQ(l.error().file, "long.csv");
+  EXPECT_EQ(l.error().line, 4);  // the row the interval starts at
+  EXPECT_NE(l.error().message.find("from row 2 (t = 0.2)"), std::string::npos)
+      << l.error().message;
+  const auto sim = sim::Simulate(ss, **series, settings, {});
+  ASSERT_FALSE(sim.ok());
+  EXPECT_EQ(sim.error().line, 4);
+  // A long interval is no fault while A·Δ is finite: 1e300 s discretises to Φ = 0 and Q = the
+  // stationary variance σ²/2|a| (after 1000 doublings).
+  const filter::Discrete fine = filter::Discretize(ss.A, ss.B, ss.c, Eigen::VectorXd::Ones(1),
+                                                   1e300, model::InputHold::kZoh);
+  EXPECT_EQ(fine.Phi(0, 0), 0.0);
+  EXPECT_NEAR(fine.Q(0, 0), 0.05, 1e-12);
+}
+
 TEST(Faults, NonFiniteParameterValuesAndBoundsInAModelFileAreRefusedWithTheirPath) {
   // JSON text cannot spell NaN, but 1e999 reads as infinity; a model built in memory (the
   // diagram editor, a project) can hold NaN.
