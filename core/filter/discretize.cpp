@@ -16,10 +16,11 @@ constexpr int kMaxTaylorTerms = 30;
 
 // A norm that is not finite (A·Δ overflowed: an interval of 1e308 s) needs no doubling: no
 // number of them helps, the result is not finite, and the filter reports the interval
-// (FindNonFiniteInterval). A finite norm needs at most 1027.
+// (FindNonFiniteInterval). A finite norm needs at most 1026 (log2 of the largest double is
+// below 1024; norm / kShortNorm itself could overflow).
 int DoublingSteps(double norm) {
   if (!(norm > kShortNorm) || !std::isfinite(norm)) return 0;
-  return static_cast<int>(std::ceil(std::log2(norm / kShortNorm)));
+  return static_cast<int>(std::ceil(std::log2(norm) - std::log2(kShortNorm)));
 }
 
 double Norm1(const Eigen::MatrixXd& M) { return M.cwiseAbs().colwise().sum().maxCoeff(); }

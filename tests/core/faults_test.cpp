@@ -521,6 +521,11 @@ TEST(Faults, AnIntervalTooLongToDiscretiseIsNamedByItsRowAndLine) {
                                                    1e300, model::InputHold::kZoh);
   EXPECT_EQ(fine.Phi(0, 0), 0.0);
   EXPECT_NEAR(fine.Q(0, 0), 0.05, 1e-12);
+  // ‖A·Δ‖ = 1.7e308, finite, though ‖A·Δ‖/0.25 is not (found by csv_fuzz as well).
+  const filter::Discrete edge = filter::Discretize(ss.A, ss.B, ss.c, Eigen::VectorXd::Ones(1),
+                                                   1.7e307, model::InputHold::kZoh);
+  EXPECT_EQ(edge.Phi(0, 0), 0.0);
+  EXPECT_NEAR(edge.Q(0, 0), 0.05, 1e-12);
 }
 
 TEST(Faults, NonFiniteParameterValuesAndBoundsInAModelFileAreRefusedWithTheirPath) {
