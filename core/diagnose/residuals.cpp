@@ -302,10 +302,18 @@ Normality NormalityTests(std::span<const double> x, int histogram_bins) {
     hi += 0.5;
     bins = 1;
   }
-  const double width = (hi - lo) / bins;
-  for (int b = 0; b <= bins; ++b) out.histogram_edges.push_back(b == bins ? hi : lo + b * width);
+  // Halved where hi - lo would overflow (residuals of ±1e308), so no edge or bin index is inf
+  // or NaN.
+  const double half_span = 0.5 * hi - 0.5 * lo;
+  for (int b = 0; b <= bins; ++b) {
+    const double f = static_cast<double>(b) / bins;
+    out.histogram_edges.push_back(b == bins ? hi : (lo + f * half_span) + f * half_span);
+  }
   out.histogram_counts.assign(bins, 0);
-  for (double e : v) ++out.histogram_counts[std::min(bins - 1, static_cast<int>((e - lo) / width))];
+  for (double e : v) {
+    const double pos = (0.5 * e - 0.5 * lo) / half_span * bins;
+    ++out.histogram_counts[pos >= bins - 1 ? bins - 1 : pos > 0 ? static_cast<int>(pos) : 0];
+  }
   return out;
 }
 

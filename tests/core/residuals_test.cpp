@@ -421,6 +421,20 @@ TEST(NormalityTests, MomentsJarqueBeraAndQqPointsEqualTheirDefinitions) {
   EXPECT_EQ(nm.histogram_counts, (std::vector<int>{2, 5, 2, 2}));
 }
 
+TEST(NormalityTests, AHistogramOverTheWholeRangeOfDoublesHasFiniteEdgesAndEveryValue) {
+  // hi - lo overflows: the edges and the bin of each value are computed on halves.
+  const double big = std::numeric_limits<double>::max();
+  const std::vector<double> x = {-big, -1e307, 0.0, 1e307, big};
+  const Normality nm = NormalityTests(x, 4);
+  ASSERT_EQ(nm.histogram_edges.size(), 5u);
+  for (double e : nm.histogram_edges) EXPECT_TRUE(std::isfinite(e)) << e;
+  EXPECT_TRUE(std::is_sorted(nm.histogram_edges.begin(), nm.histogram_edges.end()));
+  EXPECT_EQ(nm.histogram_edges.front(), -big);
+  EXPECT_EQ(nm.histogram_edges[2], 0.0);
+  EXPECT_EQ(nm.histogram_edges.back(), big);
+  EXPECT_EQ(nm.histogram_counts, (std::vector<int>{1, 1, 2, 1}));
+}
+
 TEST(NormalityTests, RejectHeavyTailsAndAcceptGaussianNoise) {
   sim::NormalRng rng(17);
   std::vector<double> laplace(3000);  // excess kurtosis 3
