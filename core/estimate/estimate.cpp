@@ -583,35 +583,36 @@ class HessianByDifferences {
     if (d == 0) return {{1, 1.0}, {0, -2.0}, {-1, 1.0}};
     return {{0, 2.0}, {d, -5.0}, {2 * d, 4.0}, {3 * d, -1.0}};
   }
+  // A parameter displaced by 0 steps is not displaced: it is left out of the point.
   static Point Make(int a, int oa, int b, int ob) {
     if (oa == 0) a = -1;
     if (ob == 0) b = -1;
     if (a < 0) std::swap(a, b), std::swap(oa, ob);
     if (b >= 0 && b < a) std::swap(a, b), std::swap(oa, ob);
-    return {a, a < 0 ? 0 : oa, b, b < 0 ? 0 : ob};
+    return {a, oa, b, ob};
   }
 
-  // Calls visit(point, weight) for every term of H(a, b).
+  // Calls visit(a, b, point, weight) for every term of every H(a, b), a <= b, of the parameters
+  // not dropped.
   template <class Visit>
-  void Terms(int a, int b, const Visit& visit) const {
-    if (a == b) {
-      for (const auto& [o, w] : Second(a)) visit(Make(a, o, -1, 0), w);
-      return;
+  void EachTerm(const Visit& visit) const {
+    const int m = static_cast<int>(active_.size());
+    for (int a = 0; a < m; ++a) {
+      if (dropped_[a]) continue;
+      for (const auto& [o, w] : Second(a)) visit(a, a, Make(a, o, -1, 0), w);
+      for (int b = a + 1; b < m; ++b) {
+        if (dropped_[b]) continue;
+        for (const auto& [oa, wa] : First(a))
+          for (const auto& [ob, wb] : First(b)) visit(a, b, Make(a, oa, b, ob), wa * wb);
+      }
     }
-    for (const auto& [oa, wa] : First(a))
-      for (const auto& [ob, wb] : First(b)) visit(Make(a, oa, b, ob), wa * wb);
   }
 
   std::vector<Point> NeededPoints() const {
-    const int m = static_cast<int>(active_.size());
     std::vector<Point> need;
-    for (int a = 0; a < m; ++a)
-      for (int b = a; b < m; ++b) {
-        if (dropped_[a] || dropped_[b]) continue;
-        Terms(a, b, [&](const Point& p, double) {
-          if (p.a >= 0 && !values_.count(p)) need.push_back(p);
-        });
-      }
+    EachTerm([&](int, int, const Point& p, double) {
+      if (p.a >= 0 && !values_.count(p)) need.push_back(p);
+    });
     std::sort(need.begin(), need.end());
     need.erase(std::unique(need.begin(), need.end()), need.end());
     return need;
@@ -634,13 +635,9 @@ class HessianByDifferences {
   Eigen::MatrixXd Assemble() const {
     const int m = static_cast<int>(active_.size());
     Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m, m);
+    EachTerm([&](int a, int b, const Point& p, double w) { H(a, b) += w * Value(p); });
     for (int a = 0; a < m; ++a)
-      for (int b = a; b < m; ++b) {
-        if (dropped_[a] || dropped_[b]) continue;
-        double sum = 0.0;
-        Terms(a, b, [&](const Point& p, double w) { sum += w * Value(p); });
-        H(a, b) = H(b, a) = sum / (h_[a] * h_[b]);
-      }
+      for (int b = a; b < m; ++b) H(a, b) = H(b, a) = H(a, b) / (h_[a] * h_[b]);
     return H;
   }
 
@@ -650,15 +647,11 @@ class HessianByDifferences {
   bool Mend() {
     const int m = static_cast<int>(active_.size());
     std::vector<int> failed_plus(m, 0), failed_minus(m, 0);
-    for (int a = 0; a < m; ++a)
-      for (int b = a; b < m; ++b) {
-        if (dropped_[a] || dropped_[b]) continue;
-        Terms(a, b, [&](const Point& p, double) {
-          if (p.a < 0 || std::isfinite(Value(p))) return;
-          for (auto [q, o] : {std::pair{p.a, p.oa}, std::pair{p.b, p.ob}})
-            if (q >= 0) ++(o > 0 ? failed_plus : failed_minus)[q];
-        });
-      }
+    EachTerm([&](int, int, const Point& p, double) {
+      if (p.a < 0 || std::isfinite(Value(p))) return;
+      for (auto [q, o] : {std::pair{p.a, p.oa}, std::pair{p.b, p.ob}})
+        if (q >= 0) ++(o > 0 ? failed_plus : failed_minus)[q];
+    });
     bool changed = false;
     for (int a = 0; a < m; ++a) {
       if (dropped_[a] || dir_[a] != 0 || (failed_plus[a] > 0) == (failed_minus[a] > 0)) continue;

@@ -16,7 +16,7 @@ constexpr int kMaxTaylorTerms = 30;
 
 // A norm that is not finite (A·Δ overflowed: an interval of 1e308 s) needs no doubling: no
 // number of them helps, the result is not finite, and the filter reports the interval
-// (FindNonFiniteInterval). A finite norm needs at most 1026 (log2 of the largest double is
+// (DiscretizeIntervals, kalman.h). A finite norm needs at most 1026 (log2 of the largest double is
 // below 1024; norm / kShortNorm itself could overflow).
 int DoublingSteps(double norm) {
   if (!(norm > kShortNorm) || !std::isfinite(norm)) return 0;

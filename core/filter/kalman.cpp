@@ -38,36 +38,31 @@ FilterSettings FilterSettings::FromModel(const model::ModelSpec& spec) {
   return s;
 }
 
-std::vector<Discrete> DiscretizeIntervals(const model::StateSpace& ss, const data::Series& series,
-                                          model::InputHold hold) {
+Result<std::vector<Discrete>> DiscretizeIntervals(const model::StateSpace& ss,
+                                                  const data::Series& series,
+                                                  model::InputHold hold) {
   const Eigen::VectorXd sigma2 = ss.sigma.array().square();
   std::vector<Discrete> out;
   out.reserve(series.intervals.distinct.size());
   for (double dt : series.intervals.distinct)
     out.push_back(Discretize(ss.A, ss.B, ss.c, sigma2, dt, hold));
-  return out;
-}
-
-std::optional<Error> FindNonFiniteInterval(const std::vector<Discrete>& disc,
-                                           const data::Series& series) {
   const auto finite = [](const Discrete& d) {
     return d.Phi.allFinite() && d.Gamma0.allFinite() && d.Gamma1.allFinite() && d.g.allFinite() &&
            d.Q.allFinite();
   };
-  if (std::all_of(disc.begin(), disc.end(), finite)) return std::nullopt;
+  if (std::all_of(out.begin(), out.end(), finite)) return out;
+  // The rows are walked only to name the first interval that failed.
   const auto& group = series.intervals.group;
-  for (std::size_t k = 0; k < group.size(); ++k) {
-    if (finite(disc[group[k]])) continue;
-    Error e = NumericalError(fmt::format(
-        "the model cannot be discretised over the {:g} s from row {} (t = {:g}) to the next: "
-        "e^(A dt) or its integrals overflow at these parameter values (an interval this long, or "
-        "a mode this unstable)",
-        series.time[k + 1] - series.time[k], k + 1, series.time[k]));
-    e.file = series.source;
-    if (k < series.row_line.size()) e.line = series.row_line[k];
-    return e;
-  }
-  return std::nullopt;
+  std::size_t k = 0;
+  while (k + 1 < group.size() && finite(out[group[k]])) ++k;  // every group has a row
+  Error e = NumericalError(fmt::format(
+      "the model cannot be discretised over the {:g} s from row {} (t = {:g}) to the next: "
+      "e^(A dt) or its integrals overflow at these parameter values (an interval this long, or "
+      "a mode this unstable)",
+      series.time[k + 1] - series.time[k], k + 1, series.time[k]));
+  e.file = series.source;
+  if (k < series.row_line.size()) e.line = series.row_line[k];
+  return e;
 }
 
 namespace {
@@ -369,12 +364,12 @@ Result<Loglik> Run(const model::StateSpace& ss, const data::Series& series,
                                   "({} rows): no observation is left",
                                   series.source, *std::max_element(delay.begin(), delay.end()), N));
 
-  const std::vector<Discrete> disc = DiscretizeIntervals(ss, series, settings.hold);
-  if (auto bad = FindNonFiniteInterval(disc, series)) return *bad;
-  auto P0 = InitialCovarianceFrom(ss, series, settings, &disc);
+  const auto disc = DiscretizeIntervals(ss, series, settings.hold);
+  if (!disc) return disc.error();
+  auto P0 = InitialCovarianceFrom(ss, series, settings, &*disc);
   if (!P0) return P0.error();
   if (terms) terms->assign(N, 0.0);
-  const Context ctx{terms, ss, series, settings, disc, *P0, delay, first_obs, last_j};
+  const Context ctx{terms, ss, series, settings, *disc, *P0, delay, first_obs, last_j};
   return Dispatch<kTrace>(ctx, trace);
 }
 

@@ -29,7 +29,6 @@
 #pragma once
 
 #include <atomic>
-#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -86,13 +85,11 @@ Result<Loglik> RunFilter(const model::StateSpace& ss, const data::Series& series
 
 // The exact discretisation of every distinct sample interval of `series`
 // (series.intervals.distinct), in that order; the filter, the predictions and the simulator use it.
-std::vector<Discrete> DiscretizeIntervals(const model::StateSpace& ss, const data::Series& series,
-                                          model::InputHold hold);
-// The error for the first interval whose discretisation is not finite (one so long, or a mode so
-// unstable, that e^(AΔ) or its integrals overflow), naming the row and file line it starts at;
-// nullopt when all are finite. The filter and the simulator check with it.
-std::optional<Error> FindNonFiniteInterval(const std::vector<Discrete>& disc,
-                                           const data::Series& series);
+// An interval whose discretisation is not finite (one so long, or a mode so unstable, that
+// e^(AΔ) or its integrals overflow) is an error naming the first row and file line it starts at.
+Result<std::vector<Discrete>> DiscretizeIntervals(const model::StateSpace& ss,
+                                                  const data::Series& series,
+                                                  model::InputHold hold);
 
 // The initial covariance P0 the filter starts from (for display and tests).
 Result<Eigen::MatrixXd> InitialCovariance(const model::StateSpace& ss, const data::Series& series,

@@ -95,7 +95,9 @@ Result<HorizonPredictions> PredictAheadFromTrace(const model::StateSpace& ss,
   const bool foh = settings.hold == model::InputHold::kFoh;
   auto P0 = InitialCovariance(ss, series, settings);
   if (!P0) return P0.error();
-  const std::vector<Discrete> disc = DiscretizeIntervals(ss, series, settings.hold);
+  const auto discretized = DiscretizeIntervals(ss, series, settings.hold);
+  if (!discretized) return discretized.error();
+  const std::vector<Discrete>& disc = *discretized;
 
   HorizonPredictions out;
   out.horizon = horizon;
@@ -155,7 +157,8 @@ SmoothedStates SmoothFromTrace(const model::StateSpace& ss, const data::Series& 
   CheckTrace(ss, series, trace);
   const int p = ss.n_outputs();
   const int N = static_cast<int>(series.size());
-  const std::vector<Discrete> disc = DiscretizeIntervals(ss, series, settings.hold);
+  // The trace is of a filter run, which discretised the same intervals without error.
+  const std::vector<Discrete> disc = DiscretizeIntervals(ss, series, settings.hold).value();
 
   SmoothedStates out;
   out.x = trace.x_filt;

@@ -28,8 +28,9 @@ Result<Simulation> Simulate(const model::StateSpace& ss, const data::Series& ser
   const int n = ss.n_states(), p = ss.n_outputs(), m = ss.n_inputs();
   const int N = static_cast<int>(series.size());
   NormalRng rng(options.seed);
-  const std::vector<filter::Discrete> disc = filter::DiscretizeIntervals(ss, series, settings.hold);
-  if (auto bad = filter::FindNonFiniteInterval(disc, series)) return *bad;
+  const auto discretized = filter::DiscretizeIntervals(ss, series, settings.hold);
+  if (!discretized) return discretized.error();
+  const std::vector<filter::Discrete>& disc = *discretized;
   std::vector<Eigen::MatrixXd> q_factor;
   q_factor.reserve(disc.size());
   for (const auto& d : disc) q_factor.push_back(PsdFactor(d.Q));

@@ -378,7 +378,7 @@ TEST(ExprSimplify, AppliesTheDocumentedIdentities) {
       {"x*0", "0"},         {"0*x", "0"},       {"0/x", "0"},        {"x^1", "x"},
       {"x^0", "1"},         {"1^x", "1"},       {"-(-x)", "x"},      {"x - 0", "x"},
       {"0 - x", "-x"},      {"x/1", "x"},       {"x + -y", "x - y"}, {"x - -y", "x + y"},
-      {"x*2", "2*x"},       {"-(2*x)", "-2*x"}, {"x*-y", "-x*y"},  {"-x/-y", "x/y"},
+      {"x*2", "2*x"},       {"-(2*x)", "-2*x"}, {"x*-y", "-x*y"},    {"-x/-y", "x/y"},
       {"pow(x, 2)", "x^2"},
   };
   for (const auto& [in, out] : cases) EXPECT_EQ(ToString(Simplify(P(in))), out) << in;
