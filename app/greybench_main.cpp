@@ -19,9 +19,9 @@
 #include <sanitizer/lsan_interface.h>
 #endif
 
-#include "ui/app_state.h"
 #include "ui/render/png.h"
-#include "ui/shell.h"
+#include "ui/shell/shell.h"
+#include "ui/state/app_state.h"
 #include "ui/theme.h"
 #include "ui/workbench.h"
 

@@ -31,10 +31,10 @@
 #include <string_view>
 #include <vector>
 
-#include "ui/app_state.h"
 #include "ui/render/fixed_gl_renderer.h"
 #include "ui/render/png.h"
-#include "ui/shell.h"
+#include "ui/shell/shell.h"
+#include "ui/state/app_state.h"
 #include "ui/theme.h"
 #include "ui/workbench.h"
 
@@ -57,7 +57,7 @@ struct Options {
   int height = 800;
   bool estimate = false;
   std::optional<gb::ui::plot::Range> time;  // --time: the time axes' range (else the whole record)
-  std::string dialog;  // a dialog of the shell drawn over the view (ui/shell.h)
+  std::string dialog;  // a dialog of the shell drawn over the view (ui/shell/shell.h)
 };
 
 constexpr const char* kUsage =

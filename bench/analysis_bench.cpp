@@ -1,4 +1,4 @@
-// The workbench's analysis job (ui/analysis.h) on the bundled case study — 10 000 samples, one
+// The workbench's analysis job (ui/jobs/analysis.h) on the bundled case study — 10 000 samples, one
 // output, one input: one-step and 10-step predictions, the simulation, the preview and the
 // residual diagnostics. "profile": at the model's start values, the λ delay chosen by profile
 // likelihood over 0..10 (as before a fit); "fit delay": the delay given (as after a fit).
@@ -8,7 +8,7 @@
 
 #include "core/data/dataset.h"
 #include "core/model/model.h"
-#include "ui/analysis.h"
+#include "ui/jobs/analysis.h"
 
 namespace {
 

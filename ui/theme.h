@@ -4,7 +4,7 @@
 // so the window and the snapshots look the same.
 #pragma once
 
-#include "ui/app_state.h"
+#include "ui/state/app_state.h"
 
 namespace gb::ui {
 

@@ -4,7 +4,7 @@
 //   1. Menu bar
 //   2. Sidebar: project, views, datasets
 //   3. Status bar and the messages window
-//   4. Dialogs: about (the File menu's dialogs are in ui/shell.cpp)
+//   4. Dialogs: about (the File menu's dialogs are in ui/shell/shell.cpp)
 //   5. DrawWorkbench
 #include "ui/workbench.h"
 
@@ -14,9 +14,9 @@
 #include <cmath>
 #include <string>
 
-#include "ui/panel_common.h"
-#include "ui/panels.h"
-#include "ui/shell.h"
+#include "ui/panels/common.h"
+#include "ui/panels/panels.h"
+#include "ui/shell/shell.h"
 
 #ifndef GREYBENCH_VERSION
 #define GREYBENCH_VERSION "unknown"

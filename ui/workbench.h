@@ -3,7 +3,7 @@
 // (greybench) and the offscreen renderer (greybench-snapshot), so both draw the same thing.
 #pragma once
 
-#include "ui/app_state.h"
+#include "ui/state/app_state.h"
 
 namespace gb::ui {
 

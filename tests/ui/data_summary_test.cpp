@@ -1,4 +1,4 @@
-#include "ui/data_summary.h"
+#include "ui/state/data_summary.h"
 
 #include <gtest/gtest.h>
 

@@ -8,7 +8,7 @@
 
 #include "core/project/problem.h"
 #include "tests/ui/workbench_driver.h"
-#include "ui/model_edit.h"
+#include "ui/edits/model_edit.h"
 
 namespace gb::ui {
 namespace {

@@ -1,12 +1,12 @@
 // Parameter edits as the Parameters view emits them: accepted exactly when the model file
 // would accept the same change, refused with the parser's reason otherwise.
-#include "ui/model_edit.h"
+#include "ui/edits/model_edit.h"
 
 #include <gtest/gtest.h>
 
 #include <tuple>
 
-#include "ui/app_state.h"
+#include "ui/state/app_state.h"
 
 namespace gb::ui {
 namespace {

@@ -5,7 +5,7 @@
 //
 // Every test runs in a fresh temporary directory and points HOME, XDG_CONFIG_HOME and
 // XDG_STATE_HOME there, so nothing is written into the user's home.
-#include "ui/shell.h"
+#include "ui/shell/shell.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

@@ -1,5 +1,5 @@
 // The predictions and residual diagnostics the workbench computes in the background (ui/
-// analysis.h) and the Predictions and Residuals views that draw them.
+// jobs/analysis.h) and the Predictions and Residuals views that draw them.
 //
 // The numbers the job installs are checked against core's functions called directly on the
 // same files (PredictOneStep, PredictAhead, DeterministicResponse, Diagnose), and the residuals

@@ -20,8 +20,8 @@
 #include <string>
 #include <thread>
 
-#include "ui/app_state.h"
-#include "ui/panels.h"
+#include "ui/panels/panels.h"
+#include "ui/state/app_state.h"
 #include "ui/theme.h"
 #include "ui/workbench.h"
 

@@ -37,7 +37,7 @@
 #include <vector>
 
 #include "core/diagram/diagram.h"
-#include "ui/diagram_edit.h"
+#include "ui/edits/diagram_edit.h"
 
 namespace gb::ui::node_editor {
 

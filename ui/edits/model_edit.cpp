@@ -1,0 +1,123 @@
+#include "ui/edits/model_edit.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <utility>
+
+#include "core/model/linear_model.h"
+
+namespace gb::ui {
+namespace {
+
+std::string Trim(const std::string& text) {
+  const std::size_t a = text.find_first_not_of(" \t");
+  if (a == std::string::npos) return "";
+  const std::size_t b = text.find_last_not_of(" \t");
+  return text.substr(a, b - a + 1);
+}
+
+// Round-trips the edited model through the file format's validation.
+Result<model::ModelSpec> Validate(const model::ModelSpec& edited) {
+  Result<model::ModelSpec> parsed = model::ParseModel(model::ToJson(edited), edited.source);
+  if (!parsed) return InputError(parsed.error().message);
+  return parsed;
+}
+
+}  // namespace
+
+std::string_view FieldText(ParameterField field) {
+  switch (field) {
+    case ParameterField::kValue:
+      return "start value";
+    case ParameterField::kLower:
+      return "lower bound";
+    case ParameterField::kUpper:
+      return "upper bound";
+    case ParameterField::kFixed:
+      return "fixed";
+  }
+  return "";
+}
+
+Result<ParameterEdit> ParseParameterEdit(const std::string& parameter, ParameterField field,
+                                         const std::string& text) {
+  ParameterEdit edit;
+  edit.parameter = parameter;
+  edit.field = field;
+  edit.text = text;
+  const std::string t = Trim(text);
+  if (t.empty()) {
+    if (field == ParameterField::kValue) return InputError("a start value is required");
+    return edit;  // no bound
+  }
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(t.c_str(), &end);
+  if (end == t.c_str() || *end != '\0') return InputError("'" + t + "' is not a number");
+  if (errno == ERANGE || !std::isfinite(v)) return InputError("'" + t + "' is not a finite number");
+  edit.number = v;
+  return edit;
+}
+
+Result<model::ModelSpec> ApplyParameterEdit(const model::ModelSpec& spec,
+                                            const ParameterEdit& edit) {
+  const int i = spec.ParameterIndex(edit.parameter);
+  if (i < 0) return InputError("the model has no parameter '" + edit.parameter + "'");
+  model::ModelSpec edited = spec;
+  model::Parameter& p = edited.parameters[static_cast<std::size_t>(i)];
+  switch (edit.field) {
+    case ParameterField::kValue:
+      if (!edit.number) return InputError("a start value is required");
+      p.value = *edit.number;
+      break;
+    case ParameterField::kLower:
+      p.lower = edit.number;
+      break;
+    case ParameterField::kUpper:
+      p.upper = edit.number;
+      break;
+    case ParameterField::kFixed:
+      p.fixed = edit.fixed;
+      break;
+  }
+  return Validate(edited);
+}
+
+Result<model::ModelSpec> ApplyFormulaEdit(const model::ModelSpec& spec, const FormulaEdit& edit) {
+  const std::size_t dot = edit.path.find('.');
+  const std::string section = edit.path.substr(0, dot);
+  const std::string name = dot == std::string::npos ? "" : edit.path.substr(dot + 1);
+  const bool of_state = section == "drift" || section == "diffusion" || section == "initial_state";
+  const bool of_output = section == "observation" || section == "measurement_variance";
+  const std::vector<std::string>& names = of_state ? spec.states : spec.outputs;
+  if ((!of_state && !of_output) || std::find(names.begin(), names.end(), name) == names.end()) {
+    return InputError("'" + edit.path + "' is not a formula of the model");
+  }
+  Json j = model::ToJson(spec);
+  j[section][name] = edit.text;
+  // The parser's Error as it is: its path and expression column point into edit.text.
+  Result<model::ModelSpec> parsed = model::ParseModel(j, spec.source);
+  if (!parsed) return parsed;
+  // A formula that parses may still make the model nonlinear, which the filter cannot take.
+  Result<model::LinearModel> linear = model::LinearModel::Compile(*parsed);
+  if (!linear) return linear.error();
+  return parsed;
+}
+
+Result<model::ModelSpec> UseEstimatesAsStart(const model::ModelSpec& spec,
+                                             const estimate::EstimateSummary& summary) {
+  model::ModelSpec edited = spec;
+  for (const estimate::ParameterEstimate& e : summary.parameters) {
+    if (e.fixed || !std::isfinite(e.estimate)) continue;
+    const int i = edited.ParameterIndex(e.name);
+    if (i < 0 || edited.parameters[static_cast<std::size_t>(i)].fixed) continue;
+    if (Status set = model::SetParameter(&edited, e.name, e.estimate); !set) {
+      return InputError(e.name + ": " + set.error().message);
+    }
+  }
+  return Validate(edited);
+}
+
+}  // namespace gb::ui

@@ -1,0 +1,326 @@
+#include "ui/jobs/analysis.h"
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <numbers>
+#include <utility>
+
+#include "core/filter/likelihood.h"
+#include "core/filter/predict.h"
+#include "core/model/linear_model.h"
+#include "core/sim/response.h"
+
+namespace gb::ui {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kBandSd = 2.0;            // the prediction bands are ± 2 sd
+constexpr int kDensityPoints = 201;        // samples of the N(0, 1) density curve
+constexpr double kDensityHalfWidth = 4.0;  // the curve spans at least [-4, 4]
+
+std::vector<double> Row(const Eigen::MatrixXd& m, Eigen::Index r) {
+  return std::vector<double>(m.row(r).begin(), m.row(r).end());
+}
+
+CorrelogramPlot MakeCorrelogramPlot(const diagnose::Correlogram& c) {
+  CorrelogramPlot p;
+  p.lag.assign(c.lag.begin(), c.lag.end());
+  p.value = c.value;
+  p.band = c.band;
+  if (!p.lag.empty()) {
+    p.band_x = {p.lag.front(), p.lag.back()};
+    p.band_lo = {-c.band, -c.band};
+    p.band_hi = {c.band, c.band};
+  }
+  return p;
+}
+
+DiagnosticsPlot MakeDiagnosticsPlot(diagnose::ResidualDiagnostics d) {
+  DiagnosticsPlot p;
+  p.acf = MakeCorrelogramPlot(d.acf);
+  p.pacf = MakeCorrelogramPlot(d.pacf);
+  for (const diagnose::CrossCorrelogram& c : d.ccf) {
+    p.ccf.push_back(MakeCorrelogramPlot(c.ccf));
+    p.ccf_prewhitened.push_back(MakeCorrelogramPlot(c.ccf_prewhitened));
+  }
+
+  const diagnose::CumulatedPeriodogram& cp = d.periodogram;
+  for (double w : cp.white) {
+    p.white_lo.push_back(w - cp.band);
+    p.white_hi.push_back(w + cp.band);
+  }
+
+  // Counts to a density, so the N(0, 1) curve compares whatever the bin width.
+  const diagnose::Normality& nm = d.normality;
+  const std::size_t bins = nm.histogram_counts.size();
+  if (bins > 0 && nm.n > 0) {
+    for (std::size_t i = 0; i <= bins; ++i) {
+      const double e = nm.histogram_edges[i];
+      const double width = i < bins ? nm.histogram_edges[i + 1] - e : 0.0;
+      const double left = i > 0 ? p.hist_density.back() : 0.0;
+      const double right = i < bins && width > 0.0 ? nm.histogram_counts[i] / (nm.n * width) : 0.0;
+      p.hist_x.insert(p.hist_x.end(), {e, e});
+      p.hist_density.insert(p.hist_density.end(), {left, right});
+    }
+    p.hist_zero.assign(p.hist_x.size(), 0.0);
+    const double lo = std::min(nm.histogram_edges.front(), -kDensityHalfWidth);
+    const double hi = std::max(nm.histogram_edges.back(), kDensityHalfWidth);
+    for (int i = 0; i < kDensityPoints; ++i) {
+      const double x = lo + (hi - lo) * i / (kDensityPoints - 1);
+      p.normal_x.push_back(x);
+      p.normal_density.push_back(std::exp(-0.5 * x * x) / std::sqrt(2.0 * std::numbers::pi));
+    }
+  }
+  if (!nm.qq_theoretical.empty()) {
+    const double lo = std::min(nm.qq_theoretical.front(), nm.qq_sample.front());
+    const double hi = std::max(nm.qq_theoretical.back(), nm.qq_sample.back());
+    p.qq_line = {lo, hi};
+  }
+  p.stats = std::move(d);
+  return p;
+}
+
+// The delay per output: the request's, else the model's fixed delay or the best of a scanned
+// range at θ over every series.
+Result<std::vector<int>> ChooseDelays(const AnalysisRequest& request, const model::ModelSpec& m,
+                                      const filter::Likelihood& likelihood, std::string* source) {
+  const std::size_t p = m.outputs.size();
+  if (!request.delay.empty()) {
+    if (request.delay.size() != p)
+      return InputError("the fit has " + std::to_string(request.delay.size()) +
+                        " output delays but the model has " + std::to_string(p) + " outputs");
+    *source = "fit";
+    return request.delay;
+  }
+  std::vector<int> delay(p);
+  for (std::size_t o = 0; o < p; ++o) delay[o] = m.output_delay[o].min;
+  *source = "model";
+  if (!m.HasDelayScan()) return delay;
+  Result<filter::DelayProfile> profile = likelihood.Profile(request.theta);
+  if (!profile) return profile.error();
+  if (profile->best < 0) return NumericalError(profile->candidates.front().message);
+  *source = "profile likelihood at these values";
+  return profile->candidates[static_cast<std::size_t>(profile->best)].delay;
+}
+
+// The state space of the preview at the model's current values: none (no preview), the
+// analysis' own (the values are θ), or its own.
+struct Preview {
+  bool same_as_theta = false;
+  std::optional<model::StateSpace> ss;
+};
+
+// One dataset at θ. Returns false when cancelled.
+bool AnalyseSeries(const model::StateSpace& ss, const Preview& preview, const data::Series& series,
+                   const filter::FilterSettings& settings, const Analysis& a, DatasetAnalysis* out,
+                   JobControl& control) {
+  Result<filter::OneStepPredictions> pred = filter::PredictOneStep(ss, series, settings);
+  if (control.cancel) return false;
+  if (!pred) {
+    out->error = pred.error().ToString();
+    return true;
+  }
+  out->loglik = pred->loglik.loglik;
+  out->n_obs = pred->loglik.n_obs;
+  Result<filter::HorizonPredictions> ahead =
+      filter::PredictAhead(ss, series, settings, a.request.horizon);
+  if (control.cancel) return false;
+  Result<sim::Simulation> simulated = sim::DeterministicResponse(ss, series, settings);
+  std::optional<Result<sim::Simulation>> previewed;
+  if (preview.ss) previewed = sim::DeterministicResponse(*preview.ss, series, settings);
+  if (control.cancel) return false;
+
+  std::vector<std::vector<double>> input_values;
+  for (Eigen::Index i = 0; i < series.U.rows(); ++i) input_values.push_back(Row(series.U, i));
+  std::vector<diagnose::InputSeries> inputs;
+  for (std::size_t i = 0; i < input_values.size(); ++i)
+    inputs.push_back({a.inputs[i], input_values[i]});
+
+  const Eigen::Index n = static_cast<Eigen::Index>(series.size());
+  for (std::size_t o = 0; o < a.outputs.size(); ++o) {
+    const auto r = static_cast<Eigen::Index>(o);
+    OutputAnalysis oa;
+    oa.name = a.outputs[o];
+    oa.delay = a.delay[o];
+    oa.measured = Row(series.Y, r);
+    oa.predicted = Row(pred->y_pred, r);
+    oa.residual = Row(pred->residual, r);
+    oa.standardized = Row(pred->standardized, r);
+    oa.lower.resize(oa.predicted.size());
+    oa.upper.resize(oa.predicted.size());
+    oa.residual_lower.resize(oa.predicted.size());
+    oa.residual_upper.resize(oa.predicted.size());
+    double sum_sq = 0.0;
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      const double half = kBandSd * pred->y_sd(r, k);
+      oa.lower[i] = oa.predicted[i] - half;
+      oa.upper[i] = oa.predicted[i] + half;
+      oa.residual_lower[i] = -half;
+      oa.residual_upper[i] = half;
+      if (std::isfinite(oa.standardized[i])) {
+        ++oa.n_observed;
+        sum_sq += oa.residual[i] * oa.residual[i];
+      }
+    }
+    oa.rms = oa.n_observed > 0 ? std::sqrt(sum_sq / oa.n_observed) : kNaN;
+    if (ahead) {
+      oa.ahead = Row(ahead->y_pred, r);
+    } else {
+      oa.ahead_error = ahead.error().ToString();
+    }
+    if (simulated) oa.simulated = Row(simulated->Y, r);
+    if (preview.same_as_theta) {
+      oa.preview = oa.simulated;
+    } else if (previewed && previewed->ok()) {
+      oa.preview = Row((*previewed)->Y, r);
+    }
+
+    Result<diagnose::ResidualDiagnostics> d = diagnose::Diagnose(oa.standardized, inputs);
+    if (d) {
+      oa.diagnostics = MakeDiagnosticsPlot(std::move(d).value());
+    } else {
+      oa.diagnose_error = d.error().message;
+    }
+    out->outputs.push_back(std::move(oa));
+    if (control.cancel) return false;
+  }
+  return true;
+}
+
+AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
+  AnalysisRun run;
+  if (control.cancel) {  // superseded before it began
+    run.cancelled = true;
+    return run;
+  }
+  const AnalysisRequest& request = input.request;
+  if (request.theta.size() != input.spec.parameters.size()) {
+    run.error = "the parameter values do not match the model (" +
+                std::to_string(request.theta.size()) + " values for " +
+                std::to_string(input.spec.parameters.size()) + " parameters)";
+    return run;
+  }
+  Result<model::LinearModel> compiled = model::LinearModel::Compile(input.spec);
+  if (!compiled) {
+    run.error = compiled.error().ToString();
+    return run;
+  }
+  const auto lm = std::make_shared<const model::LinearModel>(std::move(compiled).value());
+  const model::ModelSpec& m = lm->spec();
+
+  Analysis a;
+  a.request = request;
+  for (const model::Parameter& p : m.parameters) a.parameter_names.push_back(p.name);
+  a.inputs = m.inputs;
+  a.outputs = m.outputs;
+
+  // Bind every readable dataset; one that does not fit the model keeps its error.
+  std::vector<std::shared_ptr<const data::Series>> bound;
+  std::vector<int> bound_index;  // the dataset of each bound series
+  for (std::size_t i = 0; i < input.datasets.size(); ++i) {
+    DatasetAnalysis d;
+    d.name = i < input.names.size() ? input.names[i] : "";
+    if (!input.datasets[i]) {
+      d.error = i < input.read_errors.size() ? input.read_errors[i] : "it could not be read";
+    } else {
+      d.time_name = input.datasets[i]->time_name;
+      Result<std::shared_ptr<const data::Series>> s =
+          data::Bind(*input.datasets[i], m.inputs, m.outputs);
+      if (s) {
+        bound.push_back(*s);
+        bound_index.push_back(static_cast<int>(i));
+      } else {
+        d.error = s.error().ToString();
+      }
+    }
+    a.datasets.push_back(std::move(d));
+  }
+  if (bound.empty()) {
+    run.error = a.datasets.empty() ? "the project lists no datasets"
+                                   : "no dataset can be used: " + a.datasets.front().error;
+    return run;
+  }
+
+  Result<filter::Likelihood> likelihood = filter::Likelihood::Create(lm, bound);
+  if (!likelihood) {
+    run.error = likelihood.error().ToString();
+    return run;
+  }
+  likelihood->set_cancel(&control.cancel);
+  Result<model::StateSpace> ss = lm->Evaluate(request.theta);
+  if (!ss) {
+    run.error = ss.error().ToString();
+    return run;
+  }
+  Preview preview;
+  if (request.preview_theta == request.theta) {
+    preview.same_as_theta = true;
+  } else if (request.preview_theta.size() == request.theta.size()) {
+    Result<model::StateSpace> p = lm->Evaluate(request.preview_theta);
+    if (p) {
+      preview.ss = std::move(p).value();
+    } else {
+      a.preview_error = p.error().ToString();
+    }
+  }
+  Result<std::vector<int>> delay = ChooseDelays(request, m, *likelihood, &a.delay_source);
+  if (control.cancel) {
+    run.cancelled = true;
+    return run;
+  }
+  if (!delay) {
+    run.error = delay.error().ToString();
+    return run;
+  }
+  a.delay = std::move(delay).value();
+
+  // The likelihood's settings: each output's first observation is its largest delay, so the
+  // residuals are those the fit scored. A fit's delay above today's range moves it up.
+  filter::FilterSettings settings = likelihood->settings();
+  settings.delay = a.delay;
+  settings.first_obs = filter::EffectiveFirstObservation(settings, lm->n_outputs());
+  for (std::size_t o = 0; o < a.delay.size(); ++o)
+    settings.first_obs[o] = std::max(settings.first_obs[o], a.delay[o]);
+  settings.cancel = &control.cancel;
+
+  for (std::size_t b = 0; b < bound.size(); ++b) {
+    control.progress = static_cast<float>(b) / static_cast<float>(bound.size());
+    const data::Series& series = *bound[b];
+    DatasetAnalysis& d = a.datasets[static_cast<std::size_t>(bound_index[b])];
+    d.time = series.time;
+    d.sample_interval =
+        series.intervals.distinct.size() == 1 ? series.intervals.distinct.front() : 0.0;
+    bool too_short = false;
+    for (int first : settings.first_obs)
+      too_short = too_short || first >= static_cast<int>(series.size());
+    if (too_short) {
+      d.error = series.source + ": the output delay leaves no observation in its " +
+                std::to_string(series.size()) + " rows";
+      continue;
+    }
+    if (!AnalyseSeries(*ss, preview, series, settings, a, &d, control)) {
+      run.cancelled = true;
+      return run;
+    }
+  }
+  control.progress = 1.0f;
+  run.analysis = std::move(a);
+  return run;
+}
+
+}  // namespace
+
+AnalysisRun RunAnalysis(const AnalysisInput& input, JobControl& control) {
+  try {
+    return Analyse(input, control);
+  } catch (const std::exception& e) {  // e.g. out of memory; never into the UI loop
+    AnalysisRun run;
+    run.error = std::string("the computation stopped: ") + e.what();
+    return run;
+  }
+}
+
+}  // namespace gb::ui

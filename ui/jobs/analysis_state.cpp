@@ -1,0 +1,132 @@
+// The analysis job's life in AppState (declared in ui/state/app_state.h): which request the
+// workbench wants now, starting and superseding runs, installing their results.
+#include <algorithm>
+#include <utility>
+
+#include "ui/panels/common.h"
+#include "ui/state/app_state.h"
+
+namespace gb::ui {
+namespace {
+
+// The fit's θ and delays belong to a model with the same parameters and outputs (an edit in
+// the Parameters view changes values and bounds, never the names).
+bool FitMatchesModel(const estimate::EstimateSummary& s, const model::ModelSpec& m) {
+  if (s.theta.size() != m.parameters.size() || s.parameters.size() != m.parameters.size())
+    return false;
+  for (std::size_t i = 0; i < m.parameters.size(); ++i) {
+    if (s.parameters[i].name != m.parameters[i].name) return false;
+  }
+  if (s.delays.size() != m.outputs.size()) return false;
+  for (std::size_t o = 0; o < m.outputs.size(); ++o) {
+    if (s.delays[o].output != m.outputs[o]) return false;
+  }
+  return true;
+}
+
+void StartAnalysis(AppState& state, AnalysisRequest request) {
+  AnalysisInput input;
+  input.request = request;
+  input.spec = *state.model;
+  for (const LoadedDataset& d : state.datasets) {
+    input.datasets.push_back(d.data);
+    input.names.push_back(FileName(d.path));
+    input.read_errors.push_back(d.error);
+  }
+  AnalysisState& a = state.analysis;
+  a.running = request;
+  a.attempted = std::move(request);
+  a.cancel_requested = false;
+  a.job.Start(
+      [input = std::move(input)](JobControl& control) { return RunAnalysis(input, control); });
+}
+
+void InstallAnalysis(AppState& state, AnalysisRun run) {
+  AnalysisState& a = state.analysis;
+  const std::optional<AnalysisRequest> request = std::move(a.running);
+  a.running.reset();
+  const bool by_user = a.cancel_requested;
+  a.cancel_requested = false;
+  if (!request || request->project_generation != state.project_generation) return;
+  if (run.analysis) {
+    // Same project: the time axes and lags are those of before, so a zoom is kept; the
+    // residuals' distribution moves with θ.
+    const bool same_data = a.result && a.result->request.project_generation ==
+                                           run.analysis->request.project_generation;
+    a.result = std::move(run.analysis);
+    a.last_failure.clear();
+    if (same_data) {
+      a.histogram_x.RequestFit();
+      a.qq_x.RequestFit();
+    } else {
+      a.RequestFit();
+    }
+    return;
+  }
+  if (run.cancelled) {
+    if (!by_user) return;  // superseded: the newer request starts right away
+    a.last_failure = "The computation of the predictions was cancelled";
+    a.last_failure_severity = Severity::kWarning;
+    AddMessage(state, Severity::kWarning,
+               a.last_failure + (a.result ? "; the previous results are kept" : ""));
+    return;
+  }
+  a.last_failure = "The predictions could not be computed: " + run.error;
+  a.last_failure_severity = Severity::kError;
+  AddMessage(state, Severity::kError,
+             a.last_failure + (a.result ? " (the previous results are kept)" : ""));
+}
+
+}  // namespace
+
+std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state, std::string* why) {
+  auto refuse = [why](std::string reason) -> std::optional<AnalysisRequest> {
+    if (why) *why = std::move(reason);
+    return std::nullopt;
+  };
+  if (!state.project) return refuse("no project is open");
+  if (!state.model) return refuse("the model is not valid: " + state.model_error);
+  if (state.datasets.empty()) return refuse("the project lists no datasets");
+  const AnalysisState& a = state.analysis;
+  const model::ModelSpec& m = *state.model;
+  AnalysisRequest r;
+  r.project_generation = state.project_generation;
+  r.model_revision = state.model_revision;
+  r.horizon = std::clamp(a.horizon, 1, kMaxHorizon);
+  r.preview_theta = m.Values();
+  const FitResult* fit = state.estimation.result ? &*state.estimation.result : nullptr;
+  if (fit && !a.use_current_values && FitMatchesModel(fit->summary, m)) {
+    r.source = AnalysisSource::kFit;
+    r.theta = fit->summary.theta;
+    for (const estimate::DelayEstimate& d : fit->summary.delays) r.delay.push_back(d.estimate);
+  } else {
+    r.source = AnalysisSource::kCurrentValues;
+    r.theta = m.Values();
+  }
+  return r;
+}
+
+void PollAnalysis(AppState& state) {
+  AnalysisState& a = state.analysis;
+  if (std::optional<AnalysisRun> run = a.job.TakeIfReady()) InstallAnalysis(state, std::move(*run));
+  const std::optional<AnalysisRequest> want = AnalysisRequestNow(state);
+  if (a.job.active()) {
+    if (!want || !a.running || *want != *a.running) a.job.RequestCancel();
+    return;
+  }
+  if (!want || (a.attempted && *a.attempted == *want)) return;
+  StartAnalysis(state, *want);
+}
+
+void CancelAnalysis(AppState& state) {
+  AnalysisState& a = state.analysis;
+  if (!a.job.active()) return;
+  a.cancel_requested = true;
+  a.job.RequestCancel();
+}
+
+void RecomputeAnalysis(AppState& state) { state.analysis.attempted.reset(); }
+
+bool AnalysisRunning(const AppState& state) { return state.analysis.job.active(); }
+
+}  // namespace gb::ui

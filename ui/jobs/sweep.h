@@ -1,0 +1,130 @@
+// The operating-point sweep as the workbench runs it (core/estimate/sweep.h): the sweep the
+// project names, the progress record the sweeping threads write and the UI reads every frame,
+// the work of the sweep job, and the finished sweep prepared for drawing (the Table 2 cells and
+// the plot arrays of Fig. 3 and Fig. 4).
+//
+//   auto status = std::make_shared<SweepStatus>(n_datasets);
+//   job.Start([=](JobControl& c) { return RunSweep(input, *status, c); });
+//   every frame: status->latest(); job.TakeIfReady()
+//
+// Cancelling: the job's JobControl::cancel is the sweep's EstimateOptions::cancel, so
+// Job::RequestCancel() stops the fits under way within about one log-likelihood evaluation and
+// starts no other.
+// No ImGui here: the job runs on its own threads and the tests use these types without a UI.
+#pragma once
+
+#include <chrono>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/estimate/sweep.h"
+#include "core/model/model.h"
+#include "core/project/operating_points.h"
+#include "ui/jobs/job.h"
+#include "ui/widgets/plot.h"
+
+namespace gb::ui {
+
+// Everything the sweep job needs, copied when it starts.
+struct SweepInput {
+  model::ModelSpec spec;
+  project::OperatingPointsSpec points;
+  int parallel = 0;  // datasets fitted at once; 0: all cores
+};
+
+// The options RunSweep hands to core's Sweep: the points' relations, one thread per fit (so
+// the fits are the same whatever `parallel` is), the other estimation options at their defaults.
+estimate::SweepOptions MakeSweepOptions(const SweepInput& input);
+
+// Written by the sweeping threads through SweepOptions::progress, read by the UI thread.
+class SweepStatus {
+ public:
+  enum class PointState { kWaiting, kFitting, kDone };
+  explicit SweepStatus(int n_datasets) : states_(static_cast<std::size_t>(n_datasets)) {}
+
+  void Record(const estimate::SweepProgress& p);
+  std::vector<PointState> states() const;  // one per dataset
+  int done() const;                        // datasets whose fit has ended
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<PointState> states_;
+};
+
+// What the job returns.
+struct SweepRun {
+  // Absent when the sweep failed (a dataset cannot be read or fitted); a cancelled sweep has a
+  // result with `cancelled` set.
+  std::optional<estimate::SweepResult> result;
+  std::string error;  // why `result` is absent
+};
+
+// The job's work. Never throws.
+SweepRun RunSweep(const SweepInput& input, SweepStatus& status, JobControl& control);
+
+// One row of the Table 2 layout: a quantity, then one cell per operating point.
+struct SweepTableRow {
+  std::string label;  // "tau_fv [s]", "α [°]"
+  std::vector<std::string> cells;
+  std::string mean;  // "mean (SD)" over the points, for the parameters averaged; else ""
+};
+
+// A finished sweep, installed in AppState and drawn by the Operating points view.
+struct SweepFigures {
+  estimate::SweepResult result;
+  project::OperatingPointsSpec points;  // what it ran with (labels of the tags)
+  int model_revision = 0;               // AppState::model_revision when it started
+  std::vector<std::string> columns;     // the points' names
+  std::vector<SweepTableRow> table;
+  std::vector<std::string> parameters;  // the free parameters, for the trend plot's choice
+  std::vector<std::string> tags;        // the numeric tags every point has
+
+  // Fig. 3: Δt against the speed tag, sorted by speed; bars ± half a sample interval (the delay
+  // is estimated in whole samples), and the fitted Δt = c / n over the speeds' range.
+  std::vector<double> speed, delay, delay_half_sample;
+  std::vector<double> curve_speed, curve_delay;
+};
+
+// Prepares a sweep for drawing.
+SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPointsSpec points,
+                              int model_revision);
+
+// A parameter against a tag (Fig. 4: X against α): the estimates ± 1 SE sorted by the tag, and
+// the least-squares line θ = a + b · tag over the tag's range (absent with fewer than 3 points).
+struct TrendPlot {
+  std::string parameter, tag;
+  std::vector<double> x, y, se;  // se: 0 where the fit gave no standard error
+  int without_se = 0;            // points drawn without a bar
+  std::optional<estimate::LinearFit> fit;
+  std::vector<double> line_x, line_y;
+};
+TrendPlot MakeTrendPlot(const estimate::SweepResult& result, const std::string& parameter,
+                        const std::string& tag);
+
+// The sweep: what the project names, the job under way, and the last finished sweep.
+struct SweepState {
+  // From the project's "operating_points" key when it was installed; absent when the key is
+  // absent or wrong (`spec_error` says what is wrong, with file and JSON path).
+  std::optional<project::OperatingPointsSpec> spec;
+  std::string spec_error;
+
+  Job<SweepRun> job;
+  std::shared_ptr<SweepStatus> status;        // of the run under way
+  std::vector<std::string> running_datasets;  // the run under way's files
+  std::chrono::steady_clock::time_point started;
+  int started_revision = 0;
+  int started_generation = 0;
+  // The last sweep that finished; a failed or cancelled run leaves it alone.
+  std::optional<SweepFigures> result;
+  std::string last_failure;            // how the last run ended when it left no result
+  bool last_failure_is_error = false;  // else a warning (cancelled)
+
+  // The trend plot's choice (edited in the view) and its arrays, remade when either changes.
+  TrendPlot trend;
+  plot::LinkedRange delay_x, trend_x;  // refitted when a new result is installed
+};
+
+}  // namespace gb::ui

@@ -1,0 +1,36 @@
+// Small pieces the panels share: notices in the middle of a view, section headings, number
+// formats. Drawing helpers only; they hold no state.
+#pragma once
+
+#include <string>
+
+#include "ui/state/app_state.h"
+
+namespace gb::ui {
+
+// When no project is open, draws the empty-workbench notice (loading, the last error, how to
+// open one) and returns true: the panel then draws nothing else.
+bool DrawNoProjectNotice(AppState& state);
+
+// A centred card: a bold title and a wrapped explanation.
+void DrawNotice(AppState& state, const char* title, const std::string& text,
+                Severity severity = Severity::kInfo);
+
+// A status line: a coloured dot and a bold word, then the rest of the line dimmed ("Running
+// iteration 12 ...", "Converged ...").
+void StatusLine(AppState& state, ImU32 color, const char* word, const std::string& rest);
+
+// The view's main action (Run): a blue button with white text. True when clicked.
+bool PrimaryButton(const char* label, ImVec2 size);
+
+// A bold heading with a rule under it.
+void SectionHeading(AppState& state, const char* text);
+
+// "label value" pairs on one line: the label dimmed.
+void LabelValue(const char* label, const std::string& value);
+
+ImVec4 SeverityColor(Severity severity);
+std::string FileName(const std::string& path);
+std::string GroupedCount(long long n);  // 2400 -> "2,400"
+
+}  // namespace gb::ui

@@ -1,0 +1,372 @@
+// The equations view: the model as written in its JSON (CONTRACT section 2). Its formulas
+// (drift, diffusion, observation, measurement variance, initial state) are edited in place:
+// every keystroke is validated by core (the same parser as the model file), a refused formula
+// is kept as a draft with the parser's reason and a caret at the column, and a valid formula is
+// applied when the field is left (Enter, Tab or a click elsewhere). The view shows the text as
+// the user wrote it, whether or not the model compiles: the equations are the user's words, and
+// a mistake is easier to spot here than in the raw file. A model that does not compile, or one
+// drawn as a block diagram (edited in the Diagram view), is shown read-only.
+#include <imgui.h>
+#include <imgui_stdlib.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "ui/panels/common.h"
+#include "ui/panels/panels.h"
+
+namespace gb::ui {
+namespace {
+
+using ModelJson = decltype(project::Project::model_json);
+
+// A JSON value as text: strings as they are, anything else in JSON notation.
+std::string Text(const ModelJson& v) {
+  if (v.is_string()) return v.get<std::string>();
+  return v.dump();
+}
+
+const ModelJson* Member(const ModelJson& object, const char* key) {
+  if (!object.is_object()) return nullptr;
+  const auto it = object.find(key);
+  return it == object.end() ? nullptr : &*it;
+}
+
+std::string MemberText(const ModelJson& object, const char* key, const char* absent) {
+  const ModelJson* v = Member(object, key);
+  return v ? Text(*v) : absent;
+}
+
+std::vector<std::string> Names(const ModelJson& model, const char* key) {
+  std::vector<std::string> names;
+  const ModelJson* list = Member(model, key);
+  if (!list || !list->is_array()) return names;
+  for (const ModelJson& v : *list) names.push_back(Text(v));
+  return names;
+}
+
+std::string Join(const std::vector<std::string>& names) {
+  std::string out;
+  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out.empty() ? "\xE2\x80\x94" : out;
+}
+
+void MonoLine(AppState& state, const std::string& text) {
+  ImGui::PushFont(state.fonts.mono);
+  ImGui::TextUnformatted(text.c_str());
+  ImGui::PopFont();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Editing
+
+// Whether the formulas can be edited here, and if not, why (shown under the title).
+bool Editable(const AppState& state, std::string* why) {
+  if (!state.model) {
+    *why = "The model does not compile, so it is shown as written; correct the file and reload.";
+    return false;
+  }
+  if (state.diagram_view.model_from_diagram) {
+    *why = "This model is drawn as a block diagram: edit it in the Diagram view.";
+    return false;
+  }
+  *why =
+      "Edit a formula in place: it is checked as you type and applied when you leave the "
+      "field.";
+  return true;
+}
+
+// Validates what is being typed into the formula at `path` (a draft the model refuses keeps
+// its reason until it is corrected).
+void Validate(AppState& state, const std::string& path, const std::string& text) {
+  FormulaDraft& draft = state.equations_view.drafts[path];
+  draft.text = text;
+  Result<model::ModelSpec> edited = ApplyFormulaEdit(*state.model, FormulaEdit{path, text});
+  if (edited) {
+    draft.error.reset();
+  } else {
+    draft.error = edited.error();
+  }
+}
+
+// One formula: a field when the view is editable, else the text. `width` in pixels.
+void FormulaField(AppState& state, bool editable, const std::string& path,
+                  const std::string& current, float width) {
+  if (!editable) {
+    ImGui::PushFont(state.fonts.mono);
+    ImGui::TextUnformatted(current.c_str());
+    ImGui::PopFont();
+    return;
+  }
+  EquationsViewState& v = state.equations_view;
+  const auto it = v.drafts.find(path);
+  const bool has_draft = it != v.drafts.end();
+  std::string text = has_draft ? it->second.text : current;
+  const bool refused = has_draft && it->second.error;
+  ImGui::PushID(path.c_str());
+  ImGui::PushFont(state.fonts.mono);
+  ImGui::SetNextItemWidth(width);
+  if (refused) {
+    ImGui::PushStyleColor(ImGuiCol_Border, SeverityColor(Severity::kError));
+    ImGui::PushStyleVar(ImGuiStyleVar_FrameBorderSize, 1.5f * state.fonts.scale);
+  }
+  if (ImGui::InputText("##formula", &text)) {
+    if (text == current) {
+      v.drafts.erase(path);
+    } else {
+      Validate(state, path, text);
+    }
+  }
+  if (refused) {
+    ImGui::PopStyleVar();
+    ImGui::PopStyleColor();
+  }
+  ImGui::PopFont();
+  if (ImGui::IsItemDeactivated()) {
+    const auto d = v.drafts.find(path);
+    if (d != v.drafts.end() && !d->second.error) v.pending.push_back({path, d->second.text});
+  }
+  if (has_draft && ImGui::IsItemHovered()) {
+    ImGui::SetTooltip("Model file: %s", current.c_str());
+  }
+  ImGui::PopID();
+}
+
+// Under a refused formula: the text with a caret at the column, and the reason.
+void DrawDraftError(AppState& state, const std::string& path, float indent) {
+  const auto it = state.equations_view.drafts.find(path);
+  if (it == state.equations_view.drafts.end() || !it->second.error) return;
+  const Error& e = *it->second.error;
+  const ImVec4 red = SeverityColor(Severity::kError);
+  ImGui::Indent(indent);
+  if (e.expr_col > 0 && e.path == path) {
+    ImGui::PushFont(state.fonts.mono);
+    ImGui::PushStyleColor(ImGuiCol_Text, red);
+    ImGui::TextUnformatted(it->second.text.c_str());
+    ImGui::TextUnformatted(
+        (std::string(static_cast<std::size_t>(e.expr_col - 1), ' ') + "^").c_str());
+    ImGui::PopStyleColor();
+    ImGui::PopFont();
+  }
+  std::string where = e.path;
+  if (e.expr_col > 0) where += ", column " + std::to_string(e.expr_col);
+  ImGui::PushTextWrapPos(0.0f);
+  ImGui::TextColored(red, "%s: %s", where.c_str(), e.message.c_str());
+  ImGui::PopTextWrapPos();
+  ImGui::PushID(path.c_str());
+  if (ImGui::SmallButton("Revert")) state.equations_view.drafts.erase(path);
+  ImGui::PopID();
+  ImGui::SameLine();
+  ImGui::TextDisabled("back to the model's formula");
+  ImGui::Unindent(indent);
+}
+
+// "label" in the monospaced font, then the next item on the same line.
+void MonoLabel(AppState& state, const std::string& text) {
+  ImGui::AlignTextToFramePadding();
+  ImGui::PushFont(state.fonts.mono);
+  ImGui::TextUnformatted(text.c_str());
+  ImGui::PopFont();
+  ImGui::SameLine();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sections
+
+void DrawVariables(AppState& state, const ModelJson& model) {
+  SectionHeading(state, "Variables");
+  const char* labels[] = {"States x", "Inputs u", "Outputs y"};
+  const char* keys[] = {"states", "inputs", "outputs"};
+  if (!ImGui::BeginTable("##variables", 2, ImGuiTableFlags_SizingFixedFit)) return;
+  for (int i = 0; i < 3; ++i) {
+    ImGui::TableNextRow();
+    ImGui::TableNextColumn();
+    ImGui::TextDisabled("%s", labels[i]);
+    ImGui::TableNextColumn();
+    MonoLine(state, Join(Names(model, keys[i])));
+  }
+  ImGui::EndTable();
+}
+
+void DrawSystemEquations(AppState& state, const ModelJson& model, bool editable) {
+  SectionHeading(state,
+                 "System equations   dx = f(x, u, \xCE\xB8) dt + \xCF\x83(\xCE\xB8) d\xCF\x89");
+  const ModelJson empty = ModelJson::object();
+  const ModelJson* drift = Member(model, "drift");
+  const ModelJson* diffusion = Member(model, "diffusion");
+  const std::vector<std::string> states = Names(model, "states");
+  if (states.empty()) ImGui::TextDisabled("The model names no states.");
+  const float s = state.fonts.scale;
+  for (const std::string& x : states) {
+    const std::string f = MemberText(drift ? *drift : empty, x.c_str(), "(no drift given)");
+    const std::string g = MemberText(diffusion ? *diffusion : empty, x.c_str(), "0");
+    const float avail = ImGui::GetContentRegionAvail().x;
+    MonoLabel(state, "d" + x + " = (");
+    FormulaField(state, editable, "drift." + x, f, std::max(120.0f * s, 0.55f * avail));
+    ImGui::SameLine();
+    MonoLabel(state, ") dt +");
+    FormulaField(state, editable, "diffusion." + x, g, std::max(80.0f * s, 0.18f * avail));
+    ImGui::SameLine();
+    MonoLabel(state, "d\xCF\x89_" + x);
+    ImGui::NewLine();
+    DrawDraftError(state, "drift." + x, 0.0f);
+    DrawDraftError(state, "diffusion." + x, 0.0f);
+  }
+}
+
+void DrawObservationEquations(AppState& state, const ModelJson& model, bool editable) {
+  SectionHeading(state, "Observation equations   y_k = h(x_k, u_k, \xCE\xB8) + e_k");
+  const ModelJson empty = ModelJson::object();
+  const ModelJson* h = Member(model, "observation");
+  const ModelJson* var = Member(model, "measurement_variance");
+  const ModelJson* delay = Member(model, "output_delay");
+  const std::vector<std::string> outputs = Names(model, "outputs");
+  if (outputs.empty()) ImGui::TextDisabled("The model names no outputs.");
+  const float s = state.fonts.scale;
+  for (const std::string& o : outputs) {
+    const float avail = ImGui::GetContentRegionAvail().x;
+    MonoLabel(state, o + "_k =");
+    FormulaField(state, editable, "observation." + o,
+                 MemberText(h ? *h : empty, o.c_str(), "(no observation given)"),
+                 std::max(120.0f * s, 0.30f * avail));
+    ImGui::SameLine();
+    MonoLabel(state, "+ e_k,   e_k ~ N(0,");
+    FormulaField(state, editable, "measurement_variance." + o,
+                 MemberText(var ? *var : empty, o.c_str(), "(no variance given)"),
+                 std::max(80.0f * s, 0.12f * avail));
+    ImGui::SameLine();
+    std::string tail = ")";
+    if (const ModelJson* d = delay ? Member(*delay, o.c_str()) : nullptr) {
+      if (d->is_object()) {
+        tail += "   delay " + MemberText(*d, "min", "?") + " \xE2\x80\xA6 " +
+                MemberText(*d, "max", "?") + " samples (estimated)";
+      } else {
+        tail += "   delay " + Text(*d) + " samples";
+      }
+    }
+    MonoLabel(state, tail);
+    ImGui::NewLine();
+    DrawDraftError(state, "observation." + o, 0.0f);
+    DrawDraftError(state, "measurement_variance." + o, 0.0f);
+  }
+}
+
+void DrawParameters(AppState& state, const ModelJson& model) {
+  SectionHeading(state, "Parameters");
+  const ModelJson* params = Member(model, "parameters");
+  if (!params || !params->is_object() || params->empty()) {
+    ImGui::TextDisabled("The model has no parameters.");
+    return;
+  }
+  const ImGuiTableFlags flags = ImGuiTableFlags_BordersOuter | ImGuiTableFlags_BordersInnerH |
+                                ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingFixedFit;
+  if (!ImGui::BeginTable("##parameters", 7, flags)) return;
+  for (const char* h : {"Name", "Value", "Lower", "Upper", "Fixed", "Unit"})
+    ImGui::TableSetupColumn(h);
+  ImGui::TableSetupColumn("Description", ImGuiTableColumnFlags_WidthStretch);
+  ImGui::TableHeadersRow();
+  for (auto it = params->begin(); it != params->end(); ++it) {
+    const ModelJson& p = it.value();
+    ImGui::TableNextRow();
+    ImGui::TableNextColumn();
+    MonoLine(state, it.key());
+    if (!p.is_object()) {
+      ImGui::TableNextColumn();
+      ImGui::TextColored(SeverityColor(Severity::kError), "%s (expected an object)",
+                         Text(p).c_str());
+      continue;
+    }
+    for (const char* key : {"value", "lower", "upper"}) {
+      ImGui::TableNextColumn();
+      if (const ModelJson* v = Member(p, key)) {
+        ImGui::TextUnformatted(Text(*v).c_str());
+      } else {
+        ImGui::TextDisabled("\xE2\x80\x94");
+      }
+    }
+    ImGui::TableNextColumn();
+    const ModelJson* fixed = Member(p, "fixed");
+    const bool is_fixed = fixed && fixed->is_boolean() && fixed->get<bool>();
+    if (is_fixed) {
+      ImGui::TextUnformatted("fixed");
+    } else {
+      ImGui::TextDisabled("free");
+    }
+    ImGui::TableNextColumn();
+    ImGui::TextUnformatted(MemberText(p, "unit", "").c_str());
+    ImGui::TableNextColumn();
+    ImGui::TextUnformatted(MemberText(p, "description", "").c_str());
+  }
+  ImGui::EndTable();
+}
+
+void DrawOptions(AppState& state, const ModelJson& model, bool editable) {
+  SectionHeading(state, "Initial conditions and options");
+  const std::vector<std::string> states = Names(model, "states");
+  const ModelJson* x0 = Member(model, "initial_state");
+  const float s = state.fonts.scale;
+  for (const std::string& x : states) {
+    const ModelJson* v = x0 ? Member(*x0, x.c_str()) : nullptr;
+    MonoLabel(state, x + "(t0) =");
+    FormulaField(state, editable, "initial_state." + x, v ? Text(*v) : "0", 160.0f * s);
+    DrawDraftError(state, "initial_state." + x, 0.0f);
+  }
+  if (!ImGui::BeginTable("##options", 2, ImGuiTableFlags_SizingFixedFit)) return;
+  auto row = [&](const char* label, const std::string& value) {
+    ImGui::TableNextRow();
+    ImGui::TableNextColumn();
+    ImGui::TextDisabled("%s", label);
+    ImGui::TableNextColumn();
+    MonoLine(state, value);
+  };
+  row("Initial covariance", MemberText(model, "initial_covariance", "ctsm (default)"));
+  row("Input hold", MemberText(model, "input_hold", "zoh (default)"));
+  row("Robust (Huber c)", MemberText(model, "robust_huber", "off (Gaussian)"));
+  ImGui::EndTable();
+}
+
+}  // namespace
+
+void DrawEquationsPanel(AppState& state) {
+  if (DrawNoProjectNotice(state)) return;
+  const project::Project& project = *state.project;
+  const ModelJson& model = project.model_json;
+
+  ImGui::BeginChild("##equations", ImVec2(0, 0));
+  ImGui::PushFont(state.fonts.bold);
+  ImGui::TextUnformatted(MemberText(model, "name", "(unnamed model)").c_str());
+  ImGui::PopFont();
+  if (state.diagram_view.model_from_diagram) {
+    ImGui::TextDisabled("The model is compiled from the block diagram of %s (Diagram view).",
+                        FileName(project.path).c_str());
+  } else {
+    ImGui::TextDisabled("%s", project.model_path.empty() ? ("inline in " + project.path).c_str()
+                                                         : project.model_path.c_str());
+  }
+  std::string why;
+  const bool editable = Editable(state, &why);
+  ImGui::PushTextWrapPos(0.0f);
+  ImGui::TextDisabled("%s", why.c_str());
+  ImGui::PopTextWrapPos();
+  if (!model.is_object()) {
+    DrawNotice(state, "The model is not a JSON object", Text(model), Severity::kError);
+    ImGui::EndChild();
+    return;
+  }
+  DrawVariables(state, model);
+  DrawSystemEquations(state, model, editable);
+  DrawObservationEquations(state, model, editable);
+  DrawParameters(state, model);
+  DrawOptions(state, model, editable);
+  ImGui::Spacing();
+  if (ImGui::CollapsingHeader("Model file (JSON)")) {
+    ImGui::PushFont(state.fonts.mono);
+    ImGui::TextUnformatted(model.dump(2).c_str());
+    ImGui::PopFont();
+  }
+  ImGui::EndChild();
+  ApplyFormulaEdits(state);
+}
+
+}  // namespace gb::ui

@@ -1,0 +1,348 @@
+// The estimate view: the options and Run / Cancel, the progress of the run under way (stage,
+// iterations, evaluations, best log L, elapsed time, the log L trace), and once a fit has
+// finished its key figures, the trace, the delay profile of every scanned output and the
+// report (the text greybench-cli estimate prints).
+//
+// The estimation runs in AppState::estimation.job (StartEstimation); this panel only reads
+// the progress record and the installed result, and never waits for the job.
+#include <imgui.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "ui/format.h"
+#include "ui/panels/common.h"
+#include "ui/panels/panels.h"
+
+namespace gb::ui {
+namespace {
+
+constexpr float kPlotHeight = 230.0f;       // pixels at scale 1
+constexpr float kMinReportHeight = 160.0f;  // below it the view scrolls
+constexpr float kOptionInputWidth = 96.0f;  // the multistart and threads fields
+constexpr float kAlgorithmWidth = 110.0f;
+constexpr double kProfileXPadding = 0.03;  // the end points do not sit on the frame
+constexpr ImU32 kEstimateColor = IM_COL32(214, 39, 40, 255);
+constexpr ImU32 kFitColor = IM_COL32(31, 119, 180, 255);
+constexpr ImU32 kProfileColor = IM_COL32(255, 127, 14, 255);
+
+std::string Elapsed(const AppState& state, double seconds) {
+  if (state.deterministic) return kElapsedPlaceholder;
+  return FormatFixed(seconds, seconds < 10 ? 2 : 1) + " s";
+}
+
+double RunningSeconds(const AppState& state) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - state.estimation.started)
+      .count();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Options, Run and Cancel
+
+void DrawToolbar(AppState& state) {
+  const float s = state.fonts.scale;
+  EstimationState& e = state.estimation;
+  const bool running = EstimationRunning(state);
+  const bool can_run = !running && state.model && !state.load_job.active();
+
+  ImGui::BeginDisabled(!can_run);
+  const bool run = PrimaryButton("Run", ImVec2(80.0f * s, 0));
+  ImGui::EndDisabled();
+  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) {
+    ImGui::SetTooltip("%s", state.model ? "Estimate the free parameters (and scanned delays)"
+                                        : "The model is not valid (see the Equations view)");
+  }
+  if (run) {
+    std::string why;
+    if (!StartEstimation(state, &why))
+      AddMessage(state, Severity::kError, "Cannot estimate: " + why);
+  }
+  ImGui::SameLine();
+  ImGui::BeginDisabled(!running);
+  if (ImGui::Button("Cancel", ImVec2(80.0f * s, 0))) CancelEstimation(state);
+  ImGui::EndDisabled();
+
+  // Options: fixed while a run is under way (it uses those it started with).
+  const float gap = 1.6f * ImGui::GetFontSize();
+  ImGui::BeginDisabled(running);
+  ImGui::SameLine(0, gap);
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextDisabled("Algorithm");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(kAlgorithmWidth * s);
+  if (ImGui::BeginCombo("##algorithm", Info(e.settings.algorithm).name)) {
+    for (const AlgorithmInfo& a : kAlgorithms) {
+      if (ImGui::Selectable(a.name, a.algorithm == e.settings.algorithm))
+        e.settings.algorithm = a.algorithm;
+      if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", a.summary);
+    }
+    ImGui::EndCombo();
+  }
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", Info(e.settings.algorithm).summary);
+
+  ImGui::SameLine(0, gap);
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextDisabled("Extra starts");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(kOptionInputWidth * s);
+  if (ImGui::InputInt("##multistart", &e.settings.multistart))
+    e.settings.multistart = std::clamp(e.settings.multistart, 0, kMaxMultistart);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("Starts spread over the bounds besides the model's start values");
+
+  ImGui::SameLine(0, gap);
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextDisabled("Threads");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(kOptionInputWidth * s);
+  if (ImGui::InputInt("##threads", &e.settings.threads))
+    e.settings.threads = std::clamp(e.settings.threads, 0, kMaxThreads);
+  ImGui::SameLine();
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextDisabled("%s", e.settings.threads == 0 ? "(all cores)" : "");
+  ImGui::EndDisabled();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Status: the run under way, the last result, and why the last run left no result
+
+void DrawRunning(AppState& state) {
+  const EstimationState& e = state.estimation;
+  const EstimationProgress::Latest p =
+      e.progress ? e.progress->latest() : EstimationProgress::Latest{};
+  std::string rest = std::string(StageText(p.stage));
+  if (p.any) {
+    rest += "  \xC2\xB7  iteration " + std::to_string(p.iteration) + "  \xC2\xB7  " +
+            GroupedCount(p.evaluations) + " evaluations  \xC2\xB7  best log L " +
+            FormatFixed(p.best_loglik, 3);
+  }
+  rest += "  \xC2\xB7  " + Elapsed(state, RunningSeconds(state));
+  StatusLine(state, IM_COL32(47, 111, 219, 255), "Running", rest);
+}
+
+void DrawResultStatus(AppState& state, const FitResult& r) {
+  const estimate::EstimateSummary& s = r.summary;
+  const ImU32 color = ImGui::ColorConvertFloat4ToU32(
+      SeverityColor(s.converged ? Severity::kInfo : Severity::kWarning));
+  StatusLine(state, s.converged ? IM_COL32(44, 160, 44, 255) : color,
+             s.converged ? "Converged" : "Not converged", s.message);
+}
+
+// "label value" pairs left to right, wrapping to a new line when the next does not fit.
+class FigureRow {
+ public:
+  void Add(const char* label, const std::string& value) {
+    const float gap = 1.6f * ImGui::GetFontSize();
+    const float w = ImGui::CalcTextSize(label).x + 0.5f * ImGui::GetFontSize() +
+                    ImGui::CalcTextSize(value.c_str()).x;
+    if (!first_) {
+      const float right = ImGui::GetWindowPos().x + ImGui::GetContentRegionMax().x;
+      if (ImGui::GetItemRectMax().x + gap + w <= right) ImGui::SameLine(0, gap);
+    }
+    first_ = false;
+    LabelValue(label, value);
+  }
+
+ private:
+  bool first_ = true;
+};
+
+void DrawKeyFigures(AppState& state, const FitResult& r) {
+  const estimate::EstimateSummary& s = r.summary;
+  FigureRow row;
+  row.Add("log L", FormatFixed(s.loglik, 3));
+  row.Add("AIC", FormatFixed(s.aic, 2));
+  row.Add("BIC", FormatFixed(s.bic, 2));
+  for (const estimate::DelayEstimate& d : s.delays) {
+    if (d.scanned)
+      row.Add(("Delay of " + d.output).c_str(), std::to_string(d.estimate) + " samples");
+  }
+  row.Add("Observations", GroupedCount(s.n_obs));
+  row.Add("Free", std::to_string(s.n_free));
+  row.Add("Iterations", std::to_string(s.iterations));
+  row.Add("Evaluations", GroupedCount(s.evaluations));
+  row.Add("Time", Elapsed(state, s.elapsed_s));
+  row.Add("Algorithm", Info(r.settings.algorithm).name);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Plots
+
+void DrawTracePlot(AppState& state, const Trace& trace, ImVec2 size) {
+  plot::PlotOptions options;
+  options.title = "Log-likelihood by iteration";
+  options.x_label = "iteration";
+  options.y_label = "log L";
+  options.linked_x = &state.estimation.trace_x;  // refitted as points arrive
+  options.legend = plot::Legend::kHide;          // no corner is reliably free: see TraceLegend()
+  if (!plot::BeginPlot(state.plots, "##trace", size, options)) return;
+  plot::ItemStyle fit;
+  fit.color = kFitColor;
+  plot::PlotLine(state.plots, "fit", trace.iteration.data(), trace.loglik_fit.data(), trace.size(),
+                 fit);
+  if (trace.has_profile) {
+    plot::ItemStyle profile;
+    profile.color = kProfileColor;
+    profile.marker_radius = 1.75f;
+    plot::PlotMarkers(state.plots, "fits at other delays", trace.iteration.data(),
+                      trace.loglik_profile.data(), trace.size(), profile);
+  }
+  plot::EndPlot(state.plots);
+}
+
+void DrawProfilePlot(AppState& state, const DelayProfilePlot& p, plot::LinkedRange* x,
+                     ImVec2 size) {
+  std::string title = "Profile log L of the " + p.output + " delay";
+  if (!p.estimate_delay.empty())
+    title += ": estimate " + FormatSig(p.estimate_delay[0], 6) + " samples";
+  plot::PlotOptions options;
+  options.title = title.c_str();
+  options.x_label = "delay";
+  options.x_unit = "samples";
+  options.y_label = "log L";
+  options.legend = plot::Legend::kHide;  // the title names the estimate (the red point)
+  options.x_padding = kProfileXPadding;
+  options.linked_x = x;  // refitted when a new result arrives
+  ImGui::PushID(p.output.c_str());
+  if (plot::BeginPlot(state.plots, "##profile", size, options)) {
+    const int n = static_cast<int>(p.delay.size());
+    plot::ItemStyle line;
+    line.color = kProfileColor;
+    plot::PlotLine(state.plots, "log L(delay)", p.delay.data(), p.loglik.data(), n, line);
+    plot::PlotMarkers(state.plots, "##points", p.delay.data(), p.loglik.data(), n, line);
+    plot::ItemStyle est;
+    est.color = kEstimateColor;
+    est.marker_radius = 5.0f;
+    plot::PlotMarkers(state.plots, "estimate", p.estimate_delay.data(), p.estimate_loglik.data(),
+                      static_cast<int>(p.estimate_delay.size()), est);
+    plot::EndPlot(state.plots);
+  }
+  ImGui::PopID();
+}
+
+// The trace's legend, under the plots: a swatch and a name per series.
+void TraceLegend(AppState& state, const Trace& trace) {
+  const float s = state.fonts.scale;
+  auto entry = [&](ImU32 color, bool line, const char* text) {
+    const ImVec2 p = ImGui::GetCursorScreenPos();
+    const float h = ImGui::GetTextLineHeight();
+    ImDrawList* dl = ImGui::GetWindowDrawList();
+    if (line) {
+      dl->AddLine(ImVec2(p.x, p.y + 0.5f * h), ImVec2(p.x + 16.0f * s, p.y + 0.5f * h), color,
+                  2.0f * s);
+    } else {
+      dl->AddCircleFilled(ImVec2(p.x + 8.0f * s, p.y + 0.5f * h), 3.0f * s, color, 12);
+    }
+    ImGui::Dummy(ImVec2(16.0f * s, h));
+    ImGui::SameLine(0, 0.4f * ImGui::GetFontSize());
+    ImGui::TextDisabled("%s", text);
+  };
+  entry(kFitColor, true, "fit at the estimated delay");
+  if (!trace.has_profile) return;
+  ImGui::SameLine(0, 1.2f * ImGui::GetFontSize());
+  entry(kProfileColor, false, "fits at the other delays");
+}
+
+// The trace and the delay profiles side by side.
+void DrawPlots(AppState& state, const Trace& trace, const FitResult* result) {
+  const float s = state.fonts.scale;
+  const float spacing = ImGui::GetStyle().ItemSpacing.x;
+  const int n_profiles = result ? static_cast<int>(result->profiles.size()) : 0;
+  const float n = static_cast<float>(1 + n_profiles);
+  const float width = std::floor((ImGui::GetContentRegionAvail().x - spacing * (n - 1.0f)) / n);
+  const ImVec2 size(std::max(120.0f * s, width), kPlotHeight * s);
+  DrawTracePlot(state, trace, size);
+  for (int i = 0; i < n_profiles; ++i) {
+    ImGui::SameLine();
+    const auto k = static_cast<std::size_t>(i);
+    if (state.estimation.profile_x.size() != result->profiles.size())
+      state.estimation.profile_x.assign(result->profiles.size(), plot::LinkedRange{});
+    DrawProfilePlot(state, result->profiles[k], &state.estimation.profile_x[k], size);
+  }
+  TraceLegend(state, trace);
+  for (int i = 0; i < n_profiles; ++i) {
+    if (!result->profiles[static_cast<std::size_t>(i)].any_lower_bound) continue;
+    ImGui::SameLine(0, 1.6f * ImGui::GetFontSize());
+    ImGui::TextDisabled(
+        "Fits at the other delays stop after a few iterations: their log L is a lower bound.");
+    break;
+  }
+}
+
+void DrawReport(AppState& state, const FitResult& r, bool previous) {
+  const float s = state.fonts.scale;
+  SectionHeading(state, previous ? "Report of the previous run" : "Report");
+  if (ImGui::SmallButton("Copy to clipboard")) ImGui::SetClipboardText(r.report.c_str());
+  ImGui::SameLine();
+  ImGui::TextDisabled("the text greybench-cli estimate prints");
+  const float height = std::max(kMinReportHeight * s, ImGui::GetContentRegionAvail().y);
+  ImGui::PushStyleColor(ImGuiCol_ChildBg, IM_COL32(250, 250, 251, 255));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(10.0f * s, 8.0f * s));
+  ImGui::BeginChild("##report", ImVec2(0, height), true,
+                    ImGuiWindowFlags_HorizontalScrollbar | ImGuiWindowFlags_AlwaysUseWindowPadding);
+  ImGui::PushFont(state.fonts.mono);
+  ImGui::TextUnformatted(r.report.c_str(), r.report.c_str() + r.report.size());
+  ImGui::PopFont();
+  ImGui::EndChild();
+  ImGui::PopStyleVar();
+  ImGui::PopStyleColor();
+}
+
+void DrawNothingYet(AppState& state) {
+  const model::ModelSpec& m = *state.model;
+  int free = 0;
+  for (const model::Parameter& p : m.parameters) free += p.fixed ? 0 : 1;
+  std::string text = "Run fits the " + std::to_string(free) + " free parameters";
+  if (m.HasDelayScan()) text += " and the scanned output delays";
+  text += " of \"" + (m.name.empty() ? std::string("the model") : m.name) + "\" to " +
+          std::to_string(state.datasets.size()) +
+          (state.datasets.size() == 1 ? " dataset" : " datasets") +
+          " by maximum likelihood. The start values and bounds are those of the Parameters "
+          "view.";
+  DrawNotice(state, "No estimate yet", text);
+}
+
+}  // namespace
+
+void DrawEstimatePanel(AppState& state) {
+  if (DrawNoProjectNotice(state)) return;
+  DrawToolbar(state);
+  ImGui::Spacing();
+  if (!state.model) {
+    DrawNotice(state, "The model is not valid", state.model_error, Severity::kError);
+    return;
+  }
+
+  EstimationState& e = state.estimation;
+  const bool running = EstimationRunning(state);
+  const FitResult* result = e.result ? &*e.result : nullptr;
+  if (running) {
+    DrawRunning(state);
+  } else if (result) {
+    DrawResultStatus(state, *result);
+  }
+  if (!running && !e.last_failure.empty()) {
+    std::string text = e.last_failure;
+    if (!text.empty() && text.back() != '.') text += '.';
+    if (result) text += " The results below are from the previous run.";
+    ImGui::PushTextWrapPos(0.0f);
+    ImGui::TextColored(SeverityColor(e.last_failure_severity), "%s", text.c_str());
+    ImGui::PopTextWrapPos();
+  }
+  if (result && !running && result->model_revision != state.model_revision) {
+    ImGui::TextColored(SeverityColor(Severity::kWarning),
+                       "The parameters were edited after this fit: run again to update it.");
+  }
+  if (!running && !result) {
+    if (e.last_failure.empty()) DrawNothingYet(state);
+    return;
+  }
+  if (result && !running) DrawKeyFigures(state, *result);
+  ImGui::Spacing();
+  DrawPlots(state, running ? e.live_trace : result->trace, running ? nullptr : result);
+  if (result) DrawReport(state, *result, running);
+}
+
+}  // namespace gb::ui

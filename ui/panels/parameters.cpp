@@ -1,0 +1,424 @@
+// The parameters view: one row per model parameter with its start value, bounds and whether
+// it is fixed, all editable; after a fit also the estimate, standard error, t, p, the 95 %
+// interval (estimate ± 1.96 SE) and a note for estimates at a bound. Below the table: the
+// warnings of the fit (identifiability, correlation) and the correlation of the estimates as a
+// heat map.
+//
+// Edits: the table emits ParameterEdits into state.parameters_view.pending while it is drawn;
+// ApplyParameterEdits() applies them after the table through core's validation, which may
+// refuse one with a reason (shown in red under the table, the cell marked).
+//
+// Sections
+//   1. Cells: editable numbers, right-aligned read-outs
+//   2. The table
+//   3. Warnings and the correlation heat map
+//   4. DrawParametersPanel
+#include <imgui.h>
+#include <imgui_stdlib.h>
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <string>
+
+#include "ui/format.h"
+#include "ui/panels/common.h"
+#include "ui/panels/panels.h"
+#include "ui/widgets/heatmap.h"
+
+namespace gb::ui {
+namespace {
+
+constexpr float kInputWidth = 80.0f;  // the start value and bound cells, pixels at scale 1
+constexpr double kZ95 = 1.96;         // two-sided 95 % normal quantile
+constexpr int kEstimateDigits = 5;
+constexpr int kErrorDigits = 3;
+constexpr ImU32 kRefusedCellBg = IM_COL32(250, 222, 222, 255);
+
+// ---------------------------------------------------------------------------------------------
+// 1. Cells
+
+// The text a number cell shows: 6 significant digits (a bound that is absent: empty).
+std::string CellText(const std::optional<double>& v) {
+  if (!v) return "";
+  if (!std::isfinite(*v)) return kDash;
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6g", *v);
+  return buf;
+}
+
+void TextRight(const std::string& text, bool dim = false) {
+  const float w = ImGui::CalcTextSize(text.c_str()).x;
+  const float avail = ImGui::GetContentRegionAvail().x;
+  if (avail > w) ImGui::SetCursorPosX(ImGui::GetCursorPosX() + avail - w);
+  if (dim) {
+    ImGui::TextDisabled("%s", text.c_str());
+  } else {
+    ImGui::TextUnformatted(text.c_str());
+  }
+}
+
+bool IsRefused(const AppState& state, const std::string& parameter, ParameterField field) {
+  const std::optional<ParameterRefusal>& r = state.parameters_view.refusal;
+  return r && r->parameter == parameter && r->field == field;
+}
+
+// A start value or bound. ImGui keeps the text only while the cell is active, so the text
+// being typed lives in parameters_view; it is committed when the cell loses focus (or on Enter).
+void NumberCell(AppState& state, const model::Parameter& p, ParameterField field,
+                const std::optional<double>& value) {
+  ParametersViewState& v = state.parameters_view;
+  const bool refused = IsRefused(state, p.name, field);
+  if (refused) ImGui::TableSetBgColor(ImGuiTableBgTarget_CellBg, kRefusedCellBg);
+  const bool editing = v.editing_parameter == p.name && v.editing_field == field;
+  std::string shown = refused ? v.refusal->text : CellText(value);
+  std::string* text = editing ? &v.editing_text : &shown;
+  const char* id = field == ParameterField::kValue   ? "##value"
+                   : field == ParameterField::kLower ? "##lower"
+                                                     : "##upper";
+  const char* hint = field == ParameterField::kValue   ? ""
+                     : field == ParameterField::kLower ? "\xE2\x88\x92\xE2\x88\x9E"  // −∞
+                                                       : "\xE2\x88\x9E";             // ∞
+  ImGui::SetNextItemWidth(-FLT_MIN);
+  if (refused) {
+    ImGui::PushStyleColor(ImGuiCol_FrameBg, kRefusedCellBg);
+    ImGui::PushStyleColor(ImGuiCol_Border, SeverityColor(Severity::kError));
+  }
+  ImGui::InputTextWithHint(id, hint, text,
+                           ImGuiInputTextFlags_CharsScientific | ImGuiInputTextFlags_AutoSelectAll);
+  if (refused) ImGui::PopStyleColor(2);
+  if (ImGui::IsItemActivated()) {
+    v.editing_parameter = p.name;
+    v.editing_field = field;
+    v.editing_text = *text;
+  }
+  if (ImGui::IsItemHovered() && refused) ImGui::SetTooltip("%s", v.refusal->reason.c_str());
+  if (!ImGui::IsItemDeactivated()) return;
+  const std::string typed = editing ? v.editing_text : *text;
+  const bool edited = ImGui::IsItemDeactivatedAfterEdit();
+  v.editing_parameter.clear();
+  v.editing_text.clear();
+  if (!edited) return;
+  Result<ParameterEdit> edit = ParseParameterEdit(p.name, field, typed);
+  if (!edit) {
+    v.refusal = ParameterRefusal{p.name, field, typed, edit.error().message};
+    return;
+  }
+  v.pending.push_back(std::move(edit).value());
+}
+
+void FixedCell(AppState& state, const model::Parameter& p) {
+  bool fixed = p.fixed;
+  if (IsRefused(state, p.name, ParameterField::kFixed))
+    ImGui::TableSetBgColor(ImGuiTableBgTarget_CellBg, kRefusedCellBg);
+  const float w = ImGui::GetFrameHeight();
+  const float avail = ImGui::GetContentRegionAvail().x;
+  if (avail > w) ImGui::SetCursorPosX(ImGui::GetCursorPosX() + 0.5f * (avail - w));
+  if (ImGui::Checkbox("##fixed", &fixed)) {
+    ParameterEdit edit;
+    edit.parameter = p.name;
+    edit.field = ParameterField::kFixed;
+    edit.fixed = fixed;
+    edit.text = fixed ? "fixed" : "free";
+    state.parameters_view.pending.push_back(std::move(edit));
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("%s", fixed ? "Held at its value (not estimated)" : "Estimated");
+}
+
+// ---------------------------------------------------------------------------------------------
+// 2. The table
+
+const estimate::ParameterEstimate* FindEstimate(const FitResult* r, const std::string& name) {
+  if (!r) return nullptr;
+  for (const estimate::ParameterEstimate& e : r->summary.parameters) {
+    if (e.name == name) return &e;
+  }
+  return nullptr;
+}
+
+// "at lower bound", "at upper bound", or "".
+std::string BoundNote(const estimate::ParameterEstimate& e) {
+  if (!e.at_bound) return "";
+  const double to_lower = e.lower ? std::abs(e.estimate - *e.lower) : HUGE_VAL;
+  const double to_upper = e.upper ? std::abs(e.estimate - *e.upper) : HUGE_VAL;
+  return to_lower <= to_upper ? "at lower bound" : "at upper bound";
+}
+
+// Estimate, SE, t, p and the interval. Where there is no standard error the SE cell says why:
+// "fixed", "at lower bound" (the at-bound marker, also on the estimate), "not determined".
+void EstimateCells(const estimate::ParameterEstimate* e) {
+  if (!e) {  // a parameter the fit did not know (cannot happen unless the model changed)
+    for (int i = 0; i < 5; ++i) {
+      ImGui::TableNextColumn();
+      TextRight(kDash, true);
+    }
+    return;
+  }
+  const ImVec4 warning = SeverityColor(Severity::kWarning);
+  ImGui::TableNextColumn();
+  const std::string estimate = FormatSig(e->estimate, kEstimateDigits);
+  if (e->at_bound && !e->fixed) {
+    const float w = ImGui::CalcTextSize(estimate.c_str()).x;
+    const float avail = ImGui::GetContentRegionAvail().x;
+    if (avail > w) ImGui::SetCursorPosX(ImGui::GetCursorPosX() + avail - w);
+    ImGui::TextColored(warning, "%s", estimate.c_str());
+  } else {
+    TextRight(estimate, e->fixed);
+  }
+  ImGui::TableNextColumn();
+  if (e->std_error) {
+    TextRight(FormatSig(e->std_error, kErrorDigits));
+  } else if (e->fixed) {
+    TextRight("fixed", true);
+  } else {
+    const std::string why = e->at_bound ? BoundNote(*e) : "not determined";
+    const float w = ImGui::CalcTextSize(why.c_str()).x;
+    const float avail = ImGui::GetContentRegionAvail().x;
+    if (avail > w) ImGui::SetCursorPosX(ImGui::GetCursorPosX() + avail - w);
+    ImGui::TextColored(warning, "%s", why.c_str());
+    if (ImGui::IsItemHovered()) {
+      ImGui::SetTooltip("%s", e->at_bound
+                                  ? "The estimate is on its bound: no standard error is reported."
+                                  : "The data do not determine it (see the warnings).");
+    }
+  }
+  ImGui::TableNextColumn();
+  TextRight(FormatSig(e->t_value, kErrorDigits), !e->t_value);
+  ImGui::TableNextColumn();
+  TextRight(FormatPValue(e->p_value), !e->p_value);
+  ImGui::TableNextColumn();
+  if (e->std_error && std::isfinite(*e->std_error)) {
+    const double half = kZ95 * *e->std_error;
+    TextRight(FormatSig(e->estimate - half, kErrorDigits) + " \xE2\x80\xA6 " +
+              FormatSig(e->estimate + half, kErrorDigits));
+  } else {
+    TextRight(kDash, true);
+  }
+}
+
+void HeaderRight(const char* label) {
+  ImGui::TableNextColumn();
+  const float w = ImGui::CalcTextSize(label, nullptr, true).x;
+  const float avail = ImGui::GetContentRegionAvail().x;
+  if (avail > w) ImGui::SetCursorPosX(ImGui::GetCursorPosX() + avail - w);
+  ImGui::TableHeader(label);
+}
+
+void DrawTable(AppState& state, const FitResult* result) {
+  const float s = state.fonts.scale;
+  const model::ModelSpec& m = *state.model;
+  const bool with_fit = result != nullptr;
+  const int columns = with_fit ? 11 : 7;
+  const ImGuiTableFlags flags = ImGuiTableFlags_BordersOuter | ImGuiTableFlags_BordersInnerH |
+                                ImGuiTableFlags_BordersInnerV | ImGuiTableFlags_RowBg |
+                                ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_NoSavedSettings;
+  // Compact rows.
+  ImGui::PushStyleVar(ImGuiStyleVar_FramePadding,
+                      ImVec2(ImGui::GetStyle().FramePadding.x, 2.0f * s));
+  const float row_h = ImGui::GetFrameHeight() + 2.0f * ImGui::GetStyle().CellPadding.y;
+  if (!ImGui::BeginTable("##parameters", columns, flags)) {
+    ImGui::PopStyleVar();
+    return;
+  }
+  ImGui::TableSetupColumn("Parameter");
+  ImGui::TableSetupColumn("Unit");
+  ImGui::TableSetupColumn("Start", ImGuiTableColumnFlags_WidthFixed, kInputWidth * s);
+  ImGui::TableSetupColumn("Lower", ImGuiTableColumnFlags_WidthFixed, kInputWidth * s);
+  ImGui::TableSetupColumn("Upper", ImGuiTableColumnFlags_WidthFixed, kInputWidth * s);
+  ImGui::TableSetupColumn("Fixed");
+  if (with_fit) {
+    ImGui::TableSetupColumn("Estimate");
+    ImGui::TableSetupColumn("Std. error");
+    ImGui::TableSetupColumn("t");
+    ImGui::TableSetupColumn("p");
+    ImGui::TableSetupColumn("95 % interval", ImGuiTableColumnFlags_WidthStretch);
+  } else {
+    ImGui::TableSetupColumn("Description", ImGuiTableColumnFlags_WidthStretch);
+  }
+  // Headers: numbers right-aligned under right-aligned titles.
+  ImGui::TableNextRow(ImGuiTableRowFlags_Headers);
+  for (int c = 0; c < columns; ++c) {
+    const char* name = ImGui::TableGetColumnName(c);
+    const bool right = with_fit && c >= 6;  // the numbers of the fit
+    if (right) {
+      HeaderRight(name);
+    } else {
+      ImGui::TableNextColumn();
+      ImGui::TableHeader(name);
+    }
+  }
+
+  for (std::size_t i = 0; i < m.parameters.size(); ++i) {
+    const model::Parameter& p = m.parameters[i];
+    ImGui::PushID(static_cast<int>(i));
+    ImGui::TableNextRow(ImGuiTableRowFlags_None, row_h);
+    ImGui::TableNextColumn();
+    ImGui::AlignTextToFramePadding();
+    ImGui::PushFont(state.fonts.mono);
+    ImGui::TextUnformatted(p.name.c_str());
+    ImGui::PopFont();
+    if (ImGui::IsItemHovered() && !p.description.empty())
+      ImGui::SetTooltip("%s", p.description.c_str());
+    ImGui::TableNextColumn();
+    ImGui::AlignTextToFramePadding();
+    if (p.unit.empty()) {
+      ImGui::TextDisabled("%s", kDash);
+    } else {
+      ImGui::TextUnformatted(p.unit.c_str());
+    }
+    ImGui::TableNextColumn();
+    NumberCell(state, p, ParameterField::kValue, p.value);
+    ImGui::TableNextColumn();
+    NumberCell(state, p, ParameterField::kLower, p.lower);
+    ImGui::TableNextColumn();
+    NumberCell(state, p, ParameterField::kUpper, p.upper);
+    ImGui::TableNextColumn();
+    FixedCell(state, p);
+    if (with_fit) {
+      EstimateCells(FindEstimate(result, p.name));
+    } else {
+      ImGui::TableNextColumn();
+      ImGui::AlignTextToFramePadding();
+      ImGui::TextDisabled("%s", p.description.c_str());
+    }
+    ImGui::PopID();
+  }
+  ImGui::EndTable();
+  ImGui::PopStyleVar();
+}
+
+void DrawRefusal(AppState& state) {
+  std::optional<ParameterRefusal>& r = state.parameters_view.refusal;
+  if (!r) return;
+  const std::string text = r->parameter + ", " + std::string(FieldText(r->field)) +
+                           (r->text.empty() ? "" : " '" + r->text + "'") +
+                           ": refused \xE2\x80\x94 " + r->reason;
+  ImGui::PushTextWrapPos(0.0f);
+  ImGui::TextColored(SeverityColor(Severity::kError), "%s", text.c_str());
+  ImGui::PopTextWrapPos();
+  ImGui::SameLine();
+  if (ImGui::SmallButton("Dismiss")) r.reset();
+}
+
+// ---------------------------------------------------------------------------------------------
+// 3. Warnings and correlations
+
+void DrawWarnings(AppState& state, const FitResult& r) {
+  SectionHeading(state, "Warnings");
+  if (r.summary.warnings.empty()) {
+    ImGui::PushTextWrapPos(0.0f);
+    ImGui::TextDisabled(
+        "None: every free parameter has a standard error, none is at a bound, and no two "
+        "estimates are correlated beyond |r| = 0.99.");
+    ImGui::PopTextWrapPos();
+    return;
+  }
+  const float s = state.fonts.scale;
+  for (const std::string& w : r.summary.warnings) {
+    const ImVec2 p = ImGui::GetCursorScreenPos();
+    const float radius = 3.5f * s;
+    ImGui::GetWindowDrawList()->AddCircleFilled(
+        ImVec2(p.x + radius, p.y + 0.5f * ImGui::GetTextLineHeight()), radius,
+        ImGui::ColorConvertFloat4ToU32(SeverityColor(Severity::kWarning)), 12);
+    ImGui::SetCursorScreenPos(ImVec2(p.x + 4.0f * radius, p.y));
+    ImGui::PushTextWrapPos(0.0f);
+    ImGui::TextUnformatted(w.c_str());
+    ImGui::PopTextWrapPos();
+  }
+}
+
+void DrawCorrelation(AppState& state, const FitResult& r, float max_height) {
+  SectionHeading(state, "Correlation of the estimates");
+  const std::vector<std::string>& names = r.summary.correlation_names;
+  if (names.size() < 2) {
+    ImGui::TextDisabled("Fewer than two parameters have a standard error.");
+    return;
+  }
+  plot::HeatMapOptions options;
+  options.scale = state.fonts.scale;
+  options.max_height = max_height;
+  plot::HeatMap("##correlation", names, r.correlation.data(), options);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 4. DrawParametersPanel
+
+void DrawFitLine(AppState& state, const FitResult* result) {
+  const float gap = 1.6f * ImGui::GetFontSize();
+  const bool running = EstimationRunning(state);
+  ImGui::AlignTextToFramePadding();
+  if (!result) {
+    ImGui::TextDisabled("%s", running ? "An estimation is under way (Estimate view)."
+                                      : "No estimates yet: run the estimation in the Estimate "
+                                        "view. Edits here change the start values and bounds.");
+  } else {
+    const estimate::EstimateSummary& s = result->summary;
+    if (s.converged) {
+      ImGui::TextUnformatted("Converged");
+    } else {
+      ImGui::TextColored(SeverityColor(Severity::kWarning), "Not converged");
+    }
+    ImGui::SameLine(0, gap);
+    LabelValue("log L", FormatFixed(s.loglik, 3));
+    ImGui::SameLine(0, gap);
+    LabelValue("Observations", GroupedCount(s.n_obs));
+    ImGui::SameLine(0, gap);
+    LabelValue("Free", std::to_string(s.n_free));
+    ImGui::SameLine(0, gap);
+    ImGui::TextDisabled("interval: estimate \xC2\xB1 1.96 SE");
+  }
+  const char* label = "Use estimates as start values";
+  const float w = ImGui::CalcTextSize(label).x + 2.0f * ImGui::GetStyle().FramePadding.x;
+  ImGui::SameLine(std::max(ImGui::GetCursorPosX(), ImGui::GetContentRegionMax().x - w));
+  ImGui::BeginDisabled(!result);
+  if (ImGui::Button(label)) state.parameters_view.use_estimates_requested = true;
+  ImGui::EndDisabled();
+  if (result && result->model_revision != state.model_revision) {
+    ImGui::TextColored(SeverityColor(Severity::kWarning),
+                       "The parameters were edited after this fit: the estimates are those of "
+                       "the model as it was.");
+  }
+}
+
+}  // namespace
+
+void DrawParametersPanel(AppState& state) {
+  if (DrawNoProjectNotice(state)) return;
+  if (!state.model) {
+    DrawNotice(state, "The model is not valid", state.model_error, Severity::kError);
+    return;
+  }
+  const FitResult* result = state.estimation.result ? &*state.estimation.result : nullptr;
+  ImGui::BeginChild("##parameters_view");
+  DrawFitLine(state, result);
+  ImGui::Spacing();
+  DrawTable(state, result);
+  DrawRefusal(state);
+  if (result) {
+    const float s = state.fonts.scale;
+    ImGui::Spacing();
+    // The heat map fits the rest of the view (down to a legible size; below it, it scrolls).
+    const ImGuiStyle& style = ImGui::GetStyle();
+    const float heading_h = ImGui::GetTextLineHeight() + 8.0f * s + 3.0f * style.ItemSpacing.y;
+    const float max_height =
+        std::max(200.0f * s, ImGui::GetContentRegionAvail().y - heading_h -
+                                 2.0f * style.CellPadding.y - style.ItemSpacing.y);
+    if (ImGui::BeginTable("##below", 2, ImGuiTableFlags_SizingStretchProp)) {
+      ImGui::TableSetupColumn("correlation", ImGuiTableColumnFlags_WidthFixed);
+      ImGui::TableSetupColumn("warnings", ImGuiTableColumnFlags_WidthStretch);
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      DrawCorrelation(state, *result, max_height);
+      ImGui::TableNextColumn();
+      ImGui::Indent(12.0f * s);
+      DrawWarnings(state, *result);
+      ImGui::Unindent(12.0f * s);
+      ImGui::EndTable();
+    }
+  }
+  ImGui::EndChild();
+  ApplyParameterEdits(state);
+}
+
+}  // namespace gb::ui

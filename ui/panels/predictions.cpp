@@ -1,0 +1,128 @@
+// The predictions view: for every output of the selected dataset, the measurements (markers),
+// the one-step predictions (line) with their ± 2 sd band, and on request the h-step-ahead
+// predictions and the simulation (the deterministic response, no data assimilated); the plots
+// are stacked with their time axes linked, each titled with the output's RMS of residuals, the
+// observations used and the delay.
+//
+// The numbers come from AppState::analysis (ui/jobs/analysis.h), computed in the background; this
+// panel only reads the installed result.
+#include <algorithm>
+#include <string>
+
+#include "ui/format.h"
+#include "ui/panels/analysis_view.h"
+#include "ui/panels/common.h"
+#include "ui/panels/panels.h"
+
+namespace gb::ui {
+namespace {
+
+constexpr float kMinPlotHeight = 150.0f;  // pixels at scale 1; below it the plots scroll
+constexpr float kHorizonWidth = 96.0f;
+
+bool DrawOverlayControls(AppState& state) {
+  AnalysisState& a = state.analysis;
+  ImGui::Checkbox("Predicted", &a.show_ahead);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "Predictions k samples ahead: from the filtered state k samples earlier, "
+        "with the measured inputs in between");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(kHorizonWidth * state.fonts.scale);
+  if (ImGui::InputInt("##horizon", &a.horizon)) a.horizon = std::clamp(a.horizon, 1, kMaxHorizon);
+  ImGui::SameLine();
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextUnformatted("samples ahead");
+  ImGui::SameLine(0, 1.6f * ImGui::GetFontSize());
+  ImGui::Checkbox("Simulation", &a.show_simulation);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "The deterministic response of the model to the measured inputs from its "
+        "initial state: no measurement is assimilated");
+  return true;
+}
+
+std::string PlotTitle(const OutputAnalysis& o) {
+  std::string title = o.name + "    RMS of residuals " + FormatSig(o.rms, 4) + "  \xC2\xB7  " +
+                      GroupedCount(o.n_observed) + " observed  \xC2\xB7  delay " +
+                      SamplesText(o.delay);
+  return title;
+}
+
+void DrawOutputPlot(AppState& state, const DatasetAnalysis& d, const OutputAnalysis& o, ImVec2 size,
+                    bool last) {
+  const AnalysisState& a = state.analysis;
+  const std::string title = PlotTitle(o);
+  const std::string ahead_label = "predicted " + SamplesText(a.result->request.horizon) + " ahead";
+  plot::PlotOptions options;
+  options.title = title.c_str();
+  options.x_label = d.time_name.c_str();
+  options.x_title = last;
+  options.y_label = o.name.c_str();
+  options.linked_x = &state.analysis.time_x;
+  options.legend = plot::Legend::kShow;
+  if (!plot::BeginPlot(state.plots, "##output", size, options)) return;
+  const int n = static_cast<int>(d.time.size());
+  const double* t = d.time.data();
+  plot::ItemStyle band;
+  band.color = kPredictionColor;
+  band.fill_alpha = 0.18f;
+  plot::PlotBand(state.plots, "\xC2\xB1 2 sd", t, o.lower.data(), o.upper.data(), n, band);
+  plot::ItemStyle measured;
+  measured.color = kMeasuredColor;
+  measured.marker_radius = 1.5f;
+  plot::PlotMarkers(state.plots, "measured", t, o.measured.data(), n, measured);
+  plot::ItemStyle predicted;
+  predicted.color = kPredictionColor;
+  plot::PlotLine(state.plots, "one-step prediction", t, o.predicted.data(), n, predicted);
+  if (a.show_ahead && o.ahead.size() == d.time.size()) {
+    plot::ItemStyle ahead;
+    ahead.color = kAheadColor;
+    plot::PlotLine(state.plots, ahead_label.c_str(), t, o.ahead.data(), n, ahead);
+  }
+  if (a.show_simulation && o.simulated.size() == d.time.size()) {
+    plot::ItemStyle sim;
+    sim.color = kSimulationColor;
+    plot::PlotLine(state.plots, "simulation", t, o.simulated.data(), n, sim);
+  }
+  plot::EndPlot(state.plots);
+}
+
+}  // namespace
+
+void DrawPredictionsPanel(AppState& state) {
+  const DatasetAnalysis* d = DrawAnalysisHeader(state, DrawOverlayControls);
+  if (!d) return;
+  for (const OutputAnalysis& o : d->outputs) {
+    if (state.analysis.show_ahead && !o.ahead_error.empty()) {
+      ImGui::TextColored(SeverityColor(Severity::kWarning), "No %s-ahead predictions for %s: %s",
+                         SamplesText(state.analysis.result->request.horizon).c_str(),
+                         o.name.c_str(), o.ahead_error.c_str());
+    }
+  }
+
+  // Equal plot areas: the bottom plot also carries the time axis' title.
+  const float s = state.fonts.scale;
+  const float spacing = 4.0f * s;
+  const float title_h = 1.2f * ImGui::GetFontSize();
+  const float avail = ImGui::GetContentRegionAvail().y;
+  const float n = static_cast<float>(std::max<std::size_t>(1, d->outputs.size()));
+  const float height =
+      std::max(kMinPlotHeight * s, (avail - spacing * (n - 1.0f) - title_h) / n - 1.0f);
+  const bool scrolls = height * n + spacing * (n - 1.0f) + title_h > avail;
+  ImGui::BeginChild("##predictions", ImVec2(0, 0), false,
+                    scrolls ? ImGuiWindowFlags_None : ImGuiWindowFlags_NoScrollbar);
+  ImGui::PushStyleVar(ImGuiStyleVar_ItemSpacing, ImVec2(0, spacing));
+  ImGui::PushID(state.analysis.dataset);  // each dataset's plots keep their own y ranges
+  for (std::size_t k = 0; k < d->outputs.size(); ++k) {
+    const bool last = k + 1 == d->outputs.size();
+    ImGui::PushID(static_cast<int>(k));
+    DrawOutputPlot(state, *d, d->outputs[k], ImVec2(-1, last ? height + title_h : height), last);
+    ImGui::PopID();
+  }
+  ImGui::PopID();
+  ImGui::PopStyleVar();
+  ImGui::EndChild();
+}
+
+}  // namespace gb::ui

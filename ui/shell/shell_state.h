@@ -1,0 +1,104 @@
+// What the application shell remembers between frames (AppState::shell): the file browser,
+// recent projects, the saved state of the project (for the unsaved-changes marker), the action
+// waiting for an answer to "save changes?", autosave and crash recovery, and the dialogs of the
+// File menu. ui/shell/shell.h has the functions that work on it.
+#pragma once
+
+#include <chrono>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/data/dataset.h"
+#include "ui/jobs/job.h"
+#include "ui/state/data_summary.h"
+#include "ui/widgets/file_browser.h"
+
+namespace gb::ui {
+
+// What the file browser was opened for (FileBrowserRequest::purpose).
+enum class BrowsePurpose {
+  kNone,
+  kOpenProject,
+  kSaveProjectAs,
+  kOpenModel,
+  kAddDataset,
+  kNewModel,  // the New project dialog's fields
+  kNewDataset,
+  kNewProjectFile,
+};
+
+// An action that replaces or closes the open project: it waits for "save changes?" when the
+// project has unsaved changes.
+struct PendingAction {
+  enum class Kind { kNone, kQuit, kOpen, kNew };
+  Kind kind = Kind::kNone;
+  std::string path;  // kOpen: the project to open
+};
+
+// A dataset file read off the UI thread for File > Add dataset.
+struct DatasetRead {
+  std::string path;
+  std::shared_ptr<const data::Dataset> data;  // null when the file could not be read
+  std::string error;
+  DatasetSummary summary;
+};
+
+struct NewProjectForm {
+  std::string name;
+  std::string model;
+  std::vector<std::string> datasets;
+  std::string project;  // the file to create
+  std::string error;    // why Create was refused
+};
+
+struct ShellState {
+  FileBrowserState browser;
+
+  // Recent projects, autosave and recovery read and write files under the user's
+  // $XDG_CONFIG_HOME and $XDG_STATE_HOME; only the greybench window turns them on
+  // (StartSession), so the snapshot renderer and tests touch nothing by default.
+  bool session_files = false;
+  std::string recent_file;          // .../greybench/recent.json
+  std::string recovery_dir;         // .../greybench/recovery
+  std::vector<std::string> recent;  // most recent first, absolute paths
+
+  // The revisions the project file on disk corresponds to (AppState::model_revision and
+  // layout_revision at the last save or open). -1: never saved (a restored recovery).
+  int saved_model_revision = 0;
+  int saved_layout_revision = 0;
+  int seen_generation = 0;  // AppState::project_generation handled by the shell
+  std::string opening;      // a project the shell asked to open, until it loads or fails
+
+  PendingAction pending;  // waiting for "save changes?"
+  bool unsaved_prompt_requested = false;
+  std::string unsaved_error;  // the save in the prompt failed: why
+
+  // Autosave: the recovery file is written `autosave_seconds` after an edit it does not hold.
+  double autosave_seconds = 30.0;
+  int autosaved_model_revision = -1;
+  int autosaved_layout_revision = -1;
+  bool autosave_due = false;
+  std::chrono::steady_clock::time_point autosave_at;
+  bool autosave_failing = false;  // said once; retried quietly until a write works again
+
+  // Recovery: a recovery file newer than the project just opened, offered for restoring.
+  std::string recovery_offer;
+  bool recovery_prompt_requested = false;
+  std::string restoring;          // the recovery file being loaded to restore it
+  std::string restoring_project;  // ... and the project it belongs to
+
+  bool new_dialog_requested = false;
+  NewProjectForm new_form;
+
+  Job<DatasetRead> dataset_job;  // File > Add dataset
+  int dataset_generation = 0;    // AppState::project_generation it was started for
+
+  bool show_shortcuts = false;  // Help > Keyboard shortcuts
+
+  // View > Zoom: a factor on the monitor's content scale. greybench rebuilds the fonts and
+  // the style at the new scale before the next frame (the snapshot renderer ignores it).
+  float zoom = 1.0f;
+};
+
+}  // namespace gb::ui

@@ -1,0 +1,358 @@
+#include "ui/state/app_state.h"
+
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <utility>
+
+#include "ui/format.h"
+
+namespace gb::ui {
+namespace {
+
+struct ViewInfo {
+  View view;
+  std::string_view name;
+  std::string_view title;
+};
+constexpr std::array<ViewInfo, 8> kViewInfo = {{
+    {View::kData, "data", "Data"},
+    {View::kDiagram, "diagram", "Diagram"},
+    {View::kEquations, "equations", "Equations"},
+    {View::kEstimate, "estimate", "Estimate"},
+    {View::kPredictions, "predictions", "Predictions"},
+    {View::kResiduals, "residuals", "Residuals"},
+    {View::kParameters, "parameters", "Parameters"},
+    {View::kOperatingPoints, "operating-points", "Operating points"},
+}};
+
+const ViewInfo& Info(View view) {
+  for (const ViewInfo& info : kViewInfo) {
+    if (info.view == view) return info;
+  }
+  return kViewInfo[0];
+}
+
+// Runs on the loading job's thread: reads the project file, then each dataset.
+ProjectLoad LoadProjectAndData(const std::string& path, JobControl& control) {
+  ProjectLoad out;
+  out.path = path;
+  try {
+    Result<project::Project> project = project::LoadProject(path);
+    if (!project.ok()) {
+      out.error = project.error().ToString();
+      return out;
+    }
+    const std::vector<std::string>& files = project->datasets;
+    for (std::size_t i = 0; i < files.size() && !control.cancel; ++i) {
+      control.progress = static_cast<float>(i) / static_cast<float>(files.size());
+      LoadedDataset d;
+      d.path = files[i];
+      Result<std::shared_ptr<const data::Dataset>> read = data::ReadCsvFile(files[i]);
+      if (read.ok()) {
+        d.data = std::move(read).value();
+        d.summary = Summarize(*d.data);
+      } else {
+        d.error = read.error().ToString();
+      }
+      out.datasets.push_back(std::move(d));
+    }
+    const project::Project& p = *project;
+    Result<model::ModelSpec> spec =
+        model::ParseModel(p.model_json, p.model_path.empty() ? p.path : p.model_path);
+    if (spec.ok()) {
+      out.model = std::move(spec).value();
+    } else {
+      out.model_error = spec.error().ToString();
+    }
+    out.project = std::move(project).value();
+  } catch (const std::exception& e) {  // e.g. out of memory on a huge file
+    out.project.reset();
+    out.error = path + ": " + e.what();
+  }
+  control.progress = 1.0f;
+  return out;
+}
+
+std::string FileName(const std::string& path) {
+  return std::filesystem::path(path).filename().string();
+}
+
+std::string Seconds(const AppState& state, double seconds) {
+  if (state.deterministic) return kElapsedPlaceholder;
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f s", seconds);
+  return buf;
+}
+
+void InstallProject(AppState& state, ProjectLoad load) {
+  state.project = std::move(load.project);
+  state.datasets = std::move(load.datasets);
+  state.open_error.clear();
+  state.data_view.x_ranges.assign(state.datasets.size(), plot::LinkedRange{});
+  state.model = std::move(load.model);
+  state.model_error = std::move(load.model_error);
+  ++state.model_revision;
+  ++state.project_generation;
+  // The fit belonged to the previous project; a run still under way is stopped and ignored.
+  if (state.estimation.job.active()) state.estimation.job.RequestCancel();
+  state.estimation.result.reset();
+  state.estimation.last_failure.clear();
+  state.estimation.live_trace.Clear();
+  state.estimation.trace_x.RequestFit();
+  state.parameters_view = ParametersViewState{};
+  ResetSweep(state);
+  InstallDiagram(state);  // a project's diagram that compiles supplies the model
+  // So was the analysis; PollAnalysis starts the new project's (a run under way is superseded).
+  state.analysis.result.reset();
+  state.analysis.last_failure.clear();
+  state.analysis.dataset = state.analysis.output = state.analysis.input = 0;
+  if (!state.model)
+    AddMessage(state, Severity::kError, "The model is not valid: " + state.model_error);
+}
+
+bool SameParameters(const model::ModelSpec& a, const model::ModelSpec& b) {
+  if (a.parameters.size() != b.parameters.size()) return false;
+  for (std::size_t i = 0; i < a.parameters.size(); ++i) {
+    const model::Parameter& p = a.parameters[i];
+    const model::Parameter& q = b.parameters[i];
+    if (p.value != q.value || p.lower != q.lower || p.upper != q.upper || p.fixed != q.fixed)
+      return false;
+  }
+  return true;
+}
+
+void InstallEstimation(AppState& state, EstimationRun run) {
+  EstimationState& e = state.estimation;
+  e.progress->AppendTrace(&e.live_trace);
+  e.progress.reset();
+  e.trace_x.RequestFit();  // to the new result's trace, or back to the kept one
+  if (e.started_generation != state.project_generation) {
+    e.live_trace.Clear();
+    return;  // a run on a project that is no longer open
+  }
+  if (!run.summary) {
+    e.last_failure = "The estimation failed: " + run.error;
+    e.last_failure_severity = Severity::kError;
+    AddMessage(state, Severity::kError,
+               e.last_failure + (e.result ? " (the previous results are kept)" : ""));
+    e.live_trace.Clear();
+    return;
+  }
+  if (run.summary->cancelled) {
+    e.last_failure = "The estimation was cancelled after " + Seconds(state, run.summary->elapsed_s);
+    e.last_failure_severity = Severity::kWarning;
+    AddMessage(state, Severity::kWarning,
+               e.last_failure + (e.result ? "; the previous results are kept" : ""));
+    e.live_trace.Clear();
+    return;
+  }
+  const estimate::EstimateSummary& s = *run.summary;
+  std::string text =
+      std::string(s.converged ? "Estimation converged" : "Estimation did NOT converge") +
+      ": log L = " + FormatSig(s.loglik, 6) + ", " + std::to_string(s.iterations) +
+      " iterations, " + Seconds(state, s.elapsed_s);
+  if (!s.warnings.empty()) {
+    text += " (" + std::to_string(s.warnings.size()) +
+            (s.warnings.size() == 1 ? " warning)" : " warnings)");
+  }
+  AddMessage(state, s.converged && s.warnings.empty() ? Severity::kInfo : Severity::kWarning, text);
+  e.last_failure.clear();
+  Trace trace = std::move(e.live_trace);
+  e.live_trace = Trace{};
+  e.result = MakeFitResult(std::move(run.summary).value(), std::move(trace), e.settings,
+                           e.started_revision, state.deterministic);
+  e.profile_x.assign(e.result->profiles.size(), plot::LinkedRange{});
+}
+
+}  // namespace
+
+std::string_view ViewName(View view) { return Info(view).name; }
+std::string_view ViewTitle(View view) { return Info(view).title; }
+
+std::optional<View> ParseView(std::string_view name) {
+  for (const ViewInfo& info : kViewInfo) {
+    if (info.name == name) return info.view;
+  }
+  return std::nullopt;
+}
+
+void AddMessage(AppState& state, Severity severity, std::string text) {
+  state.messages.push_back({severity, std::move(text)});
+}
+
+void OpenProject(AppState& state, std::string path) {
+  if (state.load_job.active()) return;
+  state.loading_path = path;
+  state.load_job.Start(
+      [path = std::move(path)](JobControl& control) { return LoadProjectAndData(path, control); });
+}
+
+void PollJobs(AppState& state) {
+  EstimationState& e = state.estimation;
+  if (e.progress) {
+    const int known = e.live_trace.size();
+    e.progress->AppendTrace(&e.live_trace);
+    if (e.live_trace.size() != known) e.trace_x.RequestFit();
+  }
+  if (std::optional<EstimationRun> run = e.job.TakeIfReady()) {
+    InstallEstimation(state, std::move(*run));
+  }
+  PollSweep(state);
+
+  std::optional<ProjectLoad> load = state.load_job.TakeIfReady();
+  if (!load) {
+    PollAnalysis(state);
+    return;
+  }
+  state.loading_path.clear();
+  if (!load->project) {
+    state.open_error = load->error;
+    AddMessage(state, Severity::kError, "Could not open the project: " + load->error);
+    return;
+  }
+  const std::string path = load->path;
+  InstallProject(state, std::move(*load));
+  load.reset();
+  int failed = 0;
+  for (const LoadedDataset& d : state.datasets) {
+    if (d.data) continue;
+    ++failed;
+    AddMessage(state, Severity::kError, "Could not read data: " + d.error);
+  }
+  const std::string name = state.project->name.empty() ? FileName(path) : state.project->name;
+  std::string text = "Opened " + name + " (" + std::to_string(state.datasets.size()) +
+                     (state.datasets.size() == 1 ? " dataset" : " datasets");
+  if (failed > 0) text += ", " + std::to_string(failed) + " could not be read";
+  AddMessage(state, failed > 0 ? Severity::kWarning : Severity::kInfo, text + ")");
+  PollAnalysis(state);
+}
+
+void WaitForJobs(AppState& state) {
+  // Installing one job's result may start another (a fit restarts the analysis).
+  do {
+    state.load_job.Wait();
+    PollJobs(state);
+    state.estimation.job.Wait();
+    PollJobs(state);
+    state.sweep.job.Wait();
+    PollJobs(state);
+    state.analysis.job.Wait();
+    PollJobs(state);
+  } while (AnyJobActive(state));
+}
+
+bool AnyJobActive(const AppState& state) {
+  return state.load_job.active() || state.estimation.job.active() || state.sweep.job.active() ||
+         state.analysis.job.active();
+}
+
+bool EstimationRunning(const AppState& state) { return state.estimation.job.active(); }
+
+bool StartEstimation(AppState& state, std::string* why) {
+  auto refuse = [why](std::string reason) {
+    if (why) *why = std::move(reason);
+    return false;
+  };
+  if (state.estimation.job.active()) return refuse("an estimation is under way");
+  if (state.load_job.active()) return refuse("a project is being opened");
+  if (!state.project) return refuse("no project is open");
+  if (!state.model) return refuse("the model is not valid: " + state.model_error);
+  if (state.datasets.empty()) return refuse("the project lists no datasets");
+  EstimationInput input;
+  input.spec = *state.model;
+  input.settings = state.estimation.settings;
+  for (const LoadedDataset& d : state.datasets) {
+    if (!d.data) return refuse(FileName(d.path) + " could not be read: " + d.error);
+    input.datasets.push_back(d.data);
+  }
+  std::string invalid;
+  estimate::EstimateOptions check;
+  check.multistart = input.settings.multistart;
+  check.threads = input.settings.threads;
+  if (!check.IsValid(&invalid)) return refuse(invalid);
+
+  EstimationState& e = state.estimation;
+  e.progress = std::make_shared<EstimationProgress>();
+  e.live_trace.Clear();
+  e.trace_x.RequestFit();
+  e.started = std::chrono::steady_clock::now();
+  e.started_revision = state.model_revision;
+  e.started_generation = state.project_generation;
+  e.job.Start([input = std::move(input), progress = e.progress](JobControl& control) {
+    return RunEstimation(input, *progress, control);
+  });
+  return true;
+}
+
+void CancelEstimation(AppState& state) { state.estimation.job.RequestCancel(); }
+
+void ApplyParameterEdits(AppState& state) {
+  ParametersViewState& v = state.parameters_view;
+  std::vector<ParameterEdit> edits = std::move(v.pending);
+  v.pending.clear();
+  const bool use_estimates = v.use_estimates_requested;
+  v.use_estimates_requested = false;
+  if (!state.model) return;
+  bool changed = false;
+  for (const ParameterEdit& edit : edits) {
+    Result<model::ModelSpec> edited = ApplyParameterEdit(*state.model, edit);
+    if (!edited) {
+      ParameterRefusal r;
+      r.parameter = edit.parameter;
+      r.field = edit.field;
+      r.text = edit.text;
+      r.reason = edited.error().message;
+      v.refusal = std::move(r);
+      continue;
+    }
+    if (v.refusal && v.refusal->parameter == edit.parameter && v.refusal->field == edit.field)
+      v.refusal.reset();
+    if (SameParameters(*edited, *state.model)) continue;  // e.g. the same number retyped
+    state.model = std::move(edited).value();
+    changed = true;
+  }
+  if (use_estimates && state.estimation.result) {
+    Result<model::ModelSpec> edited =
+        UseEstimatesAsStart(*state.model, state.estimation.result->summary);
+    if (edited) {
+      changed = changed || !SameParameters(*edited, *state.model);
+      state.model = std::move(edited).value();
+      v.refusal.reset();
+      AddMessage(state, Severity::kInfo, "The estimates are now the start values.");
+    } else {
+      AddMessage(state, Severity::kError,
+                 "The estimates cannot be used as start values: " + edited.error().message);
+    }
+  }
+  if (!changed) return;
+  ++state.model_revision;
+  // Keep the project's copy of the model in step, so the other views show the edited values.
+  if (state.project && state.project->model_json.is_object())
+    state.project->model_json["parameters"] = model::ToJson(*state.model)["parameters"];
+  SyncDiagramParameters(state);
+}
+
+void ApplyFormulaEdits(AppState& state) {
+  EquationsViewState& v = state.equations_view;
+  std::vector<FormulaEdit> edits = std::move(v.pending);
+  v.pending.clear();
+  if (!state.model) return;
+  for (const FormulaEdit& edit : edits) {
+    Result<model::ModelSpec> edited = ApplyFormulaEdit(*state.model, edit);
+    if (!edited) {
+      v.drafts[edit.path] = FormulaDraft{edit.text, edited.error()};
+      continue;
+    }
+    v.drafts.erase(edit.path);
+    state.model = std::move(edited).value();
+    ++state.model_revision;
+    // Keep the project's copy of the model in step (the view shows it; a save writes it).
+    if (state.project && state.project->model_json.is_object()) {
+      const std::size_t dot = edit.path.find('.');
+      state.project->model_json[edit.path.substr(0, dot)][edit.path.substr(dot + 1)] = edit.text;
+    }
+  }
+}
+
+}  // namespace gb::ui

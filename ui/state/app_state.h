@@ -1,0 +1,276 @@
+// Everything the workbench shows and remembers, in one struct owned by main(). Panels receive
+// it by reference; no panel keeps data of its own between frames.
+//
+//   AppState state;                    // main()
+//   OpenProject(state, path);          // starts the loading job
+//   every frame: DrawWorkbench(state); // polls jobs, draws menu, sidebar, current view
+//   StartEstimation(state);            // the Estimate view's Run button (and the snapshot)
+#pragma once
+
+#include <imgui.h>
+
+#include <array>
+#include <chrono>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/data/dataset.h"
+#include "core/model/model.h"
+#include "core/project/project.h"
+#include "ui/edits/diagram_view.h"
+#include "ui/edits/model_edit.h"
+#include "ui/jobs/analysis.h"
+#include "ui/jobs/estimation.h"
+#include "ui/jobs/job.h"
+#include "ui/jobs/sweep.h"
+#include "ui/shell/shell_state.h"
+#include "ui/state/data_summary.h"
+#include "ui/widgets/plot.h"
+
+namespace gb::ui {
+
+// The views of CONTRACT section 6, in the order of the workflow.
+enum class View {
+  kData,
+  kDiagram,
+  kEquations,
+  kEstimate,
+  kPredictions,
+  kResiduals,
+  kParameters,
+  kOperatingPoints,
+};
+inline constexpr std::array<View, 8> kAllViews = {
+    View::kData,        View::kDiagram,   View::kEquations,  View::kEstimate,
+    View::kPredictions, View::kResiduals, View::kParameters, View::kOperatingPoints};
+
+std::string_view ViewName(View view);   // the command-line name: "operating-points"
+std::string_view ViewTitle(View view);  // the title in the UI: "Operating points"
+std::optional<View> ParseView(std::string_view name);
+
+enum class Severity { kInfo, kWarning, kError };
+struct Message {
+  Severity severity = Severity::kInfo;
+  std::string text;
+};
+
+// Fonts of the workbench (owned by ImGui's font atlas). Any may be the default font when the
+// DejaVu files are missing; never null after LoadFonts().
+struct Fonts {
+  ImFont* regular = nullptr;
+  ImFont* bold = nullptr;
+  ImFont* heading = nullptr;  // view titles
+  ImFont* mono = nullptr;     // equations, JSON
+  float scale = 1.0f;         // DPI scale the sizes were built for
+};
+
+// One dataset file of the project, as read by the loading job.
+struct LoadedDataset {
+  std::string path;
+  std::shared_ptr<const data::Dataset> data;  // null when the file could not be read
+  std::string error;                          // why `data` is null
+  DatasetSummary summary;
+};
+
+// The result of the loading job.
+struct ProjectLoad {
+  std::string path;
+  std::optional<project::Project> project;
+  std::string error;  // why `project` is empty
+  std::vector<LoadedDataset> datasets;
+  // The project's model, parsed and validated (core/model); absent when it is not valid.
+  std::optional<model::ModelSpec> model;
+  std::string model_error;  // why `model` is absent
+};
+
+struct DataViewState {
+  // One per dataset: the plots of a dataset's columns pan and zoom together in x.
+  std::vector<plot::LinkedRange> x_ranges;
+  // Over each output, the model's simulated response at its current values (from the analysis).
+  bool show_preview = true;
+};
+
+// The estimation: options, the job under way, and the last finished fit.
+struct EstimationState {
+  EstimationSettings settings;  // edited in the Estimate view
+  Job<EstimationRun> job;
+  std::shared_ptr<EstimationProgress> progress;  // of the run under way
+  Trace live_trace;  // the run under way, copied from `progress` every frame
+  // The x ranges of the trace and the delay-profile plots: refitted whenever new points
+  // arrive or a new result is installed (the plots follow a live run).
+  plot::LinkedRange trace_x;
+  std::vector<plot::LinkedRange> profile_x;  // one per FitResult::profiles
+  std::chrono::steady_clock::time_point started;
+  int started_revision = 0;    // AppState::model_revision when the run started
+  int started_generation = 0;  // AppState::project_generation when the run started
+  // The last fit that finished (converged or not); a failed or cancelled run leaves it alone.
+  std::optional<FitResult> result;
+  // How the last run ended when it left no result: "cancelled after 1.2 s", or the error.
+  std::string last_failure;
+  Severity last_failure_severity = Severity::kInfo;
+};
+
+// The predictions and residual diagnostics (ui/jobs/analysis.h), computed in the background at the
+// last fit's estimates (or the model's current values) and recomputed whenever the request
+// changes (PollJobs); and what the Predictions and Residuals views let the user choose.
+struct AnalysisState {
+  Job<AnalysisRun> job;
+  std::optional<AnalysisRequest> running;    // the request of the job under way
+  std::optional<AnalysisRequest> attempted;  // the last request started, whatever its outcome
+  bool cancel_requested = false;             // by the user (not superseded by a newer request)
+  // The last analysis that finished; a failed or cancelled run leaves it alone.
+  std::optional<Analysis> result;
+  std::string last_failure;  // how the last run ended when it left no result
+  Severity last_failure_severity = Severity::kInfo;
+
+  bool use_current_values = false;  // evaluate at the model's values even when a fit exists
+  int horizon = 10;                 // h of the h-step-ahead overlay
+  bool show_ahead = false;
+  bool show_simulation = false;
+  bool show_raw_ccf = false;  // also the CCF with the input as measured
+  int dataset = 0;            // shown in both views
+  int output = 0;             // the Residuals view's output
+  int input = 0;              // the Residuals view's cross-correlation input
+  // Time axes of the predictions and the residuals against time (linked with each other),
+  // and the x ranges of the diagnostics plots; refitted when a new result or selection arrives.
+  plot::LinkedRange time_x;
+  plot::LinkedRange acf_x, pacf_x, ccf_x, periodogram_x, histogram_x, qq_x;
+  void RequestFit() {
+    for (plot::LinkedRange* r :
+         {&time_x, &acf_x, &pacf_x, &ccf_x, &periodogram_x, &histogram_x, &qq_x})
+      r->RequestFit();
+  }
+};
+
+// A parameter edit the model refused, shown in the Parameters view next to the table.
+struct ParameterRefusal {
+  std::string parameter;
+  ParameterField field = ParameterField::kValue;
+  std::string text;    // what the user entered
+  std::string reason;  // from core
+};
+
+struct ParametersViewState {
+  std::vector<ParameterEdit> pending;  // emitted while drawing, applied after the table
+  // The cell being typed into and its text (ImGui keeps the text only while the cell is
+  // active; it is committed when the cell loses focus).
+  std::string editing_parameter;
+  ParameterField editing_field = ParameterField::kValue;
+  std::string editing_text;
+  bool use_estimates_requested = false;
+  std::optional<ParameterRefusal> refusal;
+};
+
+// A formula typed in the Equations view that the model has not accepted (yet): kept, with the
+// reason, until the user corrects or reverts it, so nothing typed is lost.
+struct FormulaDraft {
+  std::string text;
+  std::optional<Error> error;  // why the model refuses `text`; absent while it is valid
+};
+
+struct EquationsViewState {
+  std::map<std::string, FormulaDraft> drafts;  // by JSON path ("drift.mff")
+  std::vector<FormulaEdit> pending;            // emitted while drawing, applied after the view
+};
+
+struct AppState {
+  // The open project and its data, replaced as a whole when a loading job succeeds.
+  std::optional<project::Project> project;
+  std::vector<LoadedDataset> datasets;
+  std::string open_error;  // the last project that could not be opened, and why
+  std::string start_note;  // shown on the empty workbench (e.g. why no project was opened)
+  Job<ProjectLoad> load_job;
+  std::string loading_path;
+  int project_generation = 0;  // counts the projects installed (a late result can tell)
+
+  // The model the views work on: parsed from the project, then edited in the Parameters view.
+  std::optional<model::ModelSpec> model;
+  std::string model_error;  // why `model` is absent
+  int model_revision = 0;   // counts the accepted edits
+  // Counts accepted edits that change what saving the project writes but not the model (e.g.
+  // a block moved in the diagram). Unsaved changes: either counter moved since the last save.
+  int layout_revision = 0;
+
+  EstimationState estimation;
+  SweepState sweep;  // the operating-point sweep
+  AnalysisState analysis;
+
+  View view = View::kData;
+  std::vector<Message> messages;
+  bool show_messages = false;
+  bool show_about = false;
+  bool open_dialog_requested = false;  // opens the file browser for File > Open project
+  bool quit_requested = false;         // set once the user has answered "save changes?"
+
+  Fonts fonts;
+  plot::PlotContext plots;
+  DataViewState data_view;
+  ParametersViewState parameters_view;
+  EquationsViewState equations_view;
+  DiagramViewState diagram_view;
+  ShellState shell;  // files, recent projects, unsaved changes, recovery (ui/shell/shell.h)
+
+  // greybench-snapshot: draw nothing that depends on the clock (elapsed times are shown as
+  // kElapsedPlaceholder), so the same inputs give the same picture.
+  bool deterministic = false;
+};
+
+void AddMessage(AppState& state, Severity severity, std::string text);
+
+// Starts reading the project and its datasets in the loading job (ignored while one runs).
+void OpenProject(AppState& state, std::string path);
+// Installs the results of finished jobs. DrawWorkbench calls it at the start of every frame.
+void PollJobs(AppState& state);
+// Blocks until every job has finished, then polls. For the snapshot renderer and tests only.
+void WaitForJobs(AppState& state);
+bool AnyJobActive(const AppState& state);
+
+// Starts estimating the model on the project's data with state.estimation.settings. Returns
+// false and says why in `why` when it cannot start (no valid model, unreadable data, a run or
+// a project load under way).
+bool StartEstimation(AppState& state, std::string* why = nullptr);
+// Asks the run under way to stop; PollJobs then reports it and keeps the previous result.
+void CancelEstimation(AppState& state);
+bool EstimationRunning(const AppState& state);
+
+// The operating-point sweep (ui/jobs/sweep_state.cpp), run like the estimation.
+// Reads the project's "operating_points" key into state.sweep and drops the last sweep (a new
+// project was installed).
+void ResetSweep(AppState& state);
+// Sweeps the project's own datasets with the default relations (the project names no sweep).
+void SweepProjectDatasets(AppState& state);
+// Starts fitting the model to every dataset of state.sweep.spec. Returns false and says why
+// when it cannot start (no sweep named, the key is wrong, no valid model, a run under way).
+bool StartSweep(AppState& state, std::string* why = nullptr);
+// Asks the sweep under way to stop; PollJobs then reports it and keeps the previous table.
+void CancelSweep(AppState& state);
+bool SweepRunning(const AppState& state);
+// Installs a finished sweep (PollJobs calls it every frame).
+void PollSweep(AppState& state);
+// The trend plot's parameter and tag (the Operating points view's choice).
+void SelectTrend(AppState& state, const std::string& parameter, const std::string& tag);
+// The analysis (ui/jobs/analysis_state.cpp). PollJobs installs a finished run and starts a new one
+// when the request it would make differs from the last one started; CancelAnalysis stops the
+// run under way (the previous result is kept and the same request is not retried until
+// RecomputeAnalysis). AnalysisRequestNow is that request, or nothing when there is nothing to
+// analyse (no project, no valid model), with why.
+std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state,
+                                                  std::string* why = nullptr);
+void PollAnalysis(AppState& state);
+void CancelAnalysis(AppState& state);
+void RecomputeAnalysis(AppState& state);
+bool AnalysisRunning(const AppState& state);
+
+// Applies state.parameters_view.pending (and a requested "use estimates as start values") to
+// state.model through core's validation; a refused edit is kept in parameters_view.refusal.
+void ApplyParameterEdits(AppState& state);
+
+// Applies state.equations_view.pending to state.model through core's validation (and to the
+// project's copy of the model JSON); a refused edit stays a draft with its reason.
+void ApplyFormulaEdits(AppState& state);
+
+}  // namespace gb::ui
