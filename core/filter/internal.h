@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "core/data/dataset.h"
+#include "core/filter/discretize.h"
 #include "core/util/result.h"
 
 namespace gb::filter::internal {
@@ -19,6 +20,43 @@ static_assert((kCancelCheckInterval & (kCancelCheckInterval - 1)) == 0);
 
 // Largest state dimension with a fixed-size instantiation of the loops.
 inline constexpr int kMaxFixedStates = 8;
+
+// f.template operator()<NX>() with NX = n for n in 1..kMaxFixedStates (fixed-size matrices), else
+// Eigen::Dynamic: the loops are compiled once per state dimension.
+template <class F>
+decltype(auto) WithStateDimension(int n, F&& f) {
+  static_assert(kMaxFixedStates == 8, "WithStateDimension lists the fixed sizes");
+  switch (n) {
+    case 1:
+      return f.template operator()<1>();
+    case 2:
+      return f.template operator()<2>();
+    case 3:
+      return f.template operator()<3>();
+    case 4:
+      return f.template operator()<4>();
+    case 5:
+      return f.template operator()<5>();
+    case 6:
+      return f.template operator()<6>();
+    case 7:
+      return f.template operator()<7>();
+    case 8:
+      return f.template operator()<8>();
+    default:
+      return f.template operator()<Eigen::Dynamic>();
+  }
+}
+
+// One discretisation (discretize.h) with the state dimension fixed at compile time.
+template <int NX>
+struct FixedDiscrete {
+  Eigen::Matrix<double, NX, NX> Phi, Q;
+  Eigen::Matrix<double, NX, Eigen::Dynamic> Gamma0, Gamma1;
+  Eigen::Matrix<double, NX, 1> g;
+  explicit FixedDiscrete(const Discrete& d)
+      : Phi(d.Phi), Q(d.Q), Gamma0(d.Gamma0), Gamma1(d.Gamma1), g(d.g) {}
+};
 
 // P <- (P + P')/2 in place (no temporary: the dynamic-size loop must not allocate).
 template <class Mat>

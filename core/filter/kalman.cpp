@@ -17,11 +17,12 @@
 namespace gb::filter {
 namespace {
 
+using internal::FixedDiscrete;
 using internal::kCancelCheckInterval;
 using internal::kLog2Pi;
-using internal::kMaxFixedStates;
 using internal::NotPositiveInnovationVariance;
 using internal::Symmetrize;
+using internal::WithStateDimension;
 
 }  // namespace
 
@@ -115,16 +116,6 @@ struct Context {
   int last_j;  // last state index that some observation sees
 };
 
-template <int NX>
-struct FixedDiscrete {
-  using Mat = Eigen::Matrix<double, NX, NX>;
-  using Vec = Eigen::Matrix<double, NX, 1>;
-  using InMat = Eigen::Matrix<double, NX, Eigen::Dynamic>;
-  Mat Phi, Q;
-  InMat Gamma0, Gamma1;
-  Vec g;
-};
-
 // Σ log R over many R > 0 with one log at the end: the product is kept as mantissa × 2^exponent,
 // renormalised after every factor by moving the exponent bits out (no overflow or underflow for
 // any normal R). Rounding: one relative error per factor, as summing the logs would give.
@@ -165,14 +156,7 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
   const bool foh = ctx.settings.hold == model::InputHold::kFoh;
   const bool has_inputs = ss.n_inputs() > 0;
 
-  std::vector<FixedDiscrete<NX>> disc(ctx.disc.size());
-  for (std::size_t i = 0; i < disc.size(); ++i) {
-    disc[i].Phi = ctx.disc[i].Phi;
-    disc[i].Q = ctx.disc[i].Q;
-    disc[i].Gamma0 = ctx.disc[i].Gamma0;
-    disc[i].Gamma1 = ctx.disc[i].Gamma1;
-    disc[i].g = ctx.disc[i].g;
-  }
+  const std::vector<FixedDiscrete<NX>> disc(ctx.disc.begin(), ctx.disc.end());
   // Rows of C and the output offsets, fixed-size for the inner loop.
   std::vector<Row> C(p);
   for (int o = 0; o < p; ++o) C[o] = ss.C.row(o);
@@ -295,19 +279,9 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
 
 template <bool kTrace>
 Result<Loglik> Dispatch(const Context& ctx, FilterTrace* trace) {
-  switch (ctx.ss.n_states()) {
-    case 1: return FilterLoop<1, kTrace>(ctx, trace);
-    case 2: return FilterLoop<2, kTrace>(ctx, trace);
-    case 3: return FilterLoop<3, kTrace>(ctx, trace);
-    case 4: return FilterLoop<4, kTrace>(ctx, trace);
-    case 5: return FilterLoop<5, kTrace>(ctx, trace);
-    case 6: return FilterLoop<6, kTrace>(ctx, trace);
-    case 7: return FilterLoop<7, kTrace>(ctx, trace);
-    case 8: return FilterLoop<8, kTrace>(ctx, trace);
-    default: return FilterLoop<Eigen::Dynamic, kTrace>(ctx, trace);
-  }
+  return WithStateDimension(ctx.ss.n_states(),
+                            [&]<int NX>() { return FilterLoop<NX, kTrace>(ctx, trace); });
 }
-static_assert(kMaxFixedStates == 8, "Dispatch lists the fixed sizes");
 
 // ---- 3. entry points -------------------------------------------------------------------------
 

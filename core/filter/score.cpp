@@ -13,6 +13,7 @@
 namespace gb::filter {
 namespace {
 
+using internal::FixedDiscrete;
 using internal::kLog2Pi;
 
 // ---- 1. derivatives of the discretisation and of P0 ------------------------------------------
@@ -79,15 +80,6 @@ struct Context {
   const Eigen::MatrixXd& P0;
   const std::vector<Eigen::MatrixXd>& dP0;  // [i]
   const ObservationWindow& window;
-};
-
-template <int NX>
-struct FixedDiscrete {
-  Eigen::Matrix<double, NX, NX> Phi, Q;
-  Eigen::Matrix<double, NX, Eigen::Dynamic> Gamma0, Gamma1;
-  Eigen::Matrix<double, NX, 1> g;
-  explicit FixedDiscrete(const Discrete& d)
-      : Phi(d.Phi), Q(d.Q), Gamma0(d.Gamma0), Gamma1(d.Gamma1), g(d.g) {}
 };
 
 // Γ0 u_j + Γ1 u_{j+1} (the latter only for FOH), added to x.
@@ -234,30 +226,6 @@ Result<Loglik> ScoreLoop(const Context& ctx, Eigen::VectorXd* gradient, Eigen::M
   return Loglik{loglik, n_obs};
 }
 
-Result<Loglik> Dispatch(const Context& ctx, Eigen::VectorXd* gradient, Eigen::MatrixXd* J) {
-  switch (ctx.ss.n_states()) {
-    case 1:
-      return ScoreLoop<1>(ctx, gradient, J);
-    case 2:
-      return ScoreLoop<2>(ctx, gradient, J);
-    case 3:
-      return ScoreLoop<3>(ctx, gradient, J);
-    case 4:
-      return ScoreLoop<4>(ctx, gradient, J);
-    case 5:
-      return ScoreLoop<5>(ctx, gradient, J);
-    case 6:
-      return ScoreLoop<6>(ctx, gradient, J);
-    case 7:
-      return ScoreLoop<7>(ctx, gradient, J);
-    case 8:
-      return ScoreLoop<8>(ctx, gradient, J);
-    default:
-      return ScoreLoop<Eigen::Dynamic>(ctx, gradient, J);
-  }
-}
-static_assert(internal::kMaxFixedStates == 8, "Dispatch lists the fixed sizes");
-
 }  // namespace
 
 // ---- 3. entry point --------------------------------------------------------------------------
@@ -280,7 +248,8 @@ Result<Loglik> LogLikelihoodScore(const model::StateSpace& ss,
   const auto ddisc = DiscretizeDerivatives(ss, dss, series, settings.hold);
   const auto dP0 = InitialCovarianceDerivatives(ss, dss, series, settings, *P0, ddisc);
   const Context ctx{ss, dss, series, settings, *disc, ddisc, *P0, dP0, *window};
-  return Dispatch(ctx, gradient, J_terms_theta);
+  return internal::WithStateDimension(
+      ctx.ss.n_states(), [&]<int NX>() { return ScoreLoop<NX>(ctx, gradient, J_terms_theta); });
 }
 
 }  // namespace gb::filter

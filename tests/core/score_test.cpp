@@ -1,13 +1,13 @@
 // The analytic score (core/filter/score.h) against central differences of the log-likelihood.
 #include "core/filter/score.h"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "core/filter/likelihood.h"
 #include "filter_fixtures.h"
@@ -205,10 +205,15 @@ TEST(Score, TwoDatasetsWithDelaysAddUpAndMatchCentralDifferences) {
 
 TEST(Score, HuberLikelihoodMatchesCentralDifferences) {
   Json j = Json::parse(fixtures::kTwoOutputModel);
+  const auto gaussian = JsonModel(j);
   j["robust_huber"] = 1.0;
   const auto m = JsonModel(j);
   const auto s = std::make_shared<const data::Series>(fixtures::RandomSeries(200, 2, 0.1, 11));
-  CheckScore(*Likelihood::Create(m, {s}), m->spec().Values());
+  const auto lik = *Likelihood::Create(m, {s});
+  // Some terms are past the threshold (ρ_c < ½r² there), so both branches are differentiated.
+  EXPECT_GT(lik.Evaluate(m->spec().Values())->loglik,
+            Likelihood::Create(gaussian, {s})->Evaluate(m->spec().Values())->loglik + 1.0);
+  CheckScore(lik, m->spec().Values());
 }
 
 TEST(Score, ExplicitInitialVariancesAndFohMatchCentralDifferences) {
@@ -232,6 +237,22 @@ TEST(Score, GradientOverChosenParametersIsTheMatchingPartOfTheFullGradient) {
   ASSERT_TRUE(lik.EvaluateWithScore(theta, {}, some, &g_some).ok());
   EXPECT_EQ(g_some(0), g_all(6));
   EXPECT_EQ(g_some(1), g_all(1));
+}
+
+TEST(Score, AnInfiniteDerivativeOfAnEntryIsAnErrorNamingIt) {
+  Json j = Json::parse(fixtures::kTwoOutputModel);
+  j["diffusion"]["x1"] = "sqrt(s1)";
+  j["parameters"]["s1"] = 0.0;
+  const auto m = JsonModel(j);
+  const auto s = std::make_shared<const data::Series>(fixtures::RandomSeries(20, 2, 0.0, 19));
+  Eigen::VectorXd g;
+  const auto l =
+      Likelihood::Create(m, {s})->EvaluateWithScore(m->spec().Values(), {}, AllParameters(*m), &g);
+  ASSERT_FALSE(l.ok());
+  EXPECT_EQ(l.error().kind, ErrorKind::kNumerical);
+  EXPECT_NE(l.error().message.find("derivative of diffusion.x1 with respect to s1 is infinite"),
+            std::string::npos)
+      << l.error().message;
 }
 
 }  // namespace
