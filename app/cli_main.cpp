@@ -19,6 +19,8 @@ int main(int argc, char** argv) {
   c_loglik->add_option("data", loglik.data, "data files (CSV); their log-likelihoods add up")
       ->required();
   c_loglik->add_option("--set", loglik.sets, "NAME=VALUE: override a parameter's value");
+  c_loglik->add_flag("--gradient", loglik.gradient,
+                     "also print the exact gradient over the free parameters (natural scale)");
   c_loglik->callback([&] { run = [&] { return RunLoglik(loglik); }; });
 
   BenchArgs bench;

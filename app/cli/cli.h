@@ -37,6 +37,7 @@ struct LoglikArgs {
   std::string model;
   std::vector<std::string> data;
   std::vector<std::string> sets;
+  bool gradient = false;  // also print ∂ log L/∂θ over the free parameters (natural scale)
 };
 int RunLoglik(const LoglikArgs& args);
 

@@ -15,6 +15,7 @@ int RunLoglik(const LoglikArgs& args) {
 
   Json out;
   const auto& model = lik->model().spec();
+  std::vector<int> delay;  // the delay the gradient is taken at (empty: each output's min)
   if (!model.HasDelayScan()) {
     auto l = lik->Evaluate(theta);
     if (!l) return Fail(l.error());
@@ -40,6 +41,19 @@ int RunLoglik(const LoglikArgs& args) {
       delays[model.outputs[o]] = {{"estimate", best.delay[o]}, {"profile", prof}};
     }
     out["output_delay"] = delays;
+    delay = best.delay;
+  }
+  if (args.gradient) {
+    std::vector<int> free;
+    for (std::size_t i = 0; i < model.parameters.size(); ++i)
+      if (!model.parameters[i].fixed) free.push_back(static_cast<int>(i));
+    Eigen::VectorXd gradient;
+    auto l = lik->EvaluateWithScore(theta, delay, free, &gradient);
+    if (!l) return Fail(l.error());
+    Json g = Json::object();
+    for (std::size_t f = 0; f < free.size(); ++f)
+      g[model.parameters[free[f]].name] = gradient(static_cast<Eigen::Index>(f));
+    out["gradient"] = g;
   }
   std::printf("%s\n", out.dump().c_str());
   return 0;

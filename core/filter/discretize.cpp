@@ -1,11 +1,12 @@
 #include "core/filter/discretize.h"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <complex>
+#include <limits>
 
 #include <Eigen/Dense>
-#include <limits>
 
 namespace gb::filter {
 namespace {
@@ -55,12 +56,12 @@ Eigen::MatrixXd Expm(const Eigen::MatrixXd& M) {
   return F;
 }
 
-}  // namespace
-
-Eigen::MatrixXd IntegratedDiffusion(const Eigen::MatrixXd& A, const Eigen::VectorXd& sigma2,
-                                    double dt) {
+// Q = ∫_0^Δ e^{As} G e^{A's} ds for a symmetric G (not necessarily PSD: the derivative of Q is
+// one block of such an integral, see DiscretizeDerivative).
+Eigen::MatrixXd IntegratedCovariance(const Eigen::MatrixXd& A, const Eigen::MatrixXd& G,
+                                     double dt) {
   const Eigen::Index n = A.rows();
-  assert(dt > 0 && A.cols() == n && sigma2.size() == n);
+  assert(dt > 0 && A.cols() == n && G.rows() == n && G.cols() == n);
   const int s = DoublingSteps(Norm1(A) * dt);
   const double delta = std::ldexp(dt, -s);
 
@@ -68,7 +69,7 @@ Eigen::MatrixXd IntegratedDiffusion(const Eigen::MatrixXd& A, const Eigen::Vecto
   //   exp([[-A, G], [0, A']] δ) = [[., F12], [0, F22]],  Φ(δ) = F22',  Q(δ) = Φ(δ) F12.
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(2 * n, 2 * n);
   M.topLeftCorner(n, n) = -A * delta;
-  M.topRightCorner(n, n) = Eigen::MatrixXd(sigma2.asDiagonal()) * delta;
+  M.topRightCorner(n, n) = G * delta;
   M.bottomRightCorner(n, n) = A.transpose() * delta;
   const Eigen::MatrixXd F = Eigen::MatrixXd::Identity(2 * n, 2 * n) + Expm1Short(M);
   Eigen::MatrixXd E = F.bottomRightCorner(n, n).transpose() - Eigen::MatrixXd::Identity(n, n);
@@ -84,39 +85,111 @@ Eigen::MatrixXd IntegratedDiffusion(const Eigen::MatrixXd& A, const Eigen::Vecto
   return Q;
 }
 
+// The matrix whose exponential holds Φ, the input matrices and g (see the header).
+Eigen::MatrixXd AugmentedMatrix(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                                const Eigen::VectorXd& c, double dt, model::InputHold hold) {
+  const Eigen::Index n = A.rows(), m = B.cols();
+  // ZOH: z = (x, u, 1): dx = A x + B u + c.
+  // FOH: z = (x, w, 1, v) with dw/dt = v/Δ: w runs linearly from u_k (w(0)) to u_{k+1} when
+  // v = u_{k+1} - u_k. The block of v is then Γ1 and the block of w is ∫ e^{As} ds B.
+  const Eigen::Index size = hold == model::InputHold::kZoh ? n + m + 1 : n + 2 * m + 1;
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(size, size);
+  M.topLeftCorner(n, n) = A * dt;
+  M.block(0, n, n, m) = B * dt;
+  M.block(0, n + m, n, 1) = c * dt;
+  if (hold == model::InputHold::kFoh) M.block(n, n + m + 1, m, m).setIdentity();  // (1/Δ) · Δ
+  return M;
+}
+
+// Φ, Γ0, Γ1 and g from the first block row of e^M (or of its derivative: the map is linear).
+void ReadAugmented(const Eigen::MatrixXd& E, Eigen::Index n, Eigen::Index m, model::InputHold hold,
+                   Discrete* d) {
+  d->Phi = E.topLeftCorner(n, n);
+  d->g = E.block(0, n + m, n, 1);
+  if (hold == model::InputHold::kZoh) {
+    d->Gamma0 = E.block(0, n, n, m);
+    d->Gamma1 = Eigen::MatrixXd::Zero(n, m);
+  } else {
+    d->Gamma1 = E.block(0, n + m + 1, n, m);
+    d->Gamma0 = E.block(0, n, n, m) - d->Gamma1;
+  }
+}
+
+// d e^M along dM: the top-right block of exp([[M, dM], [0, M]]). dM is scaled to the size of M
+// first (the block is linear in dM), so that it adds no squarings and keeps M's accuracy.
+Eigen::MatrixXd ExpmDerivative(const Eigen::MatrixXd& M, const Eigen::MatrixXd& dM) {
+  const Eigen::Index s = M.rows();
+  const double norm_dM = Norm1(dM);
+  if (norm_dM == 0.0) return Eigen::MatrixXd::Zero(s, s);
+  const double scale = std::max(Norm1(M), kShortNorm) / norm_dM;
+  Eigen::MatrixXd big = Eigen::MatrixXd::Zero(2 * s, 2 * s);
+  big.topLeftCorner(s, s) = M;
+  big.topRightCorner(s, s) = scale * dM;
+  big.bottomRightCorner(s, s) = M;
+  return Expm(big).topRightCorner(s, s) / scale;
+}
+
+}  // namespace
+
+Eigen::MatrixXd IntegratedDiffusion(const Eigen::MatrixXd& A, const Eigen::VectorXd& sigma2,
+                                    double dt) {
+  return IntegratedCovariance(A, Eigen::MatrixXd(sigma2.asDiagonal()), dt);
+}
+
 Discrete Discretize(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::VectorXd& c,
                     const Eigen::VectorXd& sigma2, double dt, model::InputHold hold) {
-  const Eigen::Index n = A.rows(), m = B.cols();
-  assert(dt > 0 && A.cols() == n && B.rows() == n && c.size() == n);
+  assert(dt > 0 && A.cols() == A.rows() && B.rows() == A.rows() && c.size() == A.rows());
   Discrete d;
-  // e^{MΔ} of the augmented matrix: its first block row is [Φ, input blocks, g].
-  if (hold == model::InputHold::kZoh) {
-    // z = (x, u, 1): dx = A x + B u + c.
-    Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n + m + 1, n + m + 1);
-    M.topLeftCorner(n, n) = A * dt;
-    M.block(0, n, n, m) = B * dt;
-    M.block(0, n + m, n, 1) = c * dt;
-    const Eigen::MatrixXd E = Expm(M);
-    d.Phi = E.topLeftCorner(n, n);
-    d.Gamma0 = E.block(0, n, n, m);
-    d.Gamma1 = Eigen::MatrixXd::Zero(n, m);
-    d.g = E.block(0, n + m, n, 1);
-  } else {
-    // z = (x, w, 1, v) with dw/dt = v/Δ: w runs linearly from u_k (w(0)) to u_{k+1} when
-    // v = u_{k+1} - u_k. The block of v is then Γ1 and the block of w is ∫ e^{As} ds B.
-    Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n + 2 * m + 1, n + 2 * m + 1);
-    M.topLeftCorner(n, n) = A * dt;
-    M.block(0, n, n, m) = B * dt;
-    M.block(0, n + m, n, 1) = c * dt;
-    M.block(n, n + m + 1, m, m).setIdentity();  // (1/Δ) · Δ
-    const Eigen::MatrixXd E = Expm(M);
-    d.Phi = E.topLeftCorner(n, n);
-    d.Gamma1 = E.block(0, n + m + 1, n, m);
-    d.Gamma0 = E.block(0, n, n, m) - d.Gamma1;
-    d.g = E.block(0, n + m, n, 1);
-  }
+  ReadAugmented(Expm(AugmentedMatrix(A, B, c, dt, hold)), A.rows(), B.cols(), hold, &d);
   d.Q = IntegratedDiffusion(A, sigma2, dt);
   return d;
+}
+
+Discrete DiscretizeDerivative(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                              const Eigen::VectorXd& c, const Eigen::VectorXd& sigma2,
+                              const Eigen::MatrixXd& dA, const Eigen::MatrixXd& dB,
+                              const Eigen::VectorXd& dc, const Eigen::VectorXd& dsigma2, double dt,
+                              model::InputHold hold) {
+  const Eigen::Index n = A.rows(), m = B.cols();
+  assert(dt > 0 && dA.rows() == n && dB.cols() == m && dc.size() == n && dsigma2.size() == n);
+  Discrete d;
+  Eigen::MatrixXd dM = AugmentedMatrix(dA, dB, dc, dt, hold);
+  if (hold == model::InputHold::kFoh) dM.block(n, n + m + 1, m, m).setZero();  // constant block
+  ReadAugmented(ExpmDerivative(AugmentedMatrix(A, B, c, dt, hold), dM), n, m, hold, &d);
+  if (dA.isZero(0.0) && dsigma2.isZero(0.0)) {
+    d.Q = Eigen::MatrixXd::Zero(n, n);
+    return d;
+  }
+  // dQ = X21 + X21' (see the header). dA is scaled to the size of A first (X21 is linear in dA
+  // and dG), as for e^M: a large dA would only add doubling steps.
+  const double norm_dA = Norm1(dA);
+  const double scale = norm_dA > 0 ? std::max(Norm1(A), kShortNorm / dt) / norm_dA : 1.0;
+  Eigen::MatrixXd A_aug = Eigen::MatrixXd::Zero(2 * n, 2 * n);
+  A_aug.topLeftCorner(n, n) = A;
+  A_aug.bottomLeftCorner(n, n) = scale * dA;
+  A_aug.bottomRightCorner(n, n) = A;
+  const Eigen::MatrixXd dG_half = (0.5 * scale * dsigma2).asDiagonal();
+  Eigen::MatrixXd G_aug = Eigen::MatrixXd::Zero(2 * n, 2 * n);
+  G_aug.topLeftCorner(n, n) = sigma2.asDiagonal();
+  G_aug.topRightCorner(n, n) = dG_half;
+  G_aug.bottomLeftCorner(n, n) = dG_half;
+  const Eigen::MatrixXd X21 = IntegratedCovariance(A_aug, G_aug, dt).bottomLeftCorner(n, n);
+  d.Q = (X21 + X21.transpose()) / scale;
+  return d;
+}
+
+Eigen::MatrixXd LyapunovOperator(const Eigen::MatrixXd& A) {
+  const Eigen::Index n = A.rows();
+  // (I ⊗ A + A ⊗ I) vec(P), with column-major vec.
+  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
+  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(n * n, n * n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (Eigen::Index j = 0; j < n; ++j) {
+      K.block(i * n, j * n, n, n) += I(i, j) * A;  // I ⊗ A
+      K.block(i * n, j * n, n, n) += A(i, j) * I;  // A ⊗ I
+    }
+  }
+  return K;
 }
 
 bool StationaryCovariance(const Eigen::MatrixXd& A, const Eigen::VectorXd& sigma2,
@@ -129,15 +202,7 @@ bool StationaryCovariance(const Eigen::MatrixXd& A, const Eigen::VectorXd& sigma
       return false;
     }
   }
-  // (I ⊗ A + A ⊗ I) vec(P) = -vec(G), with column-major vec.
-  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
-  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(n * n, n * n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    for (Eigen::Index j = 0; j < n; ++j) {
-      K.block(i * n, j * n, n, n) += I(i, j) * A;   // I ⊗ A
-      K.block(i * n, j * n, n, n) += A(i, j) * I;   // A ⊗ I
-    }
-  }
+  const Eigen::MatrixXd K = LyapunovOperator(A);  // K vec(P) = vec(A P + P A')
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n * n);
   for (Eigen::Index i = 0; i < n; ++i) rhs(i * n + i) = -sigma2(i);
   const Eigen::VectorXd x = K.partialPivLu().solve(rhs);

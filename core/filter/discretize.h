@@ -41,6 +41,23 @@ struct Discrete {
 Discrete Discretize(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::VectorXd& c,
                     const Eigen::VectorXd& sigma2, double dt, model::InputHold hold);
 
+// The derivative of Discretize along one direction: every member of the result is the
+// derivative of the same member of Discretize(A, B, c, sigma2, dt, hold) when A, B, c, sigma2 move
+// along dA, dB, dc, dsigma2 (the derivatives of the model's entries with respect to one θ_i).
+//   Φ, Γ0, Γ1, g: they are linear in the first block row of e^M (M the augmented matrix above),
+//     and d e^M along dM is the top-right block of exp([[M, dM], [0, M]]) (the block exponential
+//     is computed as e^M is, so it is exact for the same stiff models).
+//   Q: for the augmented system  Ã = [[A, 0], [dA, A]],  G̃ = [[G, dG/2], [dG/2, 0]]  (G = σσ'),
+//     e^{Ãs} = [[e^{As}, 0], [d e^{As}, e^{As}]], and X = ∫_0^Δ e^{Ãs} G̃ e^{Ã's} ds has the block
+//       X21 = ∫_0^Δ (d e^{As} G + ½ e^{As} dG) e^{A's} ds,   so   dQ = X21 + X21'
+//     (Van Loan and doubling as for Q; the doubling is linear, so it needs no definite G̃).
+// Same preconditions as Discretize; dA, dB, dc, dsigma2 have the shapes of A, B, c, sigma2.
+Discrete DiscretizeDerivative(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                              const Eigen::VectorXd& c, const Eigen::VectorXd& sigma2,
+                              const Eigen::MatrixXd& dA, const Eigen::MatrixXd& dB,
+                              const Eigen::VectorXd& dc, const Eigen::VectorXd& dsigma2, double dt,
+                              model::InputHold hold);
+
 // Q(Δ) alone (the `ctsm` initial covariance is Q over the first sample interval).
 Eigen::MatrixXd IntegratedDiffusion(const Eigen::MatrixXd& A, const Eigen::VectorXd& sigma2,
                                     double dt);
@@ -50,5 +67,10 @@ Eigen::MatrixXd IntegratedDiffusion(const Eigen::MatrixXd& A, const Eigen::Vecto
 // writes the offending eigenvalue to *bad_eigenvalue.
 bool StationaryCovariance(const Eigen::MatrixXd& A, const Eigen::VectorXd& sigma2,
                           Eigen::MatrixXd* P, std::complex<double>* bad_eigenvalue);
+
+// The n² x n² matrix K of the Lyapunov operator X -> A X + X A', vec(A X + X A') = K vec(X)
+// (column-major vec: K = I ⊗ A + A ⊗ I). The stationary covariance and its derivative
+// (A dP + dP A' = -(dA P + P dA' + dG)) solve linear systems with it.
+Eigen::MatrixXd LyapunovOperator(const Eigen::MatrixXd& A);
 
 }  // namespace gb::filter

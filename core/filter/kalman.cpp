@@ -4,26 +4,25 @@
 
 #include <algorithm>
 #include <bit>
-#include <cstdint>
 #include <cmath>
 #include <complex>
+#include <cstdint>
 #include <numbers>
 
 #include <fmt/format.h>
 
 #include "core/filter/discretize.h"
+#include "core/filter/internal.h"
 
 namespace gb::filter {
 namespace {
 
-constexpr double kLog2Pi = 1.8378770664093454835606594728112;  // log(2π)
-
-// The loop looks at the cancel flag every this many samples (a few milliseconds at most).
-constexpr int kCancelCheckInterval = 4096;  // a power of two
-static_assert((kCancelCheckInterval & (kCancelCheckInterval - 1)) == 0);
-
-// Largest state dimension with a fixed-size instantiation of the loop.
-constexpr int kMaxFixedStates = 8;
+using internal::FixedDiscrete;
+using internal::kCancelCheckInterval;
+using internal::kLog2Pi;
+using internal::NotPositiveInnovationVariance;
+using internal::Symmetrize;
+using internal::WithStateDimension;
 
 }  // namespace
 
@@ -117,28 +116,6 @@ struct Context {
   int last_j;  // last state index that some observation sees
 };
 
-template <int NX>
-struct FixedDiscrete {
-  using Mat = Eigen::Matrix<double, NX, NX>;
-  using Vec = Eigen::Matrix<double, NX, 1>;
-  using InMat = Eigen::Matrix<double, NX, Eigen::Dynamic>;
-  Mat Phi, Q;
-  InMat Gamma0, Gamma1;
-  Vec g;
-};
-
-// P <- (P + P')/2 in place (no temporary: the dynamic-size loop must not allocate).
-template <class Mat>
-void Symmetrize(Mat& P) {
-  for (Eigen::Index j = 1; j < P.cols(); ++j) {
-    for (Eigen::Index i = 0; i < j; ++i) {
-      const double v = 0.5 * (P(i, j) + P(j, i));
-      P(i, j) = v;
-      P(j, i) = v;
-    }
-  }
-}
-
 // Σ log R over many R > 0 with one log at the end: the product is kept as mantissa × 2^exponent,
 // renormalised after every factor by moving the exponent bits out (no overflow or underflow for
 // any normal R). Rounding: one relative error per factor, as summing the logs would give.
@@ -165,21 +142,6 @@ class LogProduct {
   double direct_ = 0.0;
 };
 
-// R_k is not positive definite: its pivot for output o at row k is R (zero, negative or NaN).
-Error NotPositiveInnovationVariance(const data::Series& series, int o, int k, double R) {
-  const std::string output = o < static_cast<int>(series.outputs.size())
-                                 ? fmt::format("'{}'", series.outputs[o])
-                                 : fmt::format("{}", o + 1);
-  Error e = NumericalError(fmt::format(
-      "the innovation variance of output {} at row {} (t = {:g}) is {:g}, not positive: the "
-      "model claims to predict this observation exactly (a measurement variance of zero, and "
-      "no uncertainty in the state?)",
-      output, k + 1, series.time[k], R));
-  e.file = series.source;
-  if (k < static_cast<int>(series.row_line.size())) e.line = series.row_line[k];
-  return e;
-}
-
 template <int NX, bool kTrace>
 Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
   using Mat = Eigen::Matrix<double, NX, NX>;
@@ -194,14 +156,7 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
   const bool foh = ctx.settings.hold == model::InputHold::kFoh;
   const bool has_inputs = ss.n_inputs() > 0;
 
-  std::vector<FixedDiscrete<NX>> disc(ctx.disc.size());
-  for (std::size_t i = 0; i < disc.size(); ++i) {
-    disc[i].Phi = ctx.disc[i].Phi;
-    disc[i].Q = ctx.disc[i].Q;
-    disc[i].Gamma0 = ctx.disc[i].Gamma0;
-    disc[i].Gamma1 = ctx.disc[i].Gamma1;
-    disc[i].g = ctx.disc[i].g;
-  }
+  const std::vector<FixedDiscrete<NX>> disc(ctx.disc.begin(), ctx.disc.end());
   // Rows of C and the output offsets, fixed-size for the inner loop.
   std::vector<Row> C(p);
   for (int o = 0; o < p; ++o) C[o] = ss.C.row(o);
@@ -318,58 +273,56 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
     Symmetrize(P);
   }
   if (!per_step_log) loglik -= 0.5 * log_product.Log();
-  if (!std::isfinite(loglik))
-    return NumericalError(fmt::format("{}: the log-likelihood is not finite at these parameter "
-                                      "values", series.source));
+  if (!std::isfinite(loglik)) return internal::NotFiniteLoglik(series);
   return Loglik{loglik, n_obs};
 }
 
 template <bool kTrace>
 Result<Loglik> Dispatch(const Context& ctx, FilterTrace* trace) {
-  switch (ctx.ss.n_states()) {
-    case 1: return FilterLoop<1, kTrace>(ctx, trace);
-    case 2: return FilterLoop<2, kTrace>(ctx, trace);
-    case 3: return FilterLoop<3, kTrace>(ctx, trace);
-    case 4: return FilterLoop<4, kTrace>(ctx, trace);
-    case 5: return FilterLoop<5, kTrace>(ctx, trace);
-    case 6: return FilterLoop<6, kTrace>(ctx, trace);
-    case 7: return FilterLoop<7, kTrace>(ctx, trace);
-    case 8: return FilterLoop<8, kTrace>(ctx, trace);
-    default: return FilterLoop<Eigen::Dynamic, kTrace>(ctx, trace);
-  }
+  return WithStateDimension(ctx.ss.n_states(),
+                            [&]<int NX>() { return FilterLoop<NX, kTrace>(ctx, trace); });
 }
-static_assert(kMaxFixedStates == 8, "Dispatch lists the fixed sizes");
 
 // ---- 3. entry points -------------------------------------------------------------------------
 
+}  // namespace
+
+Result<ObservationWindow> ObservationWindowOf(const data::Series& series, int p,
+                                              const FilterSettings& settings) {
+  const int N = static_cast<int>(series.size());
+  if (N < 2) return InputError(fmt::format("{}: at least two rows are needed", series.source));
+  ObservationWindow w;
+  w.delay = settings.delay.empty() ? std::vector<int>(p, 0) : settings.delay;
+  w.first_obs = settings.first_obs.empty() ? w.delay : settings.first_obs;
+  assert(static_cast<int>(w.delay.size()) == p && static_cast<int>(w.first_obs.size()) == p);
+  for (int o = 0; o < p; ++o) {
+    w.first_obs[o] = std::max(w.first_obs[o], w.delay[o]);
+    if (w.first_obs[o] < N) w.last_j = std::max(w.last_j, N - 1 - w.delay[o]);
+  }
+  if (w.last_j < 0)
+    return InputError(
+        fmt::format("{}: the output delay ({} samples) is longer than the data "
+                    "({} rows): no observation is left",
+                    series.source, *std::max_element(w.delay.begin(), w.delay.end()), N));
+  return w;
+}
+
+namespace {
+
 template <bool kTrace>
 Result<Loglik> Run(const model::StateSpace& ss, const data::Series& series,
-                   const FilterSettings& settings, FilterTrace* trace,
-                   std::vector<double>* terms) {
-  const int p = ss.n_outputs();
-  const int N = static_cast<int>(series.size());
-  assert(series.U.rows() == ss.n_inputs() && series.Y.rows() == p && "series bound to the model");
-  if (N < 2) return InputError(fmt::format("{}: at least two rows are needed", series.source));
-
-  std::vector<int> delay = settings.delay.empty() ? std::vector<int>(p, 0) : settings.delay;
-  std::vector<int> first_obs = settings.first_obs.empty() ? delay : settings.first_obs;
-  assert(static_cast<int>(delay.size()) == p && static_cast<int>(first_obs.size()) == p);
-  int last_j = -1;
-  for (int o = 0; o < p; ++o) {
-    first_obs[o] = std::max(first_obs[o], delay[o]);
-    if (first_obs[o] < N) last_j = std::max(last_j, N - 1 - delay[o]);
-  }
-  if (last_j < 0)
-    return InputError(fmt::format("{}: the output delay ({} samples) is longer than the data "
-                                  "({} rows): no observation is left",
-                                  series.source, *std::max_element(delay.begin(), delay.end()), N));
-
+                   const FilterSettings& settings, FilterTrace* trace, std::vector<double>* terms) {
+  assert(series.U.rows() == ss.n_inputs() && series.Y.rows() == ss.n_outputs() &&
+         "series bound to the model");
+  auto window = ObservationWindowOf(series, ss.n_outputs(), settings);
+  if (!window) return window.error();
   const auto disc = DiscretizeIntervals(ss, series, settings.hold);
   if (!disc) return disc.error();
   auto P0 = InitialCovarianceFrom(ss, series, settings, &*disc);
   if (!P0) return P0.error();
-  if (terms) terms->assign(N, 0.0);
-  const Context ctx{terms, ss, series, settings, *disc, *P0, delay, first_obs, last_j};
+  if (terms) terms->assign(series.size(), 0.0);
+  const Context ctx{
+      terms, ss, series, settings, *disc, *P0, window->delay, window->first_obs, window->last_j};
   return Dispatch<kTrace>(ctx, trace);
 }
 

@@ -91,6 +91,17 @@ Result<std::vector<Discrete>> DiscretizeIntervals(const model::StateSpace& ss,
                                                   const data::Series& series,
                                                   model::InputHold hold);
 
+// Which observations the filter uses on `series` (p outputs): each output's delay and first row
+// (settings.first_obs raised to the delay), and the last state index j that an observation sees.
+// Errors (kInput) as LogLikelihood: fewer than two rows, or a delay that leaves no observation.
+struct ObservationWindow {
+  std::vector<int> delay;      // per output
+  std::vector<int> first_obs;  // per output
+  int last_j = -1;
+};
+Result<ObservationWindow> ObservationWindowOf(const data::Series& series, int p,
+                                              const FilterSettings& settings);
+
 // The initial covariance P0 the filter starts from (for display and tests).
 Result<Eigen::MatrixXd> InitialCovariance(const model::StateSpace& ss, const data::Series& series,
                                           const FilterSettings& settings);

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "core/filter/score.h"
+
 namespace gb::filter {
 
 Result<Likelihood> Likelihood::Create(std::shared_ptr<const model::LinearModel> model,
@@ -65,6 +67,45 @@ Result<Loglik> Likelihood::Evaluate(std::span<const double> theta, std::span<con
   auto ss = model_->Evaluate(theta);
   if (!ss) return ss.error();
   return EvaluateAt(*ss, delay, terms);
+}
+
+Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
+                                             std::span<const int> delay, std::span<const int> free,
+                                             Eigen::VectorXd* gradient,
+                                             Eigen::MatrixXd* J_terms_theta) const {
+  assert(gradient != nullptr);
+  auto ss = model_->Evaluate(theta);
+  if (!ss) return ss.error();
+  auto dss = model_->EvaluateJacobian(theta, free);
+  if (!dss) return dss.error();
+  FilterSettings settings = settings_;
+  if (!delay.empty()) settings.delay.assign(delay.begin(), delay.end());
+  const Eigen::Index k = static_cast<Eigen::Index>(free.size());
+  Loglik total;
+  gradient->setZero(k);
+  Eigen::VectorXd one_gradient;
+  Eigen::MatrixXd one_J;
+  std::vector<Eigen::MatrixXd> J_per_series;
+  for (const auto& s : series_) {
+    auto l = LogLikelihoodScore(*ss, *dss, *s, settings, &one_gradient,
+                                J_terms_theta ? &one_J : nullptr);
+    if (!l) return l.error();
+    total.loglik += l->loglik;
+    total.n_obs += l->n_obs;
+    *gradient += one_gradient;
+    if (J_terms_theta) J_per_series.push_back(std::move(one_J));
+  }
+  if (J_terms_theta) {
+    Eigen::Index rows = 0;
+    for (const auto& J : J_per_series) rows += J.rows();
+    J_terms_theta->resize(rows, k);
+    Eigen::Index at = 0;
+    for (const auto& J : J_per_series) {
+      J_terms_theta->middleRows(at, J.rows()) = J;
+      at += J.rows();
+    }
+  }
+  return total;
 }
 
 Result<DelayProfile> Likelihood::Profile(std::span<const double> theta) const {

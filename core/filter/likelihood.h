@@ -45,6 +45,16 @@ class Likelihood {
   Result<Loglik> Evaluate(std::span<const double> theta, std::span<const int> delay = {},
                           std::vector<double>* terms = nullptr) const;
 
+  // log L at θ as Evaluate, and its exact derivatives (core/filter/score.h) with respect to the
+  // parameters θ_i, i in `free` (indices into the model's parameters), on their natural scale:
+  // *gradient (free.size()) is Σ_series ∂ log L_series/∂θ; with J_terms_theta, row r is the score
+  // ∂ℓ_r/∂θ of the r-th term that Evaluate's `terms` returns (series after series), so the rows
+  // sum to the gradient and BHHH's information is J' J. Fails as Evaluate does, and when a
+  // derivative of the model's entries is not finite (LinearModel::EvaluateJacobian).
+  Result<Loglik> EvaluateWithScore(std::span<const double> theta, std::span<const int> delay,
+                                   std::span<const int> free, Eigen::VectorXd* gradient,
+                                   Eigen::MatrixXd* J_terms_theta = nullptr) const;
+
   // Every delay candidate at θ. The model is evaluated once.
   Result<DelayProfile> Profile(std::span<const double> theta) const;
 

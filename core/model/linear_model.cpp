@@ -1,6 +1,7 @@
 #include "core/model/linear_model.h"
 
 #include <cmath>
+#include <mutex>
 #include <set>
 
 #include <fmt/format.h>
@@ -115,6 +116,7 @@ Result<LinearModel> LinearModel::Compile(ModelSpec spec) {
   }
   lm.tape_ = std::move(*tape);
   lm.spec_ = std::move(spec);
+  lm.jacobian_ = std::make_shared<JacobianTape>();
   return lm;
 }
 
@@ -136,14 +138,8 @@ Error LinearModel::NotFinite(std::size_t k, double value, std::span<const double
   return e;
 }
 
-Result<StateSpace> LinearModel::Evaluate(std::span<const double> theta) const {
-  assert(theta.size() == spec_.parameters.size() && "θ has one entry per parameter");
+StateSpace LinearModel::Unpack(std::span<const double> v) const {
   const int n = n_states(), m = n_inputs(), p = n_outputs();
-  std::vector<double> v(tape_.size());
-  tape_.Eval(theta, v);
-  for (std::size_t k = 0; k < v.size(); ++k) {
-    if (!std::isfinite(v[k])) return NotFinite(k, v[k], theta);
-  }
   StateSpace ss;
   std::size_t k = 0;
   auto take = [&](Eigen::MatrixXd* M, int rows, int cols) {
@@ -162,13 +158,25 @@ Result<StateSpace> LinearModel::Evaluate(std::span<const double> theta) const {
   take(&ss.D, p, m);
   take_vec(&ss.d, p);
   take_vec(&ss.sigma, n);
-  const std::size_t s_offset = k;
   take_vec(&ss.S, p);
   take_vec(&ss.x0, n);
-  const std::size_t p0_offset = k;
   if (spec_.initial_covariance == InitialCovariance::kExplicit) take_vec(&ss.P0_diag, n);
   assert(k == v.size());
-  for (int i = 0; i < p; ++i) {
+  return ss;
+}
+
+Result<StateSpace> LinearModel::Evaluate(std::span<const double> theta) const {
+  assert(theta.size() == spec_.parameters.size() && "θ has one entry per parameter");
+  std::vector<double> v(tape_.size());
+  tape_.Eval(theta, v);
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    if (!std::isfinite(v[k])) return NotFinite(k, v[k], theta);
+  }
+  StateSpace ss = Unpack(v);
+  // S and P0_diag are the last entries but n of x0 (and n of P0_diag).
+  const std::size_t s_offset = v.size() - ss.S.size() - ss.x0.size() - ss.P0_diag.size();
+  const std::size_t p0_offset = v.size() - ss.P0_diag.size();
+  for (int i = 0; i < ss.S.size(); ++i) {
     if (ss.S(i) < 0)
       return NumericalError(fmt::format("{} = {:g} is negative at these parameter values (a "
                                         "variance)", entry_names_[s_offset + i], ss.S(i)));
@@ -179,6 +187,81 @@ Result<StateSpace> LinearModel::Evaluate(std::span<const double> theta) const {
                                         "variance)", entry_names_[p0_offset + i], ss.P0_diag(i)));
   }
   return ss;
+}
+
+// ---- derivatives ------------------------------------------------------------------------------
+
+struct LinearModel::JacobianTape {
+  std::once_flag once;
+  expr::Tape tape;
+  std::vector<int> entry;      // per tape output: the entry it differentiates
+  std::vector<int> parameter;  // per tape output: the parameter it differentiates by
+  std::optional<Error> error;  // when the derivatives could not be compiled
+};
+
+const LinearModel::JacobianTape& LinearModel::Jacobian() const {
+  assert(jacobian_ && "a LinearModel comes from Compile");
+  std::call_once(jacobian_->once, [this] {
+    JacobianTape& jt = *jacobian_;
+    std::vector<expr::ExprPtr> derivatives;
+    for (std::size_t k = 0; k < entries_.size(); ++k) {
+      std::set<std::string> used;
+      expr::CollectNames(entries_[k], &used);
+      for (const auto& name : used) {
+        const int i = spec_.ParameterIndex(name);
+        if (i < 0) continue;
+        expr::ExprPtr d = expr::Differentiate(entries_[k], name);
+        double value = 0.0;
+        if (expr::IsConstant(d, &value) && value == 0.0) continue;
+        derivatives.push_back(std::move(d));
+        jt.entry.push_back(static_cast<int>(k));
+        jt.parameter.push_back(i);
+      }
+    }
+    auto tape = expr::Tape::Compile(
+        derivatives, [&](const std::string& name) { return spec_.ParameterIndex(name); });
+    if (tape) {
+      jt.tape = std::move(*tape);
+    } else {
+      jt.error = tape.error();
+      jt.error->file = spec_.source;
+      jt.error->message = "the derivatives of the model cannot be compiled: " + jt.error->message;
+    }
+  });
+  return *jacobian_;
+}
+
+Result<std::vector<StateSpace>> LinearModel::EvaluateJacobian(
+    std::span<const double> theta, std::span<const int> parameters) const {
+  assert(theta.size() == spec_.parameters.size() && "θ has one entry per parameter");
+  const JacobianTape& jt = Jacobian();
+  if (jt.error) return *jt.error;
+  std::vector<double> v(jt.tape.size());
+  jt.tape.Eval(theta, v);
+  // Column f of `columns` is ∂(entries)/∂θ_{parameters[f]}.
+  std::vector<int> column_of(spec_.parameters.size(), -1);
+  for (std::size_t f = 0; f < parameters.size(); ++f)
+    column_of[parameters[f]] = static_cast<int>(f);
+  std::vector<std::vector<double>> columns(parameters.size(),
+                                           std::vector<double>(entries_.size(), 0.0));
+  for (std::size_t q = 0; q < v.size(); ++q) {
+    const int f = column_of[jt.parameter[q]];
+    if (f < 0) continue;
+    if (!std::isfinite(v[q])) {
+      const std::string& name = spec_.parameters[jt.parameter[q]].name;
+      Error e = NumericalError(fmt::format(
+          "the derivative of {} with respect to {} is {} at these parameter values ({} = {:g})",
+          entry_names_[jt.entry[q]], name, std::isnan(v[q]) ? "not a number" : "infinite", name,
+          theta[jt.parameter[q]]));
+      e.file = spec_.source;
+      return e;
+    }
+    columns[f][jt.entry[q]] = v[q];
+  }
+  std::vector<StateSpace> out;
+  out.reserve(parameters.size());
+  for (const auto& column : columns) out.push_back(Unpack(column));
+  return out;
 }
 
 }  // namespace gb::model

@@ -10,8 +10,14 @@
 // C, D, d from h), and refuses a model when a derivative still depends on a state or an input,
 // naming the equation and the variable. All entries are compiled into one expr::Tape, so
 // `Evaluate` costs one pass over a flat program.
+//
+// Derivatives: `EvaluateJacobian` gives ∂(every entry)/∂θ_i for chosen parameters i, from the
+// symbolic derivatives of the entries (expr::Differentiate), compiled into a second Tape the
+// first time it is asked for (the value-only path never pays for them); the tape holds only the
+// derivatives that are not identically zero.
 #pragma once
 
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -48,6 +54,15 @@ class LinearModel {
   // "diffusion.x is not a number at these parameter values (p = -1)".
   Result<StateSpace> Evaluate(std::span<const double> theta) const;
 
+  // The derivatives of every entry at θ with respect to θ_i for each i in `parameters` (indices
+  // into ModelSpec::parameters): out[f] holds ∂A/∂θ_i, ∂B/∂θ_i, ... ∂P0_diag/∂θ_i with
+  // i = parameters[f], in the shapes of Evaluate's result (P0_diag empty unless explicit).
+  // Fails (kNumerical) when a derivative is not finite ("the derivative of diffusion.x with
+  // respect to s is infinite at these parameter values (s = 0)": sqrt(s) at s = 0), or (kInput)
+  // when a derivative is too deeply nested to compile.
+  Result<std::vector<StateSpace>> EvaluateJacobian(std::span<const double> theta,
+                                                   std::span<const int> parameters) const;
+
   const ModelSpec& spec() const { return spec_; }
   int n_states() const { return static_cast<int>(spec_.states.size()); }
   int n_inputs() const { return static_cast<int>(spec_.inputs.size()); }
@@ -59,12 +74,17 @@ class LinearModel {
   const std::vector<expr::ExprPtr>& entries() const { return entries_; }
 
  private:
+  struct JacobianTape;
   Error NotFinite(std::size_t k, double value, std::span<const double> theta) const;
+  // The entries in tape order (as Evaluate's tape writes them) laid out as a StateSpace.
+  StateSpace Unpack(std::span<const double> v) const;
+  const JacobianTape& Jacobian() const;
 
   ModelSpec spec_;
   std::vector<expr::ExprPtr> entries_;
   std::vector<std::string> entry_names_;  // "A[mfv,mff]" or the formula path, for messages
   expr::Tape tape_;
+  std::shared_ptr<JacobianTape> jacobian_;  // compiled on first use; shared by copies
 };
 
 }  // namespace gb::model

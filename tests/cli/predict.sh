@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # greybench-cli predict and diagnose (CONTRACT section 4): the CSV's columns, residual = output -
 # prediction, the Gaussian log-likelihood rebuilt from the CSV's predictions and sds equals
-# `loglik`, --set / --result / delay choice, diagnose's JSON keys, and bad input.
+# `loglik`, `loglik --gradient` against differences, --set / --result / delay choice, diagnose's JSON
+# keys, and bad input.
 # Usage: predict.sh GREYBENCH_CLI TEST_DATA_DIR
 set -u
 cli=$1
@@ -83,6 +84,26 @@ loglik_set=$(python3 -c 'import json,sys; print(json.load(sys.stdin)["loglik"])'
 if run predict "$model" "$csv" --set X=0.3 --out "$tmp/pred_set.csv"; then pass; else fail "predict --set: $(cat "$tmp/err")"; fi
 check "predict --set CSV" csv_check "$tmp/pred_set.csv" 2 "$loglik_set"
 check "predict --set differs" bash -c "! cmp -s '$tmp/pred.csv' '$tmp/pred_set.csv'"
+
+# --- loglik --gradient: every free parameter (natural scale); X against central differences ---
+gradient_check() {
+  python3 - "$cli" "$model" "$csv" <<'PY'
+import json, subprocess, sys
+cli, model, csv = sys.argv[1:4]
+def loglik(*extra):
+    return json.loads(subprocess.run([cli, "loglik", model, csv, *extra], check=True,
+                                     capture_output=True, text=True).stdout)
+plain, out = loglik(), loglik("--gradient")
+assert list(plain) == ["loglik", "n_obs"], plain
+assert out["loglik"] == plain["loglik"] and out["n_obs"] == plain["n_obs"], out
+assert list(out["gradient"]) == ["tau_fv", "tau_ff", "X", "s11", "s12", "s2"], out  # Kb fixed
+h = 1e-4
+up, down = loglik("--set", f"X={0.175 + h}")["loglik"], loglik("--set", f"X={0.175 - h}")["loglik"]
+g = out["gradient"]["X"]
+assert abs((up - down) / (2 * h) - g) <= 1e-5 * max(abs(g), 1.0), (g, (up - down) / (2 * h))
+PY
+}
+check "loglik --gradient" gradient_check
 
 # --- --result: estimates and the delay from a result file; --set still wins -----------------
 python3 - "$tmp/result.json" <<'PY'

@@ -165,3 +165,69 @@ TEST(StationaryCovariance, RefusesAnUnstableMatrix) {
 
 }  // namespace
 }  // namespace gb::filter
+
+namespace gb::filter {
+namespace {
+
+// d/da of the scalar OU's Φ = e^{aΔ}, Γ0 = b (e^{aΔ} - 1)/a and Q = σ² (e^{2aΔ} - 1)/(2a), and
+// dQ/dσ² = (e^{2aΔ} - 1)/(2a): closed forms.
+TEST(DiscretizeDerivative, MatchesClosedFormForScalarOu) {
+  const double a = -1.7, b = 0.8, s2 = 0.3;
+  const Eigen::MatrixXd A = Eigen::MatrixXd::Constant(1, 1, a),
+                        B = Eigen::MatrixXd::Constant(1, 1, b);
+  const Eigen::VectorXd c = Eigen::VectorXd::Zero(1), sigma2 = Eigen::VectorXd::Constant(1, s2);
+  const Eigen::MatrixXd one = Eigen::MatrixXd::Ones(1, 1), zero = Eigen::MatrixXd::Zero(1, 1);
+  const Eigen::VectorXd v_one = Eigen::VectorXd::Ones(1), v_zero = Eigen::VectorXd::Zero(1);
+  for (double dt : {0.01, 0.5, 6.0}) {
+    const double e = std::exp(a * dt), e2 = std::exp(2 * a * dt);
+    const Discrete da =
+        DiscretizeDerivative(A, B, c, sigma2, one, zero, v_zero, v_zero, dt, InputHold::kZoh);
+    EXPECT_NEAR(da.Phi(0, 0), dt * e, 1e-13);
+    EXPECT_NEAR(da.Gamma0(0, 0), b * (dt * e / a - (e - 1) / (a * a)), 1e-13);
+    EXPECT_NEAR(da.Q(0, 0), s2 * (dt * e2 / a - (e2 - 1) / (2 * a * a)), 1e-13);
+    const Discrete ds =
+        DiscretizeDerivative(A, B, c, sigma2, zero, zero, v_zero, v_one, dt, InputHold::kZoh);
+    EXPECT_NEAR(ds.Q(0, 0), (e2 - 1) / (2 * a), 1e-13);
+    EXPECT_EQ(ds.Phi(0, 0), 0.0);
+  }
+}
+
+// A stiff coupled pair with FOH (modes at -1000 and -0.01) over a long interval: the derivative
+// along a random direction equals central differences of Discretize.
+TEST(DiscretizeDerivative, MatchesCentralDifferencesForAStiffModelWithFirstOrderHold) {
+  Eigen::MatrixXd A(2, 2), B(2, 1), dA(2, 2), dB(2, 1);
+  A << -1000.0, 5.0, 0.2, -0.01;
+  B << 3.0, -1.0;
+  dA << 40.0, -1.0, 0.5, 0.003;
+  dB << 0.7, 0.2;
+  Eigen::VectorXd c(2), sigma2(2), dc(2), ds2(2);
+  c << 0.5, -0.2;
+  sigma2 << 4.0, 0.01;
+  dc << 0.1, 0.3;
+  ds2 << 0.5, 0.002;
+  for (double dt : {0.0125, 3.0}) {
+    const Discrete d = DiscretizeDerivative(A, B, c, sigma2, dA, dB, dc, ds2, dt, InputHold::kFoh);
+    const double h = 1e-6;
+    const Discrete up =
+        Discretize(A + h * dA, B + h * dB, c + h * dc, sigma2 + h * ds2, dt, InputHold::kFoh);
+    const Discrete down =
+        Discretize(A - h * dA, B - h * dB, c - h * dc, sigma2 - h * ds2, dt, InputHold::kFoh);
+    const auto expect_near = [&](const Eigen::MatrixXd& analytic, const Eigen::MatrixXd& plus,
+                                 const Eigen::MatrixXd& minus, const char* what) {
+      const Eigen::MatrixXd difference = (plus - minus) / (2 * h);
+      EXPECT_LE((analytic - difference).cwiseAbs().maxCoeff(),
+                1e-6 * std::max(1.0, difference.cwiseAbs().maxCoeff()))
+          << what << " at dt = " << dt << "\n"
+          << analytic << "\n"
+          << difference;
+    };
+    expect_near(d.Phi, up.Phi, down.Phi, "Phi");
+    expect_near(d.Gamma0, up.Gamma0, down.Gamma0, "Gamma0");
+    expect_near(d.Gamma1, up.Gamma1, down.Gamma1, "Gamma1");
+    expect_near(d.g, up.g, down.g, "g");
+    expect_near(d.Q, up.Q, down.Q, "Q");
+  }
+}
+
+}  // namespace
+}  // namespace gb::filter

@@ -1,0 +1,93 @@
+// Pieces the filter loops share (kalman.cpp, score.cpp); not part of the public API.
+#pragma once
+
+#include <string>
+
+#include <Eigen/Core>
+#include <fmt/format.h>
+
+#include "core/data/dataset.h"
+#include "core/filter/discretize.h"
+#include "core/util/result.h"
+
+namespace gb::filter::internal {
+
+inline constexpr double kLog2Pi = 1.8378770664093454835606594728112;  // log(2π)
+
+// The loops look at the cancel flag every this many samples (a few milliseconds at most).
+inline constexpr int kCancelCheckInterval = 4096;  // a power of two
+static_assert((kCancelCheckInterval & (kCancelCheckInterval - 1)) == 0);
+
+// Largest state dimension with a fixed-size instantiation of the loops.
+inline constexpr int kMaxFixedStates = 8;
+
+// f.template operator()<NX>() with NX = n for n in 1..kMaxFixedStates (fixed-size matrices), else
+// Eigen::Dynamic: the loops are compiled once per state dimension.
+template <class F>
+decltype(auto) WithStateDimension(int n, F&& f) {
+  static_assert(kMaxFixedStates == 8, "WithStateDimension lists the fixed sizes");
+  switch (n) {
+    case 1:
+      return f.template operator()<1>();
+    case 2:
+      return f.template operator()<2>();
+    case 3:
+      return f.template operator()<3>();
+    case 4:
+      return f.template operator()<4>();
+    case 5:
+      return f.template operator()<5>();
+    case 6:
+      return f.template operator()<6>();
+    case 7:
+      return f.template operator()<7>();
+    case 8:
+      return f.template operator()<8>();
+    default:
+      return f.template operator()<Eigen::Dynamic>();
+  }
+}
+
+// One discretisation (discretize.h) with the state dimension fixed at compile time.
+template <int NX>
+struct FixedDiscrete {
+  Eigen::Matrix<double, NX, NX> Phi, Q;
+  Eigen::Matrix<double, NX, Eigen::Dynamic> Gamma0, Gamma1;
+  Eigen::Matrix<double, NX, 1> g;
+  explicit FixedDiscrete(const Discrete& d)
+      : Phi(d.Phi), Q(d.Q), Gamma0(d.Gamma0), Gamma1(d.Gamma1), g(d.g) {}
+};
+
+// P <- (P + P')/2 in place (no temporary: the dynamic-size loop must not allocate).
+template <class Mat>
+void Symmetrize(Mat& P) {
+  for (Eigen::Index j = 1; j < P.cols(); ++j) {
+    for (Eigen::Index i = 0; i < j; ++i) {
+      const double v = 0.5 * (P(i, j) + P(j, i));
+      P(i, j) = v;
+      P(j, i) = v;
+    }
+  }
+}
+
+// R_k is not positive definite: its pivot for output o at row k is R (zero, negative or NaN).
+inline Error NotPositiveInnovationVariance(const data::Series& series, int o, int k, double R) {
+  const std::string output = o < static_cast<int>(series.outputs.size())
+                                 ? fmt::format("'{}'", series.outputs[o])
+                                 : fmt::format("{}", o + 1);
+  Error e = NumericalError(fmt::format(
+      "the innovation variance of output {} at row {} (t = {:g}) is {:g}, not positive: the "
+      "model claims to predict this observation exactly (a measurement variance of zero, and "
+      "no uncertainty in the state?)",
+      output, k + 1, series.time[k], R));
+  e.file = series.source;
+  if (k < static_cast<int>(series.row_line.size())) e.line = series.row_line[k];
+  return e;
+}
+
+inline Error NotFiniteLoglik(const data::Series& series) {
+  return NumericalError(
+      fmt::format("{}: the log-likelihood is not finite at these parameter values", series.source));
+}
+
+}  // namespace gb::filter::internal

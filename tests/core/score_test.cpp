@@ -1,0 +1,259 @@
+// The analytic score (core/filter/score.h) against central differences of the log-likelihood.
+#include "core/filter/score.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "core/filter/likelihood.h"
+#include "filter_fixtures.h"
+
+namespace gb::filter {
+namespace {
+
+const std::string kRoot = GREYBENCH_SOURCE_DIR;
+
+// The best central difference must agree with the analytic derivative to this, relative to
+// max(|∂ log L/∂θ_i|, 1).
+constexpr double kAgreement = 1e-6;
+// Steps relative to |θ_i|, from coarse to fine: the error of (L(θ+h) - L(θ-h))/2h is O(h²) until
+// rounding (about eps |L| / h) takes over.
+constexpr double kRelativeSteps[] = {1e-2, 1e-3, 1e-4, 1e-5};
+
+// The first `rows` rows of a bound series.
+std::shared_ptr<const data::Series> Head(const data::Series& s, int rows) {
+  data::Series h = s;
+  h.time.resize(rows);
+  h.U = s.U.leftCols(rows);
+  h.Y = s.Y.leftCols(rows);
+  if (!h.row_line.empty()) h.row_line.resize(rows);
+  h.intervals = data::GroupIntervals(h.time);
+  return std::make_shared<const data::Series>(std::move(h));
+}
+
+std::shared_ptr<const data::Series> AssetSeries(const model::ModelSpec& spec, const char* file,
+                                                int rows) {
+  auto data = data::ReadCsvFile(kRoot + "/assets/data/" + file);
+  EXPECT_TRUE(data.ok()) << data.error().ToString();
+  auto series = data::Bind(**data, spec.inputs, spec.outputs);
+  EXPECT_TRUE(series.ok()) << series.error().ToString();
+  return Head(**series, rows);
+}
+
+std::shared_ptr<const model::LinearModel> AssetModel(const char* file) {
+  auto spec = model::LoadModelFile(kRoot + "/assets/models/" + file);
+  EXPECT_TRUE(spec.ok()) << spec.error().ToString();
+  return std::make_shared<const model::LinearModel>(*model::LinearModel::Compile(*spec));
+}
+
+std::shared_ptr<const model::LinearModel> JsonModel(const Json& j) {
+  auto spec = model::ParseModel(j, "test.json");
+  EXPECT_TRUE(spec.ok()) << spec.error().ToString();
+  auto lm = model::LinearModel::Compile(*spec);
+  EXPECT_TRUE(lm.ok()) << lm.error().ToString();
+  return std::make_shared<const model::LinearModel>(std::move(*lm));
+}
+
+std::vector<int> AllParameters(const model::LinearModel& m) {
+  std::vector<int> all(m.n_parameters());
+  for (int i = 0; i < m.n_parameters(); ++i) all[i] = i;
+  return all;
+}
+
+struct StepStudy {
+  std::vector<double> error;     // |central difference - analytic| at each of kRelativeSteps
+  std::vector<double> rounding;  // the rounding error of the difference there, eps |log L| / h
+  double best_relative = 0;      // the smallest error, relative to max(|analytic|, 1)
+};
+
+// Compares the analytic gradient with central differences at every step of kRelativeSteps, for
+// every parameter, and returns the study (one entry per parameter). Checks the agreement and that
+// the rows of J_terms_theta sum to the gradient.
+std::vector<StepStudy> CheckScore(const Likelihood& lik, const std::vector<double>& theta,
+                                  std::span<const int> delay = {}) {
+  const std::vector<int> free = AllParameters(lik.model());
+  Eigen::VectorXd gradient;
+  Eigen::MatrixXd J;
+  const auto l = lik.EvaluateWithScore(theta, delay, free, &gradient, &J);
+  EXPECT_TRUE(l.ok()) << l.error().ToString();
+  if (!l.ok()) return {};
+  const auto value = lik.Evaluate(theta, delay);
+  EXPECT_NEAR(l->loglik, value->loglik, 1e-10 * std::abs(value->loglik));
+  EXPECT_EQ(l->n_obs, value->n_obs);
+  const Eigen::VectorXd sum_of_scores = J.colwise().sum().transpose();
+  EXPECT_LE((sum_of_scores - gradient).cwiseAbs().maxCoeff(),
+            1e-10 * std::max(1.0, gradient.cwiseAbs().maxCoeff()));
+
+  std::vector<StepStudy> study;
+  for (std::size_t i = 0; i < free.size(); ++i) {
+    const std::string& name = lik.model().spec().parameters[free[i]].name;
+    StepStudy s;
+    s.best_relative = INFINITY;
+    for (double rel : kRelativeSteps) {
+      const double h = rel * std::max(std::abs(theta[free[i]]), 1e-3);
+      std::vector<double> up = theta, down = theta;
+      up[free[i]] += h;
+      down[free[i]] -= h;
+      const auto lu = lik.Evaluate(up, delay);
+      const auto ld = lik.Evaluate(down, delay);
+      EXPECT_TRUE(lu.ok() && ld.ok()) << name;
+      const double difference = (lu->loglik - ld->loglik) / (2 * h);
+      s.error.push_back(std::abs(difference - gradient(i)));
+      s.rounding.push_back(std::numeric_limits<double>::epsilon() * std::abs(l->loglik) / h);
+      s.best_relative =
+          std::min(s.best_relative, s.error.back() / std::max(std::abs(gradient(i)), 1.0));
+    }
+    EXPECT_LE(s.best_relative, kAgreement)
+        << name << ": analytic " << gradient(i) << ", errors of the differences at h/|θ| = 1e-2 "
+        << s.error[0] << ", 1e-3 " << s.error[1] << ", 1e-4 " << s.error[2] << ", 1e-5 "
+        << s.error[3];
+    study.push_back(std::move(s));
+  }
+  return study;
+}
+
+double Worst(const std::vector<StepStudy>& study) {
+  double worst = 0;
+  for (const auto& s : study) worst = std::max(worst, s.best_relative);
+  return worst;
+}
+
+TEST(Score, FuelFilmWithDelayMatchesCentralDifferencesAndTheirErrorShrinksAsHSquared) {
+  const auto m = AssetModel("fuel_film.json");
+  const auto lik = *Likelihood::Create(m, {AssetSeries(m->spec(), "fuel_f1.csv", 1500)});
+  const std::vector<int> delay = {5};
+  const auto study = CheckScore(lik, m->spec().Values(), delay);
+  ASSERT_EQ(study.size(), 8u);
+  // The step study: from h to h/10 the truncation error falls 100-fold; require 30-fold while
+  // the error at h/10 is still well above rounding.
+  for (std::size_t i = 0; i < study.size(); ++i) {
+    const auto& e = study[i].error;
+    for (std::size_t s = 0; s + 1 < e.size() && e[s + 1] > 100 * study[i].rounding[s + 1]; ++s)
+      EXPECT_GT(e[s] / e[s + 1], 30.0) << m->spec().parameters[i].name << " step " << s;
+  }
+  RecordProperty("worst_relative_error", std::to_string(Worst(study)));
+}
+
+TEST(Score, CrankshaftWithTwoOutputsFohAndStationaryP0MatchesCentralDifferences) {
+  const auto m = AssetModel("crankshaft.json");
+  const auto lik = *Likelihood::Create(m, {AssetSeries(m->spec(), "crankshaft.csv", 800)});
+  CheckScore(lik, m->spec().Values());
+}
+
+TEST(Score, TenStateChainOfLagsMatchesCentralDifferences) {
+  // x1' = (-x1 + k u1)/τ1, x_i' = (-x_i + x_{i-1})/τ_i: ten lags in series, y = x10 + 0.5 u2.
+  Json j = {{"greybench_model", 1}, {"inputs", {"u1", "u2"}}, {"outputs", {"y"}}};
+  Json states = Json::array(), params = Json::object(), drift = Json::object(),
+       diffusion = Json::object();
+  for (int i = 1; i <= 10; ++i) {
+    const std::string x = "x" + std::to_string(i), tau = "tau" + std::to_string(i);
+    states.push_back(x);
+    params[tau] = 0.2 + 0.05 * i;
+    drift[x] =
+        i == 1 ? "(-x1 + k*u1)/tau1 + c" : "(-" + x + " + x" + std::to_string(i - 1) + ")/" + tau;
+    diffusion[x] = "s";
+  }
+  params["k"] = 1.5;
+  params["c"] = 0.1;
+  params["s"] = 0.3;
+  params["r"] = 0.05;
+  j["states"] = states;
+  j["parameters"] = params;
+  j["drift"] = drift;
+  j["diffusion"] = diffusion;
+  j["observation"] = {{"y", "x10 + 0.5*u2"}};
+  j["measurement_variance"] = {{"y", "r"}};
+  const auto m = JsonModel(j);
+  // Regular sampling (one distinct interval), with RandomSeries' inputs and outputs.
+  data::Series s = fixtures::RandomSeries(200, 1, 0.0, 3);
+  for (std::size_t r = 0; r < s.time.size(); ++r) s.time[r] = 0.1 * static_cast<double>(r);
+  s.intervals = data::GroupIntervals(s.time);
+  CheckScore(*Likelihood::Create(m, {std::make_shared<const data::Series>(std::move(s))}),
+             m->spec().Values());
+}
+
+TEST(Score, MissingEntriesOfTwoOutputsMatchCentralDifferences) {
+  const auto m = JsonModel(Json::parse(fixtures::kTwoOutputModel));
+  const auto s = std::make_shared<const data::Series>(fixtures::RandomSeries(200, 2, 0.3, 5));
+  CheckScore(*Likelihood::Create(m, {s}), m->spec().Values());
+}
+
+TEST(Score, TwoDatasetsWithDelaysAddUpAndMatchCentralDifferences) {
+  Json j = Json::parse(fixtures::kTwoOutputModel);
+  j["output_delay"] = {{"y1", 1}, {"y2", {{"min", 0}, {"max", 2}}}};
+  const auto m = JsonModel(j);
+  const auto s1 = std::make_shared<const data::Series>(fixtures::RandomSeries(150, 2, 0.1, 7));
+  const auto s2 = std::make_shared<const data::Series>(fixtures::RandomSeries(90, 2, 0.1, 8));
+  const auto joint = *Likelihood::Create(m, {s1, s2});
+  const std::vector<int> delay = {1, 2};
+  const std::vector<double> theta = m->spec().Values();
+  CheckScore(joint, theta, delay);
+
+  const std::vector<int> free = AllParameters(*m);
+  Eigen::VectorXd g, g1, g2;
+  Eigen::MatrixXd J;
+  ASSERT_TRUE(joint.EvaluateWithScore(theta, delay, free, &g, &J).ok());
+  ASSERT_TRUE(Likelihood::Create(m, {s1})->EvaluateWithScore(theta, delay, free, &g1).ok());
+  ASSERT_TRUE(Likelihood::Create(m, {s2})->EvaluateWithScore(theta, delay, free, &g2).ok());
+  EXPECT_LE((g - g1 - g2).cwiseAbs().maxCoeff(), 1e-10 * g.cwiseAbs().maxCoeff());
+  EXPECT_EQ(J.rows(), static_cast<Eigen::Index>(s1->size() + s2->size()));
+}
+
+TEST(Score, HuberLikelihoodMatchesCentralDifferences) {
+  Json j = Json::parse(fixtures::kTwoOutputModel);
+  const auto gaussian = JsonModel(j);
+  j["robust_huber"] = 1.0;
+  const auto m = JsonModel(j);
+  const auto s = std::make_shared<const data::Series>(fixtures::RandomSeries(200, 2, 0.1, 11));
+  const auto lik = *Likelihood::Create(m, {s});
+  // Some terms are past the threshold (ρ_c < ½r² there), so both branches are differentiated.
+  EXPECT_GT(lik.Evaluate(m->spec().Values())->loglik,
+            Likelihood::Create(gaussian, {s})->Evaluate(m->spec().Values())->loglik + 1.0);
+  CheckScore(lik, m->spec().Values());
+}
+
+TEST(Score, ExplicitInitialVariancesAndFohMatchCentralDifferences) {
+  Json j = Json::parse(fixtures::kTwoOutputModel);
+  j["initial_covariance"] = {{"x1", "p1"}, {"x2", "p1*a"}};
+  j["parameters"]["p1"] = 0.7;
+  j["input_hold"] = "foh";
+  const auto m = JsonModel(j);
+  const auto s = std::make_shared<const data::Series>(fixtures::RandomSeries(120, 2, 0.1, 13));
+  CheckScore(*Likelihood::Create(m, {s}), m->spec().Values());
+}
+
+TEST(Score, GradientOverChosenParametersIsTheMatchingPartOfTheFullGradient) {
+  const auto m = JsonModel(Json::parse(fixtures::kTwoOutputModel));
+  const auto s = std::make_shared<const data::Series>(fixtures::RandomSeries(80, 2, 0.0, 17));
+  const auto lik = *Likelihood::Create(m, {s});
+  const std::vector<double> theta = m->spec().Values();
+  const std::vector<int> all = AllParameters(*m), some = {6, 1};
+  Eigen::VectorXd g_all, g_some;
+  ASSERT_TRUE(lik.EvaluateWithScore(theta, {}, all, &g_all).ok());
+  ASSERT_TRUE(lik.EvaluateWithScore(theta, {}, some, &g_some).ok());
+  EXPECT_EQ(g_some(0), g_all(6));
+  EXPECT_EQ(g_some(1), g_all(1));
+}
+
+TEST(Score, AnInfiniteDerivativeOfAnEntryIsAnErrorNamingIt) {
+  Json j = Json::parse(fixtures::kTwoOutputModel);
+  j["diffusion"]["x1"] = "sqrt(s1)";
+  j["parameters"]["s1"] = 0.0;
+  const auto m = JsonModel(j);
+  const auto s = std::make_shared<const data::Series>(fixtures::RandomSeries(20, 2, 0.0, 19));
+  Eigen::VectorXd g;
+  const auto l =
+      Likelihood::Create(m, {s})->EvaluateWithScore(m->spec().Values(), {}, AllParameters(*m), &g);
+  ASSERT_FALSE(l.ok());
+  EXPECT_EQ(l.error().kind, ErrorKind::kNumerical);
+  EXPECT_NE(l.error().message.find("derivative of diffusion.x1 with respect to s1 is infinite"),
+            std::string::npos)
+      << l.error().message;
+}
+
+}  // namespace
+}  // namespace gb::filter
