@@ -6,6 +6,12 @@
 // rendering or the PNG writing failed, or --estimate's estimation failed (the PNG is still
 // written: it shows why).
 //
+// Several views of one session: repeat the pair, `--view A --out a.png --view B --out b.png`
+// (each --out belongs to the --view before it). The project is opened, and with --estimate
+// estimated, once; each view is then drawn in a fresh ImGui context, as a run of its own would
+// draw it, so one run of N views writes the same N pictures as N runs (the golden tests render
+// the estimated views this way: one estimation instead of seven).
+//
 // --estimate starts the estimation exactly as the Estimate view's Run button does
 // (StartEstimation: the same background job), waits for it, then renders. It runs with
 // threads = 1 and the other options at their defaults. For the operating-points view, whose
@@ -49,10 +55,14 @@ constexpr float kFrameTime = 1.0f / 60.0f;
 constexpr int kMinSize = 64;
 constexpr int kMaxSize = 8192;
 
+struct Shot {
+  gb::ui::View view = gb::ui::View::kData;
+  std::string out;
+};
+
 struct Options {
   std::string project;
-  std::string view = "data";
-  std::string out;
+  std::vector<Shot> shots;  // in command-line order
   int width = 1280;
   int height = 800;
   bool estimate = false;
@@ -62,6 +72,7 @@ struct Options {
 
 constexpr const char* kUsage =
     "usage: greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png\n"
+    "                          [--view VIEW --out OUT.png ...]\n"
     "                          [--width W] [--height H] [--estimate] [--dialog DIALOG]\n"
     "                          [--time T0:T1]\n"
     "VIEW: data diagram equations estimate predictions residuals parameters operating-points\n"
@@ -97,9 +108,18 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
     if (arg == "--project") {
       o->project = value;
     } else if (arg == "--view") {
-      o->view = value;
+      const std::optional<gb::ui::View> view = gb::ui::ParseView(value);
+      if (!view) return "unknown view '" + value + "'";
+      if (!o->shots.empty() && o->shots.back().out.empty()) {
+        return "--view " + value + ": the view before it has no --out";
+      }
+      o->shots.push_back({*view, ""});
     } else if (arg == "--out") {
-      o->out = value;
+      if (o->shots.empty()) o->shots.push_back({});  // the default view, data
+      if (!o->shots.back().out.empty()) {
+        return "--out " + value + ": give each --out its own --view before it";
+      }
+      o->shots.back().out = value;
     } else if (arg == "--dialog") {
       o->dialog = value;
     } else if (arg == "--time") {
@@ -120,19 +140,24 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
     }
   }
   if (o->project.empty()) return "--project is required";
-  if (o->out.empty()) return "--out is required";
+  if (o->shots.empty() || o->shots.back().out.empty()) return "--out is required";
   return "";
 }
 
-// Draws the workbench offscreen and writes the PNG. The GL context is current.
-int Render(const Options& options, gb::ui::View view, std::vector<unsigned char>* pixels) {
-  namespace ui = gb::ui;
-  ui::AppState state;
-  ui::SetUpWorkbench(state, 1.0f);
-  ui::FixedGlRenderer renderer;
-  renderer.Init();
+bool Shows(const Options& o, gb::ui::View view) {
+  for (const Shot& shot : o.shots) {
+    if (shot.view == view) return true;
+  }
+  return false;
+}
 
-  state.view = view;
+// Opens the project and, with --estimate, runs what the views show (the estimation, and the
+// sweep for the operating-points view). An ImGui context with the workbench's set-up is current.
+// Returns the exit status so far; *fatal when nothing can be drawn.
+int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
+  namespace ui = gb::ui;
+  *fatal = true;
+  state.view = options.shots.front().view;
   state.deterministic = true;
   ui::OpenProject(state, options.project);
   ui::WaitForJobs(state);
@@ -141,7 +166,7 @@ int Render(const Options& options, gb::ui::View view, std::vector<unsigned char>
     if (!d.data) return Fail(kExitBadInput, d.error);
   }
   int status = 0;
-  if (options.estimate && view == ui::View::kOperatingPoints) {
+  if (options.estimate && Shows(options, ui::View::kOperatingPoints)) {
     // The view shows the sweep: run it as its Run button does (its fits use one thread each).
     std::string why;
     if (!ui::StartSweep(state, &why)) return Fail(kExitBadInput, "--estimate: " + why);
@@ -150,7 +175,10 @@ int Render(const Options& options, gb::ui::View view, std::vector<unsigned char>
       std::fprintf(stderr, "greybench-snapshot: error: %s\n", state.sweep.last_failure.c_str());
       status = kExitRenderFailed;
     }
-  } else if (options.estimate) {
+  }
+  bool others = false;
+  for (const Shot& shot : options.shots) others |= shot.view != ui::View::kOperatingPoints;
+  if (options.estimate && others) {
     state.estimation.settings.threads = 1;  // the same iterations on every machine
     std::string why;
     if (!ui::StartEstimation(state, &why)) return Fail(kExitBadInput, "--estimate: " + why);
@@ -161,7 +189,18 @@ int Render(const Options& options, gb::ui::View view, std::vector<unsigned char>
       status = kExitRenderFailed;
     }
   }
+  *fatal = false;
+  return status;
+}
 
+// Draws one view of the prepared workbench offscreen and writes its PNG. The GL context and an
+// ImGui context with the workbench's set-up are current.
+int RenderView(const Options& options, const Shot& shot, gb::ui::AppState& state,
+               std::vector<unsigned char>* pixels) {
+  namespace ui = gb::ui;
+  ui::FixedGlRenderer renderer;
+  renderer.Init();
+  state.view = shot.view;
   if (!options.dialog.empty() && !ui::OpenDialogByName(state, options.dialog)) {
     return Fail(kExitBadInput,
                 "--dialog '" + options.dialog + "': expected one of " + ui::kDialogNames);
@@ -194,9 +233,32 @@ int Render(const Options& options, gb::ui::View view, std::vector<unsigned char>
   glFinish();
 
   std::string error;
-  if (!ui::WritePngFromGl(options.out, options.width, options.height, pixels->data(), &error)) {
+  if (!ui::WritePngFromGl(shot.out, options.width, options.height, pixels->data(), &error)) {
     return Fail(kExitRenderFailed, error);
   }
+  return 0;
+}
+
+// Prepares the workbench in the first view's ImGui context and draws every view, each after
+// the first in a context of its own.
+int Render(const Options& options, std::vector<unsigned char>* pixels) {
+  namespace ui = gb::ui;
+  ui::AppState state;
+  ImGui::CreateContext();
+  ui::SetUpWorkbench(state, 1.0f);
+  bool fatal = false;
+  int status = Prepare(options, state, &fatal);
+  for (std::size_t i = 0; i < options.shots.size() && !fatal; ++i) {
+    if (i > 0) {
+      ImGui::DestroyContext();
+      ImGui::CreateContext();
+      ui::SetUpWorkbench(state, 1.0f);
+    }
+    const int shot_status = RenderView(options, options.shots[i], state, pixels);
+    if (shot_status == kExitBadInput) fatal = true;
+    if (shot_status != 0 && status != kExitBadInput) status = shot_status;
+  }
+  ImGui::DestroyContext();
   return status;
 }
 
@@ -213,11 +275,6 @@ int main(int argc, char** argv) {
     std::fputs(kUsage, stderr);
     return Fail(kExitBadInput, arg_error);
   }
-  const std::optional<gb::ui::View> view = gb::ui::ParseView(options.view);
-  if (!view) {
-    std::fputs(kUsage, stderr);
-    return Fail(kExitBadInput, "unknown view '" + options.view + "'");
-  }
 
   OSMesaContext gl = OSMesaCreateContextExt(OSMESA_RGBA, 24, 8, 0, nullptr);
   if (!gl) return Fail(kExitRenderFailed, "cannot create an OSMesa context");
@@ -227,9 +284,7 @@ int main(int argc, char** argv) {
     return Fail(kExitRenderFailed, "cannot make the OSMesa context current");
   }
 
-  ImGui::CreateContext();
-  const int status = Render(options, *view, &pixels);
-  ImGui::DestroyContext();
+  const int status = Render(options, &pixels);
   OSMesaDestroyContext(gl);
   return status;
 }
