@@ -15,7 +15,8 @@
 #include <string_view>
 #include <vector>
 
-#if defined(__SANITIZE_ADDRESS__)
+#include "core/util/sanitizers.h"
+#if GREYBENCH_ASAN
 #include <sanitizer/lsan_interface.h>
 #endif
 
@@ -246,7 +247,7 @@ int main(int argc, char** argv) {
   const int status = Run(window, glsl_version, options);
   ImGui::DestroyContext();
   glfwDestroyWindow(window);
-#if defined(__SANITIZE_ADDRESS__)
+#if GREYBENCH_ASAN
   // scripts/sanitize.sh: glfwTerminate closes the display and Mesa unloads its driver, after
   // which the leak check at exit could not name the library of the driver's own leaks (to
   // suppress them, tests/sanitize/lsan.supp). Everything of ours is freed by now: check here.

@@ -1,19 +1,22 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (tests/fuzz, clang, ASan + UBSan) in build-fuzz/ and runs each for
-# SECONDS (default 60), one after another. Fails on any crash, hang, leak or sanitizer report.
+# Builds the libFuzzer targets (tests/fuzz, clang, ASan + UBSan) in build-asan/, the build
+# scripts/sanitize.sh makes for the whole suite (after it, nothing is left to build), and runs
+# each for SECONDS (default 60), FUZZ_PARALLEL (default: the number of cores, at most the number
+# of targets) at a time. Fails on any crash, hang, leak or sanitizer report.
 #   scripts/fuzz.sh [SECONDS]
 # Each target starts from its seed corpus tests/fuzz/corpus/<target>/ (kept in the repository,
-# never written by this script) plus what earlier runs found in build-fuzz/corpus/<target>/.
-# A crashing input is written to build-fuzz/artifacts/; reproduce it with
-#   build-fuzz/tests/fuzz/<target>_fuzz build-fuzz/artifacts/<file>
-# Environment: GREYBENCH_CMAKE_ARGS (extra CMake arguments), GREYBENCH_JOBS (build jobs, 2),
-# FUZZ_ARGS (extra libFuzzer flags, e.g. "-jobs=2").
+# never written by this script) plus what earlier runs found in build-asan/corpus/<target>/.
+# A crashing input is written to build-asan/artifacts/; reproduce it with
+#   build-asan/tests/fuzz/<target>_fuzz build-asan/artifacts/<file>
+# Environment: GREYBENCH_CMAKE_ARGS (extra CMake arguments), GREYBENCH_JOBS (build jobs, nproc),
+# FUZZ_PARALLEL (targets run at once), FUZZ_ARGS (extra libFuzzer flags, e.g. "-jobs=2").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
 seconds=${1:-60}
-build=build-fuzz
-jobs=${GREYBENCH_JOBS:-2}
+build=build-asan
+jobs=${GREYBENCH_JOBS:-$(nproc)}
+parallel=${FUZZ_PARALLEL:-$(nproc)}
 targets=(csv model project)
 
 if ! command -v clang++ >/dev/null; then
@@ -30,31 +33,50 @@ if ! echo 'extern "C" int LLVMFuzzerTestOneInput(const char*, unsigned long) { r
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends libclang-rt-dev
 fi
 
-# -O1 -g, assertions on (no NDEBUG): an assertion reached from a file is a bug too.
+# The configuration of scripts/sanitize.sh (the same build directory must not be configured two
+# ways): -O1 -gline-tables-only, assertions on (no NDEBUG): an assertion reached from a file is
+# a bug too.
 CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" -DGREYBENCH_FUZZ=ON \
-  -DGREYBENCH_BUILD_UI=OFF -DGREYBENCH_BUILD_TESTS=OFF -DGREYBENCH_BUILD_BENCHMARKS=OFF \
-  ${GREYBENCH_CMAKE_ARGS:-}
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only" -DGREYBENCH_FUZZ=ON \
+  -DGREYBENCH_BUILD_BENCHMARKS=OFF ${GREYBENCH_CMAKE_ARGS:-} >/dev/null
 cmake --build "$build" -j "$jobs" --target "${targets[@]/%/_fuzz}"
 
 export ASAN_OPTIONS="detect_leaks=1"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
 mkdir -p "$build/artifacts"
-status=0
-for t in "${targets[@]}"; do
-  corpus=$build/corpus/$t
+# One target: its log in $build/<target>.log, its exit status in $build/<target>.rc.
+run() {
+  local t=$1
+  local corpus=$build/corpus/$t
   mkdir -p "$corpus"
-  dict=()
+  local dict=()
   [ -f "tests/fuzz/$t.dict" ] && dict=(-dict="tests/fuzz/$t.dict")
-  echo "fuzz.sh: $t for ${seconds} s"
   # rss_limit and timeout: a slow or memory-hungry input is a failure too.
-  rc=0
+  local rc=0
   "$build/tests/fuzz/${t}_fuzz" "$corpus" "tests/fuzz/corpus/$t" "${dict[@]}" \
     -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=8192 \
     -artifact_prefix="$root/$build/artifacts/$t-" -print_final_stats=1 ${FUZZ_ARGS:-} \
     >"$build/$t.log" 2>&1 || rc=$?
+  echo "$rc" >"$build/$t.rc"
+}
+
+rm -f "$build"/*.rc
+status=0
+running=0
+for t in "${targets[@]}"; do
+  echo "fuzz.sh: $t for ${seconds} s"
+  run "$t" &
+  running=$((running + 1))
+  if [ "$running" -ge "$parallel" ]; then
+    wait -n || true
+    running=$((running - 1))
+  fi
+done
+wait
+for t in "${targets[@]}"; do
+  echo "fuzz.sh: $t:"
   grep -E "DONE|^stat::(number_of_executed_units|peak_rss_mb|new_units_added)" "$build/$t.log" || true
-  if [ "$rc" -ne 0 ]; then
+  if [ "$(cat "$build/$t.rc" 2>/dev/null || echo 1)" -ne 0 ]; then
     tail -n 60 "$build/$t.log" >&2
     echo "fuzz.sh: $t FAILED (log: $build/$t.log, input in $build/artifacts/)" >&2
     status=1

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The quality gates of docs/quality.md, one after another, as CI runs them after the test suite:
-#   1. scripts/sanitize.sh       the whole test suite under ASan + UBSan (build-asan/)
-#   2. scripts/fuzz.sh SECONDS   each libFuzzer target for SECONDS (default 60; build-fuzz/)
+#   1. scripts/sanitize.sh       one clang build with ASan + UBSan + libFuzzer's instrumentation
+#                                (build-asan/), and the whole test suite under the sanitizers
+#   2. scripts/fuzz.sh SECONDS   each libFuzzer target for SECONDS (default 60), built by 1
 #   3. scripts/static-checks.sh  clang-tidy and cppcheck on core/ (needs build/, from dev.sh)
 # Installs what the gates need and the normal set-up does not (clang with the libFuzzer runtime,
 # clang-tidy, cppcheck) with apt-get when missing. Runs every gate even when one fails, prints a
@@ -49,6 +50,7 @@ gate sanitizers scripts/sanitize.sh
 gate fuzzing scripts/fuzz.sh "$seconds"
 gate static-checks env JOBS="$(nproc)" scripts/static-checks.sh build
 
-echo "quality: summary"
+echo "quality: summary (gate, wall time)"
 printf '  %s\n' "${summary[@]}"
+echo "  all gates: $((SECONDS / 60)) min $((SECONDS % 60)) s"
 exit "$status"

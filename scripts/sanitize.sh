@@ -1,28 +1,36 @@
 #!/usr/bin/env bash
-# Builds greybench and its whole test suite with AddressSanitizer (leak checking included) and
-# UndefinedBehaviorSanitizer in build-asan/, runs ctest, and fails on any test failure or any
-# sanitizer report.
+# Builds greybench, its whole test suite and the libFuzzer targets with clang, AddressSanitizer
+# (leak checking included) and UndefinedBehaviorSanitizer in build-asan/, runs ctest, and fails on
+# any test failure or any sanitizer report.
 #   scripts/sanitize.sh            configure, build, test
+# One build serves two gates (docs/quality.md): everything is compiled with
+# -fsanitize=fuzzer-no-link,address,undefined (GREYBENCH_FUZZ=ON), so the fuzz targets that
+# scripts/fuzz.sh runs are built here too, from the same objects. -O1 -gline-tables-only:
+# libFuzzer's usual level, and line tables are all a stack trace needs (full -g made the build
+# three times as long). Assertions stay on (no NDEBUG).
+# Tests whose point under the sanitizers is the code path run on smaller data here
+# (core/util/sanitizers.h: kSanitized); each says so.
 # Reports are written to build-asan/sanitizer-logs/ (one file per reporting process) as well as
 # to stderr, so a report from a process whose exit status a test expects to be non-zero (the
 # command-line error tests) still fails the run. Leaks inside Mesa/GLFW/X11 (system libraries the
 # UI tests load) are suppressed by tests/sanitize/lsan.supp; our code is never suppressed.
-# Extra CMake arguments: GREYBENCH_CMAKE_ARGS (e.g. -DCMAKE_CXX_COMPILER_LAUNCHER=ccache).
+# Environment: GREYBENCH_CMAKE_ARGS (extra CMake arguments), GREYBENCH_JOBS (jobs, default nproc).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
 build=build-asan
-jobs=${GREYBENCH_JOBS:-2}
+jobs=${GREYBENCH_JOBS:-$(nproc)}
 
-sanitize="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
-# -O2 -g: at -O1 Eigen is not inlined and the slowest test takes 281 s instead of 22 s; stack
-# traces stay readable with frame pointers. Assertions stay on (no NDEBUG).
-cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g" \
-  -DCMAKE_CXX_FLAGS="$sanitize" \
-  -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
+if ! command -v clang++ >/dev/null; then
+  echo "sanitize.sh: clang++ is needed (apt-get install clang libclang-rt-dev)" >&2
+  exit 2
+fi
+start=$SECONDS
+CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only" -DGREYBENCH_FUZZ=ON \
   -DGREYBENCH_BUILD_BENCHMARKS=OFF ${GREYBENCH_CMAKE_ARGS:-}
 cmake --build "$build" -j "$jobs"
+echo "sanitize.sh: build took $(( (SECONDS - start) / 60 )) min $(( (SECONDS - start) % 60 )) s"
 
 logs=$root/$build/sanitizer-logs
 rm -rf "$logs"
@@ -31,8 +39,10 @@ export ASAN_OPTIONS="detect_leaks=1:abort_on_error=0:log_path=$logs/asan:log_exe
 export LSAN_OPTIONS="suppressions=$root/tests/sanitize/lsan.supp:print_suppressions=0"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:log_path=$logs/ubsan:log_exe_name=1"
 
+start=$SECONDS
 status=0
 ctest --test-dir "$build" --output-on-failure -j "$jobs" --timeout 1200 || status=$?
+echo "sanitize.sh: the suite took $(( (SECONDS - start) / 60 )) min $(( (SECONDS - start) % 60 )) s"
 
 reports=$(find "$logs" -type f | sort)
 if [ -n "$reports" ]; then

@@ -16,6 +16,7 @@
 #include "core/model/linear_model.h"
 #include "core/project/problem.h"
 #include "core/sim/simulate.h"
+#include "core/util/sanitizers.h"
 
 namespace gb::estimate {
 namespace {
@@ -101,7 +102,9 @@ TEST(Estimate, RecoversTheFuelFilmModelAndItsDelayFromSimulatedPrbsData) {
   prbs.order = 6;
   prbs.bit_period = 0.5;
   prbs.sample_time = 0.0125;
-  prbs.duration = 125.0;  // 10 000 samples
+  // 10 000 samples; under the sanitizers 2 500 (the point there is the code path of the fit and
+  // the delay profile, not the precision of the estimates, which the release suite checks).
+  prbs.duration = kSanitized ? 31.25 : 125.0;
   prbs.low = 1.08;
   prbs.high = 1.32;
   const auto series = Simulate(*truth, {prbs}, 42);
@@ -277,8 +280,11 @@ TEST(Estimate, NinetyFivePercentIntervalsCoverTheTruthAtTheNominalRate) {
   prbs.bit_period = 1.0;
   prbs.sample_time = 0.25;
   prbs.duration = 150.0;  // 600 samples
+  // Under the sanitizers 20 replicates run the same code; the coverage rate (a Monte Carlo
+  // property) is checked on 200 in the release suite.
+  const int replicates = kSanitized ? 20 : 200;
   int covered = 0, total = 0;
-  for (int rep = 0; rep < 200; ++rep) {
+  for (int rep = 0; rep < replicates; ++rep) {
     prbs.seed = static_cast<std::uint32_t>(rep + 1);
     const auto series = Simulate(*truth_model, {prbs}, 1000 + rep);
     auto lik = filter::Likelihood::Create(fit_model, {series});
@@ -292,17 +298,23 @@ TEST(Estimate, NinetyFivePercentIntervalsCoverTheTruthAtTheNominalRate) {
       if (std::abs(p.estimate - truth.at(p.name)) <= 1.96 * *p.std_error) ++covered;
     }
   }
-  EXPECT_GE(total, 790);
+  EXPECT_GE(total, 4 * replicates - 10);
   const double rate = static_cast<double>(covered) / total;
-  EXPECT_GE(rate, 0.90);
-  EXPECT_LE(rate, 0.98);
+  if (!kSanitized) {
+    EXPECT_GE(rate, 0.90);
+    EXPECT_LE(rate, 0.98);
+  }
   RecordProperty("coverage", fmt::format("{:.4f}", rate));
 }
 
 // ---- the CTSM-R conformance case ---------------------------------------------------------------
 
 TEST(Conformance, Building3EstimateFromNeutralStartReachesCtsmRsOptimum) {
-  auto spec = model::LoadModelFile(kData + "/building3/model_start.json");
+  // Under the sanitizers the fit starts at CTSM-R's estimates (model.json): the same estimator
+  // code on the same 19-parameter model and data, in a fraction of the iterations. The release
+  // suite fits from the neutral start, which is the point of the test.
+  auto spec = model::LoadModelFile(kData + (kSanitized ? "/building3/model.json"
+                                                       : "/building3/model_start.json"));
   ASSERT_TRUE(spec.ok());
   auto problem = project::LoadProblem(std::move(*spec), {kData + "/building3/data.csv"});
   ASSERT_TRUE(problem.ok());
