@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <type_traits>
 
 #include <Eigen/Core>
 #include <fmt/format.h>
@@ -21,30 +22,34 @@ static_assert((kCancelCheckInterval & (kCancelCheckInterval - 1)) == 0);
 // Largest state dimension with a fixed-size instantiation of the loops.
 inline constexpr int kMaxFixedStates = 8;
 
-// f.template operator()<NX>() with NX = n for n in 1..kMaxFixedStates (fixed-size matrices), else
-// Eigen::Dynamic: the loops are compiled once per state dimension.
+// f(StateDimension<NX>{}) with NX = n for n in 1..kMaxFixedStates (fixed-size matrices), else
+// Eigen::Dynamic: the loops are compiled once per state dimension. (A generic lambda taking the
+// dimension as a type, rather than a template lambda, which cppcheck 2.10 cannot parse.)
+template <int NX>
+using StateDimension = std::integral_constant<int, NX>;
+
 template <class F>
 decltype(auto) WithStateDimension(int n, F&& f) {
   static_assert(kMaxFixedStates == 8, "WithStateDimension lists the fixed sizes");
   switch (n) {
     case 1:
-      return f.template operator()<1>();
+      return f(StateDimension<1>{});
     case 2:
-      return f.template operator()<2>();
+      return f(StateDimension<2>{});
     case 3:
-      return f.template operator()<3>();
+      return f(StateDimension<3>{});
     case 4:
-      return f.template operator()<4>();
+      return f(StateDimension<4>{});
     case 5:
-      return f.template operator()<5>();
+      return f(StateDimension<5>{});
     case 6:
-      return f.template operator()<6>();
+      return f(StateDimension<6>{});
     case 7:
-      return f.template operator()<7>();
+      return f(StateDimension<7>{});
     case 8:
-      return f.template operator()<8>();
+      return f(StateDimension<8>{});
     default:
-      return f.template operator()<Eigen::Dynamic>();
+      return f(StateDimension<Eigen::Dynamic>{});
   }
 }
 

@@ -279,8 +279,9 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
 
 template <bool kTrace>
 Result<Loglik> Dispatch(const Context& ctx, FilterTrace* trace) {
-  return WithStateDimension(ctx.ss.n_states(),
-                            [&]<int NX>() { return FilterLoop<NX, kTrace>(ctx, trace); });
+  return WithStateDimension(ctx.ss.n_states(), [&](auto nx) {
+    return FilterLoop<decltype(nx)::value, kTrace>(ctx, trace);
+  });
 }
 
 // ---- 3. entry points -------------------------------------------------------------------------

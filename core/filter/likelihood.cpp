@@ -84,9 +84,9 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
   Loglik total;
   gradient->setZero(k);
   Eigen::VectorXd one_gradient;
-  Eigen::MatrixXd one_J;
   std::vector<Eigen::MatrixXd> J_per_series;
   for (const auto& s : series_) {
+    Eigen::MatrixXd one_J;
     auto l = LogLikelihoodScore(*ss, *dss, *s, settings, &one_gradient,
                                 J_terms_theta ? &one_J : nullptr);
     if (!l) return l.error();

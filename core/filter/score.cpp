@@ -29,11 +29,14 @@ std::vector<std::vector<Discrete>> DiscretizeDerivatives(const model::StateSpace
                                                          model::InputHold hold) {
   const Eigen::VectorXd sigma2 = ss.sigma.array().square();
   std::vector<std::vector<Discrete>> out;
+  out.reserve(series.intervals.distinct.size());
   for (double dt : series.intervals.distinct) {
-    std::vector<Discrete>& per_theta = out.emplace_back();
+    std::vector<Discrete> per_theta;
+    per_theta.reserve(dss.size());
     for (const auto& d : dss)
       per_theta.push_back(DiscretizeDerivative(ss.A, ss.B, ss.c, sigma2, d.A, d.B, d.c,
                                                Sigma2Derivative(ss, d), dt, hold));
+    out.push_back(std::move(per_theta));
   }
   return out;
 }
@@ -62,7 +65,7 @@ std::vector<Eigen::MatrixXd> InitialCovarianceDerivatives(
       break;
     }
     case model::InitialCovariance::kExplicit:
-      for (const auto& d : dss) dP0.push_back(Eigen::MatrixXd(d.P0_diag.asDiagonal()));
+      for (const auto& d : dss) dP0.emplace_back(d.P0_diag.asDiagonal());
       break;
   }
   return dP0;
@@ -248,8 +251,9 @@ Result<Loglik> LogLikelihoodScore(const model::StateSpace& ss,
   const auto ddisc = DiscretizeDerivatives(ss, dss, series, settings.hold);
   const auto dP0 = InitialCovarianceDerivatives(ss, dss, series, settings, *P0, ddisc);
   const Context ctx{ss, dss, series, settings, *disc, ddisc, *P0, dP0, *window};
-  return internal::WithStateDimension(
-      ctx.ss.n_states(), [&]<int NX>() { return ScoreLoop<NX>(ctx, gradient, J_terms_theta); });
+  return internal::WithStateDimension(ctx.ss.n_states(), [&](auto nx) {
+    return ScoreLoop<decltype(nx)::value>(ctx, gradient, J_terms_theta);
+  });
 }
 
 }  // namespace gb::filter
