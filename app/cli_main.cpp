@@ -59,11 +59,15 @@ int main(int argc, char** argv) {
   c_est->add_option("data", est.data, "data files (CSV), fitted jointly")->required();
   c_est->add_option("--set", est.sets, "NAME=VALUE: override a start (or fixed) value");
   c_est->add_option("--out", est.out, "result file (JSON, CONTRACT section 5)");
-  c_est->add_option("--threads", est.threads, "threads for gradients (default: all cores)");
+  c_est->add_option("--threads", est.threads, "threads for the score and the Hessian (default: all cores)");
   c_est->add_option("--multistart", est.multistart, "extra starts spread over the bounds");
   c_est->add_option("--max-evaluations", est.max_evaluations, "per fit (default 20000)");
-  c_est->add_option("--algorithm", est.algorithm, "auto (default: L-BFGS then BHHH), bhhh, slsqp, lbfgs or bobyqa");
+  c_est->add_option("--algorithm", est.algorithm, "auto (default: BHHH with BFGS corrections), bhhh, slsqp, lbfgs or bobyqa");
   c_est->add_option("--ftol", est.ftol, "relative tolerance on -log L (default 1e-12)");
+  c_est->add_flag("--profile-intervals", est.profile_intervals,
+                  "likelihood-ratio (profile) intervals for every free parameter");
+  c_est->add_option("--profile-level", est.profile_level, "their level (default 0.95)")
+      ->check(CLI::Range(0.5, 0.9999));
   c_est->callback([&] { run = [&] { return RunEstimate(est); }; });
 
   CompareArgs cmp;

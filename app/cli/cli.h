@@ -81,6 +81,8 @@ struct EstimateArgs {
   int max_evaluations = 20000;
   std::string algorithm = "auto";
   double ftol = 1e-12;
+  bool profile_intervals = false;
+  double profile_level = 0.95;
 };
 int RunEstimate(const EstimateArgs& args);
 

@@ -20,6 +20,8 @@ int RunEstimate(const EstimateArgs& args) {
   options.multistart = args.multistart;
   options.max_evaluations = args.max_evaluations;
   options.ftol_rel = args.ftol;
+  options.profile_intervals = args.profile_intervals;
+  options.profile_level = args.profile_level;
   if (args.algorithm == "auto") options.algorithm = estimate::Algorithm::kAuto;
   else if (args.algorithm == "bhhh") options.algorithm = estimate::Algorithm::kBhhh;
   else if (args.algorithm == "lbfgs") options.algorithm = estimate::Algorithm::kLbfgs;

@@ -16,10 +16,12 @@
 
 #include <Eigen/Dense>
 #include <boost/math/distributions/chi_squared.hpp>
+#include <boost/math/distributions/normal.hpp>
 #include <boost/math/distributions/students_t.hpp>
 #include <fmt/format.h>
 #include <nlopt.hpp>
 
+#include "core/estimate/fitter.h"
 #include "core/util/parallel.h"
 
 namespace gb::estimate {
@@ -42,452 +44,8 @@ bool EstimateOptions::IsValid(std::string* why) const {
 
 namespace {
 
-constexpr double kFailedObjective = 1e300;   // -log L reported to NLopt where log L fails
-                                             // before any point could be evaluated
-constexpr double kGradientStep = 1e-5;       // ≈ eps^(1/3): central differences in scaled units
-constexpr int kMaxBhhhIterations = 500;
-constexpr int kProfileIterations = 10;       // BHHH iterations for a fit at a non-best delay
-constexpr double kArmijo = 1e-4;             // sufficient increase along the BHHH direction
-constexpr int kMaxHalvings = 40;
-constexpr double kFirstDamping = 1e-10;      // Levenberg damping of a singular BHHH information,
-constexpr int kDampingSteps = 8;             // then x100 per step up to 1e4
-// An expected improvement of log L below this (in log-likelihood units, far below the 0.5 that
-// one standard error is worth) counts as converged when rounding stops further progress.
-constexpr double kNegligibleImprovement = 1e-4;
-constexpr double kHessianStep = 1e-4;        // ≈ eps^(1/4): second differences, relative
-constexpr double kAtBoundTol = 1e-7;         // relative distance to a bound that counts as on it
-constexpr double kUndeterminedEig = 1e-9;    // eigenvalue of the scaled Hessian below: undetermined
-constexpr double kHighCorrelation = 0.99;
-
+using namespace internal;
 using Clock = std::chrono::steady_clock;
-
-// ---- 2. the fitter ---------------------------------------------------------------------------
-
-struct FitResult {
-  std::vector<double> z;
-  double loglik = -std::numeric_limits<double>::infinity();
-  bool converged = false;
-  bool cancelled = false;
-  std::string message;
-};
-
-class Fitter {
- public:
-  Fitter(const filter::Likelihood& lik, const EstimateOptions& options)
-      : lik_(lik), options_(options) {
-    const auto& spec = lik.model().spec();
-    theta0_ = spec.Values();
-    for (std::size_t i = 0; i < spec.parameters.size(); ++i) {
-      const auto& p = spec.parameters[i];
-      if (p.fixed) continue;
-      free_.push_back(static_cast<int>(i));
-      const double s = p.value != 0 ? std::abs(p.value)
-                       : (p.lower && p.upper) ? (*p.upper - *p.lower) / 10 : 1.0;
-      scale_.push_back(s);
-      lower_.push_back(p.lower ? *p.lower / s : -HUGE_VAL);
-      upper_.push_back(p.upper ? *p.upper / s : HUGE_VAL);
-    }
-    threads_ = options.threads > 0 ? options.threads : HardwareThreads();
-  }
-
-  int k() const { return static_cast<int>(free_.size()); }
-  const std::vector<int>& free() const { return free_; }
-  const std::vector<double>& scale() const { return scale_; }
-  double lower(int i) const { return lower_[i]; }
-  double upper(int i) const { return upper_[i]; }
-  int evaluations() const { return evaluations_.load(); }
-  int iterations() const { return iterations_; }
-  bool Cancelled() const { return options_.cancel && options_.cancel->load(); }
-
-  std::vector<double> ZStart() const {
-    std::vector<double> z(k());
-    for (int i = 0; i < k(); ++i) z[i] = theta0_[free_[i]] / scale_[i];
-    return z;
-  }
-
-  std::vector<double> Theta(const std::vector<double>& z) const {
-    std::vector<double> theta = theta0_;
-    for (int i = 0; i < k(); ++i) theta[free_[i]] = z[i] * scale_[i];
-    return theta;
-  }
-
-  // log L at scaled point z, or -inf where it cannot be evaluated.
-  double LogLik(const std::vector<double>& z, const std::vector<int>& delay, long* n_obs = nullptr,
-                std::vector<double>* terms = nullptr) {
-    evaluations_.fetch_add(1);
-    auto l = lik_.Evaluate(Theta(z), delay, terms);
-    if (!l) return -std::numeric_limits<double>::infinity();
-    if (n_obs) *n_obs = l->n_obs;
-    return l->loglik;
-  }
-
-  // The score of every log-likelihood term by central differences (one-sided at a bound): the
-  // gradient g (their sums) and the BHHH information Σ_j s_j s_j' (both in scaled units).
-  bool Scores(const std::vector<double>& z, const std::vector<int>& delay,
-              std::vector<double>* f0_terms, Eigen::VectorXd* g, Eigen::MatrixXd* info) {
-    struct Point {
-      int i;
-      double step;
-    };
-    std::vector<Point> points;
-    for (int i = 0; i < k(); ++i) {
-      const double h = kGradientStep * std::max(1.0, std::abs(z[i]));
-      if (z[i] + h <= upper_[i]) points.push_back({i, h});
-      if (z[i] - h >= lower_[i]) points.push_back({i, -h});
-    }
-    std::vector<std::vector<double>> terms(points.size());
-    std::vector<char> ok(points.size(), 0);
-    ParallelFor(static_cast<int>(points.size()), threads_, [&](int p) {
-      if (Cancelled()) return;  // leave the rest undone: the caller stops
-      std::vector<double> zp = z;
-      zp[points[p].i] += points[p].step;
-      evaluations_.fetch_add(1);
-      ok[p] = lik_.Evaluate(Theta(zp), delay, &terms[p]).ok();
-    });
-    if (Cancelled()) return false;
-    const Eigen::Index n = static_cast<Eigen::Index>(f0_terms->size());
-    Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n, k());
-    for (int i = 0; i < k(); ++i) {
-      int plus = -1, minus = -1;
-      for (std::size_t p = 0; p < points.size(); ++p) {
-        if (points[p].i != i || !ok[p]) continue;
-        (points[p].step > 0 ? plus : minus) = static_cast<int>(p);
-      }
-      const std::vector<double>* a = plus >= 0 ? &terms[plus] : f0_terms;
-      const std::vector<double>* b = minus >= 0 ? &terms[minus] : f0_terms;
-      const double width = (plus >= 0 ? points[plus].step : 0.0) - (minus >= 0 ? points[minus].step : 0.0);
-      if (width == 0.0) return false;
-      for (Eigen::Index j = 0; j < n; ++j) S(j, i) = ((*a)[j] - (*b)[j]) / width;
-    }
-    *g = S.colwise().sum().transpose();
-    *info = S.transpose() * S;
-    return g->allFinite() && info->allFinite();
-  }
-
-  // Solves I_FF d = g_F, with Levenberg damping only where I_FF is singular (a parameter the data
-  // ignore). Returns an empty vector if no damping helps.
-  static Eigen::VectorXd NewtonStep(const Eigen::MatrixXd& info, const Eigen::VectorXd& g,
-                                    const std::vector<int>& F) {
-    const int m = static_cast<int>(F.size());
-    Eigen::MatrixXd I(m, m);
-    Eigen::VectorXd gF(m);
-    for (int a = 0; a < m; ++a) {
-      gF(a) = g(F[a]);
-      for (int b = 0; b < m; ++b) I(a, b) = info(F[a], F[b]);
-    }
-    // Damping μ = 0, then 1e-10, 1e-8, ..., 1e4 (an integer counter: no float loop counter).
-    for (int attempt = 0; attempt <= kDampingSteps; ++attempt) {
-      const double mu = attempt == 0 ? 0.0 : kFirstDamping * std::pow(100.0, attempt - 1);
-      Eigen::MatrixXd M = I;
-      M.diagonal() += mu * I.diagonal().cwiseMax(1e-300) + Eigen::VectorXd::Constant(m, mu);
-      Eigen::LLT<Eigen::MatrixXd> llt(M);
-      if (llt.info() != Eigen::Success) continue;
-      Eigen::VectorXd d = llt.solve(gF);
-      if (d.allFinite()) return d;
-    }
-    return {};
-  }
-
-  // BHHH (Berndt-Hall-Hall-Hausman): Newton steps with the information estimated by the outer
-  // product of the per-observation scores, projected onto the bounds (a parameter on a bound
-  // whose gradient points outward is held there), with a backtracking line search.
-  FitResult FitBhhh(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
-                    int max_iterations) {
-    FitResult r;
-    for (int i = 0; i < k(); ++i) z[i] = std::clamp(z[i], lower_[i], upper_[i]);
-    std::vector<double> terms;
-    evaluations_.fetch_add(1);
-    auto first = lik_.Evaluate(Theta(z), delay, &terms);
-    if (!first) {
-      r.message = "the log-likelihood cannot be evaluated at the start: " + first.error().ToString();
-      return r;
-    }
-    double f = first->loglik;
-    r.z = z;
-    r.loglik = f;
-    if (k() == 0) {
-      r.converged = true;
-      r.message = "no free parameters";
-      return r;
-    }
-    double last_expected = HUGE_VAL;
-    for (int it = 0; it < max_iterations; ++it) {
-      if (Cancelled()) {
-        r.cancelled = true;
-        r.message = "cancelled";
-        return r;
-      }
-      if (options_.max_evaluations > 0 && evaluations() > options_.max_evaluations) {
-        r.message = fmt::format("stopped after {} evaluations without converging (raise the "
-                                "evaluation limit)", evaluations());
-        return r;
-      }
-      Eigen::VectorXd g;
-      Eigen::MatrixXd info;
-      if (!Scores(z, delay, &terms, &g, &info)) {
-        r.cancelled = Cancelled();
-        r.message = r.cancelled ? "cancelled"
-                                : "the scores could not be computed (the log-likelihood fails "
-                                  "near the point)";
-        return r;
-      }
-      ++iterations_;
-      Report(stage, z, f, delay);
-      std::vector<int> F;
-      for (int i = 0; i < k(); ++i) {
-        const bool at_lower = z[i] <= lower_[i] && g(i) <= 0;
-        const bool at_upper = z[i] >= upper_[i] && g(i) >= 0;
-        if (!at_lower && !at_upper) F.push_back(i);
-      }
-      if (F.empty()) {
-        r.converged = true;
-        r.message = "every free parameter is held at a bound";
-        return r;
-      }
-      // Solve for the step on the free set; a parameter on a bound whose step points out of the
-      // box is held too, and the step re-solved (projected Newton).
-      Eigen::VectorXd d, gF;
-      for (;;) {
-        d = NewtonStep(info, g, F);
-        if (d.size() == 0) {
-          r.message = "the information matrix is singular: the data do not determine the parameters";
-          return r;
-        }
-        std::vector<int> keep;
-        for (std::size_t a = 0; a < F.size(); ++a) {
-          const int i = F[a];
-          const bool out = (z[i] <= lower_[i] && d(a) < 0) || (z[i] >= upper_[i] && d(a) > 0);
-          if (!out) keep.push_back(i);
-        }
-        if (keep.size() == F.size()) break;
-        F = std::move(keep);
-        if (F.empty()) {
-          r.converged = true;
-          r.message = "every free parameter is held at a bound";
-          return r;
-        }
-      }
-      const int m = static_cast<int>(F.size());
-      gF.resize(m);
-      for (int a = 0; a < m; ++a) gF(a) = g(F[a]);
-      const double expected = 0.5 * gF.dot(d);  // the Newton decrement / 2
-      last_expected = expected;
-      const double tol = std::max(options_.ftol_rel * std::abs(f), 1e-12);
-      if (expected < tol) {
-        r.converged = true;
-        r.message = "the expected improvement of log L is below the tolerance";
-        return r;
-      }
-      // Backtracking along the projected direction.
-      bool accepted = false;
-      std::vector<double> z_new(z);
-      double f_new = f;
-      for (int half = 0, alpha_exp = 0; half < kMaxHalvings; ++half, --alpha_exp) {
-        const double alpha = std::ldexp(1.0, alpha_exp);
-        z_new = z;
-        double predicted = 0;
-        for (int a = 0; a < m; ++a) {
-          const int i = F[a];
-          z_new[i] = std::clamp(z[i] + alpha * d(a), lower_[i], upper_[i]);
-          predicted += g(i) * (z_new[i] - z[i]);
-        }
-        f_new = LogLik(z_new, delay);
-        if (std::isfinite(f_new) && f_new >= f + kArmijo * predicted && f_new > f) {
-          accepted = true;
-          break;
-        }
-        if (Cancelled()) break;
-      }
-      if (!accepted) {
-        if (Cancelled()) {
-          r.cancelled = true;
-          r.message = "cancelled";
-          return r;
-        }
-        r.converged = expected < kNegligibleImprovement;
-        r.message = r.converged ? "at the precision of the log-likelihood (no further increase is possible)"
-                                : "the line search found no increase of the log-likelihood";
-        return r;
-      }
-      const double gain = f_new - f;
-      z = z_new;
-      f = f_new;
-      r.z = z;
-      r.loglik = f;
-      evaluations_.fetch_add(1);
-      if (!lik_.Evaluate(Theta(z), delay, &terms).ok()) {
-        r.message = "the log-likelihood failed at an accepted point";
-        return r;
-      }
-      if (gain < tol && expected < kNegligibleImprovement) {
-        r.converged = true;
-        r.message = "the log-likelihood stopped increasing";
-        return r;
-      }
-    }
-    r.converged = last_expected < kNegligibleImprovement;
-    r.message = r.converged ? "the expected improvement left is negligible"
-                            : fmt::format("stopped after {} iterations without converging",
-                                          max_iterations);
-    return r;
-  }
-
-  FitResult Fit(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
-                int max_iterations = kMaxBhhhIterations) {
-    if (options_.algorithm == Algorithm::kBhhh) return FitBhhh(std::move(z), delay, stage, max_iterations);
-    if (options_.algorithm == Algorithm::kAuto) {
-      FitResult rough = FitNlopt(std::move(z), delay, stage, nlopt::LD_LBFGS,
-                                 std::max(options_.ftol_rel, options_.handover_ftol_rel));
-      if (rough.cancelled || !std::isfinite(rough.loglik)) return rough;
-      FitResult polished = FitBhhh(rough.z, delay, stage, max_iterations);
-      if (polished.converged || polished.cancelled) return polished;
-      // BHHH could not finish (flat or bound-limited directions, where the outer product of the
-      // scores is a poor Hessian): L-BFGS to the full tolerance from the best point so far.
-      FitResult& better = polished.loglik >= rough.loglik ? polished : rough;
-      FitResult finished = FitNlopt(better.z, delay, stage, nlopt::LD_LBFGS, options_.ftol_rel);
-      return finished.loglik >= better.loglik ? finished : better;
-    }
-    const nlopt::algorithm algo = options_.algorithm == Algorithm::kLbfgs   ? nlopt::LD_LBFGS
-                                  : options_.algorithm == Algorithm::kSlsqp ? nlopt::LD_SLSQP
-                                                                            : nlopt::LN_BOBYQA;
-    return FitNlopt(std::move(z), delay, stage, algo, options_.ftol_rel);
-  }
-
-  // A fit from a nearby optimum: BHHH under kAuto, else the chosen algorithm.
-  FitResult FitWarm(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
-                    int max_iterations) {
-    if (options_.algorithm == Algorithm::kAuto) return FitBhhh(std::move(z), delay, stage, max_iterations);
-    return Fit(std::move(z), delay, stage, max_iterations);
-  }
-
-  // What NLopt sees at a point z where log L cannot be evaluated: worse than every point seen,
-  // by the spread of the values seen so far (at least 1), and a gradient that points back to the
-  // best point. A finite, moderate value keeps BOBYQA's quadratic models and the quasi-Newton
-  // line searches usable: 1e300 would swamp them, and a zero gradient reads as a stationary
-  // point. The optimiser then shortens its step or turns away, as it would from a steep wall.
-  static double FailedObjective(const std::vector<double>& z, std::vector<double>& grad,
-                                const FitResult& best, double worst_loglik) {
-    if (!std::isfinite(best.loglik)) {
-      std::fill(grad.begin(), grad.end(), 0.0);
-      return kFailedObjective;
-    }
-    const double gap = std::max(1.0, best.loglik - worst_loglik);
-    if (!grad.empty()) {
-      double dist2 = 0;
-      for (std::size_t i = 0; i < z.size(); ++i) dist2 += (z[i] - best.z[i]) * (z[i] - best.z[i]);
-      for (std::size_t i = 0; i < z.size(); ++i)
-        grad[i] = dist2 > 0 ? gap * (z[i] - best.z[i]) / dist2 : 0.0;
-    }
-    return -worst_loglik + gap;
-  }
-
-  // One NLopt run.
-  FitResult FitNlopt(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
-                     nlopt::algorithm algo, double ftol_rel) {
-    FitResult result;
-    for (int i = 0; i < k(); ++i) z[i] = std::clamp(z[i], lower_[i], upper_[i]);
-    if (k() == 0) {
-      result.z = z;
-      result.loglik = LogLik(z, delay);
-      result.converged = std::isfinite(result.loglik);
-      result.message = "no free parameters";
-      return result;
-    }
-    struct Data {
-      Fitter* self;
-      const std::vector<int>* delay;
-      FitResult* best;
-      const std::string* stage;
-      double worst_loglik;  // the lowest finite log L seen
-    } data{this, &delay, &result, &stage, HUGE_VAL};
-    auto objective = [](const std::vector<double>& zz, std::vector<double>& grad, void* raw) {
-      auto* d = static_cast<Data*>(raw);
-      Fitter* self = d->self;
-      if (self->Cancelled()) throw nlopt::forced_stop();
-      std::vector<double> terms;
-      const double f = self->LogLik(zz, *d->delay, nullptr, grad.empty() ? nullptr : &terms);
-      if (!std::isfinite(f)) return FailedObjective(zz, grad, *d->best, d->worst_loglik);
-      d->worst_loglik = std::min(d->worst_loglik, f);
-      if (f > d->best->loglik) {
-        d->best->loglik = f;
-        d->best->z = zz;
-      }
-      if (!grad.empty()) {
-        ++self->iterations_;
-        Eigen::VectorXd g;
-        Eigen::MatrixXd info;
-        if (!self->Scores(zz, *d->delay, &terms, &g, &info)) {
-          if (self->Cancelled()) throw nlopt::forced_stop();
-          g.setZero(self->k());
-        }
-        for (int i = 0; i < self->k(); ++i) grad[i] = -g(i);
-        self->Report(*d->stage, d->best->z, d->best->loglik, *d->delay);
-      }
-      return -f;
-    };
-    nlopt::opt opt(algo, static_cast<unsigned>(k()));
-    opt.set_lower_bounds(lower_);
-    opt.set_upper_bounds(upper_);
-    opt.set_min_objective(objective, &data);
-    opt.set_ftol_rel(ftol_rel);
-    opt.set_xtol_rel(options_.xtol_rel);
-    if (options_.max_evaluations > 0) opt.set_maxeval(options_.max_evaluations);
-    double minf = 0;
-    result.z = z;
-    try {
-      const nlopt::result r = opt.optimize(z, minf);
-      result.converged = r == nlopt::FTOL_REACHED || r == nlopt::XTOL_REACHED ||
-                         r == nlopt::SUCCESS || r == nlopt::STOPVAL_REACHED;
-      switch (r) {
-        case nlopt::FTOL_REACHED: result.message = "relative tolerance on the objective reached"; break;
-        case nlopt::XTOL_REACHED: result.message = "relative tolerance on the parameters reached"; break;
-        case nlopt::MAXEVAL_REACHED:
-          result.message = fmt::format("stopped after {} evaluations without converging "
-                                       "(raise the evaluation limit)", options_.max_evaluations);
-          break;
-        default: result.message = "the optimiser reported success"; break;
-      }
-    } catch (const nlopt::forced_stop&) {
-      result.cancelled = true;
-      result.message = "cancelled";
-    } catch (const nlopt::roundoff_limited&) {
-      // The objective's rounding noise stops further progress: at the optimum to the precision
-      // the likelihood can be computed. Accept when the gradient is small there.
-      result.converged = true;
-      result.message = "at the precision of the log-likelihood (roundoff-limited)";
-    } catch (const std::exception& e) {
-      result.message = fmt::format("the optimiser failed: {}", e.what());
-    }
-    if (!std::isfinite(result.loglik)) {
-      result.converged = false;
-      if (!result.cancelled) result.message = "the log-likelihood could not be evaluated";
-    }
-    return result;
-  }
-
-  void Report(const std::string& stage, const std::vector<double>& z, double loglik,
-              const std::vector<int>& delay) {
-    if (!options_.progress) return;
-    Progress p;
-    p.iteration = iterations_;
-    p.evaluations = evaluations();
-    p.loglik = loglik;
-    p.theta = Theta(z);
-    p.delay = delay;
-    p.stage = stage;
-    options_.progress(p);
-  }
-
- private:
-  const filter::Likelihood& lik_;
-  const EstimateOptions& options_;
-  std::vector<double> theta0_;
-  std::vector<int> free_;
-  std::vector<double> scale_, lower_, upper_;
-  int threads_ = 1;
-  std::atomic<int> evaluations_{0};
-  int iterations_ = 0;
-};
 
 // ---- 3. start points -------------------------------------------------------------------------
 
@@ -625,7 +183,7 @@ class HessianByDifferences {
       std::vector<double> zp = z_;
       zp[active_[p.a]] += p.oa * h_[p.a];
       if (p.b >= 0) zp[active_[p.b]] += p.ob * h_[p.b];
-      v[c] = -f_.LogLik(zp, delay_);
+      v[c] = -f_.Objective(zp, delay_);
     });
     for (std::size_t c = 0; c < points.size(); ++c) values_[points[c]] = v[c];
   }
@@ -686,12 +244,113 @@ class HessianByDifferences {
   std::map<Point, double> values_;  // -log L at the points evaluated so far
 };
 
+// The Hessian of -objective in scaled units from differences of the exact gradient (Fitter::
+// Scores) over the parameters `active` (steps h): column a is -∂g/∂z_a,
+//   central:   (g(z + h e_a) - g(z - h e_a)) / 2h
+//   one-sided: (-3 g(z) + 4 g(z + d h e_a) - g(z + 2 d h e_a)) / 2dh   (d = ±1, second order)
+// the latter where the gradient cannot be computed on one side; a parameter whose gradient fails
+// on both sides (or whose one-sided stencil would leave the bounds) is dropped, its row and column
+// left zero. The result is symmetrised. 2m gradient evaluations, on `threads` threads; its error
+// is O(h²) where second differences of log L are O(h²) + O(eps/h²).
+class HessianByGradients {
+ public:
+  HessianByGradients(Fitter& f, const std::vector<double>& z, const Eigen::VectorXd& g0,
+                     const std::vector<int>& delay, const std::vector<int>& active,
+                     std::vector<double> h, int threads)
+      : f_(f), z_(z), g0_(g0), delay_(delay), active_(active), h_(std::move(h)),
+        threads_(threads), dir_(active.size(), 0), dropped_(active.size(), false) {}
+
+  int direction(int a) const { return dir_[a]; }  // 0 central, +1 forward, -1 backward
+  bool dropped(int a) const { return dropped_[a]; }
+
+  Eigen::MatrixXd Run() {
+    const int m = static_cast<int>(active_.size());
+    // Central differences first; then, for the parameters that failed on one side, one-sided.
+    std::vector<std::pair<int, int>> points;  // (a, offset in steps)
+    for (int a = 0; a < m; ++a) points.insert(points.end(), {{a, 1}, {a, -1}});
+    Evaluate(points);
+    points.clear();
+    for (int a = 0; a < m; ++a) {
+      const bool plus = Ok(a, 1), minus = Ok(a, -1);
+      if (plus && minus) continue;
+      const int d = plus ? 1 : minus ? -1 : 0;
+      const int i = active_[a];
+      const double room = d > 0 ? f_.upper(i) - z_[i] : z_[i] - f_.lower(i);
+      if (d == 0 || !(2 * h_[a] < room)) {
+        dropped_[a] = true;
+        continue;
+      }
+      dir_[a] = d;
+      points.emplace_back(a, 2 * d);
+    }
+    Evaluate(points);
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m, m);
+    for (int a = 0; a < m; ++a) {
+      if (dropped_[a]) continue;
+      const int d = dir_[a];
+      if (d != 0 && !Ok(a, 2 * d)) {
+        dropped_[a] = true;
+        continue;
+      }
+      Eigen::VectorXd column =
+          d == 0 ? Eigen::VectorXd((grad_.at({a, 1}) - grad_.at({a, -1})) / (2 * h_[a]))
+                 : Eigen::VectorXd((-3 * g0_ + 4 * grad_.at({a, d}) - grad_.at({a, 2 * d})) /
+                                   (2 * d * h_[a]));
+      for (int b = 0; b < m; ++b) H(b, a) = -column(active_[b]);
+    }
+    for (int a = 0; a < m; ++a)
+      for (int b = 0; b < m; ++b)
+        if (dropped_[a] || dropped_[b]) H(a, b) = 0;
+    return (H + H.transpose()) / 2;
+  }
+
+ private:
+  bool Ok(int a, int offset) const {
+    auto it = grad_.find({a, offset});
+    return it != grad_.end() && it->second.size() > 0;
+  }
+
+  void Evaluate(const std::vector<std::pair<int, int>>& points) {
+    std::vector<Eigen::VectorXd> g(points.size());
+    ParallelFor(static_cast<int>(points.size()), threads_, [&](int c) {
+      const auto [a, offset] = points[c];
+      std::vector<double> zp = z_;
+      const int i = active_[a];
+      zp[i] += offset * h_[a];
+      if (zp[i] < f_.lower(i) || zp[i] > f_.upper(i)) return;  // outside the bounds: failed
+      double value = 0;
+      Eigen::VectorXd gp;
+      if (f_.Scores(zp, delay_, &value, &gp, nullptr, /*split=*/false)) g[c] = std::move(gp);
+    });
+    for (std::size_t c = 0; c < points.size(); ++c) grad_[points[c]] = std::move(g[c]);
+  }
+
+  Fitter& f_;
+  const std::vector<double>& z_;
+  const Eigen::VectorXd& g0_;
+  const std::vector<int>& delay_;
+  const std::vector<int>& active_;
+  std::vector<double> h_;
+  int threads_;
+  std::vector<int> dir_;
+  std::vector<bool> dropped_;
+  std::map<std::pair<int, int>, Eigen::VectorXd> grad_;  // empty where the gradient failed
+};
+
 struct Uncertainty {
   std::vector<std::optional<double>> std_error;  // per free parameter
   std::vector<bool> at_bound;
   std::vector<int> with_se;                      // free-parameter indices that have an SE
   Eigen::MatrixXd covariance;                    // over with_se
   std::vector<std::string> warnings;
+  // Where the Hessian has a clearly negative eigenvalue: its eigenvector (scaled units, per free
+  // parameter, zero for those at a bound), along which the objective increases.
+  std::optional<Eigen::VectorXd> uphill;
+  // The Hessian of -objective in scaled units over all free parameters (NaN where not computed)
+  // and the Newton decrement ½ g' H⁻¹ g over the parameters with a standard error: the increase
+  // of the objective a Newton step would bring (0 when unknown).
+  Eigen::MatrixXd hessian_scaled;
+  double newton_decrement = 0.0;
 };
 
 Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f0,
@@ -718,26 +377,66 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
   }
   const int m = static_cast<int>(active.size());
   auto name = [&](int a) { return spec.parameters[f.free()[active[a]]].name; };
-  HessianByDifferences hd(f, z, f0, delay, active, std::move(h), threads);
-  Eigen::MatrixXd H = hd.Run();
+  // From differences of the exact gradient where it can be computed at the estimate; else from
+  // second differences of the objective.
+  std::vector<int> direction(m, 0);
+  std::vector<bool> dropped(m, false);
+  Eigen::MatrixXd H;
+  double f_at = 0;
+  Eigen::VectorXd g0;
+  bool exact = false;
+  if (f.Scores(z, delay, &f_at, &g0, nullptr, true, &exact) && exact) {
+    std::vector<double> hg(m);
+    for (int a = 0; a < m; ++a) hg[a] = std::min(h[a] * kGradientHessianStep / kHessianStep, h[a]);
+    HessianByGradients hd(f, z, g0, delay, active, std::move(hg), threads);
+    H = hd.Run();
+    for (int a = 0; a < m; ++a) direction[a] = hd.direction(a), dropped[a] = hd.dropped(a);
+  } else {
+    HessianByDifferences hd(f, z, f0, delay, active, std::move(h), threads);
+    H = hd.Run();
+    for (int a = 0; a < m; ++a) direction[a] = hd.direction(a), dropped[a] = hd.dropped(a);
+  }
   if (f.Cancelled()) return u;
   for (int a = 0; a < m; ++a) {
-    if (hd.dropped(a))
+    if (dropped[a])
       u.warnings.push_back(fmt::format(
           "the log-likelihood cannot be evaluated on either side of {} near the estimate: no "
           "standard error for {}; the others' are computed with it held at its estimate",
           name(a), name(a)));
-    else if (hd.direction(a) != 0)
+    else if (direction[a] != 0)
       u.warnings.push_back(fmt::format(
           "the log-likelihood cannot be evaluated just {} the estimate of {} (the model fails "
           "there): its standard error uses one-sided differences",
-          hd.direction(a) > 0 ? "below" : "above", name(a)));
+          direction[a] > 0 ? "below" : "above", name(a)));
+  }
+  // Negative curvature (in scaled units): the estimate is a saddle, and the direction of the
+  // most negative curvature leads uphill.
+  {
+    std::vector<int> kept;
+    for (int a = 0; a < m; ++a)
+      if (!dropped[a]) kept.push_back(a);
+    const int n = static_cast<int>(kept.size());
+    if (n > 0 && H.allFinite()) {
+      Eigen::MatrixXd Hk(n, n);
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) Hk(i, j) = H(kept[i], kept[j]);
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Hk);
+      const double largest = es.eigenvalues().cwiseAbs().maxCoeff();
+      if (es.eigenvalues()(0) < -kNegativeCurvature * largest) {
+        u.uphill = Eigen::VectorXd::Zero(k);
+        for (int i = 0; i < n; ++i) (*u.uphill)(active[kept[i]]) = es.eigenvectors()(i, 0);
+      }
+    }
   }
   if (!H.allFinite()) {  // every point finite, yet the differences overflow
     u.warnings.push_back("the Hessian could not be computed (the differences of the "
                          "log-likelihood near the estimate overflow): no standard errors");
     return u;
   }
+  u.hessian_scaled = Eigen::MatrixXd::Constant(k, k, NAN);
+  for (int a = 0; a < m; ++a)
+    for (int b = 0; b < m; ++b)
+      if (!dropped[a] && !dropped[b]) u.hessian_scaled(active[a], active[b]) = H(a, b);
   // Hessian of -log L in scaled units, then to the natural scale: θ_i = s_i z_i.
   for (int a = 0; a < m; ++a)
     for (int b = 0; b < m; ++b) H(a, b) /= f.scale()[active[a]] * f.scale()[active[b]];
@@ -745,7 +444,7 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
   // Parameters whose own curvature is not positive are not determined by the data at all.
   std::vector<int> keep;
   for (int a = 0; a < m; ++a) {
-    if (hd.dropped(a)) continue;
+    if (dropped[a]) continue;
     if (H(a, a) > 0) keep.push_back(a);
     else
       u.warnings.push_back(fmt::format("the log-likelihood is flat or curves upward in {}: the "
@@ -789,6 +488,11 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
     return u;
   }
   u.covariance = llt.solve(Eigen::MatrixXd::Identity(n, n));
+  if (g0.size() == k) {
+    Eigen::VectorXd g_natural(n);
+    for (int i = 0; i < n; ++i) g_natural(i) = g0(active[keep[i]]) / f.scale()[active[keep[i]]];
+    u.newton_decrement = 0.5 * g_natural.dot(u.covariance * g_natural);
+  }
   for (int i = 0; i < n; ++i) {
     const int fi = active[keep[i]];
     u.with_se.push_back(fi);
@@ -797,6 +501,65 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
   return u;
 }
 
+
+// From a saddle point `at` (the objective curves upward along `uphill`, scaled units): the first
+// of a few steps along ±uphill, from long to short, that raises the objective, and a full fit from
+// there if it ends higher than `at`. nullopt when no step helps.
+std::optional<FitResult> EscapeSaddle(Fitter& f, const FitResult& at, const Eigen::VectorXd& uphill,
+                                      const std::vector<int>& delay) {
+  const Eigen::VectorXd v = uphill.normalized();
+  for (double step : {0.5, 0.1, 0.02, 0.004}) {
+    for (int sign : {1, -1}) {
+      std::vector<double> z = at.z;
+      for (int i = 0; i < f.k(); ++i) z[i] = std::clamp(z[i] + sign * step * v(i), f.lower(i), f.upper(i));
+      if (!(f.Objective(z, delay) > at.loglik)) continue;
+      FitResult r = f.Fit(z, delay, "fitting");
+      if (r.cancelled || r.loglik > at.loglik + kSameOptimum) return r;
+    }
+  }
+  return std::nullopt;
+}
+
+// The warnings of a parameter's profile interval, and where it and the Wald interval θ̂ ± z SE
+// disagree by more than a quarter of the Wald half-width at either end: the Hessian's curvature
+// is not the profile's, and the profile interval is the one to trust.
+void AddProfileWarnings(const ParameterEstimate& e, std::vector<std::string>* warnings) {
+  const ProfileInterval& pi = *e.profile;
+  for (const auto& w : pi.warnings) warnings->push_back(w);
+  for (auto [end, at_bound, side] : {std::tuple{pi.lower, pi.lower_at_bound, "lower"},
+                                     std::tuple{pi.upper, pi.upper_at_bound, "upper"}}) {
+    if (!end && at_bound)
+      warnings->push_back(fmt::format("the profile of {} stays within the {:.0f} % threshold down "
+                                      "to its {} bound: the data do not bound it on that side",
+                                      e.name, 100 * pi.level, side));
+  }
+  if (!e.std_error) return;
+  const double zq = boost::math::quantile(boost::math::normal(), 0.5 + pi.level / 2);
+  const double half = zq * *e.std_error;
+  const double lo = e.estimate - half, hi = e.estimate + half;
+  const bool differs = (!pi.lower || std::abs(*pi.lower - lo) > 0.25 * half) ||
+                       (!pi.upper || std::abs(*pi.upper - hi) > 0.25 * half);
+  if (differs)
+    warnings->push_back(fmt::format(
+        "the Wald interval of {} [{:.4g}, {:.4g}] differs from its profile interval [{}, {}]: "
+        "the log-likelihood is far from quadratic there; trust the profile interval",
+        e.name, lo, hi, pi.lower ? fmt::format("{:.4g}", *pi.lower) : "bound",
+        pi.upper ? fmt::format("{:.4g}", *pi.upper) : "bound"));
+}
+
+// Without profile intervals: where the Wald intervals cannot be trusted (a parameter at a bound,
+// or without a standard error), recommend them.
+void RecommendProfiles(const std::vector<ParameterEstimate>& parameters,
+                       std::vector<std::string>* warnings) {
+  std::string which;
+  for (const auto& e : parameters)
+    if (!e.fixed && (e.at_bound || !e.std_error)) which += (which.empty() ? "" : ", ") + e.name;
+  if (!which.empty())
+    warnings->push_back(fmt::format("the standard errors assume a quadratic log-likelihood, which "
+                                    "does not hold at a bound or where the data hardly determine "
+                                    "a parameter ({}): use profile intervals "
+                                    "(--profile-intervals)", which));
+}
 
 }  // namespace
 
@@ -848,30 +611,49 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
     delay = profile->candidates[profile->best].delay;
   }
 
-  // Fit from every start at that delay; keep the best.
-  FitResult best;
-  for (const auto& z0 : StartPoints(fitter, options.multistart, options.seed)) {
-    FitResult r = fitter.Fit(z0, delay, "fitting");
-    if (r.cancelled) {
-      best = r;
-      break;
+  // 1. The model's start values, at that delay; then θ and the delay in turn until the delay
+  //    settles (each delay's fit warm-started from the last).
+  const std::vector<double> z_start = fitter.ZStart();
+  std::vector<int> delay_of_start = delay;  // the delay the plain start was last fitted at
+  FitResult best = fitter.Fit(z_start, delay, "fitting");
+  auto settle = [&] {
+    for (int round = 0; scanning && !best.cancelled && !fitter.Cancelled() && round < 10; ++round) {
+      auto profile = lik.Profile(fitter.Theta(best.z));
+      if (!profile || profile->best < 0) break;
+      const auto& next = profile->candidates[profile->best].delay;
+      if (next == delay) break;
+      delay = next;
+      FitResult r = fitter.Fit(best.z, delay, "fitting");
+      if (r.cancelled || r.loglik >= best.loglik) best = r;
     }
-    if (r.loglik > best.loglik) best = r;
+  };
+  settle();
+
+  // 2. Extra starts (multistart) at that delay. The plain start's fit is one of them, so the
+  //    result is never worse than it.
+  std::vector<double> start_values{best.loglik};
+  if (options.multistart > 0 && !best.cancelled) {
+    const auto starts = StartPoints(fitter, options.multistart, options.seed);
+    bool improved = false;
+    for (std::size_t i = 1; i < starts.size(); ++i) {
+      FitResult r = fitter.Fit(starts[i], delay, "fitting");
+      if (r.cancelled) {
+        best = r;
+        break;
+      }
+      start_values.push_back(r.loglik);
+      if (r.loglik > best.loglik) best = r, improved = true;
+    }
+    if (improved) settle();
   }
-  // Alternate θ and delay until the delay settles.
-  for (int round = 0; scanning && !best.cancelled && !fitter.Cancelled() && round < 10; ++round) {
-    auto profile = lik.Profile(fitter.Theta(best.z));
-    if (!profile || profile->best < 0) break;
-    const auto& next = profile->candidates[profile->best].delay;
-    if (next == delay) break;
-    delay = next;
-    best = fitter.FitWarm(best.z, delay, "fitting", kMaxBhhhIterations);
-  }
-  // The profile: θ re-optimised at every other delay candidate, walking outward from the
-  // estimate so that each fit starts from the optimum of its nearest fitted neighbour. Fits at
-  // wrong delays are misspecified, where BHHH converges slowly; their effort is bounded
-  // (kProfileIterations): a profile value is then a lower bound, which cannot mislead the choice
-  // of the delay (the best delay's own fit is complete).
+  s.starts = static_cast<int>(start_values.size());
+  s.starts_at_best = static_cast<int>(std::count_if(
+      start_values.begin(), start_values.end(),
+      [&](double v) { return std::isfinite(v) && v >= best.loglik - kSameOptimum; }));
+
+  // 3. The profile: θ re-optimised at every other delay candidate, to convergence, walking
+  //    outward from the estimate so that each fit starts from the optimum of its nearest fitted
+  //    neighbour. A better delay found on the way becomes the estimate.
   struct ProfileValue {
     std::vector<int> delay;
     double loglik;
@@ -891,17 +673,17 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
       return distance(a, delay_best) < distance(b, delay_best);
     });
     std::vector<std::pair<std::vector<int>, std::vector<double>>> fitted = {{delay_best, best.z}};
+    profile_points.push_back({delay_best, best.loglik, best.converged});
     for (const auto& candidate : grid) {
+      if (candidate == delay_best) continue;
       double ll;
       bool complete = true;
-      if (candidate == delay_best) {
-        ll = best.loglik;
-      } else if (options.full_delay_profile) {
+      if (options.full_delay_profile) {
         const std::vector<double>* start = &best.z;
         int nearest = INT_MAX;
         for (const auto& [d, z] : fitted)
           if (distance(d, candidate) < nearest) nearest = distance(d, candidate), start = &z;
-        FitResult r = fitter.FitWarm(*start, candidate, "delay profile", kProfileIterations);
+        FitResult r = fitter.Fit(*start, candidate, "delay profile");
         if (r.cancelled) {
           best.cancelled = true;
           best.message = r.message;
@@ -911,24 +693,55 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
         complete = r.converged;
         if (std::isfinite(r.loglik)) fitted.emplace_back(candidate, r.z);
         if (r.loglik > best.loglik) {
-          // A better delay found while profiling: complete its fit and make it the estimate.
-          FitResult full = fitter.Fit(r.z, candidate, "fitting");
-          if (full.loglik >= r.loglik) r = full;
           best = r;
           delay = candidate;
-          ll = r.loglik;
-          complete = r.converged;
         }
       } else {
-        ll = fitter.LogLik(best.z, candidate);
+        ll = fitter.Objective(best.z, candidate);
       }
       profile_points.push_back({candidate, ll, complete});
     }
-    std::sort(profile_points.begin(), profile_points.end());
+  }
+  // 4. A first delay far from the right one can lead the plain start's fit to a poor optimum
+  //    (a saddle, a parameter pinned at a bound) from which the warm-started fits do not recover:
+  //    fit the plain start again at the chosen delay.
+  if (scanning && !best.cancelled && !fitter.Cancelled() && delay != delay_of_start) {
+    FitResult r = fitter.Fit(z_start, delay, "fitting");
+    delay_of_start = delay;
+    if (r.cancelled) best.cancelled = true;
+    else if (r.loglik > best.loglik + kSameOptimum) best = r;
   }
   if (best.cancelled || fitter.Cancelled()) return cancelled_summary();
   if (!std::isfinite(best.loglik))
     return NumericalError("the log-likelihood could not be evaluated anywhere the optimiser went");
+
+  // 5. Uncertainty at the estimate. Where the Hessian shows negative curvature the fit stopped at
+  //    a saddle: step along that direction and fit again (at most kMaxSaddleEscapes times).
+  fitter.Report("standard errors", best.z, best.loglik, delay);
+  Uncertainty u = ComputeUncertainty(fitter, best.z, best.loglik, delay, spec, threads);
+  // Where the exact Hessian promises more than the curvature model the fit stopped on did (a flat
+  // valley, where BHHH's information and its corrections overstate the curvature along it), fit
+  // again starting from the exact Hessian.
+  for (int again = 0; again < kMaxSaddleEscapes && !fitter.Cancelled(); ++again) {
+    std::optional<FitResult> higher;
+    if (u.uphill) {
+      higher = EscapeSaddle(fitter, best, *u.uphill, delay);
+    } else if (u.newton_decrement > kNegligibleImprovement && options.algorithm == Algorithm::kAuto) {
+      FitResult r = fitter.Fit(best.z, delay, "fitting", kMaxBhhhIterations, &u.hessian_scaled);
+      if (r.cancelled || r.loglik > best.loglik) higher = std::move(r);
+    }
+    if (!higher || higher->cancelled) break;
+    best = std::move(*higher);
+    fitter.Report("standard errors", best.z, best.loglik, delay);
+    u = ComputeUncertainty(fitter, best.z, best.loglik, delay, spec, threads);
+  }
+  if (fitter.Cancelled()) return cancelled_summary();
+  // The profile point of the estimate's delay: the final fit's value.
+  if (scanning) {
+    std::erase_if(profile_points, [&](const ProfileValue& p) { return p.delay == delay; });
+    profile_points.push_back({delay, best.loglik, best.converged});
+    std::sort(profile_points.begin(), profile_points.end());
+  }
 
   // Summary at the estimate.
   s.converged = best.converged;
@@ -937,19 +750,26 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   long n_obs = 0;
   s.loglik = fitter.LogLik(best.z, delay, &n_obs);
   s.n_obs = n_obs;
+  if (fitter.HasPriors()) s.log_posterior = best.loglik;
   int scanned = 0;
   for (const auto& d : spec.output_delay) scanned += d.IsScan() ? 1 : 0;
   s.n_free = fitter.k() + scanned;
   s.aic = -2 * s.loglik + 2 * s.n_free;
   s.bic = -2 * s.loglik + s.n_free * std::log(static_cast<double>(s.n_obs));
-
-  if (fitter.Cancelled() || !std::isfinite(s.loglik)) {
-    if (fitter.Cancelled()) return cancelled_summary();
+  if (!std::isfinite(s.loglik))
     return NumericalError("the log-likelihood cannot be evaluated at the estimate");
+  if (u.uphill) {
+    std::string along;
+    for (int i = 0; i < fitter.k(); ++i)
+      if (std::abs((*u.uphill)(i)) > 0.2)
+        along += (along.empty() ? "" : ", ") + spec.parameters[fitter.free()[i]].name;
+    s.converged = false;
+    s.message = "the fit ended at a saddle point of the log-likelihood";
+    u.warnings.insert(u.warnings.begin(),
+                      fmt::format("the estimate is a saddle point, not a maximum: the log-likelihood "
+                                  "curves upward along a combination of {}. Try other start values "
+                                  "or --multistart 8", along));
   }
-  fitter.Report("standard errors", best.z, s.loglik, delay);
-  Uncertainty u = ComputeUncertainty(fitter, best.z, s.loglik, delay, spec, threads);
-  if (fitter.Cancelled()) return cancelled_summary();
   s.warnings = u.warnings;
   const double dof = static_cast<double>(std::max<long>(1, s.n_obs - s.n_free));
   const boost::math::students_t t_dist(dof);
@@ -1032,6 +852,20 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
     else if (range.IsScan() && delay[o] == range.max)
       s.warnings.push_back(fmt::format("the delay of {} ({} samples) is at the top of its scanned "
                                        "range: widen the range", spec.outputs[o], delay[o]));
+  }
+  if (options.profile_intervals) {
+    fitter.Report("profile intervals", best.z, best.loglik, delay);
+    auto intervals = ProfileIntervals(lik, s, {}, options.profile_level, options);
+    if (fitter.Cancelled()) return cancelled_summary();
+    if (!intervals) return intervals.error();
+    std::size_t w = 0;
+    for (auto& e : s.parameters) {
+      if (e.fixed) continue;
+      e.profile = std::move((*intervals)[w++]);
+      AddProfileWarnings(e, &s.warnings);
+    }
+  } else {
+    RecommendProfiles(s.parameters, &s.warnings);
   }
   s.iterations = fitter.iterations();
   s.evaluations = fitter.evaluations();

@@ -2,33 +2,51 @@
 //
 //   θ̂ = argmax_θ log L(θ)   over the free parameters, within their bounds (fixed ones held)
 //
+// The objective is log L, or with priors on some parameters (model::Parameter::prior) the log
+// posterior log L + Σ log N(θ_i | m_i, s_i²) (a MAP estimate).
+//
 // Optimiser, on a scaled copy of the free parameters (z_i = θ_i / s_i, s_i = |start_i|, or 1 when
-// the start is 0) so that a variance of 1e-4 and a gain of 1 move alike:
-//   - auto (default): L-BFGS (NLopt) from each start to a loose tolerance, then BHHH. L-BFGS is
-//     robust far from the optimum, BHHH converges in few iterations near it.
-//   - BHHH: Newton steps d = I⁻¹ g where g is the gradient of log L and I = Σ_j s_j s_j'
-//     the outer product of the per-observation scores s_j = ∂ℓ_j/∂z (ℓ_j: the log-likelihood term
-//     of state index j). I estimates the Fisher information, so near the optimum the steps are
-//     close to Newton's and a fit takes 10-20 iterations where generic quasi-Newton methods need
-//     60+ on these badly conditioned surfaces. Bounds: a parameter on a bound whose gradient
-//     points out is held; steps are clipped to the box; backtracking line search (Armijo).
+// the start is 0) so that a variance of 1e-4 and a gain of 1 move alike. Gradients are exact: the
+// analytic score of the filter (core/filter/score.h), its parameters shared out over the threads.
+//   - auto (default): BHHH with BFGS corrections. The first curvature model is BHHH's
+//     information I = Σ_j s_j s_j', the outer product of the per-observation scores s_j = ∂ℓ_j/∂z
+//     (ℓ_j: the log-likelihood term of state index j), which estimates the Fisher information:
+//     near the optimum of a well-specified model the steps are close to Newton's. Each accepted
+//     step then corrects it by a BFGS update from the change of the exact gradient, which learns
+//     the difference where the model is misspecified (a wrong delay) and far from the optimum.
+//     A line search that fails on the corrected model restarts it from BHHH's information.
+//     Where this cannot finish (flat or bound-limited directions), L-BFGS (NLopt) finishes.
+//     Typically 15-60 gradient evaluations per fit.
+//   - BHHH: the same without the BFGS corrections. Bounds, in both: a parameter on a bound whose
+//     gradient points out is held; steps are clipped to the box; backtracking line search (Armijo).
 //   - NLopt's LD_SLSQP, LD_LBFGS (bounds native) or LN_BOBYQA (derivative-free), selectable.
-// Gradients and scores by central differences, the 2k evaluations spread over threads; a
-// difference that would leave the bounds is taken one-sided.
 //
 // Output delays with a range [min, max] (CONTRACT section 1) are estimated by profile likelihood:
-// the fit alternates between θ at a fixed delay and the best delay at that θ until the delay
-// stops changing; then θ is re-optimised at every other delay of the range (warm-started), which
-// gives the profile log L(d) = max_θ log L(θ, d), and the best of those is the estimate.
+// the delay to start at is the best of the grid at the start values; the fit alternates between
+// θ at a fixed delay and the best delay at that θ until the delay stops changing; then θ is re-
+// optimised to convergence at every other delay of the range (warm-started from the nearest
+// fitted delay), which gives the profile log L(d) = max_θ log L(θ, d), and the best of those is
+// the estimate. When that is not the delay the plain start was fitted at, the plain start is
+// fitted there too (a first delay far from the right one can lead its fit to a poor optimum that
+// the warm-started fits inherit), and the better fit is kept.
 //
-// Uncertainty: H = Hessian of -log L at θ̂ on the natural scale (central differences), over the
-// free parameters that are not at a bound. Cov = H⁻¹, standard errors sqrt(diag Cov),
-// t = θ̂ / SE, p = two-sided P(|T| > |t|) for Student's t with n_obs - n_free degrees of freedom
-// (as CTSM reports). When H is not positive definite the directions it fails in are named and
-// those parameters get no standard error (never a misleadingly small one). Where log L cannot
-// be evaluated on one side of an estimate, that parameter's differences are one-sided (second
-// order); where it fails on both sides, the parameter gets no standard error and the others'
-// hold it at its estimate. Both are warned about.
+// Multistart: extra starts (Latin hypercube over the bounds) are fitted at the delay found from
+// the plain start; the best of all is the estimate, and the summary says how many reached it.
+//
+// Uncertainty: H = Hessian of -log L (or -log posterior) at θ̂ on the natural scale, from central
+// differences of the exact gradient, over the free parameters that are not at a bound.
+// Cov = H⁻¹, standard errors sqrt(diag Cov), t = θ̂ / SE, p = two-sided P(|T| > |t|) for
+// Student's t with n_obs - n_free degrees of freedom (as CTSM reports). When H is not positive
+// definite the directions it fails in are named and those parameters get no standard error
+// (never a misleadingly small one). Where the gradient cannot be computed on one side of an
+// estimate, that parameter's differences are one-sided (second order); where it fails on both
+// sides, the parameter gets no standard error and the others' hold it at its estimate. Both are
+// warned about. Where H has a clearly negative eigenvalue the fit stopped at a saddle point: it
+// steps along that direction and fits again (up to 3 times); a saddle it cannot leave is reported
+// as not converged, with what to try.
+//
+// Profile likelihood intervals (ProfileIntervals below): for a parameter θ_i, the set where
+// max over the others of log L stays within χ²₁(level)/2 of log L(θ̂).
 #pragma once
 
 #include <atomic>
@@ -56,19 +74,16 @@ struct Progress {
 };
 
 enum class Algorithm {
-  kAuto,    // from each start: NLopt L-BFGS to a loose tolerance (robust far from the optimum),
-            // then BHHH to the final tolerance; warm-started delay-profile fits: BHHH only
+  kAuto,    // BHHH's information corrected by BFGS updates, L-BFGS to finish where it cannot
   kBhhh,    // Newton steps with the BHHH information (outer product of per-observation scores),
             // projected onto the bounds, with a line search: few iterations on ML problems
-  kLbfgs,   // NLopt LD_LBFGS: limited-memory quasi-Newton with bounds, gradients by differences
+  kLbfgs,   // NLopt LD_LBFGS: limited-memory quasi-Newton with bounds
   kSlsqp,   // NLopt LD_SLSQP: sequential quadratic programming with a dense BFGS Hessian
   kBobyqa,  // NLopt LN_BOBYQA: derivative-free quadratic models within the bounds
 };
 
 struct EstimateOptions {
   Algorithm algorithm = Algorithm::kAuto;
-  // With kAuto: the relative tolerance at which the L-BFGS phase hands over to BHHH.
-  double handover_ftol_rel = 1e-7;
   // Stop when an iteration changes -log L by less than ftol_rel times its value.
   double ftol_rel = 1e-12;
   // ... or changes every scaled parameter by less than xtol_rel (relative).
@@ -79,17 +94,41 @@ struct EstimateOptions {
   // spread log-uniformly within a factor 10 of their start). 0: only the model's start values.
   int multistart = 0;
   std::uint64_t seed = 1;
-  // Threads for gradients and the Hessian; 0 = all cores.
+  // Threads for the score (its parameters shared out) and the Hessian; 0 = all cores.
   int threads = 0;
   // Re-optimise θ at every delay of a scanned range (the full profile). Off: the profile is
   // evaluated at θ̂ only (cheaper, and enough to locate the delay).
   bool full_delay_profile = true;
+  // Likelihood-ratio (profile) intervals for every free parameter, at profile_level.
+  bool profile_intervals = false;
+  double profile_level = 0.95;
   // Called from the estimating thread after every iteration (keep it short).
   std::function<void(const Progress&)> progress;
   // Set to true from any thread to stop; Estimate returns within about one evaluation.
   const std::atomic<bool>* cancel = nullptr;
 
   bool IsValid(std::string* why) const;
+};
+
+// The profile log-likelihood of one parameter θ_i: at each value v, the maximum of log L (or of
+// the log posterior, with priors) over the other free parameters with θ_i held at v (the delays
+// held at their estimates). The likelihood-ratio interval at `level` is where the profile stays
+// within χ²₁(level)/2 of its maximum.
+struct ProfilePoint {
+  double value = 0.0;
+  double loglik = 0.0;
+  bool converged = true;   // false: that fit stopped early (its value is a lower bound)
+};
+
+struct ProfileInterval {
+  double level = 0.95;
+  // An end is absent when the profile stays above the threshold all the way to the parameter's
+  // bound (at_bound: the data do not bound the parameter on that side) or to where the search
+  // gave up (not at_bound; the warning says why).
+  std::optional<double> lower, upper;
+  bool lower_at_bound = false, upper_at_bound = false;
+  std::vector<ProfilePoint> curve;   // every value fitted, sorted, the estimate included
+  std::vector<std::string> warnings;
 };
 
 struct ParameterEstimate {
@@ -102,6 +141,7 @@ struct ParameterEstimate {
   bool fixed = false;
   bool at_bound = false;
   std::string unit;
+  std::optional<ProfileInterval> profile;  // with EstimateOptions::profile_intervals
 };
 
 struct DelayProfilePoint {
@@ -123,7 +163,8 @@ struct EstimateSummary {
   bool cancelled = false;
   std::string model_name;
   std::vector<std::string> datasets;
-  double loglik = 0.0;
+  double loglik = 0.0;      // log L at the estimate (without the priors)
+  std::optional<double> log_posterior;  // with priors: log L + Σ log prior (a MAP estimate)
   long n_obs = 0;
   int n_free = 0;           // free parameters + scanned delays
   double aic = 0.0;         // -2 log L + 2 n_free
@@ -131,6 +172,8 @@ struct EstimateSummary {
   int iterations = 0;
   int evaluations = 0;
   double elapsed_s = 0.0;
+  int starts = 1;           // start points fitted (the model's and the multistart ones)
+  int starts_at_best = 1;   // of them, those that reached the best optimum (within 1e-3 in log L)
   std::vector<ParameterEstimate> parameters;   // all parameters, in model order
   std::vector<double> theta;                   // all parameters at the estimate
   std::vector<std::string> correlation_names;  // parameters with a standard error
@@ -147,6 +190,21 @@ struct EstimateSummary {
 // likelihood cannot be evaluated at the start values; a fit that does not converge returns a
 // summary with converged = false and a message saying why.
 Result<EstimateSummary> Estimate(const filter::Likelihood& likelihood, const EstimateOptions& options);
+
+// The profile log-likelihood and likelihood-ratio interval at `level` of each free parameter named
+// in `names` (empty: every free parameter), at the estimate `at` of `likelihood`'s model (its
+// delays held). Each side of each parameter walks outward from the estimate, with steps from its
+// standard error (or 10 % of its value) that grow where the profile is flat, fitting the others
+// warm-started from the last point, until the profile drops below the threshold; the end is then
+// found by the Illinois (regula falsi) method to 1e-3 in log L. The (parameter, side) searches
+// run in parallel (fit_options.threads). Fails for an unknown or fixed name, or a summary of
+// another model. If a profile rises above log L(θ̂), the estimate was not the maximum: a warning
+// says so.
+Result<std::vector<ProfileInterval>> ProfileIntervals(const filter::Likelihood& likelihood,
+                                                      const EstimateSummary& at,
+                                                      const std::vector<std::string>& names,
+                                                      double level,
+                                                      const EstimateOptions& fit_options);
 
 // The likelihood-ratio test of a restricted model (fewer free parameters) against a full one.
 struct LikelihoodRatioTest {

@@ -2,6 +2,7 @@
 // section 5). No NaN is ever printed as a number: missing values are blank / null.
 #include <cmath>
 
+#include <boost/math/distributions/normal.hpp>
 #include <fmt/format.h>
 
 #include "core/estimate/estimate.h"
@@ -38,6 +39,12 @@ std::string EstimateSummary::Report() const {
   line("");
   line(fmt::format("Log-likelihood: {:.6f}   AIC: {:.3f}   BIC: {:.3f}   free parameters: {}",
                    loglik, aic, bic, n_free));
+  if (log_posterior)
+    line(fmt::format("MAP estimate (priors on some parameters): log posterior {:.6f}",
+                     *log_posterior));
+  if (starts > 1)
+    line(fmt::format("Multistart: {} of {} starts reached the best optimum", starts_at_best,
+                     starts));
   for (const auto& d : delays) {
     if (!d.scanned && d.estimate == 0) continue;
     line(fmt::format("Output delay of {}: {} samples{}", d.output, d.estimate,
@@ -60,6 +67,36 @@ std::string EstimateSummary::Report() const {
                      p.p_value ? PValue(*p.p_value) : "", bounds));
   }
   line("p-values: two-sided, Student's t with n_obs - n_free degrees of freedom.");
+  // Profile likelihood intervals beside the Wald ones.
+  bool any_profile = false;
+  for (const auto& p : parameters) any_profile = any_profile || p.profile.has_value();
+  if (any_profile) {
+    double level = 0.95;
+    for (const auto& p : parameters)
+      if (p.profile) level = p.profile->level;
+    const double zq = boost::math::quantile(boost::math::normal(), 0.5 + level / 2);
+    line("");
+    line(fmt::format("{:.0f} % intervals: profile likelihood (likelihood ratio) and Wald (estimate "
+                     "+- {:.3f} SE):", 100 * level, zq));
+    line(fmt::format("{:<{}} {:>13} {:>13}   {:>13} {:>13}", "", w, "profile lower",
+                     "profile upper", "Wald lower", "Wald upper"));
+    auto end = [](const std::optional<double>& v, bool at_bound) {
+      return v ? Num(*v) : std::string(at_bound ? "(bound)" : "(none)");
+    };
+    for (const auto& p : parameters) {
+      if (!p.profile) continue;
+      const auto& pi = *p.profile;
+      std::string wald_lo, wald_hi;
+      if (p.std_error) {
+        wald_lo = Num(p.estimate - zq * *p.std_error);
+        wald_hi = Num(p.estimate + zq * *p.std_error);
+      }
+      line(fmt::format("{:<{}} {:>13} {:>13}   {:>13} {:>13}", p.name, w,
+                       end(pi.lower, pi.lower_at_bound), end(pi.upper, pi.upper_at_bound),
+                       wald_lo, wald_hi));
+    }
+    line("(bound): the profile stays within the threshold up to the parameter's bound.");
+  }
   // Delay profile.
   for (const auto& d : delays) {
     if (!d.scanned) continue;
@@ -116,6 +153,8 @@ Json EstimateSummary::ToJson() const {
   j["iterations"] = iterations;
   j["evaluations"] = evaluations;
   j["elapsed_s"] = elapsed_s;
+  if (log_posterior) j["log_posterior"] = *log_posterior;
+  j["starts"] = {{"total", starts}, {"at_best", starts_at_best}};
   Json params = Json::object();
   for (const auto& p : parameters) {
     Json e;
@@ -128,6 +167,16 @@ Json EstimateSummary::ToJson() const {
     e["fixed"] = p.fixed;
     e["at_bound"] = p.at_bound;
     if (!p.unit.empty()) e["unit"] = p.unit;
+    if (p.profile) {
+      const auto& pi = *p.profile;
+      e["profile_interval"] = {{"lower", OptJson(pi.lower)}, {"upper", OptJson(pi.upper)},
+                               {"level", pi.level}};
+      Json points = Json::array();
+      for (const auto& pt : pi.curve) points.push_back({pt.value, pt.loglik, pt.converged});
+      e["profile"] = {{"lower_at_bound", pi.lower_at_bound},
+                      {"upper_at_bound", pi.upper_at_bound},
+                      {"points", points}};
+    }
     params[p.name] = e;
   }
   j["parameters"] = params;

@@ -120,11 +120,11 @@ Result<Parameter> ReadParameter(const Parser& p, const std::string& name, const 
     return p.Fail(base, "expected an object like {\"value\": 1, \"lower\": 0, \"upper\": 10}, "
                         "found " + JsonTypeName(v));
   static const std::set<std::string> kKeys = {"value", "lower", "upper", "fixed", "unit",
-                                              "description"};
+                                              "description", "prior"};
   for (auto it = v.begin(); it != v.end(); ++it) {
     if (!kKeys.count(it.key()))
-      return p.Fail(base + "." + it.key(),
-                    "unknown field (a parameter has value, lower, upper, fixed, unit, description)");
+      return p.Fail(base + "." + it.key(), "unknown field (a parameter has value, lower, upper, "
+                                           "fixed, unit, description, prior)");
   }
   if (!v.contains("value")) return p.Fail(base, "the parameter has no \"value\"");
   auto value = ReadNumber(p, v["value"], base + ".value");
@@ -146,6 +146,24 @@ Result<Parameter> ReadParameter(const Parser& p, const std::string& name, const 
     if (!v[key].is_string())
       return p.Fail(base + "." + key, "expected a string, found " + JsonTypeName(v[key]));
     (std::string(key) == "unit" ? par.unit : par.description) = v[key].get<std::string>();
+  }
+  if (v.contains("prior") && !v["prior"].is_null()) {
+    const Json& pr = v["prior"];
+    const std::string path = base + ".prior";
+    if (!pr.is_object())
+      return p.Fail(path, "expected an object like {\"mean\": 0.1, \"sd\": 0.02}, found " +
+                              JsonTypeName(pr));
+    for (auto it = pr.begin(); it != pr.end(); ++it)
+      if (it.key() != "mean" && it.key() != "sd")
+        return p.Fail(path + "." + it.key(), "unknown field (a prior has mean and sd)");
+    for (const char* key : {"mean", "sd"})
+      if (!pr.contains(key)) return p.Fail(path, fmt::format("the prior has no \"{}\"", key));
+    auto mean = ReadNumber(p, pr["mean"], path + ".mean");
+    if (!mean) return mean.error();
+    auto sd = ReadNumber(p, pr["sd"], path + ".sd");
+    if (!sd) return sd.error();
+    if (!(*sd > 0)) return p.Fail(path + ".sd", fmt::format("the prior's sd must be > 0, found {}", *sd));
+    par.prior = Parameter::Prior{*mean, *sd};
   }
   if (par.lower && par.upper && !(*par.lower < *par.upper))
     return p.Fail(base, fmt::format("the bounds are inverted or empty: lower {} is not below "
@@ -499,6 +517,7 @@ Json ParametersToJson(const std::vector<Parameter>& parameters) {
     if (par.fixed) v["fixed"] = true;
     if (!par.unit.empty()) v["unit"] = par.unit;
     if (!par.description.empty()) v["description"] = par.description;
+    if (par.prior) v["prior"] = {{"mean", par.prior->mean}, {"sd", par.prior->sd}};
     ps[par.name] = v;
   }
   return ps;

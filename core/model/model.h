@@ -33,6 +33,13 @@ struct Parameter {
   bool fixed = false;
   std::string unit;
   std::string description;
+  // A Gaussian prior N(mean, sd²) on the natural scale: the fit maximises log L + Σ log N(θ|m, s)
+  // (a MAP estimate). Absent: maximum likelihood in this parameter.
+  struct Prior {
+    double mean = 0.0;
+    double sd = 1.0;
+  };
+  std::optional<Prior> prior;
 };
 
 // An expression together with where it came from.

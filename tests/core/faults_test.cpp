@@ -413,9 +413,9 @@ class HessianNearAFailure : public ::testing::Test {
       if (w.find(text) != std::string::npos) return true;
     return false;
   }
-  // The Hessian step of a in natural units (estimate.cpp: 1e-4 of |z| in scaled units, scale =
-  // |start| = 0.5).
-  static double StepOfA() { return 1e-4 * std::abs(reference_.theta[0]); }
+  // The Hessian's step of a in natural units (estimate.cpp: differences of the exact gradient,
+  // kGradientHessianStep = 1e-5 of |z| in scaled units; scale = |start|, z = θ / scale).
+  static double StepOfA() { return 1e-5 * std::abs(reference_.theta[0]); }
 
   static std::shared_ptr<const data::Series> series_;
   static estimate::EstimateSummary reference_;
