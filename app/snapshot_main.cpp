@@ -1,7 +1,7 @@
 // greybench-snapshot: renders one view of the workbench offscreen (OSMesa) to a PNG.
 // CONTRACT section 6:
 //   greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png [--width W --height H]
-//                      [--estimate] [--dialog DIALOG] [--time T0:T1]
+//                      [--estimate] [--dialog DIALOG] [--time T0:T1] [--profile PARAMETER]
 // Exit status: 0 written; 2 bad command line or bad input (stderr names the file); 1 the
 // rendering or the PNG writing failed, or --estimate's estimation failed (the PNG is still
 // written: it shows why).
@@ -17,6 +17,10 @@
 // threads = 1 and the other options at their defaults. For the operating-points view, whose
 // computation is the sweep, it starts the sweep as that view's Run button does (StartSweep)
 // instead.
+//
+// --profile NAME (with --estimate): the estimation computes the profile likelihood intervals (the
+// Estimate view's "Profile intervals" box) and the Parameters view plots NAME's profile, as a
+// click on its interval does.
 //
 // --dialog opens one of the shell's dialogs over the view, as its menu item does (the file
 // browser lists a real folder, so its dates make that picture depend on the machine).
@@ -66,6 +70,7 @@ struct Options {
   int width = 1280;
   int height = 800;
   bool estimate = false;
+  std::string profile;  // --profile NAME: with --estimate, profile intervals and NAME's plot
   std::optional<gb::ui::plot::Range> time;  // --time: the time axes' range (else the whole record)
   std::string dialog;  // a dialog of the shell drawn over the view (ui/shell/shell.h)
 };
@@ -74,7 +79,7 @@ constexpr const char* kUsage =
     "usage: greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png\n"
     "                          [--view VIEW --out OUT.png ...]\n"
     "                          [--width W] [--height H] [--estimate] [--dialog DIALOG]\n"
-    "                          [--time T0:T1]\n"
+    "                          [--time T0:T1] [--profile PARAMETER]\n"
     "VIEW: data diagram equations estimate predictions residuals parameters operating-points\n"
     "DIALOG: open-project save-project-as new-project keyboard-shortcuts unsaved-changes\n";
 
@@ -101,12 +106,14 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
     if (arg == "--help" || arg == "-h") return "help";
     const bool takes_value = arg == "--project" || arg == "--view" || arg == "--out" ||
                              arg == "--width" || arg == "--height" || arg == "--dialog" ||
-                             arg == "--time";
+                             arg == "--time" || arg == "--profile";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
     if (arg == "--project") {
       o->project = value;
+    } else if (arg == "--profile") {
+      o->profile = value;
     } else if (arg == "--view") {
       const std::optional<gb::ui::View> view = gb::ui::ParseView(value);
       if (!view) return "unknown view '" + value + "'";
@@ -180,6 +187,10 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
   for (const Shot& shot : options.shots) others |= shot.view != ui::View::kOperatingPoints;
   if (options.estimate && others) {
     state.estimation.settings.threads = 1;  // the same iterations on every machine
+    if (!options.profile.empty()) {
+      state.estimation.settings.profile_intervals = true;
+      state.parameters_view.profile_plot = options.profile;
+    }
     std::string why;
     if (!ui::StartEstimation(state, &why)) return Fail(kExitBadInput, "--estimate: " + why);
     ui::WaitForJobs(state);

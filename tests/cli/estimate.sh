@@ -54,5 +54,45 @@ check "compare refuses models with equal numbers of parameters" test $? -eq 2
 "$cli" compare "$tmp/u.csv" "$tmp/full.json" >/dev/null 2>"$tmp/err.txt"
 check "compare refuses a file that is not a result" test $? -eq 2
 
+# Profile likelihood intervals (issue 14): in the result JSON as {"lower", "upper", "level"}, the
+# estimate inside; the report prints them beside the Wald intervals.
+"$cli" estimate "$data/cli/fuel.json" "$tmp/d.csv" --profile-intervals --profile-level 0.9 \
+  --out "$tmp/profile.json" >"$tmp/profile.txt"
+check "estimate --profile-intervals exits 0" test $? -eq 0
+check "the report has the profile intervals" grep -q "90 % intervals: profile likelihood" "$tmp/profile.txt"
+check "every free parameter has its profile interval" python3 - "$tmp/profile.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+for name, p in r["parameters"].items():
+    if p["fixed"]:
+        assert "profile_interval" not in p, name
+        continue
+    pi = p["profile_interval"]
+    assert pi["level"] == 0.9, name
+    assert pi["lower"] is None or pi["lower"] <= p["estimate"], name
+    assert pi["upper"] is None or pi["upper"] >= p["estimate"], name
+    assert pi["lower"] is not None or p["profile"]["lower_at_bound"] or p["at_bound"], name
+assert r["starts"] == {"total": 1, "at_best": 1}
+PY
+# A prior: the result says it is a MAP estimate.
+python3 - "$data/cli/fuel.json" "$tmp/prior.json" <<'PY'
+import json, sys
+m = json.load(open(sys.argv[1]))
+m["parameters"]["X"]["prior"] = {"mean": 0.2, "sd": 0.01}
+json.dump(m, open(sys.argv[2], "w"))
+PY
+"$cli" estimate "$tmp/prior.json" "$tmp/d.csv" --out "$tmp/prior.out.json" >"$tmp/prior.txt"
+check "a prior gives a MAP estimate" grep -q "MAP estimate" "$tmp/prior.txt"
+check "the result has the log posterior" python3 -c "import json,sys; r=json.load(open(sys.argv[1])); assert r['log_posterior'] != r['loglik']" "$tmp/prior.out.json"
+python3 - "$data/cli/fuel.json" "$tmp/badprior.json" <<'PY'
+import json, sys
+m = json.load(open(sys.argv[1]))
+m["parameters"]["X"]["prior"] = {"mean": 0.2, "sd": -1}
+json.dump(m, open(sys.argv[2], "w"))
+PY
+"$cli" estimate "$tmp/badprior.json" "$tmp/d.csv" >/dev/null 2>"$tmp/err.txt"
+check "a negative prior sd is bad input" test $? -eq 2
+check "... named by its path" grep -q "parameters.X.prior.sd" "$tmp/err.txt"
+
 echo "$passes passed, $failures failed"
 [ "$failures" -eq 0 ]

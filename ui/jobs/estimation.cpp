@@ -110,6 +110,7 @@ EstimationRun RunEstimation(const EstimationInput& input, EstimationProgress& pr
     options.algorithm = input.settings.algorithm;
     options.multistart = input.settings.multistart;
     options.threads = input.settings.threads;
+    options.profile_intervals = input.settings.profile_intervals;
     options.cancel = &control.cancel;
     options.progress = [&progress](const estimate::Progress& p) { progress.Record(p); };
     Result<estimate::EstimateSummary> summary = estimate::Estimate(*likelihood, options);

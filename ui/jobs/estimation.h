@@ -32,6 +32,7 @@ struct EstimationSettings {
   estimate::Algorithm algorithm = estimate::Algorithm::kAuto;
   int multistart = 0;  // extra starts spread over the bounds
   int threads = 0;     // 0: all cores
+  bool profile_intervals = false;  // likelihood-ratio intervals of every free parameter (95 %)
 };
 inline constexpr int kMaxMultistart = 1000;
 inline constexpr int kMaxThreads = 256;
@@ -42,7 +43,7 @@ struct AlgorithmInfo {
   const char* summary;  // one line for a tooltip
 };
 inline constexpr std::array<AlgorithmInfo, 5> kAlgorithms = {{
-    {estimate::Algorithm::kAuto, "auto", "L-BFGS far from the optimum, then BHHH near it"},
+    {estimate::Algorithm::kAuto, "auto", "BHHH's information corrected by BFGS updates (exact gradients)"},
     {estimate::Algorithm::kBhhh, "bhhh", "Newton steps with the outer-product information"},
     {estimate::Algorithm::kSlsqp, "slsqp", "NLopt SLSQP: sequential quadratic programming"},
     {estimate::Algorithm::kLbfgs, "lbfgs", "NLopt L-BFGS: limited-memory quasi-Newton"},

@@ -102,6 +102,12 @@ void DrawToolbar(AppState& state) {
   ImGui::SameLine();
   ImGui::AlignTextToFramePadding();
   ImGui::TextDisabled("%s", e.settings.threads == 0 ? "(all cores)" : "");
+  ImGui::SameLine(0, gap);
+  ImGui::Checkbox("Profile intervals", &e.settings.profile_intervals);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("Likelihood-ratio (profile) 95 %% intervals for every free parameter, "
+                      "shown in the Parameters view beside the Wald intervals (costs about a "
+                      "dozen fits per parameter)");
   ImGui::EndDisabled();
 }
 

@@ -1,8 +1,9 @@
 // The parameters view: one row per model parameter with its start value, bounds and whether
 // it is fixed, all editable; after a fit also the estimate, standard error, t, p, the 95 %
-// interval (estimate ± 1.96 SE) and a note for estimates at a bound. Below the table: the
-// warnings of the fit (identifiability, correlation) and the correlation of the estimates as a
-// heat map.
+// interval (estimate ± 1.96 SE) and a note for estimates at a bound; when the fit computed them,
+// the profile likelihood intervals beside, and (on a click on one) that parameter's profile
+// log-likelihood plotted under the table. Below: the warnings of the fit (identifiability,
+// correlation) and the correlation of the estimates as a heat map.
 //
 // Edits: the table emits ParameterEdits into state.parameters_view.pending while it is drawn;
 // ApplyParameterEdits() applies them after the table through core's validation, which may
@@ -25,11 +26,13 @@
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
 #include "ui/widgets/heatmap.h"
+#include "ui/widgets/plot.h"
 
 namespace gb::ui {
 namespace {
 
 constexpr float kInputWidth = 80.0f;  // the start value and bound cells, pixels at scale 1
+constexpr float kNarrowInputWidth = 64.0f;  // ... beside the profile intervals
 constexpr double kZ95 = 1.96;         // two-sided 95 % normal quantile
 constexpr int kEstimateDigits = 5;
 constexpr int kErrorDigits = 3;
@@ -197,6 +200,40 @@ void EstimateCells(const estimate::ParameterEstimate* e) {
   }
 }
 
+// The profile interval "lo … hi" ("bound" for an end the data do not reach before the
+// parameter's bound, "none" where the search gave up); a click plots the profile.
+void ProfileCell(AppState& state, const estimate::ParameterEstimate* e) {
+  ImGui::TableNextColumn();
+  if (!e || !e->profile) {
+    TextRight(kDash, true);
+    return;
+  }
+  const estimate::ProfileInterval& pi = *e->profile;
+  auto end = [](const std::optional<double>& v, bool at_bound) {
+    return v ? FormatSig(*v, kErrorDigits) : std::string(at_bound ? "bound" : "none");
+  };
+  const std::string text = end(pi.lower, pi.lower_at_bound) + " \xE2\x80\xA6 " +
+                           end(pi.upper, pi.upper_at_bound);
+  const bool shown = state.parameters_view.profile_plot == e->name;
+  const float w = ImGui::CalcTextSize(text.c_str()).x;
+  const float avail = ImGui::GetContentRegionAvail().x;
+  if (avail > w) ImGui::SetCursorPosX(ImGui::GetCursorPosX() + avail - w);
+  ImGui::PushID("profile");
+  if (ImGui::Selectable(text.c_str(), shown, ImGuiSelectableFlags_None, ImVec2(w, 0)))
+    state.parameters_view.profile_plot = shown ? "" : e->name;
+  ImGui::PopID();
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("Click to %s the profile log-likelihood of %s", shown ? "hide" : "plot",
+                      e->name.c_str());
+}
+
+bool HasProfiles(const FitResult* r) {
+  if (!r) return false;
+  for (const estimate::ParameterEstimate& e : r->summary.parameters)
+    if (e.profile) return true;
+  return false;
+}
+
 void HeaderRight(const char* label) {
   ImGui::TableNextColumn();
   const float w = ImGui::CalcTextSize(label, nullptr, true).x;
@@ -209,7 +246,8 @@ void DrawTable(AppState& state, const FitResult* result) {
   const float s = state.fonts.scale;
   const model::ModelSpec& m = *state.model;
   const bool with_fit = result != nullptr;
-  const int columns = with_fit ? 11 : 7;
+  const bool with_profiles = HasProfiles(result);
+  const int columns = with_fit ? (with_profiles ? 12 : 11) : 7;
   const ImGuiTableFlags flags = ImGuiTableFlags_BordersOuter | ImGuiTableFlags_BordersInnerH |
                                 ImGuiTableFlags_BordersInnerV | ImGuiTableFlags_RowBg |
                                 ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_NoSavedSettings;
@@ -223,16 +261,21 @@ void DrawTable(AppState& state, const FitResult* result) {
   }
   ImGui::TableSetupColumn("Parameter");
   ImGui::TableSetupColumn("Unit");
-  ImGui::TableSetupColumn("Start", ImGuiTableColumnFlags_WidthFixed, kInputWidth * s);
-  ImGui::TableSetupColumn("Lower", ImGuiTableColumnFlags_WidthFixed, kInputWidth * s);
-  ImGui::TableSetupColumn("Upper", ImGuiTableColumnFlags_WidthFixed, kInputWidth * s);
+  // Narrower inputs when the profile intervals need the room.
+  const float input_w = (with_profiles ? kNarrowInputWidth : kInputWidth) * s;
+  ImGui::TableSetupColumn("Start", ImGuiTableColumnFlags_WidthFixed, input_w);
+  ImGui::TableSetupColumn("Lower", ImGuiTableColumnFlags_WidthFixed, input_w);
+  ImGui::TableSetupColumn("Upper", ImGuiTableColumnFlags_WidthFixed, input_w);
   ImGui::TableSetupColumn("Fixed");
   if (with_fit) {
     ImGui::TableSetupColumn("Estimate");
     ImGui::TableSetupColumn("Std. error");
     ImGui::TableSetupColumn("t");
     ImGui::TableSetupColumn("p");
-    ImGui::TableSetupColumn("95 % interval", ImGuiTableColumnFlags_WidthStretch);
+    ImGui::TableSetupColumn(with_profiles ? "95 % Wald" : "95 % interval",
+                            ImGuiTableColumnFlags_WidthStretch);
+    if (with_profiles)
+      ImGui::TableSetupColumn("95 % profile", ImGuiTableColumnFlags_WidthStretch);
   } else {
     ImGui::TableSetupColumn("Description", ImGuiTableColumnFlags_WidthStretch);
   }
@@ -277,6 +320,7 @@ void DrawTable(AppState& state, const FitResult* result) {
     FixedCell(state, p);
     if (with_fit) {
       EstimateCells(FindEstimate(result, p.name));
+      if (with_profiles) ProfileCell(state, FindEstimate(result, p.name));
     } else {
       ImGui::TableNextColumn();
       ImGui::AlignTextToFramePadding();
@@ -299,6 +343,46 @@ void DrawRefusal(AppState& state) {
   ImGui::PopTextWrapPos();
   ImGui::SameLine();
   if (ImGui::SmallButton("Dismiss")) r.reset();
+}
+
+// The profile log-likelihood of the parameter picked in the table, relative to its maximum, with
+// the threshold -χ²₁(0.95)/2 and the interval's ends.
+void DrawProfile(AppState& state, const FitResult& r, float height) {
+  const estimate::ParameterEstimate* e = FindEstimate(&r, state.parameters_view.profile_plot);
+  if (!e || !e->profile || e->profile->curve.empty()) return;
+  const estimate::ProfileInterval& pi = *e->profile;
+  const double top = r.summary.log_posterior.value_or(r.summary.loglik);
+  std::vector<double> x, y;
+  for (const estimate::ProfilePoint& pt : pi.curve) {
+    x.push_back(pt.value);
+    y.push_back(pt.loglik - top);
+  }
+  const double threshold = -0.5 * 3.841458820694124;  // χ²₁(0.95)/2
+  const double x0 = x.front(), x1 = x.back();
+  const double tx[2] = {x0, x1}, ty[2] = {threshold, threshold};
+  const std::string title = "Profile log-likelihood of " + e->name + " (relative to the maximum)";
+  plot::PlotOptions options;
+  options.title = title.c_str();
+  options.x_label = e->name.c_str();
+  options.x_unit = e->unit.empty() ? nullptr : e->unit.c_str();
+  options.y_label = "log L - max";
+  ImGui::PushID("profile_plot");
+  if (plot::BeginPlot(state.plots, "##profile", ImVec2(-1, height), options)) {
+    plot::ItemStyle line;
+    line.color = IM_COL32(255, 127, 14, 255);
+    plot::PlotLine(state.plots, "profile", x.data(), y.data(), static_cast<int>(x.size()), line);
+    plot::PlotMarkers(state.plots, "fits", x.data(), y.data(), static_cast<int>(x.size()), line);
+    plot::ItemStyle limit;
+    limit.color = IM_COL32(120, 120, 120, 255);
+    plot::PlotLine(state.plots, "95 % threshold", tx, ty, 2, limit);
+    plot::ItemStyle est;
+    est.color = IM_COL32(214, 39, 40, 255);
+    est.marker_radius = 5.0f;
+    const double ex = e->estimate, ey = 0.0;
+    plot::PlotMarkers(state.plots, "estimate", &ex, &ey, 1, est);
+    plot::EndPlot(state.plots);
+  }
+  ImGui::PopID();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -398,6 +482,10 @@ void DrawParametersPanel(AppState& state) {
   if (result) {
     const float s = state.fonts.scale;
     ImGui::Spacing();
+    if (!state.parameters_view.profile_plot.empty()) {
+      DrawProfile(state, *result, 240.0f * s);
+      ImGui::Spacing();
+    }
     // The heat map fits the rest of the view (down to a legible size; below it, it scrolls).
     const ImGuiStyle& style = ImGui::GetStyle();
     const float heading_h = ImGui::GetTextLineHeight() + 8.0f * s + 3.0f * style.ItemSpacing.y;

@@ -163,6 +163,7 @@ struct ParametersViewState {
   std::string editing_text;
   bool use_estimates_requested = false;
   std::optional<ParameterRefusal> refusal;
+  std::string profile_plot;  // the parameter whose profile log-likelihood is plotted ("": none)
 };
 
 // A formula typed in the Equations view that the model has not accepted (yet): kept, with the
