@@ -3,6 +3,7 @@
 #include "core/filter/kalman.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <complex>
@@ -192,6 +193,18 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
   }
 
   const int j_end = kTrace ? N - 1 : ctx.last_j;
+  // The steady state (kalman.h): the record of the last full step, replayed while it applies.
+  constexpr bool kSteady = !kTrace && NX != Eigen::Dynamic;
+  struct StepRecord {
+    std::uint64_t mask = 0;   // the outputs updated, in order
+    int group = -1;           // the interval of the time update (-1: none)
+    Mat P_start;              // P at the start of the step
+    std::array<Vec, 64> PCt;  // P c' of each scalar update, in order
+    std::array<double, 64> R{};
+  };
+  StepRecord rec;
+  bool steady = false;
+  const bool can_be_steady = kSteady && p <= 64;
   // Without per-step terms, Σ log R is accumulated as a product (one log per series).
   const bool per_step_log = kTrace || ctx.terms != nullptr;
   LogProduct log_product;
@@ -215,6 +228,21 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
     double r2 = 0.0;
     double logdet = 0.0;
     int p_j = 0;
+    std::uint64_t mask = 0;
+    if (can_be_steady) {
+      for (int o = 0; o < p; ++o) {
+        const int k = j + ctx.delay[o];
+        if (k >= N || k < ctx.first_obs[o]) continue;
+        if (!std::isnan(Y[static_cast<std::size_t>(k) * p + o])) mask |= std::uint64_t{1} << o;
+      }
+      const int group_j = j == N - 1 ? -1 : group[j];
+      steady = steady && mask == rec.mask && group_j == rec.group;
+      if (!steady) {
+        rec.mask = mask;
+        rec.group = group_j;
+        rec.P_start = P;
+      }
+    }
     for (int o = 0; o < p; ++o) {
       const int k = j + ctx.delay[o];
       if (k >= N || k < ctx.first_obs[o]) continue;
@@ -225,16 +253,23 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
         const double* u = U + static_cast<std::size_t>(j) * m;
         for (int i = 0; i < m; ++i) yhat += D(o, i) * u[i];
       }
-      PCt.noalias() = P * C[o].transpose();
-      const double R = C[o].dot(PCt) + ss.S(o);
-      if (!(R > 0.0)) return NotPositiveInnovationVariance(series, o, k, R);
+      double R;
+      if (steady) {  // this step's P c' and R are those recorded
+        R = rec.R[p_j];
+        PCt = rec.PCt[p_j];
+      } else {
+        PCt.noalias() = P * C[o].transpose();
+        R = C[o].dot(PCt) + ss.S(o);
+        if (!(R > 0.0)) return NotPositiveInnovationVariance(series, o, k, R);
+        if (can_be_steady) rec.PCt[p_j] = PCt, rec.R[p_j] = R;
+        P.noalias() -= (1.0 / R) * PCt * PCt.transpose();
+      }
       const double eps = y - yhat;
       if (per_step_log) logdet += std::log(R);
       else log_product.Multiply(R);
       r2 += eps * eps / R;
       ++p_j;
       x.noalias() += PCt * (eps / R);
-      P.noalias() -= (1.0 / R) * PCt * PCt.transpose();
     }
     if (p_j > 0) {
       double rho = 0.5 * r2;
@@ -267,10 +302,14 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
       }
     }
     x = x_next;
+    if (steady) continue;  // P is P_start again
     PhiP.noalias() = dd.Phi * P;
     P.noalias() = PhiP * dd.Phi.transpose();
     P += dd.Q;
     Symmetrize(P);
+    // A step that returns P to the value it started from, bit for bit, is a fixed point of the
+    // Riccati recursion: every later step with the same observations and interval repeats it.
+    if (can_be_steady) steady = P == rec.P_start;
   }
   if (!per_step_log) loglik -= 0.5 * log_product.Log();
   if (!std::isfinite(loglik)) return internal::NotFiniteLoglik(series);

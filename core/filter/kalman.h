@@ -26,6 +26,16 @@
 //
 // Speed: the loop is compiled for state dimensions 1..8 with fixed-size matrices and does no
 // allocation per sample.
+//
+// Steady state: with a constant sample interval and no missing entry the Riccati recursion
+// converges, and in floating point it reaches a fixed point: a step after which P is, bit for
+// bit, what it was before the step (the fuel film: after ~250 rows). From there every step with
+// the same observed outputs and the same interval repeats that step's P c', R and P, so they are
+// replayed from a record and only the mean is updated; a step that differs (a missing entry,
+// another interval) ends the replay and the full recursion resumes from the same P. The result
+// is identical, bit for bit, to the full recursion (tests/core/score_test.cpp), not an
+// approximation. The score (score.h) does the same once P and every dP_i are fixed points. For
+// the fixed-size loops (1..8 states); the trace (RunFilter) always runs the full recursion.
 #pragma once
 
 #include <atomic>

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <complex>
+#include <cstdint>
+#include <vector>
 
 #include <Eigen/Dense>
 
@@ -89,6 +91,11 @@ struct Context {
 template <class Vec, class InMat>
 void AddInputs(const InMat& Gamma0, const InMat& Gamma1, const double* u0, int m, bool foh,
                Vec& x) {
+  if (m == 1) {  // the common case, without a dynamic-size product
+    x.noalias() += Gamma0.col(0) * u0[0];
+    if (foh) x.noalias() += Gamma1.col(0) * u0[1];
+    return;
+  }
   x.noalias() += Gamma0 * Eigen::Map<const Eigen::VectorXd>(u0, m);
   if (foh) x.noalias() += Gamma1 * Eigen::Map<const Eigen::VectorXd>(u0 + m, m);
 }
@@ -144,6 +151,19 @@ Result<Loglik> ScoreLoop(const Context& ctx, Eigen::VectorXd* gradient, Eigen::M
   const std::atomic<bool>* cancel = ctx.settings.cancel;
   double loglik = 0.0;
   long n_obs = 0;
+  // The steady state (kalman.h): once a step returns P and every dP_i to the values it started
+  // from, bit for bit, the later steps with the same observations and interval repeat its P c',
+  // R, dP_i c' + P dc_i' and dR_i: only the means and their sensitivities are updated.
+  const bool can_be_steady = NX != Eigen::Dynamic && p <= 64;
+  bool steady = false;
+  std::uint64_t rec_mask = 0;
+  int rec_group = -1;
+  Mat rec_P = Mat::Zero(n, n);
+  std::vector<Mat> rec_dP(k);
+  std::vector<Vec> rec_PCt(can_be_steady ? p : 0);
+  std::vector<double> rec_R(can_be_steady ? p : 0);
+  std::vector<Vec> rec_dPCt(can_be_steady ? static_cast<std::size_t>(p) * k : 0);
+  std::vector<double> rec_dR(can_be_steady ? static_cast<std::size_t>(p) * k : 0);
   for (int j = 0; j <= ctx.window.last_j; ++j) {
     if (cancel && (j & (internal::kCancelCheckInterval - 1)) == 0 &&
         cancel->load(std::memory_order_relaxed))
@@ -153,6 +173,22 @@ Result<Loglik> ScoreLoop(const Context& ctx, Eigen::VectorXd* gradient, Eigen::M
     d_logdet.setZero();
     d_r2.setZero();
     int p_j = 0;
+    if (can_be_steady) {
+      std::uint64_t mask = 0;
+      for (int o = 0; o < p; ++o) {
+        const int row = j + delay[o];
+        if (row >= N || row < first_obs[o]) continue;
+        if (!std::isnan(Y[static_cast<std::size_t>(row) * p + o])) mask |= std::uint64_t{1} << o;
+      }
+      const int group_j = j == N - 1 ? -1 : group[j];
+      steady = steady && mask == rec_mask && group_j == rec_group;
+      if (!steady) {
+        rec_mask = mask;
+        rec_group = group_j;
+        rec_P = P;
+        for (int i = 0; i < k; ++i) rec_dP[i] = dP[i];
+      }
+    }
     for (int o = 0; o < p; ++o) {
       const int row = j + delay[o];
       if (row >= N || row < first_obs[o]) continue;
@@ -160,30 +196,45 @@ Result<Loglik> ScoreLoop(const Context& ctx, Eigen::VectorXd* gradient, Eigen::M
       if (std::isnan(y)) continue;
       double yhat = C[o].dot(x) + ss.d(o);
       for (int l = 0; l < m; ++l) yhat += ss.D(o, l) * u[l];
-      PCt.noalias() = P * C[o].transpose();
-      const double R = C[o].dot(PCt) + ss.S(o);
-      if (!(R > 0.0)) return internal::NotPositiveInnovationVariance(series, o, row, R);
+      double R;
+      if (steady) {
+        PCt = rec_PCt[p_j];
+        R = rec_R[p_j];
+      } else {
+        PCt.noalias() = P * C[o].transpose();
+        R = C[o].dot(PCt) + ss.S(o);
+        if (!(R > 0.0)) return internal::NotPositiveInnovationVariance(series, o, row, R);
+        if (can_be_steady) rec_PCt[p_j] = PCt, rec_R[p_j] = R;
+      }
       const double eps = y - yhat;
       for (int i = 0; i < k; ++i) {
         const model::StateSpace& d = ctx.dss[i];
         const Row& dc = dC[o * k + i];
         double dyhat = dc.dot(x) + C[o].dot(dx[i]) + d.d(o);
         for (int l = 0; l < m; ++l) dyhat += d.D(o, l) * u[l];
-        dPCt.noalias() = dP[i] * C[o].transpose();
-        dPCt.noalias() += P * dc.transpose();
-        const double dR = dc.dot(PCt) + C[o].dot(dPCt) + d.S(o);
+        const std::size_t at = static_cast<std::size_t>(p_j) * k + i;
+        double dR;
+        if (steady) {
+          dPCt = rec_dPCt[at];
+          dR = rec_dR[at];
+        } else {
+          dPCt.noalias() = dP[i] * C[o].transpose();
+          dPCt.noalias() += P * dc.transpose();
+          dR = dc.dot(PCt) + C[o].dot(dPCt) + d.S(o);
+          if (can_be_steady) rec_dPCt[at] = dPCt, rec_dR[at] = dR;
+          dP[i].noalias() -= (dPCt * PCt.transpose() + PCt * dPCt.transpose()) / R;
+          dP[i].noalias() += PCt * PCt.transpose() * (dR / (R * R));
+        }
         const double deps = -dyhat;
         d_logdet(i) += dR / R;
         d_r2(i) += (2.0 * eps * deps - eps * eps * dR / R) / R;
         dx[i].noalias() += dPCt * (eps / R) + PCt * ((deps - eps * dR / R) / R);
-        dP[i].noalias() -= (dPCt * PCt.transpose() + PCt * dPCt.transpose()) / R;
-        dP[i].noalias() += PCt * PCt.transpose() * (dR / (R * R));
       }
       logdet += std::log(R);
       r2 += eps * eps / R;
       ++p_j;
       x.noalias() += PCt * (eps / R);
-      P.noalias() -= (1.0 / R) * PCt * PCt.transpose();
+      if (!steady) P.noalias() -= (1.0 / R) * PCt * PCt.transpose();
     }
     if (p_j > 0) {
       double rho = 0.5 * r2, d_rho = 0.5;
@@ -203,7 +254,7 @@ Result<Loglik> ScoreLoop(const Context& ctx, Eigen::VectorXd* gradient, Eigen::M
     if (j == N - 1) break;
     // Time update to t_{j+1}: the sensitivities first, as they read the old x and P.
     const FixedDiscrete<NX>& dd = disc[group[j]];
-    PhiP.noalias() = dd.Phi * P;
+    if (!steady) PhiP.noalias() = dd.Phi * P;
     for (int i = 0; i < k; ++i) {
       const FixedDiscrete<NX>& ddi = ddisc[static_cast<std::size_t>(group[j]) * k + i];
       x_next.noalias() = ddi.Phi * x;
@@ -211,6 +262,7 @@ Result<Loglik> ScoreLoop(const Context& ctx, Eigen::VectorXd* gradient, Eigen::M
       x_next += ddi.g;
       if (m > 0) AddInputs(ddi.Gamma0, ddi.Gamma1, u, m, foh, x_next);
       dx[i] = x_next;
+      if (steady) continue;  // dP_i is rec_dP[i] again
       T.noalias() = ddi.Phi * PhiP.transpose();  // dΦ P Φ' (P symmetric)
       PhidP.noalias() = dd.Phi * dP[i];
       dP[i].noalias() = PhidP * dd.Phi.transpose();
@@ -221,9 +273,14 @@ Result<Loglik> ScoreLoop(const Context& ctx, Eigen::VectorXd* gradient, Eigen::M
     x_next += dd.g;
     if (m > 0) AddInputs(dd.Gamma0, dd.Gamma1, u, m, foh, x_next);
     x = x_next;
+    if (steady) continue;  // P is rec_P again
     P.noalias() = PhiP * dd.Phi.transpose();
     P += dd.Q;
     internal::Symmetrize(P);
+    if (can_be_steady) {
+      steady = P == rec_P;
+      for (int i = 0; i < k && steady; ++i) steady = dP[i] == rec_dP[i];
+    }
   }
   if (!std::isfinite(loglik) || !gradient->allFinite()) return internal::NotFiniteLoglik(series);
   return Loglik{loglik, n_obs};
