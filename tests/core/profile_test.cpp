@@ -15,6 +15,7 @@
 #include "core/project/problem.h"
 #include "core/sim/simulate.h"
 #include "core/util/sanitizers.h"
+#include "tests/shortened_data.h"
 
 namespace gb::estimate {
 namespace {
@@ -160,7 +161,7 @@ TEST(ProfileIntervals, AnEndBeyondTheBoundIsNullAndSaidSo) {
 
 TEST(ProfileIntervals, NinetyFivePercentIntervalsCoverTheTruthAtTheNominalRate) {
   // 200 replicates of 150 s (600 samples); the profile intervals of tau and r.
-  const int replicates = kSanitized ? 10 : 200;
+  const int replicates = kSanitized ? 4 : 200;
   int covered = 0, total = 0;
   for (int rep = 0; rep < replicates; ++rep) {
     const auto series = SimulateScalar(150.0, 100 + rep);
@@ -265,14 +266,17 @@ TEST(Priors, ABadPriorIsAnErrorNamingItsPath) {
 
 // ---- generic starts: the fuel film with little fuel on the film (issue 14) ----------------------
 
+// The generic fuel-film model on a dyno record; under the sanitizers on its first `rows` rows
+// (the same code paths, a fraction of the time).
 std::shared_ptr<const filter::Likelihood> GenericFuelFilm(const std::string& point, int delay_min,
-                                                          int delay_max) {
+                                                          int delay_max, int rows) {
   auto spec = model::LoadModelFile(kSource + "/bench/models/fuel_film_generic.json");
   EXPECT_TRUE(spec.ok());
   spec->output_delay[0].min = delay_min;
   spec->output_delay[0].max = delay_max;
-  auto problem =
-      project::LoadProblem(std::move(*spec), {kSource + "/assets/data/fuel_" + point + ".csv"});
+  auto problem = project::LoadProblem(
+      std::move(*spec),
+      {testing::ShortenedUnderSanitizers(kSource + "/assets/data/fuel_" + point + ".csv", rows)});
   EXPECT_TRUE(problem.ok());
   auto lik = project::MakeLikelihood(*problem);
   EXPECT_TRUE(lik.ok());
@@ -282,13 +286,16 @@ std::shared_ptr<const filter::Likelihood> GenericFuelFilm(const std::string& poi
 TEST(Estimate, GenericStartsReachTheTable2OptimumWithEveryDelayOfTheProfileConverged) {
   // Point f3 (X ≈ 0.07): the start values favour delay 7, the optimum is at 6. Table 2's fit
   // (docs/case-study-table2.csv, from the tuned model) reached log L 30461.065384. Under the
-  // sanitizers the scan is 5..7, on the same whole record.
-  const auto lik = GenericFuelFilm("f3", kSanitized ? 5 : 0, kSanitized ? 7 : 10);
+  // sanitizers the scan is 5..7 on the first 3000 rows: the same code paths, where the log-
+  // likelihood is not Table 2's (other observations), so it is not compared.
+  const auto lik = GenericFuelFilm("f3", kSanitized ? 5 : 0, kSanitized ? 7 : 10, 3000);
   auto s = Estimate(*lik, EstimateOptions{});
   ASSERT_TRUE(s.ok()) << s.error().ToString();
   EXPECT_TRUE(s->converged) << s->Report();
   EXPECT_EQ(s->delays[0].estimate, 6);
-  EXPECT_NEAR(s->loglik, 30461.065384, 1e-3);
+  if (!kSanitized) {
+    EXPECT_NEAR(s->loglik, 30461.065384, 1e-3);
+  }
   for (const auto& pt : s->delays[0].profile) {
     EXPECT_TRUE(pt.converged) << "delay " << pt.delay;
     ASSERT_TRUE(pt.loglik.has_value());
@@ -298,7 +305,7 @@ TEST(Estimate, GenericStartsReachTheTable2OptimumWithEveryDelayOfTheProfileConve
 }
 
 TEST(Estimate, MultistartIsNeverWorseThanThePlainStartAndCountsTheStartsAtTheBest) {
-  const auto lik = GenericFuelFilm("f8", 6, 6);
+  const auto lik = GenericFuelFilm("f8", 6, 6, 2500);
   EstimateOptions one;
   one.threads = 1;
   auto plain = Estimate(*lik, one);

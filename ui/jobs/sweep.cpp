@@ -6,6 +6,7 @@
 #include <numeric>
 #include <utility>
 
+#include "core/util/sanitizers.h"
 #include "ui/format.h"
 
 namespace gb::ui {
@@ -53,6 +54,10 @@ std::string EstimateCell(const estimate::ParameterEstimate& p) {
 estimate::SweepOptions MakeSweepOptions(const SweepInput& input) {
   estimate::SweepOptions options;
   options.estimate.threads = 1;
+  // Under the sanitizers (CI's instrumented build, some 40x slower) the delay profile of each
+  // point is evaluated at its estimate instead of re-optimised at every delay: the estimates,
+  // the delays and the table are the same, in a fraction of the fits (as tests/core/sweep_test).
+  options.estimate.full_delay_profile = !kSanitized;
   options.parallel = input.parallel;
   options.mean_of = input.points.mean_of;
   options.speed_tag = input.points.speed_tag;
