@@ -122,6 +122,47 @@ TEST(WorkbenchEstimation, ClickingRunInstallsTheEstimatesAndTheParametersViewSho
   EXPECT_EQ(log.find("nan"), std::string::npos) << log;
 }
 
+TEST(WorkbenchEstimation, ProfileIntervalsShowBesideTheWaldOnesAndAParametersProfileIsPlotted) {
+  WorkbenchDriver d;
+  d.Open(kTestProject);
+  ASSERT_TRUE(d.state.model) << d.state.model_error;
+  d.state.view = View::kEstimate;
+  d.state.estimation.settings.threads = 1;
+  d.state.estimation.settings.profile_intervals = true;  // the Estimate view's check box
+  d.Frame();
+  const std::optional<ImVec2> run = d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId("Run"));
+  ASSERT_TRUE(run);
+  d.Click(*run);
+  ASSERT_TRUE(d.FramesUntil([&] { return !EstimationRunning(d.state); }, kFitTimeout));
+  d.Frame();
+  ASSERT_TRUE(d.state.estimation.result) << d.state.estimation.last_failure;
+  const estimate::EstimateSummary& s = d.state.estimation.result->summary;
+
+  d.state.view = View::kParameters;
+  d.Frame();
+  const std::string log = d.Text();
+  EXPECT_NE(log.find("95 % profile"), std::string::npos) << log;
+  int shown = 0;
+  for (const estimate::ParameterEstimate& p : s.parameters) {
+    if (p.fixed) continue;
+    ASSERT_TRUE(p.profile.has_value()) << p.name;
+    const std::vector<std::string> row = Row(log, p.name);
+    ASSERT_FALSE(row.empty()) << p.name << " in:\n" << log;
+    // The last cell: "lower … upper" ("bound" for an end at the parameter's bound).
+    const std::string lower = p.profile->lower ? FormatSig(*p.profile->lower, 3)
+                              : p.profile->lower_at_bound ? "bound" : "none";
+    const std::string upper = p.profile->upper ? FormatSig(*p.profile->upper, 3)
+                              : p.profile->upper_at_bound ? "bound" : "none";
+    EXPECT_EQ(row.back(), lower + " \xE2\x80\xA6 " + upper) << p.name;
+    ++shown;
+  }
+  EXPECT_GE(shown, 5);
+  // A parameter's profile, as a click on its interval asks: drawn under the table.
+  d.state.parameters_view.profile_plot = "tau_fv";
+  d.Frame();
+  EXPECT_EQ(d.Text().find("nan"), std::string::npos);
+}
+
 TEST(WorkbenchEstimation, CancelStopsTheFitWithin100msAndKeepsThePreviousResult) {
   WorkbenchDriver d;
   d.Open(kCaseStudy);

@@ -148,11 +148,12 @@ std::string BoundNote(const estimate::ParameterEstimate& e) {
   return to_lower <= to_upper ? "at lower bound" : "at upper bound";
 }
 
-// Estimate, SE, t, p and the interval. Where there is no standard error the SE cell says why:
-// "fixed", "at lower bound" (the at-bound marker, also on the estimate), "not determined".
-void EstimateCells(const estimate::ParameterEstimate* e) {
+// Estimate, SE, t (unless `with_t` is false: beside the profile intervals, for room), p and the
+// interval. Where there is no standard error the SE cell says why: "fixed", "at lower bound"
+// (the at-bound marker, also on the estimate), "not determined".
+void EstimateCells(const estimate::ParameterEstimate* e, bool with_t = true) {
   if (!e) {  // a parameter the fit did not know (cannot happen unless the model changed)
-    for (int i = 0; i < 5; ++i) {
+    for (int i = 0; i < (with_t ? 5 : 4); ++i) {
       ImGui::TableNextColumn();
       TextRight(kDash, true);
     }
@@ -186,8 +187,10 @@ void EstimateCells(const estimate::ParameterEstimate* e) {
                                   : "The data do not determine it (see the warnings).");
     }
   }
-  ImGui::TableNextColumn();
-  TextRight(FormatSig(e->t_value, kErrorDigits), !e->t_value);
+  if (with_t) {
+    ImGui::TableNextColumn();
+    TextRight(FormatSig(e->t_value, kErrorDigits), !e->t_value);
+  }
   ImGui::TableNextColumn();
   TextRight(FormatPValue(e->p_value), !e->p_value);
   ImGui::TableNextColumn();
@@ -247,7 +250,8 @@ void DrawTable(AppState& state, const FitResult* result) {
   const model::ModelSpec& m = *state.model;
   const bool with_fit = result != nullptr;
   const bool with_profiles = HasProfiles(result);
-  const int columns = with_fit ? (with_profiles ? 12 : 11) : 7;
+  // Beside the profile intervals the t column gives way (p says the same).
+  const int columns = with_fit ? 11 : 7;
   const ImGuiTableFlags flags = ImGuiTableFlags_BordersOuter | ImGuiTableFlags_BordersInnerH |
                                 ImGuiTableFlags_BordersInnerV | ImGuiTableFlags_RowBg |
                                 ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_NoSavedSettings;
@@ -270,7 +274,7 @@ void DrawTable(AppState& state, const FitResult* result) {
   if (with_fit) {
     ImGui::TableSetupColumn("Estimate");
     ImGui::TableSetupColumn("Std. error");
-    ImGui::TableSetupColumn("t");
+    if (!with_profiles) ImGui::TableSetupColumn("t");
     ImGui::TableSetupColumn("p");
     ImGui::TableSetupColumn(with_profiles ? "95 % Wald" : "95 % interval",
                             ImGuiTableColumnFlags_WidthStretch);
@@ -319,7 +323,7 @@ void DrawTable(AppState& state, const FitResult* result) {
     ImGui::TableNextColumn();
     FixedCell(state, p);
     if (with_fit) {
-      EstimateCells(FindEstimate(result, p.name));
+      EstimateCells(FindEstimate(result, p.name), !with_profiles);
       if (with_profiles) ProfileCell(state, FindEstimate(result, p.name));
     } else {
       ImGui::TableNextColumn();
