@@ -75,11 +75,7 @@ class Fitter {
       scale_.push_back(s);
       lower_.push_back(p.lower ? *p.lower / s : -HUGE_VAL);
       upper_.push_back(p.upper ? *p.upper / s : HUGE_VAL);
-      if (p.prior) {
-        prior_index_.push_back(static_cast<int>(free_.size()) - 1);
-        prior_mean_.push_back(p.prior->mean);
-        prior_sd_.push_back(p.prior->sd);
-      }
+      if (p.prior) priors_.push_back({static_cast<int>(free_.size()) - 1, *p.prior});
     }
     threads_ = options.threads > 0 ? options.threads : HardwareThreads();
   }
@@ -107,13 +103,8 @@ class Fitter {
 
   // The objective at scaled point z: log L, plus Σ log N(θ_i | m_i, s_i²) over the parameters
   // with a prior (a log posterior); -inf where log L cannot be evaluated.
-  double Objective(const std::vector<double>& z, const std::vector<int>& delay,
-                   long* n_obs = nullptr) {
-    evaluations_.fetch_add(1);
-    auto l = lik_.Evaluate(Theta(z), delay);
-    if (!l) return -std::numeric_limits<double>::infinity();
-    if (n_obs) *n_obs = l->n_obs;
-    return l->loglik + LogPrior(z);
+  double Objective(const std::vector<double>& z, const std::vector<int>& delay) {
+    return LogLik(z, delay) + LogPrior(z);
   }
 
   // log L alone (no prior) at z.
@@ -125,17 +116,24 @@ class Fitter {
     return l->loglik;
   }
 
-  bool HasPriors() const { return !prior_mean_.empty(); }
+  bool HasPriors() const { return !priors_.empty(); }
 
   // Σ log N(θ_i | m_i, s_i²) over the free parameters with a prior (natural scale, normalised).
   double LogPrior(const std::vector<double>& z) const {
     double sum = 0;
-    for (std::size_t a = 0; a < prior_index_.size(); ++a) {
-      const int i = prior_index_[a];
-      const double r = (z[i] * scale_[i] - prior_mean_[a]) / prior_sd_[a];
-      sum += -0.5 * r * r - std::log(prior_sd_[a]) - 0.5 * std::log(2 * M_PI);
-    }
+    for (const auto& [i, prior] : priors_) sum += prior.LogDensity(z[i] * scale_[i]);
     return sum;
+  }
+
+  // Adds the priors' gradient to *g and their information (the negative Hessian of the log
+  // prior) to *info, both in scaled units.
+  void AddPriorDerivatives(const std::vector<double>& z, Eigen::VectorXd* g,
+                           Eigen::MatrixXd* info) const {
+    for (const auto& [i, prior] : priors_) {
+      const double sd_z = prior.sd / scale_[i];
+      (*g)(i) -= (z[i] - prior.mean / scale_[i]) / (sd_z * sd_z);
+      if (info) (*info)(i, i) += 1 / (sd_z * sd_z);
+    }
   }
 
   // The objective's value *f, its gradient *g and, with `info`, BHHH's information Σ_j s_j s_j'
@@ -181,12 +179,7 @@ class Fitter {
       at += n;
     }
     if (info) *info = J.transpose() * J;
-    for (std::size_t a = 0; a < prior_index_.size(); ++a) {
-      const int i = prior_index_[a];
-      const double sd_z = prior_sd_[a] / scale_[i];
-      (*g)(i) -= (z[i] - prior_mean_[a] / scale_[i]) / (sd_z * sd_z);
-      if (info) (*info)(i, i) += 1 / (sd_z * sd_z);
-    }
+    AddPriorDerivatives(z, g, info);
     return std::isfinite(*f) && g->allFinite() && (!info || info->allFinite());
   }
 
@@ -236,12 +229,7 @@ class Fitter {
     *f = l0->loglik + LogPrior(z);
     *g = S.colwise().sum().transpose();
     if (info) *info = S.transpose() * S;
-    for (std::size_t a = 0; a < prior_index_.size(); ++a) {
-      const int i = prior_index_[a];
-      const double sd_z = prior_sd_[a] / scale_[i];
-      (*g)(i) -= (z[i] - prior_mean_[a] / scale_[i]) / (sd_z * sd_z);
-      if (info) (*info)(i, i) += 1 / (sd_z * sd_z);
-    }
+    AddPriorDerivatives(z, g, info);
     return std::isfinite(*f) && g->allFinite() && (!info || info->allFinite());
   }
 
@@ -585,8 +573,11 @@ class Fitter {
   std::vector<double> theta0_;
   std::vector<int> free_;
   std::vector<double> scale_, lower_, upper_;
-  std::vector<int> prior_index_;                // free parameters with a prior
-  std::vector<double> prior_mean_, prior_sd_;   // theirs, natural scale
+  struct FreePrior {
+    int i;                          // index into the free parameters
+    model::Parameter::Prior prior;  // natural scale
+  };
+  std::vector<FreePrior> priors_;
   int threads_ = 1;
   std::atomic<int> evaluations_{0};
   int iterations_ = 0;

@@ -12,7 +12,6 @@
 //      bracket's value is within 1e-3 of the threshold or its width within 1e-9 relative.
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 #include <boost/math/distributions/chi_squared.hpp>
 #include <fmt/format.h>
@@ -117,10 +116,7 @@ class ProfileSide {
     Fitter fitter(lik_, inner, base, held);
     FitResult r = fitter.Fit(fitter.ZStart(), delay_, "profile");
     double value = r.loglik;
-    if (prior_) {
-      const double t = (v - prior_->mean) / prior_->sd;
-      value += -0.5 * t * t - std::log(prior_->sd) - 0.5 * std::log(2 * std::numbers::pi);
-    }
+    if (prior_) value += prior_->LogDensity(v);
     points_.push_back({v, value, r.converged});
     thetas_.push_back(std::isfinite(r.loglik) ? fitter.Theta(r.z) : base);
     return points_.back();

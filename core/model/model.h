@@ -14,6 +14,8 @@
 //   fuel.json: drift.mff, column 15: unknown name 'tauff' (did you mean 'tau_ff'?)
 #pragma once
 
+#include <cmath>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <vector>
@@ -38,6 +40,11 @@ struct Parameter {
   struct Prior {
     double mean = 0.0;
     double sd = 1.0;
+    // log N(v | mean, sd²), normalised.
+    double LogDensity(double v) const {
+      const double r = (v - mean) / sd;
+      return -0.5 * r * r - std::log(sd) - 0.5 * std::log(2 * std::numbers::pi);
+    }
   };
   std::optional<Prior> prior;
 };

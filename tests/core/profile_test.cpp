@@ -15,6 +15,7 @@
 #include "core/project/problem.h"
 #include "core/sim/simulate.h"
 #include "core/util/sanitizers.h"
+#include "tests/core/estimate_fixtures.h"
 #include "tests/shortened_data.h"
 
 namespace gb::estimate {
@@ -22,13 +23,7 @@ namespace {
 
 const std::string kSource = GREYBENCH_SOURCE_DIR;
 
-std::shared_ptr<const model::LinearModel> Compile(const Json& j) {
-  auto spec = model::ParseModel(j, "test.json");
-  EXPECT_TRUE(spec.ok()) << spec.error().ToString();
-  auto lm = model::LinearModel::Compile(std::move(*spec));
-  EXPECT_TRUE(lm.ok()) << lm.error().ToString();
-  return std::make_shared<const model::LinearModel>(std::move(*lm));
-}
+using testing::Compile;
 
 // A first-order system with a PRBS input: dx = (-x + K u)/tau dt + s dω, y = x + e, Var e = r.
 Json Scalar() {
@@ -49,26 +44,13 @@ const std::map<std::string, double> kScalarTruth = {
 std::shared_ptr<const data::Series> SimulateScalar(double duration, std::uint64_t seed) {
   Json truth = Scalar();
   for (const auto& [k, v] : kScalarTruth) truth["parameters"][k]["value"] = v;
-  const auto model = Compile(truth);
   design::PrbsOptions prbs;
   prbs.order = 5;
   prbs.bit_period = 1.0;
   prbs.sample_time = 0.25;
   prbs.duration = duration;
   prbs.seed = static_cast<std::uint32_t>(seed);
-  auto u = *design::MakePrbs(prbs);
-  data::Series s;
-  s.source = "simulated";
-  s.time = u.t;
-  s.U.resize(1, static_cast<Eigen::Index>(u.t.size()));
-  for (std::size_t k = 0; k < u.u.size(); ++k) s.U(0, static_cast<Eigen::Index>(k)) = u.u[k];
-  s.Y.setZero(1, static_cast<Eigen::Index>(s.time.size()));
-  s.intervals = data::GroupIntervals(s.time);
-  sim::SimulateOptions o;
-  o.seed = seed + 1000;
-  s.Y = sim::Simulate(*model->Evaluate(model->spec().Values()), s,
-                      filter::FilterSettings::FromModel(model->spec()), o)->Y;
-  return std::make_shared<const data::Series>(std::move(s));
+  return testing::Simulate(*Compile(truth), {prbs}, seed + 1000);
 }
 
 EstimateSummary Fit(const Json& j, const std::shared_ptr<const data::Series>& series,
