@@ -94,6 +94,25 @@ void RunLoglik(benchmark::State& state, const Fixture& f) {
   state.counters["samples"] = n;
 }
 
+// The exact score over every parameter, with the per-row terms (what BHHH reads) when the
+// benchmark's argument is 1.
+void RunScore(benchmark::State& state, const Fixture& f) {
+  auto lik = *filter::Likelihood::Create(f.model, {f.series});
+  std::vector<int> all(f.theta.size());
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  Eigen::VectorXd g;
+  Eigen::MatrixXd J;
+  const std::vector<int> delay;
+  for (auto _ : state) {
+    auto l = lik.EvaluateWithScore(f.theta, delay, all, &g, state.range(0) ? &J : nullptr);
+    benchmark::DoNotOptimize(l);
+  }
+  const double n = static_cast<double>(f.series->size());
+  state.counters["ns_per_sample"] = benchmark::Counter(
+      n * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["parameters"] = static_cast<double>(all.size());
+}
+
 void BM_FuelFilm2State(benchmark::State& state) {
   static const Fixture f = Make(kFuelFilm, 200000, 0.0125, 0.5, 0.9, 1.1);
   RunLoglik(state, f);
@@ -111,6 +130,24 @@ void BM_Chain10State(benchmark::State& state) {
   RunLoglik(state, f);
 }
 BENCHMARK(BM_Chain10State)->Unit(benchmark::kMillisecond);
+
+void BM_FuelFilm2StateScore(benchmark::State& state) {
+  static const Fixture f = Make(kFuelFilm, 10000, 0.0125, 0.5, 0.9, 1.1);
+  RunScore(state, f);
+}
+BENCHMARK(BM_FuelFilm2StateScore)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+void BM_Chain4StateScore(benchmark::State& state) {
+  static const Fixture f = Make(ChainModel(4), 10000, 0.1, 2.0, -1, 1);
+  RunScore(state, f);
+}
+BENCHMARK(BM_Chain4StateScore)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+void BM_Chain10StateScore(benchmark::State& state) {
+  static const Fixture f = Make(ChainModel(10), 10000, 0.1, 2.0, -1, 1);
+  RunScore(state, f);
+}
+BENCHMARK(BM_Chain10StateScore)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -38,6 +38,7 @@ bool EstimateOptions::IsValid(std::string* why) const {
     return fail("no stopping rule: set a tolerance or max_evaluations");
   if (max_evaluations < 0) return fail("max_evaluations must be >= 0");
   if (multistart < 0) return fail("multistart must be >= 0");
+  if (starts_on_bound < 0) return fail("starts_on_bound must be >= 0");
   if (threads < 0) return fail("threads must be >= 0 (0 = all cores)");
   return true;
 }
@@ -80,6 +81,21 @@ std::vector<std::vector<double>> StartPoints(const Fitter& f, int extra, std::ui
     starts.push_back(std::move(z));
   }
   return starts;
+}
+
+// Whether free parameter i at z lies on one of its bounds: within kAtBoundTol of its range (or of
+// its size, without two bounds).
+bool AtBound(const Fitter& f, const std::vector<double>& z, int i) {
+  const double range = std::isfinite(f.upper(i) - f.lower(i)) ? f.upper(i) - f.lower(i)
+                                                              : std::max(1.0, std::abs(z[i]));
+  const double to_bound = std::min(z[i] - f.lower(i), f.upper(i) - z[i]);
+  return to_bound <= kAtBoundTol * std::max(range, std::abs(z[i]));
+}
+
+bool OnABound(const Fitter& f, const std::vector<double>& z) {
+  for (int i = 0; i < f.k(); ++i)
+    if (AtBound(f, z, i)) return true;
+  return false;
 }
 
 // ---- 4. Hessian and uncertainties ------------------------------------------------------------
@@ -363,13 +379,11 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
   std::vector<int> active;       // free parameters not at a bound
   std::vector<double> h;         // their steps (scaled units)
   for (int i = 0; i < k; ++i) {
-    const double range = std::isfinite(f.upper(i) - f.lower(i)) ? f.upper(i) - f.lower(i)
-                                                                : std::max(1.0, std::abs(z[i]));
-    const double to_bound = std::min(z[i] - f.lower(i), f.upper(i) - z[i]);
-    if (to_bound <= kAtBoundTol * std::max(range, std::abs(z[i]))) {
+    if (AtBound(f, z, i)) {
       u.at_bound[i] = true;
       continue;
     }
+    const double to_bound = std::min(z[i] - f.lower(i), f.upper(i) - z[i]);
     double step = kHessianStep * std::max(std::abs(z[i]), 1e-2);
     step = std::min(step, to_bound / 2.5);  // stay inside the bounds with ±2 steps
     active.push_back(i);
@@ -632,24 +646,21 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   // 2. Extra starts (multistart) at that delay. The plain start's fit is one of them, so the
   //    result is never worse than it.
   std::vector<double> start_values{best.loglik};
-  if (options.multistart > 0 && !best.cancelled) {
-    const auto starts = StartPoints(fitter, options.multistart, options.seed);
+  auto extra_starts = [&](int n) {
+    const auto starts = StartPoints(fitter, n, options.seed);
     bool improved = false;
     for (std::size_t i = 1; i < starts.size(); ++i) {
       FitResult r = fitter.Fit(starts[i], delay, "fitting");
       if (r.cancelled) {
         best = r;
-        break;
+        return;
       }
       start_values.push_back(r.loglik);
       if (r.loglik > best.loglik) best = r, improved = true;
     }
     if (improved) settle();
-  }
-  s.starts = static_cast<int>(start_values.size());
-  s.starts_at_best = static_cast<int>(std::count_if(
-      start_values.begin(), start_values.end(),
-      [&](double v) { return std::isfinite(v) && v >= best.loglik - kSameOptimum; }));
+  };
+  if (options.multistart > 0 && !best.cancelled) extra_starts(options.multistart);
 
   // 3. The profile: θ re-optimised at every other delay candidate, to convergence, walking
   //    outward from the estimate so that each fit starts from the optimum of its nearest fitted
@@ -674,32 +685,55 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
     });
     std::vector<std::pair<std::vector<int>, std::vector<double>>> fitted = {{delay_best, best.z}};
     profile_points.push_back({delay_best, best.loglik, best.converged});
-    for (const auto& candidate : grid) {
-      if (candidate == delay_best) continue;
-      double ll;
-      bool complete = true;
-      if (options.full_delay_profile) {
-        const std::vector<double>* start = &best.z;
+    // The candidates in waves of equal distance from the estimate; each fit starts from the
+    // nearest fit of an earlier wave, so the fits of a wave are independent and run in parallel
+    // (each on its share of the threads). The results do not depend on the number of threads.
+    std::size_t next = 0;
+    while (next < grid.size() && !best.cancelled) {
+      std::size_t end = next;
+      while (end < grid.size() && distance(grid[end], delay_best) == distance(grid[next], delay_best))
+        ++end;
+      std::vector<std::vector<int>> wave;
+      for (std::size_t c = next; c < end; ++c)
+        if (grid[c] != delay_best) wave.push_back(grid[c]);
+      next = end;
+      if (wave.empty()) continue;
+      const int n = static_cast<int>(wave.size());
+      if (!options.full_delay_profile) {
+        for (const auto& candidate : wave)
+          profile_points.push_back({candidate, fitter.Objective(best.z, candidate), true});
+        continue;
+      }
+      std::vector<const std::vector<double>*> starts(n, &best.z);
+      for (int w = 0; w < n; ++w) {
         int nearest = INT_MAX;
         for (const auto& [d, z] : fitted)
-          if (distance(d, candidate) < nearest) nearest = distance(d, candidate), start = &z;
-        FitResult r = fitter.Fit(*start, candidate, "delay profile");
-        if (r.cancelled) {
+          if (distance(d, wave[w]) < nearest) nearest = distance(d, wave[w]), starts[w] = &z;
+      }
+      std::vector<FitResult> results(n);
+      if (n == 1 || threads == 1) {
+        for (int w = 0; w < n && !fitter.Cancelled(); ++w)
+          results[w] = fitter.Fit(*starts[w], wave[w], "delay profile");
+      } else {
+        ParallelFor(n, threads, [&](int w) {
+          results[w] = fitter.FitAlongside(*starts[w], wave[w], "delay profile",
+                                           std::max(1, threads / n));
+        });
+      }
+      for (int w = 0; w < n; ++w) {
+        const FitResult& r = results[w];
+        if (r.cancelled || fitter.Cancelled()) {
           best.cancelled = true;
-          best.message = r.message;
+          best.message = "cancelled";
           break;
         }
-        ll = r.loglik;
-        complete = r.converged;
-        if (std::isfinite(r.loglik)) fitted.emplace_back(candidate, r.z);
+        if (std::isfinite(r.loglik)) fitted.emplace_back(wave[w], r.z);
+        profile_points.push_back({wave[w], r.loglik, r.converged});
         if (r.loglik > best.loglik) {
           best = r;
-          delay = candidate;
+          delay = wave[w];
         }
-      } else {
-        ll = fitter.Objective(best.z, candidate);
       }
-      profile_points.push_back({candidate, ll, complete});
     }
   }
   // 4. A first delay far from the right one can lead the plain start's fit to a poor optimum
@@ -711,11 +745,24 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
     if (r.cancelled) best.cancelled = true;
     else if (r.loglik > best.loglik + kSameOptimum) best = r;
   }
+  // 5. Without multistart, where the estimate has a parameter on a bound: starts_on_bound extra
+  //    starts at the chosen delay (checked only now, so that a bound reached at a misspecified
+  //    first delay does not cost them).
+  if (options.multistart == 0 && options.starts_on_bound > 0 && !best.cancelled &&
+      !fitter.Cancelled() && std::isfinite(best.loglik) && OnABound(fitter, best.z)) {
+    start_values = {best.loglik};
+    s.starts_for_bound = true;
+    extra_starts(options.starts_on_bound);
+  }
+  s.starts = static_cast<int>(start_values.size());
+  s.starts_at_best = static_cast<int>(std::count_if(
+      start_values.begin(), start_values.end(),
+      [&](double v) { return std::isfinite(v) && v >= best.loglik - kSameOptimum; }));
   if (best.cancelled || fitter.Cancelled()) return cancelled_summary();
   if (!std::isfinite(best.loglik))
     return NumericalError("the log-likelihood could not be evaluated anywhere the optimiser went");
 
-  // 5. Uncertainty at the estimate. Where the Hessian shows negative curvature the fit stopped at
+  // 6. Uncertainty at the estimate. Where the Hessian shows negative curvature the fit stopped at
   //    a saddle: step along that direction and fit again (at most kMaxSaddleEscapes times).
   fitter.Report("standard errors", best.z, best.loglik, delay);
   Uncertainty u = ComputeUncertainty(fitter, best.z, best.loglik, delay, spec, threads);

@@ -93,6 +93,10 @@ struct EstimateOptions {
   // Extra starts spread over the bounds (Latin hypercube; parameters without both bounds are
   // spread log-uniformly within a factor 10 of their start). 0: only the model's start values.
   int multistart = 0;
+  // Without multistart: where the fit ends with a free parameter on one of its bounds (often the
+  // sign of a local optimum: a variance pinned at zero, an initial state or a time constant at the
+  // end of its range), this many extra starts like multistart's. 0: never.
+  int starts_on_bound = 4;
   std::uint64_t seed = 1;
   // Threads for the score (its parameters shared out) and the Hessian; 0 = all cores.
   int threads = 0;
@@ -173,6 +177,7 @@ struct EstimateSummary {
   int evaluations = 0;
   double elapsed_s = 0.0;
   int starts = 1;           // start points fitted (the model's and the multistart ones)
+  bool starts_for_bound = false;  // the extra starts were starts_on_bound's (not multistart's)
   int starts_at_best = 1;   // of them, those that reached the best optimum (within 1e-3 in log L)
   std::vector<ParameterEstimate> parameters;   // all parameters, in model order
   std::vector<double> theta;                   // all parameters at the estimate

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <optional>
 #include <span>
 #include <string>
@@ -33,6 +34,7 @@ inline constexpr double kArmijo = 1e-4;             // sufficient increase along
 inline constexpr int kMaxHalvings = 40;
 inline constexpr double kFirstDamping = 1e-10;      // Levenberg damping of a singular BHHH information,
 inline constexpr int kDampingSteps = 8;             // then x100 per step up to 1e4
+inline constexpr double kNearBound = 1e-6;          // scaled: a parameter this close is on its bound
 // An expected improvement of log L below this (in log-likelihood units, far below the 0.5 that
 // one standard error is worth) counts as converged when rounding stops further progress.
 inline constexpr double kNegligibleImprovement = 1e-4;
@@ -80,13 +82,43 @@ class Fitter {
     threads_ = options.threads > 0 ? options.threads : HardwareThreads();
   }
 
+  // A fitter over the same free parameters and scaling as `base`, with other options (threads,
+  // progress): for fits that run beside each other.
+  Fitter(const Fitter& base, const EstimateOptions& options)
+      : lik_(base.lik_), options_(options), theta0_(base.theta0_), free_(base.free_),
+        scale_(base.scale_), lower_(base.lower_), upper_(base.upper_), priors_(base.priors_) {
+    threads_ = options.threads > 0 ? options.threads : HardwareThreads();
+  }
+
+  // Fit(z, delay, stage) on a fitter of its own with `threads` threads, safe to call from several
+  // threads at once: its progress reports are passed on one at a time, and its iterations and
+  // evaluations are added to this fitter's when it returns.
+  FitResult FitAlongside(std::vector<double> z, const std::vector<int>& delay,
+                         const std::string& stage, int threads) {
+    EstimateOptions sub = options_;
+    sub.threads = threads;
+    if (options_.progress)
+      sub.progress = [this](const Progress& p) {
+        const std::lock_guard<std::mutex> lock(progress_mutex_);
+        Progress q = p;
+        q.iteration += iterations_.load();
+        q.evaluations += evaluations_.load();
+        options_.progress(q);
+      };
+    Fitter f(*this, sub);
+    FitResult r = f.Fit(std::move(z), delay, stage);
+    iterations_.fetch_add(f.iterations());
+    evaluations_.fetch_add(f.evaluations());
+    return r;
+  }
+
   int k() const { return static_cast<int>(free_.size()); }
   const std::vector<int>& free() const { return free_; }
   const std::vector<double>& scale() const { return scale_; }
   double lower(int i) const { return lower_[i]; }
   double upper(int i) const { return upper_[i]; }
   int evaluations() const { return evaluations_.load(); }
-  int iterations() const { return iterations_; }
+  int iterations() const { return iterations_.load(); }
   bool Cancelled() const { return options_.cancel && options_.cancel->load(); }
 
   std::vector<double> ZStart() const {
@@ -331,10 +363,15 @@ class Fitter {
       g_last = g;
       z_last = z;
       std::vector<int> F;
+      std::vector<std::pair<int, double>> onto_bound;  // held parameters and their bound
       for (int i = 0; i < k(); ++i) {
-        const bool at_lower = z[i] <= lower_[i] && g(i) <= 0;
-        const bool at_upper = z[i] >= upper_[i] && g(i) >= 0;
+        // On a bound, or within kNearBound of it (scaled units), with the gradient pointing out:
+        // held, and put on the bound by the step. Without the band a parameter a hair above its
+        // bound stays free, and every step clamps it after a dozen halvings.
+        const bool at_lower = z[i] <= lower_[i] + kNearBound && g(i) <= 0;
+        const bool at_upper = z[i] >= upper_[i] - kNearBound && g(i) >= 0;
         if (!at_lower && !at_upper) F.push_back(i);
+        else onto_bound.push_back({i, at_lower ? lower_[i] : upper_[i]});
       }
       if (F.empty()) {
         r.converged = true;
@@ -383,6 +420,10 @@ class Fitter {
         const double alpha = std::ldexp(1.0, alpha_exp);
         z_new = z;
         double predicted = 0;
+        for (const auto& [i, bound] : onto_bound) {
+          z_new[i] = bound;
+          predicted += g(i) * (bound - z[i]);
+        }
         for (int a = 0; a < m; ++a) {
           const int i = F[a];
           z_new[i] = std::clamp(z[i] + alpha * d(a), lower_[i], upper_[i]);
@@ -580,7 +621,8 @@ class Fitter {
   std::vector<FreePrior> priors_;
   int threads_ = 1;
   std::atomic<int> evaluations_{0};
-  int iterations_ = 0;
+  std::atomic<int> iterations_{0};
+  std::mutex progress_mutex_;
 };
 
 }  // namespace gb::estimate::internal

@@ -43,8 +43,10 @@ std::string EstimateSummary::Report() const {
     line(fmt::format("MAP estimate (priors on some parameters): log posterior {:.6f}",
                      *log_posterior));
   if (starts > 1)
-    line(fmt::format("Multistart: {} of {} starts reached the best optimum", starts_at_best,
-                     starts));
+    line(fmt::format("{}: {} of {} starts reached the best optimum", 
+                     starts_for_bound ? "Extra starts (the fit ended with a parameter on a bound)"
+                                      : "Multistart",
+                     starts_at_best, starts));
   for (const auto& d : delays) {
     if (!d.scanned && d.estimate == 0) continue;
     line(fmt::format("Output delay of {}: {} samples{}", d.output, d.estimate,
@@ -154,7 +156,7 @@ Json EstimateSummary::ToJson() const {
   j["evaluations"] = evaluations;
   j["elapsed_s"] = elapsed_s;
   if (log_posterior) j["log_posterior"] = *log_posterior;
-  j["starts"] = {{"total", starts}, {"at_best", starts_at_best}};
+  j["starts"] = {{"total", starts}, {"at_best", starts_at_best}, {"on_bound", starts_for_bound}};
   Json params = Json::object();
   for (const auto& p : parameters) {
     Json e;

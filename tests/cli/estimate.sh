@@ -72,7 +72,7 @@ for name, p in r["parameters"].items():
     assert pi["lower"] is None or pi["lower"] <= p["estimate"], name
     assert pi["upper"] is None or pi["upper"] >= p["estimate"], name
     assert pi["lower"] is not None or p["profile"]["lower_at_bound"] or p["at_bound"], name
-assert r["starts"] == {"total": 1, "at_best": 1}
+assert r["starts"]["total"] == 1 and r["starts"]["at_best"] == 1, r["starts"]
 PY
 # A prior: the result says it is a MAP estimate.
 python3 - "$data/cli/fuel.json" "$tmp/prior.json" <<'PY'
