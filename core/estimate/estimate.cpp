@@ -630,6 +630,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   const std::vector<double> z_start = fitter.ZStart();
   std::vector<int> delay_of_start = delay;  // the delay the plain start was last fitted at
   FitResult best = fitter.Fit(z_start, delay, "fitting");
+  const int plain_evaluations = fitter.evaluations();  // what a fit from a start costs here
   auto settle = [&] {
     for (int round = 0; scanning && !best.cancelled && !fitter.Cancelled() && round < 10; ++round) {
       auto profile = lik.Profile(fitter.Theta(best.z));
@@ -646,11 +647,36 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   // 2. Extra starts (multistart) at that delay. The plain start's fit is one of them, so the
   //    result is never worse than it.
   std::vector<double> start_values{best.loglik};
-  auto extra_starts = [&](int n) {
+  // `explore` > 0: each start is fitted for that many iterations only (side by side where there are
+  // threads), and the best of them is fitted on to convergence; the others count as not reaching
+  // the best optimum.
+  auto extra_starts = [&](int n, int explore) {
     const auto starts = StartPoints(fitter, n, options.seed);
+    std::vector<FitResult> fits(starts.size() - 1);
+    if (explore > 0) {
+      ParallelFor(static_cast<int>(fits.size()), threads, [&](int i) {
+        fits[i] = fitter.ExploreAlongside(starts[i + 1], delay, explore,
+                                          std::max(1, threads / static_cast<int>(fits.size())));
+      });
+      int chosen = -1;
+      for (int i = 0; i < static_cast<int>(fits.size()); ++i) {
+        if (fits[i].cancelled) {
+          best = fits[i];
+          return;
+        }
+        if (std::isfinite(fits[i].loglik) && (chosen < 0 || fits[i].loglik > fits[chosen].loglik))
+          chosen = i;
+      }
+      for (auto& f : fits) f.loglik = -HUGE_VAL;  // stopped early: not an optimum
+      // The best one, fitted on within twice the evaluations the plain start's fit took.
+      if (chosen >= 0)
+        fits[chosen] = fitter.FitAlongside(fits[chosen].z, delay, "fitting", threads,
+                                           std::max(kMinExtraEvaluations, 2 * plain_evaluations));
+    } else {
+      for (std::size_t i = 0; i < fits.size(); ++i) fits[i] = fitter.Fit(starts[i + 1], delay, "fitting");
+    }
     bool improved = false;
-    for (std::size_t i = 1; i < starts.size(); ++i) {
-      FitResult r = fitter.Fit(starts[i], delay, "fitting");
+    for (FitResult& r : fits) {
       if (r.cancelled) {
         best = r;
         return;
@@ -660,7 +686,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
     }
     if (improved) settle();
   };
-  if (options.multistart > 0 && !best.cancelled) extra_starts(options.multistart);
+  if (options.multistart > 0 && !best.cancelled) extra_starts(options.multistart, 0);
 
   // 3. The profile: θ re-optimised at every other delay candidate, to convergence, walking
   //    outward from the estimate so that each fit starts from the optimum of its nearest fitted
@@ -752,7 +778,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
       !fitter.Cancelled() && std::isfinite(best.loglik) && OnABound(fitter, best.z)) {
     start_values = {best.loglik};
     s.starts_for_bound = true;
-    extra_starts(options.starts_on_bound);
+    extra_starts(options.starts_on_bound, kExploreIterations);
   }
   s.starts = static_cast<int>(start_values.size());
   s.starts_at_best = static_cast<int>(std::count_if(

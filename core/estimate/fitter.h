@@ -30,6 +30,11 @@ inline constexpr int kMaxBhhhIterations = 500;
 // standard error is worth 0.5).
 inline constexpr double kSameOptimum = 1e-3;
 inline constexpr int kMaxSaddleEscapes = 3;
+// Where the estimate is on a bound (starts_on_bound): each extra start is fitted this many
+// iterations, and the best of them fitted on within twice the evaluations of the plain start's fit
+// (at least kMinExtraEvaluations).
+inline constexpr int kExploreIterations = 100;
+inline constexpr int kMinExtraEvaluations = 200;
 inline constexpr double kArmijo = 1e-4;             // sufficient increase along the BHHH direction
 inline constexpr int kMaxHalvings = 40;
 inline constexpr double kFirstDamping = 1e-10;      // Levenberg damping of a singular BHHH information,
@@ -90,13 +95,15 @@ class Fitter {
     threads_ = options.threads > 0 ? options.threads : HardwareThreads();
   }
 
-  // Fit(z, delay, stage) on a fitter of its own with `threads` threads, safe to call from several
-  // threads at once: its progress reports are passed on one at a time, and its iterations and
-  // evaluations are added to this fitter's when it returns.
+  // Fit(z, delay, stage) on a fitter of its own with `threads` threads (and, if > 0, its own
+  // evaluation limit), safe to call from several threads at once: its progress reports are passed
+  // on one at a time, and its iterations and evaluations are added to this fitter's when it
+  // returns.
   FitResult FitAlongside(std::vector<double> z, const std::vector<int>& delay,
-                         const std::string& stage, int threads) {
+                         const std::string& stage, int threads, int max_evaluations = 0) {
     EstimateOptions sub = options_;
     sub.threads = threads;
+    if (max_evaluations > 0) sub.max_evaluations = max_evaluations;
     if (options_.progress)
       sub.progress = [this](const Progress& p) {
         const std::lock_guard<std::mutex> lock(progress_mutex_);
@@ -107,6 +114,20 @@ class Fitter {
       };
     Fitter f(*this, sub);
     FitResult r = f.Fit(std::move(z), delay, stage);
+    iterations_.fetch_add(f.iterations());
+    evaluations_.fetch_add(f.evaluations());
+    return r;
+  }
+
+  // `iterations` iterations of auto's BHHH with BFGS corrections from z (no L-BFGS finish), on a
+  // fitter of its own as FitAlongside: a cheap look at where a start leads.
+  FitResult ExploreAlongside(std::vector<double> z, const std::vector<int>& delay, int iterations,
+                             int threads) {
+    EstimateOptions sub = options_;
+    sub.threads = threads;
+    sub.progress = nullptr;
+    Fitter f(*this, sub);
+    FitResult r = f.FitBhhh(std::move(z), delay, "fitting", iterations, /*bfgs_updates=*/true);
     iterations_.fetch_add(f.iterations());
     evaluations_.fetch_add(f.evaluations());
     return r;

@@ -2,8 +2,10 @@
 // generic starts. Every expected number comes from an independent computation: fits with the
 // parameter held (brute-force profile), a golden-section maximisation of the log posterior, the
 // Monte Carlo coverage of the intervals, the published Table 2 optimum.
+#include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 
 #include <boost/math/distributions/chi_squared.hpp>
 #include <fmt/format.h>
@@ -251,9 +253,13 @@ TEST(Priors, ABadPriorIsAnErrorNamingItsPath) {
 // The generic fuel-film model on a dyno record; under the sanitizers on its first `rows` rows
 // (the same code paths, a fraction of the time).
 std::shared_ptr<const filter::Likelihood> GenericFuelFilm(const std::string& point, int delay_min,
-                                                          int delay_max, int rows) {
+                                                          int delay_max, int rows,
+                                                          std::optional<double> tau_ff_max = {}) {
   auto spec = model::LoadModelFile(kSource + "/bench/models/fuel_film_generic.json");
   EXPECT_TRUE(spec.ok());
+  if (tau_ff_max)
+    for (auto& p : spec->parameters)
+      if (p.name == "tau_ff") p.upper = *tau_ff_max;
   spec->output_delay[0].min = delay_min;
   spec->output_delay[0].max = delay_max;
   auto problem = project::LoadProblem(
@@ -304,6 +310,37 @@ TEST(Estimate, MultistartIsNeverWorseThanThePlainStartAndCountsTheStartsAtTheBes
                                              multi->starts)),
             std::string::npos);
   EXPECT_EQ(multi->ToJson()["starts"]["total"], multi->starts);
+}
+
+TEST(Estimate, AnEstimateOnABoundGetsExtraStartsThatNeverMakeItWorse) {
+  // τ_ff capped at 0.2 (f8's optimum is near 0.28): the estimate ends on that bound.
+  const auto lik = GenericFuelFilm("f8", 6, 6, 2500, 0.2);
+  EstimateOptions none;
+  none.threads = 1;
+  none.starts_on_bound = 0;
+  auto plain = Estimate(*lik, none);
+  ASSERT_TRUE(plain.ok());
+  ASSERT_TRUE(std::any_of(plain->parameters.begin(), plain->parameters.end(),
+                          [](const ParameterEstimate& e) { return e.at_bound; }));
+  EXPECT_EQ(plain->starts, 1);
+  EXPECT_FALSE(plain->starts_for_bound);
+  EstimateOptions on_bound = none;
+  on_bound.starts_on_bound = kSanitized ? 1 : 4;
+  auto extra = Estimate(*lik, on_bound);
+  ASSERT_TRUE(extra.ok());
+  EXPECT_GE(extra->loglik, plain->loglik - 1e-6);
+  EXPECT_EQ(extra->starts, on_bound.starts_on_bound + 1);
+  EXPECT_TRUE(extra->starts_for_bound);
+  EXPECT_NE(extra->Report().find("Extra starts (the fit ended with a parameter on a bound)"),
+            std::string::npos);
+  EXPECT_EQ(extra->ToJson()["starts"]["on_bound"], true);
+  // Explicit multistart replaces them.
+  EstimateOptions multi = on_bound;
+  multi.multistart = 1;
+  auto m = Estimate(*lik, multi);
+  ASSERT_TRUE(m.ok());
+  EXPECT_EQ(m->starts, 2);
+  EXPECT_FALSE(m->starts_for_bound);
 }
 
 }  // namespace
