@@ -331,6 +331,10 @@ class Fitter {
       return r;
     }
     double last_expected = HUGE_VAL;
+    bool scored_ahead = false;  // f_ahead, g_ahead (and info_ahead) are the scores at z
+    double f_ahead = 0;
+    Eigen::VectorXd g_ahead;
+    Eigen::MatrixXd info_ahead;
     for (int it = 0; it < max_iterations; ++it) {
       if (Cancelled()) {
         r.cancelled = true;
@@ -343,10 +347,17 @@ class Fitter {
                                 "evaluation limit)", evaluations() - evaluations_before);
         return r;
       }
+      // BHHH's information is needed where the curvature model starts afresh; the scores at z
+      // may be known already from the line search's full step.
+      const bool need_info = !bfgs_updates || reset || B.size() == 0;
       double f = 0;
       Eigen::VectorXd g;
       Eigen::MatrixXd info;
-      if (!Scores(z, delay, &f, &g, &info)) {
+      if (scored_ahead && (!need_info || info_ahead.size() > 0)) {
+        f = f_ahead;
+        g = g_ahead;
+        info = info_ahead;
+      } else if (!Scores(z, delay, &f, &g, need_info ? &info : nullptr)) {
         r.cancelled = Cancelled();
         r.message = r.cancelled ? "cancelled"
                     : it == 0   ? "the log-likelihood or its score cannot be evaluated at the start"
@@ -361,10 +372,14 @@ class Fitter {
       // updates from the gradient differences along the steps taken: where the model is
       // misspecified (a wrong delay, say) the outer product of the scores is a poor Hessian, and
       // the updates learn the difference.
-      if (!bfgs_updates || reset || B.size() == 0) {
+      scored_ahead = false;
+      info_ahead.resize(0, 0);
+      bool fresh = false;  // B is BHHH's information at z
+      if (need_info) {
         const bool first = B.size() == 0;
         B = info;
         reset = false;
+        fresh = true;
         // A better first model where one is known (the Hessian from the standard errors): its
         // finite entries replace BHHH's.
         if (first && first_model)
@@ -392,7 +407,7 @@ class Fitter {
         const bool at_lower = z[i] <= lower_[i] + kNearBound && g(i) <= 0;
         const bool at_upper = z[i] >= upper_[i] - kNearBound && g(i) >= 0;
         if (!at_lower && !at_upper) F.push_back(i);
-        else onto_bound.push_back({i, at_lower ? lower_[i] : upper_[i]});
+        else onto_bound.emplace_back(i, at_lower ? lower_[i] : upper_[i]);
       }
       if (F.empty()) {
         r.converged = true;
@@ -450,9 +465,18 @@ class Fitter {
           z_new[i] = std::clamp(z[i] + alpha * d(a), lower_[i], upper_[i]);
           predicted += g(i) * (z_new[i] - z[i]);
         }
-        f_new = Objective(z_new, delay);
+        // The full step with its scores (they serve the next iteration when it is accepted, as
+        // it mostly is); a shorter one with log L alone.
+        if (half == 0) {
+          if (!Scores(z_new, delay, &f_ahead, &g_ahead, bfgs_updates ? nullptr : &info_ahead))
+            f_ahead = -HUGE_VAL;
+          f_new = f_ahead;
+        } else {
+          f_new = Objective(z_new, delay);
+        }
         if (std::isfinite(f_new) && f_new >= f + kArmijo * predicted && f_new > f) {
           accepted = true;
+          scored_ahead = half == 0;
           break;
         }
         if (Cancelled()) break;
@@ -463,7 +487,7 @@ class Fitter {
           r.message = "cancelled";
           return r;
         }
-        if (bfgs_updates && !B.isApprox(info)) {  // the updated model misled: start it afresh
+        if (bfgs_updates && !fresh) {  // the updated model misled: start it afresh
           reset = true;
           z_last.clear();
           continue;
