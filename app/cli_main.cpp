@@ -63,7 +63,7 @@ int main(int argc, char** argv) {
   c_est->add_option("--multistart", est.multistart, "extra starts spread over the bounds");
   c_est->add_option("--starts-on-bound", est.starts_on_bound,
                     "without --multistart: extra starts where the fit ends with a parameter on a "
-                    "bound (default 4; 0: never)")
+                    "bound (default 8; 0: never)")
       ->check(CLI::NonNegativeNumber);
   c_est->add_option("--max-evaluations", est.max_evaluations, "per fit (default 20000)");
   c_est->add_option("--algorithm", est.algorithm, "auto (default: BHHH with BFGS corrections), bhhh, slsqp, lbfgs or bobyqa");

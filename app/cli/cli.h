@@ -78,7 +78,7 @@ struct EstimateArgs {
   std::string out;
   int threads = 0;
   int multistart = 0;
-  int starts_on_bound = 4;
+  int starts_on_bound = 8;
   int max_evaluations = 20000;
   std::string algorithm = "auto";
   double ftol = 1e-12;

@@ -658,20 +658,26 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
         fits[i] = fitter.ExploreAlongside(starts[i + 1], delay, explore,
                                           std::max(1, threads / static_cast<int>(fits.size())));
       });
-      int chosen = -1;
+      std::vector<int> order;
       for (int i = 0; i < static_cast<int>(fits.size()); ++i) {
         if (fits[i].cancelled) {
           best = fits[i];
           return;
         }
-        if (std::isfinite(fits[i].loglik) && (chosen < 0 || fits[i].loglik > fits[chosen].loglik))
-          chosen = i;
+        if (std::isfinite(fits[i].loglik)) order.push_back(i);
       }
+      std::stable_sort(order.begin(), order.end(),
+                       [&](int a, int b) { return fits[a].loglik > fits[b].loglik; });
+      order.resize(std::min<std::size_t>(order.size(), kContinuedStarts));
       for (auto& f : fits) f.loglik = -HUGE_VAL;  // stopped early: not an optimum
-      // The best one, fitted on within twice the evaluations the plain start's fit took.
-      if (chosen >= 0)
-        fits[chosen] = fitter.FitAlongside(fits[chosen].z, delay, "fitting", threads,
-                                           std::max(kMinExtraEvaluations, 2 * plain_evaluations));
+      // The best ones, fitted on (side by side) within twice the evaluations the plain start's
+      // fit took.
+      const int budget = std::max(kMinExtraEvaluations, 2 * plain_evaluations);
+      const int lanes = static_cast<int>(order.size());
+      ParallelFor(lanes, threads, [&](int c) {
+        const int i = order[c];
+        fits[i] = fitter.FitAlongside(fits[i].z, delay, "fitting", std::max(1, threads / lanes), budget);
+      });
     } else {
       for (std::size_t i = 0; i < fits.size(); ++i) fits[i] = fitter.Fit(starts[i + 1], delay, "fitting");
     }
@@ -709,7 +715,13 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
     std::stable_sort(grid.begin(), grid.end(), [&](const auto& a, const auto& b) {
       return distance(a, delay_best) < distance(b, delay_best);
     });
-    std::vector<std::pair<std::vector<int>, std::vector<double>>> fitted = {{delay_best, best.z}};
+    // Each fit starts from the nearest fitted delay's estimate and curvature model.
+    struct Fitted {
+      std::vector<int> delay;
+      std::vector<double> z;
+      Eigen::MatrixXd model;
+    };
+    std::vector<Fitted> fitted = {{delay_best, best.z, best.model}};
     profile_points.push_back({delay_best, best.loglik, best.converged});
     // The candidates in waves of equal distance from the estimate; each fit starts from the
     // nearest fit of an earlier wave, so the fits of a wave are independent and run in parallel
@@ -730,20 +742,22 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
           profile_points.push_back({candidate, fitter.Objective(best.z, candidate), true});
         continue;
       }
-      std::vector<const std::vector<double>*> starts(n, &best.z);
+      std::vector<const Fitted*> starts(n, &fitted.front());
       for (int w = 0; w < n; ++w) {
         int nearest = INT_MAX;
-        for (const auto& [d, z] : fitted)
-          if (distance(d, wave[w]) < nearest) nearest = distance(d, wave[w]), starts[w] = &z;
+        for (const Fitted& f : fitted)
+          if (distance(f.delay, wave[w]) < nearest) nearest = distance(f.delay, wave[w]), starts[w] = &f;
       }
+      auto model_of = [](const Fitted* f) { return f->model.size() > 0 ? &f->model : nullptr; };
       std::vector<FitResult> results(n);
       if (n == 1 || threads == 1) {
         for (int w = 0; w < n && !fitter.Cancelled(); ++w)
-          results[w] = fitter.Fit(*starts[w], wave[w], "delay profile");
+          results[w] = fitter.Fit(starts[w]->z, wave[w], "delay profile", kMaxBhhhIterations,
+                                  model_of(starts[w]));
       } else {
         ParallelFor(n, threads, [&](int w) {
-          results[w] = fitter.FitAlongside(*starts[w], wave[w], "delay profile",
-                                           std::max(1, threads / n));
+          results[w] = fitter.FitAlongside(starts[w]->z, wave[w], "delay profile",
+                                           std::max(1, threads / n), 0, model_of(starts[w]));
         });
       }
       for (int w = 0; w < n; ++w) {
@@ -753,7 +767,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
           best.message = "cancelled";
           break;
         }
-        if (std::isfinite(r.loglik)) fitted.emplace_back(wave[w], r.z);
+        if (std::isfinite(r.loglik)) fitted.push_back({wave[w], r.z, r.model});
         profile_points.push_back({wave[w], r.loglik, r.converged});
         if (r.loglik > best.loglik) {
           best = r;

@@ -96,7 +96,7 @@ struct EstimateOptions {
   // Without multistart: where the fit ends with a free parameter on one of its bounds (often the
   // sign of a local optimum: a variance pinned at zero, an initial state or a time constant at the
   // end of its range), this many extra starts like multistart's. 0: never.
-  int starts_on_bound = 4;
+  int starts_on_bound = 8;
   std::uint64_t seed = 1;
   // Threads for the score (its parameters shared out) and the Hessian; 0 = all cores.
   int threads = 0;

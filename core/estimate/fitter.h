@@ -31,10 +31,11 @@ inline constexpr int kMaxBhhhIterations = 500;
 inline constexpr double kSameOptimum = 1e-3;
 inline constexpr int kMaxSaddleEscapes = 3;
 // Where the estimate is on a bound (starts_on_bound): each extra start is fitted this many
-// iterations, and the best of them fitted on within twice the evaluations of the plain start's fit
-// (at least kMinExtraEvaluations).
+// iterations, and the best kContinuedStarts of them fitted on, each within twice the evaluations
+// of the plain start's fit (at least kMinExtraEvaluations).
 inline constexpr int kExploreIterations = 100;
 inline constexpr int kMinExtraEvaluations = 200;
+inline constexpr int kContinuedStarts = 2;
 inline constexpr double kArmijo = 1e-4;             // sufficient increase along the BHHH direction
 inline constexpr int kMaxHalvings = 40;
 inline constexpr double kFirstDamping = 1e-10;      // Levenberg damping of a singular BHHH information,
@@ -55,6 +56,7 @@ inline constexpr double kHighCorrelation = 0.99;
 
 struct FitResult {
   std::vector<double> z;
+  Eigen::MatrixXd model;  // auto and BHHH: the curvature model of -objective at z (scaled units)
   double loglik = -std::numeric_limits<double>::infinity();
   bool converged = false;
   bool cancelled = false;
@@ -100,7 +102,8 @@ class Fitter {
   // on one at a time, and its iterations and evaluations are added to this fitter's when it
   // returns.
   FitResult FitAlongside(std::vector<double> z, const std::vector<int>& delay,
-                         const std::string& stage, int threads, int max_evaluations = 0) {
+                         const std::string& stage, int threads, int max_evaluations = 0,
+                         const Eigen::MatrixXd* first_model = nullptr) {
     EstimateOptions sub = options_;
     sub.threads = threads;
     if (max_evaluations > 0) sub.max_evaluations = max_evaluations;
@@ -113,7 +116,7 @@ class Fitter {
         options_.progress(q);
       };
     Fitter f(*this, sub);
-    FitResult r = f.Fit(std::move(z), delay, stage);
+    FitResult r = f.Fit(std::move(z), delay, stage, kMaxBhhhIterations, first_model);
     iterations_.fetch_add(f.iterations());
     evaluations_.fetch_add(f.evaluations());
     return r;
@@ -316,9 +319,17 @@ class Fitter {
   FitResult FitBhhh(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
                     int max_iterations, bool bfgs_updates = false,
                     const Eigen::MatrixXd* first_model = nullptr) {
+    Eigen::MatrixXd B;  // the curvature model of -objective (scaled units)
+    FitResult r = BhhhLoop(std::move(z), delay, stage, max_iterations, bfgs_updates, first_model, B);
+    r.model = std::move(B);
+    return r;
+  }
+
+  FitResult BhhhLoop(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
+                     int max_iterations, bool bfgs_updates, const Eigen::MatrixXd* first_model,
+                     Eigen::MatrixXd& B) {
     FitResult r;
     const int evaluations_before = evaluations();
-    Eigen::MatrixXd B;                 // the curvature model of -objective (scaled units)
     Eigen::VectorXd g_last;            // the gradient at the last accepted point
     std::vector<double> z_last;
     bool reset = true;                 // take BHHH's information afresh

@@ -207,10 +207,6 @@ Result<Loglik> ScoreLoop(const Context& ctx, Eigen::VectorXd* gradient, Eigen::M
         if (can_be_steady) rec_PCt[p_j] = PCt, rec_R[p_j] = R;
       }
       const double eps = y - yhat;
-      // One division per observation: the per-parameter terms multiply by 1/R (a division has
-      // ~15 cycles of latency, and there were four per parameter).
-      const double inv_R = 1.0 / R;
-      const double eps_R = eps * inv_R;
       for (int i = 0; i < k; ++i) {
         const model::StateSpace& d = ctx.dss[i];
         const Row& dc = dC[o * k + i];
@@ -226,14 +222,13 @@ Result<Loglik> ScoreLoop(const Context& ctx, Eigen::VectorXd* gradient, Eigen::M
           dPCt.noalias() += P * dc.transpose();
           dR = dc.dot(PCt) + C[o].dot(dPCt) + d.S(o);
           if (can_be_steady) rec_dPCt[at] = dPCt, rec_dR[at] = dR;
-          dP[i].noalias() -= (dPCt * PCt.transpose() + PCt * dPCt.transpose()) * inv_R;
-          dP[i].noalias() += PCt * PCt.transpose() * (dR * inv_R * inv_R);
+          dP[i].noalias() -= (dPCt * PCt.transpose() + PCt * dPCt.transpose()) / R;
+          dP[i].noalias() += PCt * PCt.transpose() * (dR / (R * R));
         }
         const double deps = -dyhat;
-        const double dR_R = dR * inv_R;
-        d_logdet(i) += dR_R;
-        d_r2(i) += (2.0 * eps * deps - eps * eps_R * dR) * inv_R;
-        dx[i].noalias() += dPCt * eps_R + PCt * ((deps - eps_R * dR) * inv_R);
+        d_logdet(i) += dR / R;
+        d_r2(i) += (2.0 * eps * deps - eps * eps * dR / R) / R;
+        dx[i].noalias() += dPCt * (eps / R) + PCt * ((deps - eps * dR / R) / R);
       }
       logdet += std::log(R);
       r2 += eps * eps / R;
