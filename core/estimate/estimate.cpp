@@ -608,7 +608,8 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
 
   // The delay to start from: the best of the grid at the start values.
   const bool scanning = spec.HasDelayScan();
-  std::vector<int> delay;
+  std::vector<int> delay, second_delay;
+  double second_loglik = -HUGE_VAL;
   {
     auto profile = lik.Profile(spec.Values());
     if (fitter.Cancelled()) return cancelled_summary();
@@ -623,14 +624,45 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
       return e;
     }
     delay = profile->candidates[profile->best].delay;
+    // The runner-up at the start values: the plain start is fitted there too (below).
+    for (std::size_t c = 0; scanning && c < profile->candidates.size(); ++c) {
+      const auto& cand = profile->candidates[c];
+      if (static_cast<int>(c) == profile->best || !cand.ok) continue;
+      if (second_delay.empty() || cand.loglik > second_loglik)
+        second_delay = cand.delay, second_loglik = cand.loglik;
+    }
   }
 
-  // 1. The model's start values, at that delay; then θ and the delay in turn until the delay
-  //    settles (each delay's fit warm-started from the last).
+  // 1. The model's start values at the two best delays at the start values, side by side where
+  //    there are threads (a misspecified first delay costs a fit from its optimum to the right
+  //    one and a plain start's refit there; the runner-up is often the right one); then θ and the
+  //    delay in turn until the delay settles (each delay's fit warm-started from the last).
   const std::vector<double> z_start = fitter.ZStart();
+  std::vector<FitResult> first(second_delay.empty() ? 1 : 2);
+  {
+    const std::vector<std::vector<int>> first_delays = {delay, second_delay};
+    const int jobs = static_cast<int>(first.size());
+    if (jobs == 1 || threads == 1) {
+      for (int j = 0; j < jobs; ++j) first[j] = fitter.Fit(z_start, first_delays[j], "fitting");
+    } else {
+      ParallelFor(jobs, threads, [&](int j) {
+        first[j] = fitter.FitAlongside(z_start, first_delays[j], "fitting",
+                                       std::max(1, threads / jobs));
+      });
+    }
+  }
+  const int plain_evaluations =  // what a fit from a start costs here
+      fitter.evaluations() / static_cast<int>(first.size());
+  FitResult best = std::move(first[0]);
+  FitResult runner_up;  // the plain start's fit at the other delay, if any
+  if (first.size() == 2) {
+    runner_up = std::move(first[1]);
+    if (runner_up.cancelled || runner_up.loglik > best.loglik) {
+      std::swap(best, runner_up);
+      std::swap(delay, second_delay);
+    }
+  }
   std::vector<int> delay_of_start = delay;  // the delay the plain start was last fitted at
-  FitResult best = fitter.Fit(z_start, delay, "fitting");
-  const int plain_evaluations = fitter.evaluations();  // what a fit from a start costs here
   auto settle = [&] {
     for (int round = 0; scanning && !best.cancelled && !fitter.Cancelled() && round < 10; ++round) {
       auto profile = lik.Profile(fitter.Theta(best.z));
@@ -723,6 +755,13 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
     };
     std::vector<Fitted> fitted = {{delay_best, best.z, best.model}};
     profile_points.push_back({delay_best, best.loglik, best.converged});
+    // The plain start's fit at the runner-up delay is that delay's profile point.
+    const bool have_runner_up = std::isfinite(runner_up.loglik) && second_delay != delay_best &&
+                                options.full_delay_profile;
+    if (have_runner_up) {
+      fitted.push_back({second_delay, runner_up.z, runner_up.model});
+      profile_points.push_back({second_delay, runner_up.loglik, runner_up.converged});
+    }
     // The candidates in waves of equal distance from the estimate; each fit starts from the
     // nearest fit of an earlier wave, so the fits of a wave are independent and run in parallel
     // (each on its share of the threads). The results do not depend on the number of threads.
@@ -733,7 +772,8 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
         ++end;
       std::vector<std::vector<int>> wave;
       for (std::size_t c = next; c < end; ++c)
-        if (grid[c] != delay_best) wave.push_back(grid[c]);
+        if (grid[c] != delay_best && !(have_runner_up && grid[c] == second_delay))
+          wave.push_back(grid[c]);
       next = end;
       if (wave.empty()) continue;
       const int n = static_cast<int>(wave.size());
