@@ -762,10 +762,70 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
       fitted.push_back({second_delay, runner_up.z, runner_up.model});
       profile_points.push_back({second_delay, runner_up.loglik, runner_up.converged});
     }
-    // The candidates in waves of equal distance from the estimate; each fit starts from the
-    // nearest fit of an earlier wave, so the fits of a wave are independent and run in parallel
-    // (each on its share of the threads). The results do not depend on the number of threads.
+    auto model_of = [](const Fitted* f) { return f->model.size() > 0 ? &f->model : nullptr; };
+    auto nearest_of = [&](const std::vector<int>& candidate, const std::vector<Fitted>& a,
+                          const std::vector<Fitted>& b) {
+      const Fitted* start = &a.front();
+      int nearest = INT_MAX;
+      for (const auto* list : {&a, &b})
+        for (const Fitted& f : *list)
+          if (distance(f.delay, candidate) < nearest) nearest = distance(f.delay, candidate), start = &f;
+      return start;
+    };
+    auto record = [&](const std::vector<int>& candidate, const FitResult& r) {
+      if (r.cancelled || fitter.Cancelled()) {
+        best.cancelled = true;
+        best.message = "cancelled";
+        return;
+      }
+      if (std::isfinite(r.loglik)) fitted.push_back({candidate, r.z, r.model});
+      profile_points.push_back({candidate, r.loglik, r.converged});
+      if (r.loglik > best.loglik) {
+        best = r;
+        delay = candidate;
+      }
+    };
+    int scanned_outputs = 0;
+    for (const auto& d : spec.output_delay) scanned_outputs += d.IsScan() ? 1 : 0;
     std::size_t next = 0;
+    if (options.full_delay_profile && scanned_outputs == 1) {
+      // One scanned delay: two walkers, down and up from the estimate, side by side where there
+      // are threads. Each fit starts from the nearest of the fits made before the walk and the
+      // walker's own (its predecessor), so the results do not depend on the number of threads.
+      std::vector<std::vector<int>> sides[2];
+      for (const auto& candidate : grid) {
+        if (candidate == delay_best || (have_runner_up && candidate == second_delay)) continue;
+        sides[candidate < delay_best ? 0 : 1].push_back(candidate);
+      }
+      std::vector<FitResult> results[2];
+      const int lanes = sides[0].empty() || sides[1].empty() ? 1 : 2;
+      auto walk = [&](int side, int lane_threads) {
+        std::vector<Fitted> own;
+        for (const auto& candidate : sides[side]) {
+          if (fitter.Cancelled()) break;
+          const Fitted* start = nearest_of(candidate, fitted, own);
+          FitResult r = fitter.FitAlongside(start->z, candidate, "delay profile", lane_threads, 0,
+                                            model_of(start));
+          if (std::isfinite(r.loglik)) own.push_back({candidate, r.z, r.model});
+          results[side].push_back(std::move(r));
+        }
+      };
+      if (lanes == 1 || threads == 1) {
+        walk(0, threads);
+        walk(1, threads);
+      } else {
+        ParallelFor(2, threads, [&](int side) { walk(side, std::max(1, threads / 2)); });
+      }
+      for (int side = 0; side < 2; ++side)
+        for (std::size_t c = 0; c < results[side].size() && !best.cancelled; ++c)
+          record(sides[side][c], results[side][c]);
+      if (fitter.Cancelled()) best.cancelled = true;
+      next = grid.size();  // done
+    }
+    // Otherwise the candidates in waves of equal distance from the estimate; each fit starts
+    // from the nearest fit of an earlier wave, so the fits of a wave are independent and run in
+    // parallel (each on its share of the threads). The results do not depend on the number of
+    // threads.
     while (next < grid.size() && !best.cancelled) {
       std::size_t end = next;
       while (end < grid.size() && distance(grid[end], delay_best) == distance(grid[next], delay_best))
@@ -782,13 +842,8 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
           profile_points.push_back({candidate, fitter.Objective(best.z, candidate), true});
         continue;
       }
-      std::vector<const Fitted*> starts(n, &fitted.front());
-      for (int w = 0; w < n; ++w) {
-        int nearest = INT_MAX;
-        for (const Fitted& f : fitted)
-          if (distance(f.delay, wave[w]) < nearest) nearest = distance(f.delay, wave[w]), starts[w] = &f;
-      }
-      auto model_of = [](const Fitted* f) { return f->model.size() > 0 ? &f->model : nullptr; };
+      std::vector<const Fitted*> starts(n);
+      for (int w = 0; w < n; ++w) starts[w] = nearest_of(wave[w], fitted, {});
       std::vector<FitResult> results(n);
       if (n == 1 || threads == 1) {
         for (int w = 0; w < n && !fitter.Cancelled(); ++w)
@@ -800,20 +855,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
                                            std::max(1, threads / n), 0, model_of(starts[w]));
         });
       }
-      for (int w = 0; w < n; ++w) {
-        const FitResult& r = results[w];
-        if (r.cancelled || fitter.Cancelled()) {
-          best.cancelled = true;
-          best.message = "cancelled";
-          break;
-        }
-        if (std::isfinite(r.loglik)) fitted.push_back({wave[w], r.z, r.model});
-        profile_points.push_back({wave[w], r.loglik, r.converged});
-        if (r.loglik > best.loglik) {
-          best = r;
-          delay = wave[w];
-        }
-      }
+      for (int w = 0; w < n && !best.cancelled; ++w) record(wave[w], results[w]);
     }
   }
   // 4. A first delay far from the right one can lead the plain start's fit to a poor optimum

@@ -312,6 +312,27 @@ TEST(Estimate, MultistartIsNeverWorseThanThePlainStartAndCountsTheStartsAtTheBes
   EXPECT_EQ(multi->ToJson()["starts"]["total"], multi->starts);
 }
 
+TEST(Estimate, TheDelayProfileDoesNotDependOnTheNumberOfThreads) {
+  // With 2 threads the plain start's two first fits and the two walkers of the delay profile run
+  // side by side, each from the same start as on 1 thread: the same numbers, bit for bit.
+  const auto lik = GenericFuelFilm("f1", 3, 7, 3000);
+  EstimateOptions one, two;
+  one.threads = 1;
+  two.threads = 2;
+  auto a = Estimate(*lik, one);
+  auto b = Estimate(*lik, two);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->loglik, b->loglik);
+  EXPECT_EQ(a->iterations, b->iterations);
+  ASSERT_EQ(a->delays[0].profile.size(), 5u);
+  ASSERT_EQ(b->delays[0].profile.size(), 5u);
+  for (std::size_t i = 0; i < 5; ++i) {
+    EXPECT_EQ(a->delays[0].profile[i].loglik, b->delays[0].profile[i].loglik) << i;
+    EXPECT_TRUE(a->delays[0].profile[i].converged) << i;
+  }
+  for (std::size_t i = 0; i < a->theta.size(); ++i) EXPECT_EQ(a->theta[i], b->theta[i]) << i;
+}
+
 TEST(Estimate, AnEstimateOnABoundGetsExtraStartsThatNeverMakeItWorse) {
   // τ_ff capped at 0.2 (f8's optimum is near 0.28): the estimate ends on that bound.
   const auto lik = GenericFuelFilm("f8", 6, 6, 2500, 0.2);
