@@ -642,14 +642,10 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   {
     const std::vector<std::vector<int>> first_delays = {delay, second_delay};
     const int jobs = static_cast<int>(first.size());
-    if (jobs == 1 || threads == 1) {
-      for (int j = 0; j < jobs; ++j) first[j] = fitter.Fit(z_start, first_delays[j], "fitting");
-    } else {
-      ParallelFor(jobs, threads, [&](int j) {
-        first[j] = fitter.FitAlongside(z_start, first_delays[j], "fitting",
-                                       std::max(1, threads / jobs));
-      });
-    }
+    ParallelFor(jobs, threads, [&](int j) {
+      first[j] = fitter.FitAlongside(z_start, first_delays[j], "fitting",
+                                     std::max(1, threads / jobs));
+    });
   }
   const int plain_evaluations =  // what a fit from a start costs here
       fitter.evaluations() / static_cast<int>(first.size());
@@ -810,12 +806,8 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
           results[side].push_back(std::move(r));
         }
       };
-      if (lanes == 1 || threads == 1) {
-        walk(0, threads);
-        walk(1, threads);
-      } else {
-        ParallelFor(2, threads, [&](int side) { walk(side, std::max(1, threads / 2)); });
-      }
+      ParallelFor(2, lanes == 1 ? 1 : threads,
+                  [&](int side) { walk(side, std::max(1, threads / lanes)); });
       for (int side = 0; side < 2; ++side)
         for (std::size_t c = 0; c < results[side].size() && !best.cancelled; ++c)
           record(sides[side][c], results[side][c]);
@@ -845,16 +837,10 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
       std::vector<const Fitted*> starts(n);
       for (int w = 0; w < n; ++w) starts[w] = nearest_of(wave[w], fitted, {});
       std::vector<FitResult> results(n);
-      if (n == 1 || threads == 1) {
-        for (int w = 0; w < n && !fitter.Cancelled(); ++w)
-          results[w] = fitter.Fit(starts[w]->z, wave[w], "delay profile", kMaxBhhhIterations,
-                                  model_of(starts[w]));
-      } else {
-        ParallelFor(n, threads, [&](int w) {
-          results[w] = fitter.FitAlongside(starts[w]->z, wave[w], "delay profile",
-                                           std::max(1, threads / n), 0, model_of(starts[w]));
-        });
-      }
+      ParallelFor(n, threads, [&](int w) {
+        results[w] = fitter.FitAlongside(starts[w]->z, wave[w], "delay profile",
+                                         std::max(1, threads / n), 0, model_of(starts[w]));
+      });
       for (int w = 0; w < n && !best.cancelled; ++w) record(wave[w], results[w]);
     }
   }

@@ -104,36 +104,18 @@ class Fitter {
   FitResult FitAlongside(std::vector<double> z, const std::vector<int>& delay,
                          const std::string& stage, int threads, int max_evaluations = 0,
                          const Eigen::MatrixXd* first_model = nullptr) {
-    EstimateOptions sub = options_;
-    sub.threads = threads;
-    if (max_evaluations > 0) sub.max_evaluations = max_evaluations;
-    if (options_.progress)
-      sub.progress = [this](const Progress& p) {
-        const std::lock_guard<std::mutex> lock(progress_mutex_);
-        Progress q = p;
-        q.iteration += iterations_.load();
-        q.evaluations += evaluations_.load();
-        options_.progress(q);
-      };
-    Fitter f(*this, sub);
-    FitResult r = f.Fit(std::move(z), delay, stage, kMaxBhhhIterations, first_model);
-    iterations_.fetch_add(f.iterations());
-    evaluations_.fetch_add(f.evaluations());
-    return r;
+    return Alongside(threads, max_evaluations, /*report=*/true, [&](Fitter& f) {
+      return f.Fit(std::move(z), delay, stage, kMaxBhhhIterations, first_model);
+    });
   }
 
-  // `iterations` iterations of auto's BHHH with BFGS corrections from z (no L-BFGS finish), on a
-  // fitter of its own as FitAlongside: a cheap look at where a start leads.
+  // `iterations` iterations of auto's BHHH with BFGS corrections from z (no L-BFGS finish, no
+  // progress reports), as FitAlongside: a cheap look at where a start leads.
   FitResult ExploreAlongside(std::vector<double> z, const std::vector<int>& delay, int iterations,
                              int threads) {
-    EstimateOptions sub = options_;
-    sub.threads = threads;
-    sub.progress = nullptr;
-    Fitter f(*this, sub);
-    FitResult r = f.FitBhhh(std::move(z), delay, "fitting", iterations, /*bfgs_updates=*/true);
-    iterations_.fetch_add(f.iterations());
-    evaluations_.fetch_add(f.evaluations());
-    return r;
+    return Alongside(threads, 0, /*report=*/false, [&](Fitter& f) {
+      return f.FitBhhh(std::move(z), delay, "fitting", iterations, /*bfgs_updates=*/true);
+    });
   }
 
   int k() const { return static_cast<int>(free_.size()); }
@@ -325,6 +307,7 @@ class Fitter {
     return r;
   }
 
+  // FitBhhh's iterations; B ends as the curvature model at the returned point.
   FitResult BhhhLoop(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
                      int max_iterations, bool bfgs_updates, const Eigen::MatrixXd* first_model,
                      Eigen::MatrixXd& B) {
@@ -665,6 +648,29 @@ class Fitter {
   }
 
  private:
+  // Runs fit(sub) on a fitter over the same parameters with its own options (threads, evaluation
+  // limit, progress passed on under a lock or none), and adds its counts to this one's.
+  template <class Fit>
+  FitResult Alongside(int threads, int max_evaluations, bool report, Fit&& fit) {
+    EstimateOptions sub = options_;
+    sub.threads = threads;
+    if (max_evaluations > 0) sub.max_evaluations = max_evaluations;
+    sub.progress = nullptr;
+    if (report && options_.progress)
+      sub.progress = [this](const Progress& p) {
+        const std::lock_guard<std::mutex> lock(progress_mutex_);
+        Progress q = p;
+        q.iteration += iterations_.load();
+        q.evaluations += evaluations_.load();
+        options_.progress(q);
+      };
+    Fitter f(*this, sub);
+    FitResult r = fit(f);
+    iterations_.fetch_add(f.iterations());
+    evaluations_.fetch_add(f.evaluations());
+    return r;
+  }
+
   const filter::Likelihood& lik_;
   const EstimateOptions& options_;
   std::vector<double> theta0_;

@@ -74,6 +74,16 @@ estimate::EstimateSummary EstimateDirectly(const EstimationSettings& settings) {
   return *summary;
 }
 
+// Frames until the estimation job has ended, then one more (its result installed).
+::testing::AssertionResult FinishFit(WorkbenchDriver& d) {
+  if (!d.FramesUntil([&] { return !EstimationRunning(d.state); }, kFitTimeout))
+    return ::testing::AssertionFailure() << "the fit did not end in time";
+  d.Frame();
+  if (!d.state.estimation.result)
+    return ::testing::AssertionFailure() << "no result: " << d.state.estimation.last_failure;
+  return ::testing::AssertionSuccess();
+}
+
 TEST(WorkbenchEstimation, ClickingRunInstallsTheEstimatesAndTheParametersViewShowsThem) {
   WorkbenchDriver d;
   d.Open(kTestProject);
@@ -86,10 +96,7 @@ TEST(WorkbenchEstimation, ClickingRunInstallsTheEstimatesAndTheParametersViewSho
   ASSERT_TRUE(run) << "the Run button was not found in the estimate view";
   d.Click(*run);
   EXPECT_TRUE(EstimationRunning(d.state) || d.state.estimation.result);
-  ASSERT_TRUE(d.FramesUntil([&] { return !EstimationRunning(d.state); }, kFitTimeout));
-  d.Frame();
-
-  ASSERT_TRUE(d.state.estimation.result) << d.state.estimation.last_failure;
+  ASSERT_TRUE(FinishFit(d));
   const FitResult& fit = *d.state.estimation.result;
   EXPECT_TRUE(fit.summary.converged) << fit.summary.message;
   EXPECT_GT(fit.trace.size(), 0) << "the progress record fed no trace";
@@ -133,9 +140,7 @@ TEST(WorkbenchEstimation, ProfileIntervalsShowBesideTheWaldOnesAndAParametersPro
   const std::optional<ImVec2> run = d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId("Run"));
   ASSERT_TRUE(run);
   d.Click(*run);
-  ASSERT_TRUE(d.FramesUntil([&] { return !EstimationRunning(d.state); }, kFitTimeout));
-  d.Frame();
-  ASSERT_TRUE(d.state.estimation.result) << d.state.estimation.last_failure;
+  ASSERT_TRUE(FinishFit(d));
   const estimate::EstimateSummary& s = d.state.estimation.result->summary;
 
   d.state.view = View::kParameters;
@@ -174,9 +179,7 @@ TEST(WorkbenchEstimation, CancelStopsTheFitWithin100msAndKeepsThePreviousResult)
 
   // A first fit: the result to keep.
   d.Click(*run);
-  ASSERT_TRUE(d.FramesUntil([&] { return !EstimationRunning(d.state); }, kFitTimeout));
-  d.Frame();
-  ASSERT_TRUE(d.state.estimation.result) << d.state.estimation.last_failure;
+  ASSERT_TRUE(FinishFit(d));
   const estimate::EstimateSummary first = d.state.estimation.result->summary;
 
   // A long second fit (many starts), cancelled once it is under way.
