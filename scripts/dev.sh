@@ -10,6 +10,7 @@ cd "$(dirname "$0")/.."
 packages=(
   build-essential cmake ninja-build pkg-config python3 git
   libeigen3-dev libnlopt-cxx-dev nlohmann-json3-dev libcli11-dev libfmt-dev libboost-math-dev
+  libsundials-dev
   libglfw3-dev libgl-dev libimgui-dev libosmesa6-dev libstb-dev fonts-dejavu-core
   libgtest-dev libgmock-dev libbenchmark-dev xvfb xauth
 )

@@ -14,7 +14,7 @@ int RunLoglik(const LoglikArgs& args) {
   const std::vector<double>& theta = loaded->theta;
 
   Json out;
-  const auto& model = lik->model().spec();
+  const auto& model = lik->spec();
   std::vector<int> delay;  // the delay the gradient is taken at (empty: each output's min)
   if (!model.HasDelayScan()) {
     auto l = lik->Evaluate(theta);

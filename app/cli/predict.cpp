@@ -96,6 +96,9 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
   if (!problem) return problem.error();
   auto lik = project::MakeLikelihood(*problem);
   if (!lik) return lik.error();
+  if (!problem->model)
+    return InputError(fmt::format("{}: predictions and diagnostics of a nonlinear model are not "
+                                  "available yet (loglik and estimate are)", model_path));
   out.model = problem->model;
   out.series = problem->series.front();
   const model::ModelSpec& m = out.model->spec();

@@ -587,7 +587,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   filter::Likelihood lik = shared_likelihood;
   lik.set_cancel(options.cancel);
   const auto start_time = Clock::now();
-  const model::ModelSpec& spec = lik.model().spec();
+  const model::ModelSpec& spec = lik.spec();
   Fitter fitter(lik, options);
   const int threads = options.threads > 0 ? options.threads : HardwareThreads();
 

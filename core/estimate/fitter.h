@@ -70,7 +70,7 @@ class Fitter {
   Fitter(const filter::Likelihood& lik, const EstimateOptions& options,
          std::span<const double> theta_base = {}, std::span<const int> held = {})
       : lik_(lik), options_(options) {
-    const auto& spec = lik.model().spec();
+    const auto& spec = lik.spec();
     theta0_ = theta_base.empty() ? spec.Values()
                                  : std::vector<double>(theta_base.begin(), theta_base.end());
     for (std::size_t i = 0; i < spec.parameters.size(); ++i) {

@@ -40,7 +40,7 @@ class ProfileSide {
               double loglik_max, double threshold, double first_step, int sign)
       : lik_(lik), options_(options), delay_(delay), p_(p), threshold_(threshold),
         first_step_(first_step), sign_(sign) {
-    const auto& par = lik.model().spec().parameters[p];
+    const auto& par = lik.spec().parameters[p];
     bound_ = sign > 0 ? par.upper : par.lower;
     prior_ = par.prior;
     points_.push_back({theta_hat[p], loglik_max, true});
@@ -53,7 +53,7 @@ class ProfileSide {
   const std::vector<ProfilePoint>& points() const { return points_; }
 
   void Run() {
-    const auto& name = lik_.model().spec().parameters[p_].name;
+    const auto& name = lik_.spec().parameters[p_].name;
     const double v0 = points_[0].value;
     if (bound_ && std::abs(*bound_ - v0) <= 1e-12 * std::max(1.0, std::abs(v0))) {
       at_bound = true;  // the estimate is at this bound
@@ -176,7 +176,7 @@ Result<std::vector<ProfileInterval>> ProfileIntervals(const filter::Likelihood& 
                                                       const std::vector<std::string>& names,
                                                       double level,
                                                       const EstimateOptions& fit_options) {
-  const model::ModelSpec& spec = lik.model().spec();
+  const model::ModelSpec& spec = lik.spec();
   if (!(level > 0 && level < 1))
     return InputError(fmt::format("the profile interval's level must be in (0, 1), found {}", level));
   if (at.theta.size() != spec.parameters.size() || at.parameters.size() != spec.parameters.size())

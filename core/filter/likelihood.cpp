@@ -1,14 +1,51 @@
 #include "core/filter/likelihood.h"
 
+#include <atomic>
+#include <cmath>
+
 #include <fmt/format.h>
 
 #include "core/filter/score.h"
 
 namespace gb::filter {
 
+struct Likelihood::Counts {
+  std::atomic<long> intervals{0}, stiff_intervals{0}, steps{0}, rejected{0}, rhs{0};
+  void Add(const OdeCounts& c) {
+    intervals += c.intervals;
+    stiff_intervals += c.stiff_intervals;
+    steps += c.steps;
+    rejected += c.rejected;
+    rhs += c.rhs;
+  }
+};
+
+OdeCounts Likelihood::ode_counts() const {
+  OdeCounts c;
+  c.intervals = counts_->intervals;
+  c.stiff_intervals = counts_->stiff_intervals;
+  c.steps = counts_->steps;
+  c.rejected = counts_->rejected;
+  c.rhs = counts_->rhs;
+  return c;
+}
+
 Result<Likelihood> Likelihood::Create(std::shared_ptr<const model::LinearModel> model,
                                       std::vector<std::shared_ptr<const data::Series>> series) {
-  const model::ModelSpec& spec = model->spec();
+  auto l = CreateFor(model->spec(), std::move(series));
+  if (l) l->linear_ = std::move(model);
+  return l;
+}
+
+Result<Likelihood> Likelihood::Create(std::shared_ptr<const model::NonlinearModel> model,
+                                      std::vector<std::shared_ptr<const data::Series>> series) {
+  auto l = CreateFor(model->spec(), std::move(series));
+  if (l) l->nonlinear_ = std::move(model);
+  return l;
+}
+
+Result<Likelihood> Likelihood::CreateFor(const model::ModelSpec& spec,
+                                         std::vector<std::shared_ptr<const data::Series>> series) {
   for (const auto& s : series) {
     for (std::size_t o = 0; o < spec.outputs.size(); ++o) {
       const int max_delay = spec.output_delay[o].max;
@@ -25,14 +62,14 @@ Result<Likelihood> Likelihood::Create(std::shared_ptr<const model::LinearModel> 
   Likelihood l;
   l.settings_ = FilterSettings::FromModel(spec);
   for (const auto& d : spec.output_delay) l.settings_.first_obs.push_back(d.max);
-  l.model_ = std::move(model);
   l.series_ = std::move(series);
+  l.counts_ = std::make_shared<Counts>();
   return l;
 }
 
 std::vector<std::vector<int>> Likelihood::DelayGrid() const {
   std::vector<std::vector<int>> grid{{}};
-  for (const auto& d : model_->spec().output_delay) {
+  for (const auto& d : spec().output_delay) {
     std::vector<std::vector<int>> next;
     for (const auto& prefix : grid) {
       for (int v = d.min; v <= d.max; ++v) {
@@ -62,9 +99,80 @@ Result<Loglik> Likelihood::EvaluateAt(const model::StateSpace& ss, std::span<con
   return total;
 }
 
+Result<Loglik> Likelihood::EvaluateEkf(std::span<const double> theta, std::span<const int> delay,
+                                       std::vector<double>* terms) const {
+  FilterSettings settings = settings_;
+  if (!delay.empty()) settings.delay.assign(delay.begin(), delay.end());
+  Loglik total;
+  std::vector<double> one;
+  if (terms) terms->clear();
+  OdeCounts counts;
+  for (const auto& s : series_) {
+    auto l = EkfLogLikelihood(*nonlinear_, theta, *s, settings, terms ? &one : nullptr, &counts);
+    if (!l) {
+      counts_->Add(counts);
+      return l.error();
+    }
+    if (terms) terms->insert(terms->end(), one.begin(), one.end());
+    total.loglik += l->loglik;
+    total.n_obs += l->n_obs;
+  }
+  counts_->Add(counts);
+  return total;
+}
+
+// Central differences of the per-state-index terms (one-sided at a bound).
+Result<Loglik> Likelihood::EkfScore(std::span<const double> theta, std::span<const int> delay,
+                                    std::span<const int> free, Eigen::VectorXd* gradient,
+                                    Eigen::MatrixXd* J_terms_theta) const {
+  std::vector<double> terms;
+  auto centre = EvaluateEkf(theta, delay, &terms);
+  if (!centre) return centre.error();
+  const Eigen::Index rows = static_cast<Eigen::Index>(terms.size());
+  const Eigen::Index k = static_cast<Eigen::Index>(free.size());
+  Eigen::MatrixXd J(rows, k);
+  std::vector<double> shifted(theta.begin(), theta.end());
+  std::vector<double> up, down;
+  const auto& parameters = spec().parameters;
+  for (Eigen::Index f = 0; f < k; ++f) {
+    if (settings_.cancel && settings_.cancel->load(std::memory_order_relaxed))
+      return NumericalError("cancelled");
+    const int i = free[f];
+    const model::Parameter& par = parameters[i];
+    const double width = par.lower && par.upper ? *par.upper - *par.lower : 1.0;
+    const double h = kDifferenceStep * std::max(std::abs(theta[i]), 1e-3 * width);
+    const bool can_up = !par.upper || theta[i] + h <= *par.upper;
+    const bool can_down = !par.lower || theta[i] - h >= *par.lower;
+    // A side whose filter fails (the model leaves its domain there) falls back to one-sided.
+    double lo = theta[i], hi = theta[i];
+    up = terms;
+    down = terms;
+    if (can_up) {
+      shifted[i] = theta[i] + h;
+      if (EvaluateEkf(shifted, delay, &up)) hi = shifted[i];
+      else up = terms;
+    }
+    if (can_down) {
+      shifted[i] = theta[i] - h;
+      if (EvaluateEkf(shifted, delay, &down)) lo = shifted[i];
+      else down = terms;
+    }
+    shifted[i] = theta[i];
+    if (hi == lo)
+      return NumericalError(fmt::format(
+          "the log-likelihood cannot be differentiated in {} at {:g}: the filter fails on both "
+          "sides (or there is no room between the bounds)", par.name, theta[i]));
+    for (Eigen::Index r = 0; r < rows; ++r) J(r, f) = (up[r] - down[r]) / (hi - lo);
+  }
+  *gradient = J.colwise().sum().transpose();
+  if (J_terms_theta) *J_terms_theta = std::move(J);
+  return centre;
+}
+
 Result<Loglik> Likelihood::Evaluate(std::span<const double> theta, std::span<const int> delay,
                                     std::vector<double>* terms) const {
-  auto ss = model_->Evaluate(theta);
+  if (nonlinear_) return EvaluateEkf(theta, delay, terms);
+  auto ss = linear_->Evaluate(theta);
   if (!ss) return ss.error();
   return EvaluateAt(*ss, delay, terms);
 }
@@ -74,9 +182,10 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
                                              Eigen::VectorXd* gradient,
                                              Eigen::MatrixXd* J_terms_theta) const {
   assert(gradient != nullptr);
-  auto ss = model_->Evaluate(theta);
+  if (nonlinear_) return EkfScore(theta, delay, free, gradient, J_terms_theta);
+  auto ss = linear_->Evaluate(theta);
   if (!ss) return ss.error();
-  auto dss = model_->EvaluateJacobian(theta, free);
+  auto dss = linear_->EvaluateJacobian(theta, free);
   if (!dss) return dss.error();
   FilterSettings settings = settings_;
   if (!delay.empty()) settings.delay.assign(delay.begin(), delay.end());
@@ -109,13 +218,17 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
 }
 
 Result<DelayProfile> Likelihood::Profile(std::span<const double> theta) const {
-  auto ss = model_->Evaluate(theta);
-  if (!ss) return ss.error();
+  std::optional<model::StateSpace> ss;
+  if (linear_) {
+    auto evaluated = linear_->Evaluate(theta);
+    if (!evaluated) return evaluated.error();
+    ss = std::move(*evaluated);
+  }
   DelayProfile profile;
   for (const auto& delay : DelayGrid()) {
     DelayCandidate c;
     c.delay = delay;
-    auto l = EvaluateAt(*ss, delay);
+    auto l = ss ? EvaluateAt(*ss, delay) : EvaluateEkf(theta, delay);
     if (l) {
       c.ok = true;
       c.loglik = l->loglik;

@@ -1,5 +1,8 @@
-// The log-likelihood of a linear model over several independent data series, with output delays
-// (CONTRACT section 1): log L(θ) = Σ_series log L_series(θ).
+// The log-likelihood of a model over several independent data series, with output delays
+// (CONTRACT section 1): log L(θ) = Σ_series log L_series(θ). A linear model (LinearModel) runs
+// the exact Kalman filter (kalman.h) with exact scores (score.h); any other model
+// (NonlinearModel) runs the extended Kalman filter (ekf.h), whose scores are central differences
+// of the per-state-index terms (see EvaluateWithScore).
 //
 // Delays: each output o has a delay range [min_o, max_o] from the model (a fixed delay has
 // min_o = max_o). Every delay candidate is scored on the same observations, y_{o,k} with
@@ -9,12 +12,15 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
 #include "core/data/dataset.h"
+#include "core/filter/ekf.h"
 #include "core/filter/kalman.h"
 #include "core/model/linear_model.h"
+#include "core/model/nonlinear_model.h"
 
 namespace gb::filter {
 
@@ -38,6 +44,9 @@ class Likelihood {
   // 12 samples but f1.csv has 10 rows").
   static Result<Likelihood> Create(std::shared_ptr<const model::LinearModel> model,
                                    std::vector<std::shared_ptr<const data::Series>> series);
+  // The same for a model the extended Kalman filter runs.
+  static Result<Likelihood> Create(std::shared_ptr<const model::NonlinearModel> model,
+                                   std::vector<std::shared_ptr<const data::Series>> series);
 
   // log L at θ (all parameters, natural scale) with the given delay per output (empty: each
   // output's min).
@@ -51,6 +60,10 @@ class Likelihood {
   // ∂ℓ_r/∂θ of the r-th term that Evaluate's `terms` returns (series after series), so the rows
   // sum to the gradient and BHHH's information is J' J. Fails as Evaluate does, and when a
   // derivative of the model's entries is not finite (LinearModel::EvaluateJacobian).
+  // For the extended Kalman filter the derivatives are central differences of the terms with
+  // the step h_i = kDifferenceStep max(|θ_i|, 1e-3 s_i), s_i the width of θ_i's bounds or 1 when
+  // unbounded (one-sided where a step would leave the bounds); they are as accurate as the ODE
+  // tolerance allows (about rtol / kDifferenceStep relative).
   Result<Loglik> EvaluateWithScore(std::span<const double> theta, std::span<const int> delay,
                                    std::span<const int> free, Eigen::VectorXd* gradient,
                                    Eigen::MatrixXd* J_terms_theta = nullptr) const;
@@ -61,17 +74,36 @@ class Likelihood {
   // The delay grid: the Cartesian product of the outputs' ranges (a single entry without scans).
   std::vector<std::vector<int>> DelayGrid() const;
 
-  const model::LinearModel& model() const { return *model_; }
+  static constexpr double kDifferenceStep = 1e-5;
+
+  const model::ModelSpec& spec() const { return linear_ ? linear_->spec() : nonlinear_->spec(); }
+  // The linear model, or null when the extended Kalman filter runs.
+  const model::LinearModel* linear() const { return linear_.get(); }
+  // The model the extended Kalman filter runs, or null for a linear model.
+  const model::NonlinearModel* nonlinear() const { return nonlinear_.get(); }
+  // The ODE solver's work summed over every EKF evaluation since creation (zero for a linear
+  // model). Not synchronised: read it when no evaluation runs.
+  OdeCounts ode_counts() const;
   const std::vector<std::shared_ptr<const data::Series>>& series() const { return series_; }
   const FilterSettings& settings() const { return settings_; }
   // Evaluations stop early (with an Error) once *cancel is true; nullptr: never.
   void set_cancel(const std::atomic<bool>* cancel) { settings_.cancel = cancel; }
 
  private:
+  static Result<Likelihood> CreateFor(const model::ModelSpec& spec,
+                                      std::vector<std::shared_ptr<const data::Series>> series);
   Result<Loglik> EvaluateAt(const model::StateSpace& ss, std::span<const int> delay,
                             std::vector<double>* terms = nullptr) const;
+  Result<Loglik> EvaluateEkf(std::span<const double> theta, std::span<const int> delay,
+                             std::vector<double>* terms = nullptr) const;
+  Result<Loglik> EkfScore(std::span<const double> theta, std::span<const int> delay,
+                          std::span<const int> free, Eigen::VectorXd* gradient,
+                          Eigen::MatrixXd* J_terms_theta) const;
 
-  std::shared_ptr<const model::LinearModel> model_;
+  std::shared_ptr<const model::LinearModel> linear_;
+  std::shared_ptr<const model::NonlinearModel> nonlinear_;
+  struct Counts;
+  std::shared_ptr<Counts> counts_;  // the ODE work, shared by copies
   std::vector<std::shared_ptr<const data::Series>> series_;
   FilterSettings settings_;  // first_obs = each output's max delay
 };

@@ -34,9 +34,7 @@ Status SplitAffine(const ModelSpec& spec, const Formula& f, const std::vector<st
           w == v ? fmt::format("it is not linear in '{}'", v)
                  : fmt::format("it multiplies '{}' by '{}'", v, w);
       return ModelError(spec, f,
-                        fmt::format("the model must be affine in the states and inputs, but {} "
-                                    "(nonlinear models are not supported yet)",
-                                    how),
+                        fmt::format("the model is not affine in the states and inputs: {}", how),
                         at ? at->column : 0);
     }
     coefficients->push_back(dv);
@@ -44,7 +42,29 @@ Status SplitAffine(const ModelSpec& spec, const Formula& f, const std::vector<st
   expr::ExprPtr rest = f.expr;
   for (const auto& v : vars) rest = expr::Substitute(rest, v, expr::Constant(0.0));
   *constant = expr::Simplify(rest);
+  std::set<std::string> used;
+  expr::CollectNames(*constant, &used);
+  for (const auto& w : var_set) {
+    if (!used.count(w)) continue;
+    const expr::Node* at = expr::FindFirstVariable(f.expr, {w});
+    return ModelError(spec, f, fmt::format("the model is not linear: {} depends on '{}'", f.path, w),
+                      at ? at->column : 0);
+  }
   return Ok{};
+}
+
+// Refuses f when it uses a name other than a parameter (a state, an input or the time).
+Status ParametersOnly(const ModelSpec& spec, const Formula& f) {
+  std::set<std::string> used;
+  expr::CollectNames(f.expr, &used);
+  std::set<std::string> others;
+  for (const auto& name : used)
+    if (spec.ParameterIndex(name) < 0) others.insert(name);
+  if (others.empty()) return Ok{};
+  const expr::Node* at = expr::FindFirstVariable(f.expr, others);
+  return ModelError(spec, f,
+                    fmt::format("the model is not linear: {} depends on '{}'", f.path, at->name),
+                    at->column);
 }
 
 }  // namespace
@@ -57,7 +77,13 @@ Result<LinearModel> LinearModel::Compile(ModelSpec spec) {
 
   std::vector<std::string> vars = spec.states;
   vars.insert(vars.end(), spec.inputs.begin(), spec.inputs.end());
-  const std::set<std::string> var_set(vars.begin(), vars.end());
+  std::set<std::string> var_set(vars.begin(), vars.end());
+  // The time makes a model time-varying: not linear time-invariant (the EKF takes it).
+  if (spec.ParameterIndex("t") < 0 && spec.StateIndex("t") < 0 && spec.InputIndex("t") < 0)
+    var_set.insert("t");
+  for (const auto* list : {&spec.diffusion, &spec.measurement_variance, &spec.initial_state})
+    for (const Formula& f : *list)
+      if (auto s = ParametersOnly(spec, f); !s) return s.error();
 
   // Split drift and observation rows into [A B | c] and [C D | d].
   std::vector<std::vector<expr::ExprPtr>> f_coef(n), h_coef(p);

@@ -177,6 +177,8 @@ Result<Parameter> ReadParameter(const Parser& p, const std::string& name, const 
 
 // ---- 3. expressions --------------------------------------------------------------------------
 
+constexpr const char* kTimeName = "t";  // the time, in expressions
+
 struct NameTable {
   std::set<std::string> known;         // states, inputs and parameters
   std::vector<std::string> all;        // for suggestions
@@ -309,6 +311,40 @@ Result<DelaySpec> ReadDelay(const Parser& p, const Json& v, const std::string& p
   return d;
 }
 
+
+// The "ekf" object: {"ode": ..., "rtol": ..., "atol": ..., "iterations": ...}, every key optional.
+Result<EkfOptions> ReadEkfOptions(const Parser& p, const Json& v) {
+  if (!v.is_object()) return p.Fail("ekf", "expected an object, found " + JsonTypeName(v));
+  EkfOptions o;
+  for (auto it = v.begin(); it != v.end(); ++it) {
+    const std::string path = "ekf." + it.key();
+    if (it.key() == "ode") {
+      const std::string s = it.value().is_string() ? it.value().get<std::string>() : "";
+      if (s == "auto") o.method = OdeMethod::kAuto;
+      else if (s == "explicit") o.method = OdeMethod::kExplicit;
+      else if (s == "bdf") o.method = OdeMethod::kBdf;
+      else return p.Fail(path, "expected \"auto\", \"explicit\" or \"bdf\"");
+    } else if (it.key() == "rtol" || it.key() == "atol") {
+      auto x = ReadNumber(p, it.value(), path);
+      if (!x) return x.error();
+      if (!(*x > 0) || *x >= 1)
+        return p.Fail(path, fmt::format("a tolerance is a positive number below 1, not {}", *x));
+      (it.key() == "rtol" ? o.rtol : o.atol) = *x;
+    } else if (it.key() == "iterations") {
+      const Json& x = it.value();
+      if (!x.is_number_integer() || x.get<std::int64_t>() < 1 || x.get<std::int64_t>() > 100)
+        return p.Fail(path, "expected a whole number from 1 (the EKF) to 100 (the iterated EKF)");
+      o.iterations = static_cast<int>(x.get<std::int64_t>());
+    } else {
+      std::string msg = fmt::format("unknown key '{}'", it.key());
+      if (auto s = Suggest(it.key(), {"ode", "rtol", "atol", "iterations"}))
+        msg += fmt::format(" (did you mean '{}'?)", *s);
+      return p.Fail(path, msg);
+    }
+  }
+  return o;
+}
+
 }  // namespace
 
 // ---- ModelSpec accessors ---------------------------------------------------------------------
@@ -336,6 +372,15 @@ bool ModelSpec::HasDelayScan() const {
 
 // ---- 5. ParseModel ---------------------------------------------------------------------------
 
+const char* OdeMethodName(OdeMethod m) {
+  switch (m) {
+    case OdeMethod::kExplicit: return "explicit";
+    case OdeMethod::kBdf: return "bdf";
+    case OdeMethod::kAuto: break;
+  }
+  return "auto";
+}
+
 Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
   const Parser p(source);
   if (!j.is_object()) return p.Fail("", "a model file holds a JSON object, found " + JsonTypeName(j));
@@ -349,7 +394,7 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
       "inputs",          "outputs",       "parameters",        "drift",
       "diffusion",       "observation",   "measurement_variance", "output_delay",
       "initial_state",   "initial_covariance", "input_hold",   "robust_huber",
-      "time_unit"};
+      "time_unit",       "ekf"};
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (kKeys.count(it.key())) continue;
     std::string msg = fmt::format("unknown key '{}'", it.key());
@@ -411,6 +456,9 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
     if (auto s = claim(m.inputs[i], fmt::format("inputs[{}]", i), "input"); !s) return s.error();
   for (const auto& par : m.parameters)
     if (auto s = claim(par.name, "parameters." + par.name, "parameter"); !s) return s.error();
+  // The time, unless the model names something `t`.
+  const bool time_free = !names.known.count(kTimeName);
+  if (time_free) names.known.insert(kTimeName);
   for (std::size_t i = 0; i < m.outputs.size(); ++i)
     if (IndexOf(m.inputs, m.outputs[i]) >= 0)
       return p.Fail(fmt::format("outputs[{}]", i),
@@ -418,24 +466,29 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
 
   std::set<std::string> params_only;
   for (const auto& par : m.parameters) params_only.insert(par.name);
-  const std::set<std::string>& everything = names.known;
+  const std::set<std::string>& everything = names.known;  // with t when it is the time
   std::set<std::string> params_inputs = params_only;
   params_inputs.insert(m.inputs.begin(), m.inputs.end());
+  if (time_free) params_inputs.insert(kTimeName);
+  const char* everything_what = time_free ? "states, inputs, parameters and the time t"
+                                          : "states, inputs and parameters";
 
   auto drift = ReadFormulaMap(p, j, "drift", m.states, "state", true, "0", names, everything,
-                              "states, inputs and parameters");
+                              everything_what);
   if (!drift) return drift.error();
   m.drift = std::move(*drift);
   auto diffusion = ReadFormulaMap(p, j, "diffusion", m.states, "state", false, "0", names,
-                                  params_only, "parameters");
+                                  everything, everything_what);
   if (!diffusion) return diffusion.error();
   m.diffusion = std::move(*diffusion);
   auto observation = ReadFormulaMap(p, j, "observation", m.outputs, "output", true, "0", names,
-                                    everything, "states, inputs and parameters");
+                                    everything, everything_what);
   if (!observation) return observation.error();
   m.observation = std::move(*observation);
   auto variance = ReadFormulaMap(p, j, "measurement_variance", m.outputs, "output", true, "0",
-                                 names, params_only, "parameters");
+                                 names, params_inputs,
+                                 time_free ? "inputs, parameters and the time t"
+                                           : "inputs and parameters");
   if (!variance) return variance.error();
   m.measurement_variance = std::move(*variance);
   auto x0 = ReadFormulaMap(p, j, "initial_state", m.states, "state", false, "0", names,
@@ -496,6 +549,12 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
     if (*c <= 0) return p.Fail("robust_huber", fmt::format("the Huber threshold must be positive, not {}", *c));
     m.robust_huber = *c;
   }
+
+  if (j.contains("ekf")) {
+    auto ekf = ReadEkfOptions(p, j["ekf"]);
+    if (!ekf) return ekf.error();
+    m.ekf = *ekf;
+  }
   return m;
 }
 
@@ -555,6 +614,14 @@ Json ToJson(const ModelSpec& m) {
   if (!delays.empty()) j["output_delay"] = delays;
   j["input_hold"] = m.input_hold == InputHold::kZoh ? "zoh" : "foh";
   if (m.robust_huber) j["robust_huber"] = *m.robust_huber;
+  if (m.ekf != EkfOptions{}) {
+    Json e;
+    e["ode"] = OdeMethodName(m.ekf.method);
+    e["rtol"] = m.ekf.rtol;
+    e["atol"] = m.ekf.atol;
+    e["iterations"] = m.ekf.iterations;
+    j["ekf"] = e;
+  }
   return j;
 }
 

@@ -1,7 +1,15 @@
 // Model files (CONTRACT section 2): the stochastic differential equation
 //
-//   dx = f(x, u, θ) dt + σ(θ) dω           ω: independent standard Wiener processes, one per state
-//   y_k = h(x_{k-d}, u_{k-d}, θ) + e_k      e_k ~ N(0, S(θ)), S diagonal, d = output delay (samples)
+//   dx = f(x, u, θ, t) dt + σ(x, u, θ, t) dω   ω: independent standard Wiener processes, one per state
+//   y_k = h(x_{k-d}, u_{k-d}, θ, t) + e_k       e_k ~ N(0, S(u, θ, t)), S diagonal, d = output delay
+//
+// Drift and observation may use states, inputs, parameters and the time `t` (the data's time
+// column; a model that names a state, input or parameter `t` means that one instead). The
+// diffusion may use the same names: the filter evaluates it at the filtered mean, as CTSM does
+// (core/filter/ekf.h). The measurement variance may use inputs, parameters and `t`; the initial
+// state and variances only parameters. A model whose f and h are affine in states and inputs,
+// with σ and S free of states, inputs and t, is linear and handled exactly (LinearModel);
+// every other model goes through the extended Kalman filter (NonlinearModel, core/filter/ekf.h).
 //
 // `ModelSpec` is the file, parsed and validated: names, parameters with bounds, and every
 // expression parsed (with the JSON path it came from, so later errors can point at it).
@@ -64,6 +72,23 @@ struct DelaySpec {
 };
 
 enum class InputHold { kZoh, kFoh };
+
+// How a nonlinear model is filtered (core/filter/ekf.h); a linear model ignores it. The model
+// file's optional "ekf" object: {"ode": "auto" | "explicit" | "bdf", "rtol": 1e-8, "atol": 1e-10,
+// "iterations": 1}.
+enum class OdeMethod {
+  kAuto,      // explicit while the interval is not stiff, BDF where it is (ekf.h says how)
+  kExplicit,  // Dormand-Prince 5(4) with error control (Boost.Odeint)
+  kBdf,       // variable-order BDF with error control (SUNDIALS CVODE), for stiff models
+};
+const char* OdeMethodName(OdeMethod m);  // "auto", "explicit", "bdf"
+struct EkfOptions {
+  OdeMethod method = OdeMethod::kAuto;
+  double rtol = 1e-8;   // relative tolerance of the moment equations
+  double atol = 1e-10;  // absolute tolerance (in the states' units, and their squares for P)
+  int iterations = 1;   // measurement update: 1 = the EKF, k > 1 = the iterated EKF (k passes)
+  bool operator==(const EkfOptions&) const = default;
+};
 enum class InitialCovariance { kCtsm, kStationary, kExplicit };
 
 struct ModelSpec {
@@ -84,6 +109,7 @@ struct ModelSpec {
   std::vector<DelaySpec> output_delay;   // one per output (0 where the file gives none)
   InputHold input_hold = InputHold::kZoh;
   std::optional<double> robust_huber;    // Huber threshold c > 0; absent: Gaussian
+  EkfOptions ekf;                        // nonlinear models only
 
   int ParameterIndex(const std::string& name) const;  // -1 if absent
   int StateIndex(const std::string& name) const;

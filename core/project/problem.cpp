@@ -4,12 +4,16 @@ namespace gb::project {
 
 Result<Problem> MakeProblem(model::ModelSpec spec,
                             std::vector<std::shared_ptr<const data::Dataset>> datasets) {
-  auto lm = model::LinearModel::Compile(std::move(spec));
-  if (!lm) return lm.error();
   Problem p;
-  p.model = std::make_shared<const model::LinearModel>(std::move(*lm));
+  if (auto lm = model::LinearModel::Compile(spec)) {
+    p.model = std::make_shared<const model::LinearModel>(std::move(*lm));
+  } else {
+    auto nm = model::NonlinearModel::Compile(std::move(spec));
+    if (!nm) return nm.error();
+    p.nonlinear = std::make_shared<const model::NonlinearModel>(std::move(*nm));
+  }
   for (const auto& d : datasets) {
-    auto s = data::Bind(*d, p.model->spec().inputs, p.model->spec().outputs);
+    auto s = data::Bind(*d, p.spec().inputs, p.spec().outputs);
     if (!s) return s.error();
     p.series.push_back(*s);
   }
@@ -28,7 +32,8 @@ Result<Problem> LoadProblem(model::ModelSpec spec, const std::vector<std::string
 }
 
 Result<filter::Likelihood> MakeLikelihood(const Problem& problem) {
-  return filter::Likelihood::Create(problem.model, problem.series);
+  if (problem.model) return filter::Likelihood::Create(problem.model, problem.series);
+  return filter::Likelihood::Create(problem.nonlinear, problem.series);
 }
 
 }  // namespace gb::project

@@ -10,16 +10,22 @@
 #include "core/data/dataset.h"
 #include "core/filter/likelihood.h"
 #include "core/model/linear_model.h"
+#include "core/model/nonlinear_model.h"
 
 namespace gb::project {
 
 struct Problem {
+  // Exactly one is set: the linear model (exact Kalman filter), or, for a model that is not
+  // linear, the one the extended Kalman filter runs.
   std::shared_ptr<const model::LinearModel> model;
+  std::shared_ptr<const model::NonlinearModel> nonlinear;
   std::vector<std::shared_ptr<const data::Dataset>> datasets;
   std::vector<std::shared_ptr<const data::Series>> series;  // bound, one per dataset
+
+  const model::ModelSpec& spec() const { return model ? model->spec() : nonlinear->spec(); }
 };
 
-// Compiles the model (refusing nonlinear models), reads and binds every data file.
+// Compiles the model (linear when it is, else for the EKF), reads and binds every data file.
 Result<Problem> LoadProblem(model::ModelSpec spec, const std::vector<std::string>& data_paths);
 
 // Binds already-read datasets.

@@ -73,8 +73,14 @@ expect 1 "measurement_variance.ilambda .*negative" -- loglik "$tmp/negvar.json" 
 edit unstable 'm["initial_covariance"] = "stationary"; m["drift"]["mff"] = "(mff + X*mfi)/tau_ff"'
 expect 1 "stationary.*stable A" -- loglik "$tmp/unstable.json" "$csv"
 
-edit nonlinear 'm["drift"]["mff"] = "(-mff*mff + X*mfi)/tau_ff"'
-expect 2 "nonlinear.json: drift.mff, column [0-9]+: .*not linear in 'mff'" -- loglik "$tmp/nonlinear.json" "$csv"
+edit statevar 'm["measurement_variance"]["ilambda"] = "s2*(1 + mff^2)"'
+expect 2 "statevar.json: measurement_variance.ilambda, column 9: 'mff' cannot appear here" -- loglik "$tmp/statevar.json" "$csv"
+
+edit badekf 'm["ekf"] = {"ode": "rk4"}'
+expect 2 "badekf.json: ekf.ode: expected \"auto\", \"explicit\" or \"bdf\"" -- loglik "$tmp/badekf.json" "$csv"
+
+edit nanekf 'm["drift"]["mff"] = "(-sqrt(mff - 1) + X*mfi)/tau_ff"'
+expect 1 "nanekf.json: drift.mff is not a number at these values \(mff = 0" -- loglik "$tmp/nanekf.json" "$csv"
 
 # --- command line ----------------------------------------------------------------------------
 expect 2 "--set taufv: the model has no parameter 'taufv' \(did you mean 'tau_fv'\?\)" -- loglik "$model" "$csv" --set taufv=1

@@ -256,7 +256,7 @@ TEST(Faults, TimeConstantsFromTenMicroToTenKiloSecondsEstimateAndPredictFinitely
         << p.name << " = " << p.estimate << " ± " << *p.std_error;
   }
   // Predictions at the estimate: one step and 20 steps ahead, finite everywhere.
-  const auto ss = lik->model().Evaluate(s->theta);
+  const auto ss = lik->linear()->Evaluate(s->theta);
   ASSERT_TRUE(ss.ok());
   const auto one = filter::PredictOneStep(*ss, *series, lik->settings());
   ASSERT_TRUE(one.ok());

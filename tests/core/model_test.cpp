@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "core/model/linear_model.h"
+#include "core/model/nonlinear_model.h"
 #include "core/util/json.h"
 
 namespace gb::model {
@@ -131,12 +132,29 @@ TEST(ParseModel, RefusesAMissingEquationAndAnUnknownKey) {
   EXPECT_NE(f.message.find("did you mean 'observation'"), std::string::npos);
 }
 
-TEST(ParseModel, RefusesStatesInDiffusionAndVariance) {
+TEST(ParseModel, RefusesStatesInVarianceButNotInDiffusion) {
   Json j = FuelFilm();
-  j["diffusion"]["mfv"] = "sqrt(s11)*mfv";
+  j["measurement_variance"]["ilambda"] = "s2*mfv";
   const Error e = ParseError(j);
-  EXPECT_EQ(e.path, "diffusion.mfv");
-  EXPECT_EQ(e.expr_col, 11);
+  EXPECT_EQ(e.path, "measurement_variance.ilambda");
+  EXPECT_EQ(e.expr_col, 4);
+  EXPECT_NE(e.message.find("inputs, parameters and the time t"), std::string::npos) << e.message;
+  // A diffusion may depend on the states (the EKF evaluates it at the filtered mean), and any
+  // formula of the dynamics on the time; neither is linear.
+  Json k = FuelFilm();
+  k["diffusion"]["mfv"] = "sqrt(s11)*mfv";
+  auto spec = ParseModel(k, "fuel.json");
+  ASSERT_TRUE(spec) << spec.error().ToString();
+  auto linear = LinearModel::Compile(*spec);
+  ASSERT_FALSE(linear);
+  EXPECT_EQ(linear.error().path, "diffusion.mfv");
+  EXPECT_EQ(linear.error().expr_col, 11);
+  Json t = FuelFilm();
+  t["drift"]["mfv"] = "(-mfv + (1 - X)*mfi*(1 + sin(t)))/tau_fv";
+  auto timed = ParseModel(t, "fuel.json");
+  ASSERT_TRUE(timed) << timed.error().ToString();
+  EXPECT_FALSE(LinearModel::Compile(*timed));
+  EXPECT_TRUE(NonlinearModel::Compile(*timed));
 }
 
 TEST(ParseModel, RefusesBadDelays) {

@@ -204,9 +204,9 @@ TEST(Priors, WideGivesTheMlEstimateTightGivesTheMeanAndBetweenTheLogPosteriorMax
   const double mean = tau_ml - 2 * se_ml, sd = se_ml;
   const EstimateSummary map = with_prior(mean, sd);
   auto lik = filter::Likelihood::Create(Compile(j), {series});
-  const int tau_index = lik->model().spec().ParameterIndex("tau");
+  const int tau_index = lik->spec().ParameterIndex("tau");
   auto log_posterior = [&](double tau) {
-    std::vector<double> theta = lik->model().spec().Values();
+    std::vector<double> theta = lik->spec().Values();
     theta[tau_index] = tau;
     const double t = (tau - mean) / sd;
     return lik->Evaluate(theta)->loglik - 0.5 * t * t;

@@ -75,7 +75,7 @@ struct StepStudy {
 // the rows of J_terms_theta sum to the gradient.
 std::vector<StepStudy> CheckScore(const Likelihood& lik, const std::vector<double>& theta,
                                   std::span<const int> delay = {}) {
-  const std::vector<int> free = AllParameters(lik.model());
+  const std::vector<int> free = AllParameters(*lik.linear());
   Eigen::VectorXd gradient;
   Eigen::MatrixXd J;
   const auto l = lik.EvaluateWithScore(theta, delay, free, &gradient, &J);
@@ -90,7 +90,7 @@ std::vector<StepStudy> CheckScore(const Likelihood& lik, const std::vector<doubl
 
   std::vector<StepStudy> study;
   for (std::size_t i = 0; i < free.size(); ++i) {
-    const std::string& name = lik.model().spec().parameters[free[i]].name;
+    const std::string& name = lik.spec().parameters[free[i]].name;
     StepStudy s;
     s.best_relative = INFINITY;
     for (double rel : kRelativeSteps) {

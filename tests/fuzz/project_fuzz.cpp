@@ -123,7 +123,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   auto problem = gb::project::LoadProblem(*spec, datasets);
   if (problem.ok() && !problem->series.empty()) {
     auto likelihood = gb::project::MakeLikelihood(*problem);
-    if (likelihood.ok()) (void)likelihood->Evaluate(problem->model->spec().Values());
+    if (likelihood.ok()) (void)likelihood->Evaluate(problem->spec().Values());
   }
   return 0;
 }

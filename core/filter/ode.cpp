@@ -1,0 +1,197 @@
+#include "core/filter/ode.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <boost/numeric/odeint/stepper/controlled_runge_kutta.hpp>
+#include <boost/numeric/odeint/stepper/runge_kutta_dopri5.hpp>
+#include <cvode/cvode.h>
+#include <fmt/format.h>
+#include <nvector/nvector_serial.h>
+#include <sunlinsol/sunlinsol_dense.h>
+#include <sunmatrix/sunmatrix_dense.h>
+
+namespace gb::filter {
+namespace {
+
+constexpr long kMaxSteps = 100000;         // per interval
+constexpr double kMinStepFraction = 1e-14;  // of the interval
+
+using State = std::vector<double>;
+namespace odeint = boost::numeric::odeint;
+using Dopri5 = odeint::runge_kutta_dopri5<State>;
+using Controlled = odeint::controlled_runge_kutta<Dopri5>;
+
+}  // namespace
+
+// ---- explicit: Dormand-Prince 5(4) ------------------------------------------------------------
+
+struct OdeSolver::Explicit {
+  Explicit(double atol, double rtol, int size)
+      : stepper(odeint::default_error_checker<double, odeint::range_algebra,
+                                              odeint::default_operations>(atol, rtol)),
+        x(size), dxdt(size), x_new(size), dxdt_new(size) {}
+  Controlled stepper;
+  State x, dxdt, x_new, dxdt_new;
+  double dt_hint = 0.0;  // the step size the last interval ended with (0: none yet)
+};
+
+Status OdeSolver::AdvanceExplicit(OdeSystem& system, double t0, double t1, std::span<double> z) {
+  if (!explicit_) explicit_ = std::make_unique<Explicit>(options_.atol, options_.rtol, size_);
+  Explicit& e = *explicit_;
+  bool finite = true;
+  auto rhs = [&](const State& x, State& dxdt, double t) {
+    ++counts_.rhs;
+    if (!system.Rhs(t, x, dxdt)) finite = false;
+  };
+  std::copy(z.begin(), z.end(), e.x.begin());
+  const double length = t1 - t0;
+  double t = t0;
+  rhs(e.x, e.dxdt, t);
+  if (!finite) return NumericalError("the moment equations are not finite at the interval's start");
+  double dt = e.dt_hint > 0.0 ? std::min(e.dt_hint, length) : length;
+  for (long attempt = 0;; ++attempt) {
+    if (attempt > kMaxSteps)
+      return NumericalError(fmt::format("more than {} steps in one sample interval", kMaxSteps));
+    const double left = t1 - t;
+    const bool last = dt >= left;
+    if (last) dt = left;
+    const double dt_tried = dt;
+    double t_step = t;
+    finite = true;
+    const auto result = e.stepper.try_step(rhs, e.x, e.dxdt, t_step, e.x_new, e.dxdt_new, dt);
+    if (!finite) {  // the trial step left the domain of the model (a sqrt of a negative level)
+      ++counts_.rejected;
+      dt = 0.25 * dt_tried;
+    } else if (result == odeint::success) {
+      ++counts_.steps;
+      std::swap(e.x, e.x_new);
+      std::swap(e.dxdt, e.dxdt_new);
+      if (last) {
+        // Keep the proposal unless the last step was cut short to land on t1.
+        if (dt_tried >= 0.5 * e.dt_hint || e.dt_hint == 0.0) e.dt_hint = dt;
+        break;
+      }
+      t = t_step;
+      e.dt_hint = dt;
+    } else {
+      ++counts_.rejected;
+    }
+    if (!(dt > kMinStepFraction * length))
+      return NumericalError(fmt::format("the step size fell below {:g} of the sample interval",
+                                        kMinStepFraction));
+  }
+  std::copy(e.x.begin(), e.x.end(), z.begin());
+  return Ok{};
+}
+
+// ---- BDF: SUNDIALS CVODE ----------------------------------------------------------------------
+
+struct OdeSolver::Bdf {
+  SUNContext context = nullptr;
+  N_Vector y = nullptr;
+  SUNMatrix matrix = nullptr;
+  SUNLinearSolver solver = nullptr;
+  void* memory = nullptr;
+  bool initialised = false;
+  OdeSystem* system = nullptr;  // during Advance
+  long rhs = 0;
+
+  ~Bdf() {
+    if (memory) CVodeFree(&memory);
+    if (solver) SUNLinSolFree(solver);
+    if (matrix) SUNMatDestroy(matrix);
+    if (y) N_VDestroy(y);
+    if (context) SUNContext_Free(&context);
+  }
+
+  static int Rhs(sunrealtype t, N_Vector y, N_Vector dy, void* user) {
+    Bdf& b = *static_cast<Bdf*>(user);
+    const auto n = static_cast<std::size_t>(N_VGetLength(y));
+    ++b.rhs;
+    const bool ok = b.system->Rhs(t, {N_VGetArrayPointer(y), n}, {N_VGetArrayPointer(dy), n});
+    return ok ? 0 : 1;  // positive: recoverable, CVODE retries with a shorter step
+  }
+  static int Jacobian(sunrealtype t, N_Vector y, N_Vector /*fy*/, SUNMatrix jac, void* user,
+                      N_Vector /*tmp1*/, N_Vector /*tmp2*/, N_Vector /*tmp3*/) {
+    Bdf& b = *static_cast<Bdf*>(user);
+    const auto n = static_cast<std::size_t>(N_VGetLength(y));
+    b.system->Jacobian(t, {N_VGetArrayPointer(y), n}, {SUNDenseMatrix_Data(jac), n * n});
+    return 0;
+  }
+  // CVODE reports failures through its return flags, which Advance turns into messages.
+  static void Silent(int, const char*, const char*, char*, void*) {}
+};
+
+Status OdeSolver::AdvanceBdf(OdeSystem& system, double t0, double t1, std::span<double> z) {
+  if (!bdf_) {
+    bdf_ = std::make_unique<Bdf>();
+    Bdf& b = *bdf_;
+    if (SUNContext_Create(nullptr, &b.context) != 0)
+      return NumericalError("the BDF solver could not be created");
+    b.y = N_VNew_Serial(size_, b.context);
+    b.matrix = SUNDenseMatrix(size_, size_, b.context);
+    b.memory = CVodeCreate(CV_BDF, b.context);
+    if (!b.y || !b.matrix || !b.memory) return NumericalError("the BDF solver could not be created");
+    b.solver = SUNLinSol_Dense(b.y, b.matrix, b.context);
+    if (!b.solver) return NumericalError("the BDF solver could not be created");
+  }
+  Bdf& b = *bdf_;
+  b.system = &system;
+  std::copy(z.begin(), z.end(), N_VGetArrayPointer(b.y));
+  int flag = 0;
+  if (!b.initialised) {
+    flag = CVodeInit(b.memory, &Bdf::Rhs, t0, b.y);
+    if (flag >= 0) flag = CVodeSetUserData(b.memory, &b);
+    if (flag >= 0) flag = CVodeSetErrHandlerFn(b.memory, &Bdf::Silent, nullptr);
+    if (flag >= 0) flag = CVodeSStolerances(b.memory, options_.rtol, options_.atol);
+    if (flag >= 0) flag = CVodeSetLinearSolver(b.memory, b.solver, b.matrix);
+    if (flag >= 0) flag = CVodeSetJacFn(b.memory, &Bdf::Jacobian);
+    if (flag >= 0) flag = CVodeSetMaxNumSteps(b.memory, kMaxSteps);
+    if (flag < 0)
+      return NumericalError(fmt::format("the BDF solver could not be set up ({})",
+                                        CVodeGetReturnFlagName(flag)));
+    b.initialised = true;
+  } else {
+    flag = CVodeReInit(b.memory, t0, b.y);
+    if (flag < 0)
+      return NumericalError(fmt::format("the BDF solver could not restart ({})",
+                                        CVodeGetReturnFlagName(flag)));
+  }
+  CVodeSetStopTime(b.memory, t1);
+  sunrealtype t_reached = t0;
+  b.rhs = 0;
+  flag = CVode(b.memory, t1, b.y, &t_reached, CV_NORMAL);
+  long steps = 0, failures = 0;
+  CVodeGetNumSteps(b.memory, &steps);
+  CVodeGetNumErrTestFails(b.memory, &failures);
+  counts_.steps += steps;
+  counts_.rejected += failures;
+  counts_.rhs += b.rhs;
+  b.system = nullptr;
+  if (flag < 0)
+    return NumericalError(fmt::format("the BDF solver failed at t = {:g} ({})", t_reached,
+                                      CVodeGetReturnFlagName(flag)));
+  std::copy(N_VGetArrayPointer(b.y), N_VGetArrayPointer(b.y) + size_, z.begin());
+  return Ok{};
+}
+
+// ---- the choice -------------------------------------------------------------------------------
+
+OdeSolver::OdeSolver(const model::EkfOptions& options, int size) : options_(options), size_(size) {}
+
+OdeSolver::~OdeSolver() = default;
+
+Status OdeSolver::Advance(OdeSystem& system, double t0, double t1, std::span<double> z,
+                          double stiffness) {
+  assert(static_cast<int>(z.size()) == size_ && system.size() == size_ && t1 > t0);
+  ++counts_.intervals;
+  bool bdf = options_.method == model::OdeMethod::kBdf;
+  if (options_.method == model::OdeMethod::kAuto) bdf = stiffness > kStiffLimit;
+  if (!bdf) return AdvanceExplicit(system, t0, t1, z);
+  ++counts_.stiff_intervals;
+  return AdvanceBdf(system, t0, t1, z);
+}
+
+}  // namespace gb::filter

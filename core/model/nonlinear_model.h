@@ -1,0 +1,83 @@
+// Any model (CONTRACT section 2) compiled for the extended Kalman filter (core/filter/ekf.h):
+//
+//   dx = f(x, u, θ, t) dt + diag(σ(x, u, θ, t)) dω
+//   y  = h(x, u, θ, t) + e,   e ~ N(0, diag(S(u, θ, t)))
+//   x(t_0) ~ N(x0(θ), P0)
+//
+// `Compile` differentiates f and h symbolically with respect to the states (expr::Differentiate)
+// and compiles three flat programs (expr::Tape), each evaluated in one pass:
+//   dynamics     f (n), J = ∂f/∂x (n x n, row-major), σ (n)
+//   measurement  h (p), H = ∂h/∂x (p x n, row-major), S (p)
+//   initial      x0 (n), and the explicit initial variances (n) when the model gives them
+// over the slots [x (n) | u (m) | θ (all parameters, natural scale) | t]. Every model compiles,
+// linear ones included (the EKF of a linear model is its Kalman filter, with the moment
+// equations integrated numerically instead of discretised exactly).
+#pragma once
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/expr/expr.h"
+#include "core/model/model.h"
+#include "core/util/result.h"
+
+namespace gb::model {
+
+class NonlinearModel {
+ public:
+  // Fails (kInput) only when an expression or a derivative is too deeply nested to compile.
+  static Result<NonlinearModel> Compile(ModelSpec spec);
+
+  const ModelSpec& spec() const { return spec_; }
+  int n_states() const { return static_cast<int>(spec_.states.size()); }
+  int n_inputs() const { return static_cast<int>(spec_.inputs.size()); }
+  int n_outputs() const { return static_cast<int>(spec_.outputs.size()); }
+  int n_parameters() const { return static_cast<int>(spec_.parameters.size()); }
+
+  // The slots: [x | u | θ | t]. Fill them with these offsets; the programs read nothing else.
+  int n_slots() const { return n_states() + n_inputs() + n_parameters() + 1; }
+  int input_slot() const { return n_states(); }
+  int parameter_slot() const { return n_states() + n_inputs(); }
+  int time_slot() const { return n_states() + n_inputs() + n_parameters(); }
+
+  // out: f, J (row-major), σ; size n + n² + n.
+  void Dynamics(std::span<const double> slots, std::span<double> out) const {
+    dynamics_.Eval(slots, out);
+  }
+  // out: h, H (row-major), S; size p + p n + p.
+  void Measurement(std::span<const double> slots, std::span<double> out) const {
+    measurement_.Eval(slots, out);
+  }
+  // out: x0, then the explicit initial variances if any; size n or 2n. Reads only θ.
+  void Initial(std::span<const double> slots, std::span<double> out) const {
+    initial_.Eval(slots, out);
+  }
+  std::size_t dynamics_size() const { return dynamics_.size(); }
+  std::size_t measurement_size() const { return measurement_.size(); }
+  std::size_t initial_size() const { return initial_.size(); }
+
+  // Names entry k of a program's output for messages, e.g. "drift.h1", "the derivative of
+  // drift.h1 with respect to h2", "diffusion.h1", and lists the values of the names it uses:
+  //   "drift.h1 is not a number at these values (h1 = -0.2, k1 = 0.5)".
+  enum class Program { kDynamics, kMeasurement, kInitial };
+  Error NotFinite(Program program, std::size_t k, double value,
+                  std::span<const double> slots) const;
+
+  // The expression of entry k (for tests and display).
+  const expr::ExprPtr& Entry(Program program, std::size_t k) const;
+
+ private:
+  struct Entries {
+    std::vector<expr::ExprPtr> exprs;
+    std::vector<std::string> names;
+  };
+  const Entries& EntriesOf(Program program) const;
+  std::string SlotName(int slot) const;
+
+  ModelSpec spec_;
+  Entries dynamics_entries_, measurement_entries_, initial_entries_;
+  expr::Tape dynamics_, measurement_, initial_;
+};
+
+}  // namespace gb::model
