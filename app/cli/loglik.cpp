@@ -55,6 +55,7 @@ int RunLoglik(const LoglikArgs& args) {
       g[model.parameters[free[f]].name] = gradient(static_cast<Eigen::Index>(f));
     out["gradient"] = g;
   }
+  if (lik->nonlinear()) out["filter"] = "ekf";  // a linear model's output is as CONTRACT gives it
   std::printf("%s\n", out.dump().c_str());
   return 0;
 }

@@ -596,13 +596,25 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   for (const auto& series : lik.series()) s.datasets.push_back(series->source);
 
   // Cancellation can arrive in any stage; each stage ends by looking at the flag.
+  s.extended = lik.nonlinear() != nullptr;
+  s.ekf = spec.ekf;
+  const filter::OdeCounts ode_at_start = lik.ode_counts();
+  auto finish = [&] {
+    s.evaluations = fitter.evaluations();
+    s.iterations = fitter.iterations();
+    s.elapsed_s = std::chrono::duration<double>(Clock::now() - start_time).count();
+    const filter::OdeCounts ode = lik.ode_counts();
+    s.ode.intervals = ode.intervals - ode_at_start.intervals;
+    s.ode.stiff_intervals = ode.stiff_intervals - ode_at_start.stiff_intervals;
+    s.ode.steps = ode.steps - ode_at_start.steps;
+    s.ode.rejected = ode.rejected - ode_at_start.rejected;
+    s.ode.rhs = ode.rhs - ode_at_start.rhs;
+  };
   auto cancelled_summary = [&] {
     s.cancelled = true;
     s.converged = false;
     s.message = "cancelled";
-    s.evaluations = fitter.evaluations();
-    s.iterations = fitter.iterations();
-    s.elapsed_s = std::chrono::duration<double>(Clock::now() - start_time).count();
+    finish();
     return s;
   };
 
@@ -1022,9 +1034,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   } else {
     RecommendProfiles(s.parameters, &s.warnings);
   }
-  s.iterations = fitter.iterations();
-  s.evaluations = fitter.evaluations();
-  s.elapsed_s = std::chrono::duration<double>(Clock::now() - start_time).count();
+  finish();
   return s;
 }
 

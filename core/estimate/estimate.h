@@ -176,6 +176,11 @@ struct EstimateSummary {
   int iterations = 0;
   int evaluations = 0;
   double elapsed_s = 0.0;
+  // The filter that ran: the exact Kalman filter of a linear model, or the extended Kalman filter
+  // (core/filter/ekf.h) with its options and the ODE solver's work over the whole fit.
+  bool extended = false;
+  model::EkfOptions ekf;
+  filter::OdeCounts ode;
   int starts = 1;           // start points fitted (the model's and the multistart ones)
   bool starts_for_bound = false;  // the extra starts were starts_on_bound's (not multistart's)
   int starts_at_best = 1;   // of them, those that reached the best optimum (within 1e-3 in log L)

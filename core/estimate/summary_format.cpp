@@ -36,6 +36,16 @@ std::string EstimateSummary::Report() const {
                    message));
   line(fmt::format("{} iterations, {} log-likelihood evaluations, {:.2f} s", iterations,
                    evaluations, elapsed_s));
+  if (extended) {
+    line(fmt::format("Filter: extended Kalman filter{} (the model is not linear); moment equations "
+                     "by the {} ODE method, rtol {:g}, atol {:g}: {} steps over {} intervals, {} "
+                     "of them stiff (BDF)",
+                     ekf.iterations > 1 ? fmt::format(", iterated ({} passes)", ekf.iterations) : "",
+                     model::OdeMethodName(ekf.method), ekf.rtol, ekf.atol, ode.steps, ode.intervals,
+                     ode.stiff_intervals));
+  } else {
+    line("Filter: Kalman filter, exact discretisation (the model is linear)");
+  }
   line("");
   line(fmt::format("Log-likelihood: {:.6f}   AIC: {:.3f}   BIC: {:.3f}   free parameters: {}",
                    loglik, aic, bic, n_free));
@@ -155,6 +165,18 @@ Json EstimateSummary::ToJson() const {
   j["iterations"] = iterations;
   j["evaluations"] = evaluations;
   j["elapsed_s"] = elapsed_s;
+  if (extended) {
+    j["filter"] = {{"kind", "ekf"},
+                   {"ode", model::OdeMethodName(ekf.method)},
+                   {"rtol", ekf.rtol},
+                   {"atol", ekf.atol},
+                   {"iterations", ekf.iterations},
+                   {"ode_steps", ode.steps},
+                   {"ode_intervals", ode.intervals},
+                   {"stiff_intervals", ode.stiff_intervals}};
+  } else {
+    j["filter"] = {{"kind", "kalman"}};
+  }
   if (log_posterior) j["log_posterior"] = *log_posterior;
   j["starts"] = {{"total", starts}, {"at_best", starts_at_best}, {"on_bound", starts_for_bound}};
   Json params = Json::object();

@@ -196,8 +196,9 @@ Result<Loglik> Run::operator()() const {
     moments.clear_failure();
     auto s = solver.Advance(moments, series.time[j], series.time[j + 1], z, stiffness);
     if (s) return s;
-    std::string why = s.error().message;
-    if (moments.failure()) why += "; " + moments.failure()->message;
+    // The model's own reason (an entry not finite where the solver tried it) says more than
+    // the solver's.
+    const std::string why = moments.failure() ? moments.failure()->message : s.error().message;
     return AtRow(NumericalError(fmt::format(
                      "the moment equations could not be integrated from row {} (t = {:g}) to "
                      "the next: {}",

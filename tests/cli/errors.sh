@@ -80,7 +80,7 @@ edit badekf 'm["ekf"] = {"ode": "rk4"}'
 expect 2 "badekf.json: ekf.ode: expected \"auto\", \"explicit\" or \"bdf\"" -- loglik "$tmp/badekf.json" "$csv"
 
 edit nanekf 'm["drift"]["mff"] = "(-sqrt(mff - 1) + X*mfi)/tau_ff"'
-expect 1 "nanekf.json: drift.mff is not a number at these values \(mff = 0" -- loglik "$tmp/nanekf.json" "$csv"
+expect 1 "fuel.csv:4: the moment equations could not be integrated from row 1 \(t = 0\) to the next: drift.mff is not a number at these values \(mff = 0" -- loglik "$tmp/nanekf.json" "$csv"
 
 # --- command line ----------------------------------------------------------------------------
 expect 2 "--set taufv: the model has no parameter 'taufv' \(did you mean 'tau_fv'\?\)" -- loglik "$model" "$csv" --set taufv=1
