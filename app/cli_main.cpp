@@ -88,6 +88,9 @@ int main(int argc, char** argv) {
   c_pred->add_option("--result", predict.result, "take the estimates (and delays) from a result file");
   c_pred->add_option("--out", predict.out, "output CSV: t, then o, o_pred, o_sd, o_residual")
       ->required();
+  c_pred->add_option("--simulate-after", predict.simulate_after,
+                     "N: use the outputs of the first N rows only and simulate the rest from the "
+                     "state estimated on them; prints the simulation's RMS error");
   c_pred->callback([&] { run = [&] { return RunPredict(predict); }; });
 
   DiagnoseArgs diag;

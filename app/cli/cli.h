@@ -9,9 +9,11 @@
 
 #include "core/data/dataset.h"
 #include "core/filter/kalman.h"
-#include "core/model/linear_model.h"
 #include "core/filter/likelihood.h"
+#include "core/filter/predict.h"
+#include "core/model/linear_model.h"
 #include "core/model/model.h"
+#include "core/model/nonlinear_model.h"
 #include "core/util/result.h"
 
 namespace gb::cli {
@@ -123,7 +125,9 @@ int RunSweep(const SweepArgs& args);
 // otherwise the model's delay, chosen by profile likelihood at θ when the model scans a range.
 // The filter settings score observations as `loglik` does (first used row = largest delay).
 struct EvaluatedSeries {
-  std::shared_ptr<const model::LinearModel> model;
+  std::shared_ptr<const model::LinearModel> model;         // a linear model, with ss
+  std::shared_ptr<const model::NonlinearModel> nonlinear;  // or one the EKF runs
+  const model::ModelSpec& spec() const { return model ? model->spec() : nonlinear->spec(); }
   std::shared_ptr<const data::Series> series;
   std::vector<double> theta;
   model::StateSpace ss;
@@ -136,6 +140,8 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
                                             const std::string& result_path);
 // Comment lines for output files: the tool, the files, the parameter values and the delays.
 std::vector<std::string> DescribeEvaluation(const EvaluatedSeries& e, const std::string& tool);
+// One-step predictions of the series at θ, by the Kalman filter or the EKF.
+Result<filter::OneStepPredictions> PredictOneStep(const EvaluatedSeries& e);
 
 struct PredictArgs {
   std::string model;
@@ -143,6 +149,10 @@ struct PredictArgs {
   std::vector<std::string> sets;
   std::string result;
   std::string out;
+  // With N >= 1: the filter uses the outputs of the first N rows only; every later row is
+  // predicted open loop from the state estimated on them (a simulation with its initial state
+  // from N samples). stdout then gets the simulation's RMS error per output over rows >= N.
+  int simulate_after = 0;
 };
 int RunPredict(const PredictArgs& args);
 

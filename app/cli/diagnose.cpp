@@ -72,10 +72,10 @@ int RunDiagnose(const DiagnoseArgs& args) {
   if (std::string why; !options.IsValid(&why)) return Fail(InputError(why));
   auto e = LoadEvaluatedSeries(args.model, args.data, args.sets, args.result);
   if (!e) return Fail(e.error());
-  auto pred = filter::PredictOneStep(e->ss, *e->series, e->settings);
+  auto pred = PredictOneStep(*e);
   if (!pred) return Fail(pred.error());
 
-  const model::ModelSpec& m = e->model->spec();
+  const model::ModelSpec& m = e->spec();
   const data::Series& s = *e->series;
   std::vector<std::vector<double>> input_values;
   for (std::size_t i = 0; i < m.inputs.size(); ++i)

@@ -1,9 +1,12 @@
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <set>
 
 #include <fmt/format.h>
 
 #include "app/cli/cli.h"
+#include "core/filter/ekf_predict.h"
 #include "core/data/write_csv.h"
 #include "core/filter/predict.h"
 #include "core/project/problem.h"
@@ -96,15 +99,15 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
   if (!problem) return problem.error();
   auto lik = project::MakeLikelihood(*problem);
   if (!lik) return lik.error();
-  if (!problem->model)
-    return InputError(fmt::format("{}: predictions and diagnostics of a nonlinear model are not "
-                                  "available yet (loglik and estimate are)", model_path));
   out.model = problem->model;
+  out.nonlinear = problem->nonlinear;
   out.series = problem->series.front();
-  const model::ModelSpec& m = out.model->spec();
-  auto ss = out.model->Evaluate(out.theta);
-  if (!ss) return ss.error();
-  out.ss = std::move(*ss);
+  const model::ModelSpec& m = out.spec();
+  if (out.model) {
+    auto ss = out.model->Evaluate(out.theta);
+    if (!ss) return ss.error();
+    out.ss = std::move(*ss);
+  }
   out.settings = lik->settings();  // first observation = each output's largest delay
 
   // Delays: the result's where it names them; the rest at the model's value, or chosen by
@@ -136,8 +139,13 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
   return out;
 }
 
+Result<filter::OneStepPredictions> PredictOneStep(const EvaluatedSeries& e) {
+  if (e.nonlinear) return filter::EkfPredictOneStep(*e.nonlinear, e.theta, *e.series, e.settings);
+  return filter::PredictOneStep(e.ss, *e.series, e.settings);
+}
+
 std::vector<std::string> DescribeEvaluation(const EvaluatedSeries& e, const std::string& tool) {
-  const model::ModelSpec& m = e.model->spec();
+  const model::ModelSpec& m = e.spec();
   std::vector<std::string> lines = {
       fmt::format("{} by greybench-cli: model {}, data {}", tool, m.source, e.series->source)};
   std::string values;
@@ -154,11 +162,44 @@ std::vector<std::string> DescribeEvaluation(const EvaluatedSeries& e, const std:
 int RunPredict(const PredictArgs& args) {
   auto e = LoadEvaluatedSeries(args.model, args.data, args.sets, args.result);
   if (!e) return Fail(e.error());
-  auto pred = filter::PredictOneStep(e->ss, *e->series, e->settings);
+  const std::shared_ptr<const data::Series> original = e->series;  // e->series may be masked
+  const data::Series& s = *original;
+  const int N = static_cast<int>(s.size());
+  if (args.simulate_after < 0 || args.simulate_after >= N)
+    return Fail(InputError(fmt::format("--simulate-after {}: expected a number of rows from 1 to "
+                                       "{} ({} has {} rows)", args.simulate_after, N - 1,
+                                       s.source, N)));
+  if (args.simulate_after > 0) {
+    // The filter sees no output after the first rows: its predictions are the simulation.
+    auto masked = std::make_shared<data::Series>(s);
+    masked->Y.rightCols(N - args.simulate_after).setConstant(std::numeric_limits<double>::quiet_NaN());
+    e->series = masked;
+  }
+  auto pred = PredictOneStep(*e);
   if (!pred) return Fail(pred.error());
-
-  const model::ModelSpec& m = e->model->spec();
-  const data::Series& s = *e->series;
+  pred->residual = s.Y - pred->y_pred;
+  const model::ModelSpec& m = e->spec();
+  std::vector<std::string> rms_lines;
+  if (args.simulate_after > 0) {
+    Json rms = Json::object();
+    for (std::size_t o = 0; o < m.outputs.size(); ++o) {
+      double sum = 0.0;
+      long count = 0;
+      for (int k = args.simulate_after; k < N; ++k) {
+        const double r = pred->residual(static_cast<Eigen::Index>(o), k);
+        if (std::isnan(r)) continue;
+        sum += r * r;
+        ++count;
+      }
+      const double value = count ? std::sqrt(sum / count) : std::nan("");
+      rms[m.outputs[o]] = {{"rms", value}, {"n", count}};
+      rms_lines.push_back(fmt::format("simulation of {} from row {} on (state from the first {} "
+                                      "rows): RMS error {:.6g} over {} rows",
+                                      m.outputs[o], args.simulate_after + 1, args.simulate_after,
+                                      value, count));
+    }
+    std::printf("%s\n", Json{{"simulate_after", args.simulate_after}, {"outputs", rms}}.dump().c_str());
+  }
   std::vector<std::vector<double>> storage;
   std::vector<std::string> names;
   for (std::size_t o = 0; o < m.outputs.size(); ++o) {
@@ -176,7 +217,9 @@ int RunPredict(const PredictArgs& args) {
   }
   std::vector<data::CsvColumn> cols = {{"t", s.time}};
   for (std::size_t c = 0; c < storage.size(); ++c) cols.push_back({names[c], storage[c]});
-  std::vector<std::string> comments = DescribeEvaluation(*e, "one-step predictions");
+  std::vector<std::string> comments = DescribeEvaluation(
+      *e, args.simulate_after > 0 ? "simulation" : "one-step predictions");
+  comments.insert(comments.end(), rms_lines.begin(), rms_lines.end());
   comments.push_back(fmt::format("log-likelihood {:.10g} over {} observations", pred->loglik.loglik,
                                  pred->loglik.n_obs));
   if (auto st = data::WriteCsvFile(args.out, cols, comments); !st) return Fail(st.error());

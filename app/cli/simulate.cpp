@@ -1,9 +1,12 @@
+#include <optional>
+
 #include <fmt/format.h>
 
 #include "app/cli/cli.h"
 #include "core/data/write_csv.h"
 #include "core/design/prbs.h"
 #include "core/model/linear_model.h"
+#include "core/sim/sde.h"
 #include "core/sim/simulate.h"
 
 namespace gb::cli {
@@ -12,24 +15,35 @@ int RunSimulate(const SimulateArgs& args) {
   auto spec = LoadModelWithOverrides(args.model, args.sets);
   if (!spec) return Fail(spec.error());
   const std::vector<double> theta = spec->Values();
-  auto lm = model::LinearModel::Compile(std::move(*spec));
-  if (!lm) return Fail(lm.error());
-  const model::ModelSpec& m = lm->spec();
+  // A linear model is simulated exactly; any other by the Milstein scheme (core/sim/sde.h).
+  auto lm = model::LinearModel::Compile(*spec);
+  std::optional<model::NonlinearModel> nm;
+  if (!lm) {
+    auto compiled = model::NonlinearModel::Compile(std::move(*spec));
+    if (!compiled) return Fail(compiled.error());
+    nm = std::move(*compiled);
+  }
+  const model::ModelSpec& m = lm ? lm->spec() : nm->spec();
   auto inputs = data::ReadCsvFile(args.inputs);
   if (!inputs) return Fail(inputs.error());
   auto series = data::Bind(**inputs, m.inputs, {});
   if (!series) return Fail(series.error());
-  auto ss = lm->Evaluate(theta);
-  if (!ss) return Fail(ss.error());
 
   // The series has no outputs; give the simulator an empty output block of the right height.
   data::Series with_outputs = **series;
   with_outputs.Y.setConstant(m.outputs.size(), with_outputs.size(),
                              std::numeric_limits<double>::quiet_NaN());
   filter::FilterSettings settings = filter::FilterSettings::FromModel(m);
-  sim::SimulateOptions options;
-  options.seed = args.seed;
-  auto result = sim::Simulate(*ss, with_outputs, settings, options);
+  Result<sim::Simulation> result = InputError("");
+  if (lm) {
+    auto ss = lm->Evaluate(theta);
+    if (!ss) return Fail(ss.error());
+    sim::SimulateOptions options;
+    options.seed = args.seed;
+    result = sim::Simulate(*ss, with_outputs, settings, options);
+  } else {
+    result = sim::SamplePath(*nm, theta, with_outputs, settings, args.seed);
+  }
   if (!result) return Fail(result.error());
 
   std::vector<data::CsvColumn> cols;

@@ -60,7 +60,12 @@ OneStepPredictions OneStepFromTrace(const model::StateSpace& ss, const data::Ser
                                     const FilterSettings& settings, const FilterTrace& trace,
                                     Loglik loglik) {
   CheckTrace(ss, series, trace);
-  const int p = ss.n_outputs();
+  return OneStepFromTrace(series, settings, trace, loglik);
+}
+
+OneStepPredictions OneStepFromTrace(const data::Series& series, const FilterSettings& settings,
+                                    const FilterTrace& trace, Loglik loglik) {
+  const int p = static_cast<int>(trace.y_pred.rows());
   const int N = static_cast<int>(series.size());
   const std::vector<int> first = EffectiveFirstObservation(settings, p);
   OneStepPredictions out;

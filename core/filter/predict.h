@@ -92,6 +92,9 @@ Result<OneStepPredictions> PredictOneStep(const model::StateSpace& ss, const dat
 OneStepPredictions OneStepFromTrace(const model::StateSpace& ss, const data::Series& series,
                                     const FilterSettings& settings, const FilterTrace& trace,
                                     Loglik loglik = {});
+// The same from any filter's trace (the extended Kalman filter's too, ekf.h).
+OneStepPredictions OneStepFromTrace(const data::Series& series, const FilterSettings& settings,
+                                    const FilterTrace& trace, Loglik loglik = {});
 
 // h-step predictions, h >= 0 (asserted). Runs the filter.
 Result<HorizonPredictions> PredictAhead(const model::StateSpace& ss, const data::Series& series,

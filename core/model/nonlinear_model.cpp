@@ -58,6 +58,17 @@ Result<NonlinearModel> NonlinearModel::Compile(ModelSpec spec) {
     }
   }
 
+  Entries& noi = nm.noise_entries_;
+  for (int i = 0; i < n; ++i) {
+    noi.exprs.push_back(spec.diffusion[i].expr);
+    noi.names.push_back(spec.diffusion[i].path);
+  }
+  for (int i = 0; i < n; ++i) {
+    noi.exprs.push_back(expr::Differentiate(spec.diffusion[i].expr, spec.states[i]));
+    noi.names.push_back(fmt::format("the derivative of {} with respect to {}",
+                                    spec.diffusion[i].path, spec.states[i]));
+  }
+
   const int m = static_cast<int>(spec.inputs.size());
   const int np = static_cast<int>(spec.parameters.size());
   auto slot_of = [&](const std::string& name) {
@@ -68,7 +79,7 @@ Result<NonlinearModel> NonlinearModel::Compile(ModelSpec spec) {
     return -1;
   };
   for (auto [entries, tape] : {std::pair{&dyn, &nm.dynamics_}, std::pair{&mea, &nm.measurement_},
-                               std::pair{&ini, &nm.initial_}}) {
+                               std::pair{&ini, &nm.initial_}, std::pair{&noi, &nm.noise_}}) {
     auto compiled = expr::Tape::Compile(entries->exprs, slot_of);
     if (!compiled) {
       Error e = compiled.error();
@@ -86,6 +97,7 @@ const NonlinearModel::Entries& NonlinearModel::EntriesOf(Program program) const 
   switch (program) {
     case Program::kDynamics: return dynamics_entries_;
     case Program::kMeasurement: return measurement_entries_;
+    case Program::kNoise: return noise_entries_;
     case Program::kInitial: break;
   }
   return initial_entries_;

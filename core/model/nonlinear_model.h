@@ -9,6 +9,7 @@
 //   dynamics     f (n), J = ∂f/∂x (n x n, row-major), σ (n)
 //   measurement  h (p), H = ∂h/∂x (p x n, row-major), S (p)
 //   initial      x0 (n), and the explicit initial variances (n) when the model gives them
+//   noise        σ (n), ∂σ_i/∂x_i (n): for the Milstein scheme of sample paths (core/sim/sde.h)
 // over the slots [x (n) | u (m) | θ (all parameters, natural scale) | t]. Every model compiles,
 // linear ones included (the EKF of a linear model is its Kalman filter, with the moment
 // equations integrated numerically instead of discretised exactly).
@@ -53,6 +54,10 @@ class NonlinearModel {
   void Initial(std::span<const double> slots, std::span<double> out) const {
     initial_.Eval(slots, out);
   }
+  // out: σ, then ∂σ_i/∂x_i; size 2n.
+  void Noise(std::span<const double> slots, std::span<double> out) const {
+    noise_.Eval(slots, out);
+  }
   std::size_t dynamics_size() const { return dynamics_.size(); }
   std::size_t measurement_size() const { return measurement_.size(); }
   std::size_t initial_size() const { return initial_.size(); }
@@ -60,7 +65,7 @@ class NonlinearModel {
   // Names entry k of a program's output for messages, e.g. "drift.h1", "the derivative of
   // drift.h1 with respect to h2", "diffusion.h1", and lists the values of the names it uses:
   //   "drift.h1 is not a number at these values (h1 = -0.2, k1 = 0.5)".
-  enum class Program { kDynamics, kMeasurement, kInitial };
+  enum class Program { kDynamics, kMeasurement, kInitial, kNoise };
   Error NotFinite(Program program, std::size_t k, double value,
                   std::span<const double> slots) const;
 
@@ -76,8 +81,8 @@ class NonlinearModel {
   std::string SlotName(int slot) const;
 
   ModelSpec spec_;
-  Entries dynamics_entries_, measurement_entries_, initial_entries_;
-  expr::Tape dynamics_, measurement_, initial_;
+  Entries dynamics_entries_, measurement_entries_, initial_entries_, noise_entries_;
+  expr::Tape dynamics_, measurement_, initial_, noise_;
 };
 
 }  // namespace gb::model

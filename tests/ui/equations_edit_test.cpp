@@ -65,10 +65,16 @@ TEST(FormulaEdit, AnUnknownNameIsRefusedAtItsColumn) {
   EXPECT_NE(edited.error().message.find("tau_gg"), std::string::npos) << edited.error().message;
 }
 
-TEST(FormulaEdit, ANonlinearDriftIsRefusedWithTheParsersReason) {
+TEST(FormulaEdit, ANonlinearDriftIsTakenAndAStateInAVarianceRefused) {
+  // A nonlinear drift makes the model one for the extended Kalman filter.
   auto edited = ApplyFormulaEdit(FuelFilm(), {"drift.mfv", "-mfv*mfv/tau_fv"});
-  ASSERT_FALSE(edited.ok());
-  EXPECT_NE(edited.error().ToString().find("mfv"), std::string::npos);
+  ASSERT_TRUE(edited.ok()) << edited.error().ToString();
+  EXPECT_EQ(edited->drift[0].text, "-mfv*mfv/tau_fv");
+  // A measurement variance may not depend on a state: the parser's reason, at the column.
+  auto refused = ApplyFormulaEdit(FuelFilm(), {"measurement_variance.ilambda", "s2*mfv"});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().expr_col, 4);
+  EXPECT_NE(refused.error().ToString().find("'mfv' cannot appear here"), std::string::npos);
 }
 
 TEST(FormulaEdit, APathThatIsNoFormulaIsRefused) {

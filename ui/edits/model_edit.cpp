@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "core/model/linear_model.h"
+#include "core/model/nonlinear_model.h"
 
 namespace gb::ui {
 namespace {
@@ -100,9 +101,11 @@ Result<model::ModelSpec> ApplyFormulaEdit(const model::ModelSpec& spec, const Fo
   // The parser's Error as it is: its path and expression column point into edit.text.
   Result<model::ModelSpec> parsed = model::ParseModel(j, spec.source);
   if (!parsed) return parsed;
-  // A formula that parses may still make the model nonlinear, which the filter cannot take.
-  Result<model::LinearModel> linear = model::LinearModel::Compile(*parsed);
-  if (!linear) return linear.error();
+  // A formula that parses compiles for one of the filters: the exact one when the model is
+  // linear, else the extended one (which refuses only expressions too deep to compile).
+  if (model::LinearModel::Compile(*parsed)) return parsed;
+  Result<model::NonlinearModel> nonlinear = model::NonlinearModel::Compile(*parsed);
+  if (!nonlinear) return nonlinear.error();
   return parsed;
 }
 

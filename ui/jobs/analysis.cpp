@@ -7,10 +7,13 @@
 #include <numbers>
 #include <utility>
 
+#include "core/filter/ekf_predict.h"
 #include "core/filter/likelihood.h"
 #include "core/filter/predict.h"
 #include "core/model/linear_model.h"
+#include "core/model/nonlinear_model.h"
 #include "core/sim/response.h"
+#include "core/sim/sde.h"
 
 namespace gb::ui {
 namespace {
@@ -105,18 +108,63 @@ Result<std::vector<int>> ChooseDelays(const AnalysisRequest& request, const mode
   return profile->candidates[static_cast<std::size_t>(profile->best)].delay;
 }
 
-// The state space of the preview at the model's current values: none (no preview), the
-// analysis' own (the values are θ), or its own.
+// The model at one θ: a linear model's state space, or a nonlinear model with θ (the EKF).
+struct ModelAt {
+  std::optional<model::StateSpace> ss;
+  const model::NonlinearModel* nonlinear = nullptr;
+  std::vector<double> theta;
+
+  Result<sim::Simulation> Simulate(const data::Series& series,
+                                   const filter::FilterSettings& settings) const {
+    if (ss) return sim::DeterministicResponse(*ss, series, settings);
+    return sim::DeterministicResponse(*nonlinear, theta, series, settings);
+  }
+};
+
+// A linear model evaluated at θ, or a nonlinear one with θ kept.
+Result<ModelAt> At(const std::shared_ptr<const model::LinearModel>& lm,
+                   const model::NonlinearModel* nonlinear, const std::vector<double>& theta) {
+  ModelAt at;
+  at.theta = theta;
+  if (lm) {
+    Result<model::StateSpace> ss = lm->Evaluate(theta);
+    if (!ss) return ss.error();
+    at.ss = std::move(ss).value();
+  } else {
+    at.nonlinear = nonlinear;
+  }
+  return at;
+}
+
+// The model at the preview's values: none (no preview), the analysis' own (the values are θ),
+// or its own.
 struct Preview {
   bool same_as_theta = false;
-  std::optional<model::StateSpace> ss;
+  std::optional<ModelAt> model;
 };
 
 // One dataset at θ. Returns false when cancelled.
-bool AnalyseSeries(const model::StateSpace& ss, const Preview& preview, const data::Series& series,
+bool AnalyseSeries(const ModelAt& at, const Preview& preview, const data::Series& series,
                    const filter::FilterSettings& settings, const Analysis& a, DatasetAnalysis* out,
                    JobControl& control) {
-  Result<filter::OneStepPredictions> pred = filter::PredictOneStep(ss, series, settings);
+  Result<filter::OneStepPredictions> pred = InputError("");
+  Result<filter::HorizonPredictions> ahead = InputError("");
+  if (at.ss) {
+    pred = filter::PredictOneStep(*at.ss, series, settings);
+    if (control.cancel) return false;
+    if (pred) ahead = filter::PredictAhead(*at.ss, series, settings, a.request.horizon);
+  } else {
+    filter::FilterTrace trace;
+    Result<filter::Loglik> l = filter::EkfRunFilter(*at.nonlinear, at.theta, series, settings, &trace);
+    if (control.cancel) return false;
+    if (l) {
+      pred = filter::OneStepFromTrace(series, settings, trace, *l);
+      ahead = filter::EkfPredictAhead(*at.nonlinear, at.theta, series, settings, trace,
+                                      a.request.horizon);
+    } else {
+      pred = l.error();
+    }
+  }
   if (control.cancel) return false;
   if (!pred) {
     out->error = pred.error().ToString();
@@ -124,12 +172,9 @@ bool AnalyseSeries(const model::StateSpace& ss, const Preview& preview, const da
   }
   out->loglik = pred->loglik.loglik;
   out->n_obs = pred->loglik.n_obs;
-  Result<filter::HorizonPredictions> ahead =
-      filter::PredictAhead(ss, series, settings, a.request.horizon);
-  if (control.cancel) return false;
-  Result<sim::Simulation> simulated = sim::DeterministicResponse(ss, series, settings);
+  Result<sim::Simulation> simulated = at.Simulate(series, settings);
   std::optional<Result<sim::Simulation>> previewed;
-  if (preview.ss) previewed = sim::DeterministicResponse(*preview.ss, series, settings);
+  if (preview.model) previewed = preview.model->Simulate(series, settings);
   if (control.cancel) return false;
 
   std::vector<std::vector<double>> input_values;
@@ -203,13 +248,20 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
                 std::to_string(input.spec.parameters.size()) + " parameters)";
     return run;
   }
-  Result<model::LinearModel> compiled = model::LinearModel::Compile(input.spec);
-  if (!compiled) {
-    run.error = compiled.error().ToString();
-    return run;
+  // A linear model runs the exact Kalman filter; any other the extended one.
+  std::shared_ptr<const model::LinearModel> lm;
+  std::shared_ptr<const model::NonlinearModel> nm;
+  if (Result<model::LinearModel> compiled = model::LinearModel::Compile(input.spec)) {
+    lm = std::make_shared<const model::LinearModel>(std::move(compiled).value());
+  } else {
+    Result<model::NonlinearModel> nonlinear = model::NonlinearModel::Compile(input.spec);
+    if (!nonlinear) {
+      run.error = nonlinear.error().ToString();
+      return run;
+    }
+    nm = std::make_shared<const model::NonlinearModel>(std::move(nonlinear).value());
   }
-  const auto lm = std::make_shared<const model::LinearModel>(std::move(compiled).value());
-  const model::ModelSpec& m = lm->spec();
+  const model::ModelSpec& m = lm ? lm->spec() : nm->spec();
 
   Analysis a;
   a.request = request;
@@ -244,24 +296,25 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
     return run;
   }
 
-  Result<filter::Likelihood> likelihood = filter::Likelihood::Create(lm, bound);
+  Result<filter::Likelihood> likelihood =
+      lm ? filter::Likelihood::Create(lm, bound) : filter::Likelihood::Create(nm, bound);
   if (!likelihood) {
     run.error = likelihood.error().ToString();
     return run;
   }
   likelihood->set_cancel(&control.cancel);
-  Result<model::StateSpace> ss = lm->Evaluate(request.theta);
-  if (!ss) {
-    run.error = ss.error().ToString();
+  Result<ModelAt> at = At(lm, nm.get(), request.theta);
+  if (!at) {
+    run.error = at.error().ToString();
     return run;
   }
   Preview preview;
   if (request.preview_theta == request.theta) {
     preview.same_as_theta = true;
   } else if (request.preview_theta.size() == request.theta.size()) {
-    Result<model::StateSpace> p = lm->Evaluate(request.preview_theta);
+    Result<ModelAt> p = At(lm, nm.get(), request.preview_theta);
     if (p) {
-      preview.ss = std::move(p).value();
+      preview.model = std::move(p).value();
     } else {
       a.preview_error = p.error().ToString();
     }
@@ -281,7 +334,7 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
   // residuals are those the fit scored. A fit's delay above today's range moves it up.
   filter::FilterSettings settings = likelihood->settings();
   settings.delay = a.delay;
-  settings.first_obs = filter::EffectiveFirstObservation(settings, lm->n_outputs());
+  settings.first_obs = filter::EffectiveFirstObservation(settings, static_cast<int>(m.outputs.size()));
   for (std::size_t o = 0; o < a.delay.size(); ++o)
     settings.first_obs[o] = std::max(settings.first_obs[o], a.delay[o]);
   settings.cancel = &control.cancel;
@@ -301,7 +354,7 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
                 std::to_string(series.size()) + " rows";
       continue;
     }
-    if (!AnalyseSeries(*ss, preview, series, settings, a, &d, control)) {
+    if (!AnalyseSeries(*at, preview, series, settings, a, &d, control)) {
       run.cancelled = true;
       return run;
     }

@@ -1,0 +1,253 @@
+#include "core/filter/moments.h"
+
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "core/filter/discretize.h"
+
+namespace gb::filter {
+
+using Program = model::NonlinearModel::Program;
+
+namespace {
+
+// Where a series' row is, for messages.
+Error AtRow(Error e, const data::Series& series, int j) {
+  if (e.file.empty()) e.file = series.source;
+  if (j < static_cast<int>(series.row_line.size())) e.line = series.row_line[j];
+  return e;
+}
+
+}  // namespace
+
+// The moment equations over one sample interval: z = [x̂; lower triangle of P, column by column].
+class MomentPropagator::Moments final : public OdeSystem {
+ public:
+  Moments(const model::NonlinearModel& model, std::span<const double> theta)
+      : model_(model),
+        n_(model.n_states()),
+        m_(model.n_inputs()),
+        slots_(model.n_slots(), 0.0),
+        out_(model.dynamics_size()),
+        packed_(n_, n_),
+        J_(n_, n_),
+        P_(n_, n_),
+        M_(n_, n_) {
+    std::copy(theta.begin(), theta.end(), slots_.begin() + model.parameter_slot());
+    int k = n_;
+    for (int b = 0; b < n_; ++b)
+      for (int a = b; a < n_; ++a) packed_(a, b) = packed_(b, a) = k++;
+  }
+
+  int size() const override { return n_ + n_ * (n_ + 1) / 2; }
+
+  // The inputs over [t0, t0 + dt]: u0 (zoh), or from u0 to u1 (foh; u1 may be null for zoh).
+  void SetInterval(const double* u0, const double* u1, double t0, double dt) {
+    u0_ = u0;
+    u1_ = u1;
+    t0_ = t0;
+    dt_ = dt;
+  }
+
+  // Evaluates the dynamics at (x, u(t), t) into out_; false (and failure() set) if not finite.
+  bool EvaluateAt(double t, const double* x) {
+    std::copy(x, x + n_, slots_.begin());
+    for (int i = 0; i < m_; ++i) {
+      double u = u0_[i];
+      if (u1_) u += (t - t0_) / dt_ * (u1_[i] - u0_[i]);
+      slots_[n_ + i] = u;
+    }
+    slots_[model_.time_slot()] = t;
+    model_.Dynamics(slots_, out_);
+    for (std::size_t k = 0; k < out_.size(); ++k) {
+      if (!std::isfinite(out_[k])) {
+        failure_ = model_.NotFinite(Program::kDynamics, k, out_[k], slots_);
+        return false;
+      }
+    }
+    for (int i = 0; i < n_; ++i)
+      for (int j = 0; j < n_; ++j) J_(i, j) = out_[n_ + i * n_ + j];
+    return true;
+  }
+
+  bool Rhs(double t, std::span<const double> z, std::span<double> dz) override {
+    if (!EvaluateAt(t, z.data())) return false;
+    for (int i = 0; i < n_; ++i) dz[i] = out_[i];
+    Unpack(z, &P_);
+    M_.noalias() = J_ * P_;
+    const double* sigma = out_.data() + n_ + n_ * n_;
+    for (int b = 0; b < n_; ++b) {
+      for (int a = b; a < n_; ++a) {
+        double v = M_(a, b) + M_(b, a);
+        if (a == b) v += sigma[a] * sigma[a];
+        dz[packed_(a, b)] = v;
+      }
+    }
+    return true;
+  }
+
+  // ∂F/∂z without the terms of ∂J/∂x̂ and ∂σ/∂x̂ (second derivatives): [J 0; 0 L(J)] with
+  // L(J) the Lyapunov operator P -> J P + P J' on the lower triangle.
+  void Jacobian(double t, std::span<const double> z, std::span<double> jac) override {
+    const int N = size();
+    std::fill(jac.begin(), jac.end(), 0.0);
+    if (!EvaluateAt(t, z.data())) return;
+    auto at = [&](int row, int col) -> double& { return jac[static_cast<std::size_t>(col) * N + row]; };
+    for (int i = 0; i < n_; ++i)
+      for (int j = 0; j < n_; ++j) at(i, j) = J_(i, j);
+    // (J P + P J')_ab = Σ_k J_ak P_kb + Σ_k J_bk P_ak; P_cd (c >= d) stands for P_cd and P_dc.
+    for (int b = 0; b < n_; ++b) {
+      for (int a = b; a < n_; ++a) {
+        const int row = packed_(a, b);
+        for (int k = 0; k < n_; ++k) {
+          at(row, packed_(k, b)) += J_(a, k);
+          at(row, packed_(a, k)) += J_(b, k);
+        }
+      }
+    }
+  }
+
+  // An upper bound of ρ(∂F/∂z) times dt at (x, t0): the covariance part has the eigenvalues
+  // λ_i + λ_j of J, so 2 max_i Σ_j |J_ij| (Gershgorin) bounds it. Infinite if not finite.
+  double Stiffness(const double* x) {
+    if (!EvaluateAt(t0_, x)) return std::numeric_limits<double>::infinity();
+    return 2.0 * J_.cwiseAbs().rowwise().sum().maxCoeff() * dt_;
+  }
+
+  void Unpack(std::span<const double> z, Eigen::MatrixXd* P) const {
+    for (int b = 0; b < n_; ++b)
+      for (int a = b; a < n_; ++a) (*P)(a, b) = (*P)(b, a) = z[packed_(a, b)];
+  }
+  void Pack(const Eigen::MatrixXd& P, std::span<double> z) const {
+    for (int b = 0; b < n_; ++b)
+      for (int a = b; a < n_; ++a) z[packed_(a, b)] = 0.5 * (P(a, b) + P(b, a));
+  }
+
+  const Eigen::MatrixXd& J() const { return J_; }
+  const double* sigma() const { return out_.data() + n_ + n_ * n_; }
+  const std::optional<Error>& failure() const { return failure_; }
+  void clear_failure() { failure_.reset(); }
+
+ private:
+  const model::NonlinearModel& model_;
+  const int n_, m_;
+  std::vector<double> slots_;
+  std::vector<double> out_;
+  Eigen::MatrixXi packed_;
+  Eigen::MatrixXd J_, P_, M_;
+  const double* u0_ = nullptr;
+  const double* u1_ = nullptr;
+  double t0_ = 0.0, dt_ = 1.0;
+  std::optional<Error> failure_;
+};
+
+MomentPropagator::MomentPropagator(const model::NonlinearModel& model,
+                                   std::span<const double> theta, const data::Series& series,
+                                   model::InputHold hold)
+    : model_(model),
+      series_(series),
+      theta_(theta.begin(), theta.end()),
+      foh_(hold == model::InputHold::kFoh),
+      moments_(std::make_unique<Moments>(model, theta_)),
+      solver_(std::make_unique<OdeSolver>(model.spec().ekf, moments_->size())),
+      z_(moments_->size()),
+      slots_(model.n_slots(), 0.0) {
+  assert(static_cast<int>(theta.size()) == model.n_parameters());
+  assert(series.U.rows() == model.n_inputs() && series.Y.rows() == model.n_outputs());
+  std::copy(theta.begin(), theta.end(), slots_.begin() + model.parameter_slot());
+}
+
+MomentPropagator::~MomentPropagator() = default;
+
+const OdeCounts& MomentPropagator::counts() const { return solver_->counts(); }
+
+Status MomentPropagator::Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P) {
+  const int n = model_.n_states(), m = model_.n_inputs();
+  const double* U = series_.U.data();
+  const double* u0 = U + static_cast<std::size_t>(j) * m;
+  moments_->SetInterval(u0, foh_ ? u0 + m : nullptr, series_.time[j],
+                        series_.time[j + 1] - series_.time[j]);
+  std::copy(x->data(), x->data() + n, z_.begin());
+  moments_->Pack(*P, z_);
+  const double stiffness =
+      model_.spec().ekf.method == model::OdeMethod::kAuto ? moments_->Stiffness(z_.data()) : 0.0;
+  moments_->clear_failure();
+  auto s = solver_->Advance(*moments_, series_.time[j], series_.time[j + 1], z_, stiffness);
+  if (!s) {
+    // The model's own reason (an entry not finite where the solver tried it) says more than
+    // the solver's.
+    const std::string why = moments_->failure() ? moments_->failure()->message : s.error().message;
+    return AtRow(NumericalError(fmt::format(
+                     "the moment equations could not be integrated from row {} (t = {:g}) to "
+                     "the next: {}",
+                     j + 1, series_.time[j], why)),
+                 series_, j);
+  }
+  *x = Eigen::Map<const Eigen::VectorXd>(z_.data(), n);
+  moments_->Unpack(z_, P);
+  return Ok{};
+}
+
+Status MomentPropagator::Initial(model::InitialCovariance kind, Eigen::VectorXd* x,
+                                 Eigen::MatrixXd* P) {
+  const int n = model_.n_states();
+  std::vector<double> initial(model_.initial_size());
+  model_.Initial(slots_, initial);
+  for (std::size_t k = 0; k < initial.size(); ++k) {
+    if (!std::isfinite(initial[k])) return model_.NotFinite(Program::kInitial, k, initial[k], slots_);
+  }
+  *x = Eigen::Map<const Eigen::VectorXd>(initial.data(), n);
+  P->setZero(n, n);
+  switch (kind) {
+    case model::InitialCovariance::kCtsm: {
+      // The covariance gathered over the first interval from zero, the mean starting at x0.
+      Eigen::VectorXd moved = *x;
+      return Advance(0, &moved, P);
+    }
+    case model::InitialCovariance::kStationary: {
+      moments_->SetInterval(series_.U.data(), nullptr, series_.time[0], 1.0);
+      if (!moments_->EvaluateAt(series_.time[0], x->data()))
+        return AtRow(*moments_->failure(), series_, 0);
+      Eigen::VectorXd sigma2(n);
+      for (int i = 0; i < n; ++i) sigma2(i) = moments_->sigma()[i] * moments_->sigma()[i];
+      std::complex<double> bad;
+      if (!StationaryCovariance(moments_->J(), sigma2, P, &bad))
+        return NumericalError(fmt::format(
+            "initial_covariance \"stationary\" needs a stable linearisation at the initial "
+            "state, but ∂f/∂x has the eigenvalue {:.6g}{:+.6g}i there (real part not negative); "
+            "use \"ctsm\" or explicit variances",
+            bad.real(), bad.imag()));
+      return Ok{};
+    }
+    case model::InitialCovariance::kExplicit:
+      for (int i = 0; i < n; ++i) {
+        if (initial[n + i] < 0)
+          return NumericalError(fmt::format("{} = {:g} is negative at these parameter values (a "
+                                            "variance)", model_.spec().initial_variance[i].path,
+                                            initial[n + i]));
+        (*P)(i, i) = initial[n + i];
+      }
+      return Ok{};
+  }
+  return Ok{};
+}
+
+Status MomentPropagator::Measure(int j, const Eigen::VectorXd& x, std::span<double> out) {
+  const int n = model_.n_states(), m = model_.n_inputs();
+  std::copy(x.data(), x.data() + n, slots_.begin());
+  const double* u = series_.U.data() + static_cast<std::size_t>(j) * m;
+  for (int i = 0; i < m; ++i) slots_[n + i] = u[i];
+  slots_[model_.time_slot()] = series_.time[j];
+  model_.Measurement(slots_, out);
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    if (!std::isfinite(out[k]))
+      return AtRow(model_.NotFinite(Program::kMeasurement, k, out[k], slots_), series_, j);
+  }
+  return Ok{};
+}
+
+}  // namespace gb::filter
