@@ -37,9 +37,8 @@ std::string EstimateSummary::Report() const {
   line(fmt::format("{} iterations, {} log-likelihood evaluations, {:.2f} s", iterations,
                    evaluations, elapsed_s));
   if (extended) {
-    line(fmt::format("Filter: extended Kalman filter{} (the model is not linear); moment equations "
-                     "by the {} ODE method, rtol {:g}, atol {:g}: {} steps over {} intervals, {} "
-                     "of them stiff (BDF)",
+    line(fmt::format("Filter: extended Kalman filter{} (nonlinear model); ODE {}, rtol {:g}, "
+                     "atol {:g}: {} steps over {} intervals, {} stiff (BDF)",
                      ekf.iterations > 1 ? fmt::format(", iterated ({} passes)", ekf.iterations) : "",
                      model::OdeMethodName(ekf.method), ekf.rtol, ekf.atol, ode.steps, ode.intervals,
                      ode.stiff_intervals));

@@ -188,5 +188,35 @@ json.dump(m, open(sys.argv[2], "w"))
 PY
 expect 1 "measurement_variance.ilambda .*negative" -- predict "$tmp/negvar.json" "$csv" --out "$tmp/x.csv"
 
+# --- predict --simulate-after N: the outputs after row N are simulated; the RMS it prints is the
+# RMS of the CSV's residuals after row N; the same run through the EKF (a diffusion that names
+# t, so the model is not linear) agrees to the ODE tolerance ---
+simulate_check() {
+  python3 - "$cli" "$model" "$csv" "$tmp" <<'PY'
+import csv, json, math, subprocess, sys
+cli, model, data, tmp = sys.argv[1:5]
+def simulate(model_path, out):
+    r = subprocess.run([cli, "predict", model_path, data, "--simulate-after", "6", "--out", out],
+                       check=True, capture_output=True, text=True)
+    return json.loads(r.stdout)
+linear = simulate(model, tmp + "/sim.csv")
+rows = [r for r in csv.reader(l for l in open(tmp + "/sim.csv") if not l.startswith("#"))]
+header, body = rows[0], rows[1:]
+res = [float(r[header.index("ilambda_residual")]) for r in body[6:]]
+res = [v for v in res if not math.isnan(v)]
+rms = math.sqrt(sum(v * v for v in res) / len(res))
+out = linear["outputs"]["ilambda"]
+assert linear["simulate_after"] == 6 and out["n"] == len(res), (linear, len(res))
+assert abs(out["rms"] - rms) < 1e-9 * rms, (out, rms)
+m = json.load(open(model))
+m["diffusion"] = {k: "(" + v + ")*(1 + 0*t)" for k, v in m["diffusion"].items()}
+json.dump(m, open(tmp + "/ekf.json", "w"))
+ekf = simulate(tmp + "/ekf.json", tmp + "/sim_ekf.csv")["outputs"]["ilambda"]
+assert abs(ekf["rms"] - rms) < 1e-6 * rms and ekf["n"] == out["n"], (ekf, out)
+PY
+}
+check "predict --simulate-after" simulate_check
+expect 2 "--simulate-after 40: expected a number of rows from 1 to 39" -- predict "$model" "$csv" --simulate-after 40 --out "$tmp/x.csv"
+
 echo "$passes passed, $failures failed"
 [ "$failures" -eq 0 ]
