@@ -1,7 +1,14 @@
-// Log-likelihood evaluation speed (issue 2). Run:
+// Log-likelihood evaluation speed (issue 2; the extended Kalman filter: issue 15). Run:
 //   build/bench/loglik_bench --benchmark_counters_tabular=true
 // Reported: time per evaluation and ns per sample. Data are simulated from each model with
-// greybench's own exact simulator (PRBS inputs), so every benchmark is self-contained.
+// greybench's own simulators (exact for linear models, Milstein for the tank models; PRBS
+// inputs), so every benchmark is self-contained.
+//
+// BM_Ekf*: the EKF on chains of n tanks with orifice outflow (n = 2, 10), on 2 tanks with a
+// fast sensor state (stiff: the sensor's mode is 500 times faster than the sample interval),
+// and on the linear fuel film, each with the ODE method as its argument (0 auto, 1 explicit,
+// 2 BDF) so that the methods are measured side by side; BM_FuelFilmExactVsEkf compares the
+// exact filter with the EKF on the same linear model and data.
 #include <benchmark/benchmark.h>
 
 #include <fmt/format.h>
@@ -9,6 +16,8 @@
 #include "core/design/prbs.h"
 #include "core/filter/likelihood.h"
 #include "core/model/linear_model.h"
+#include "core/model/nonlinear_model.h"
+#include "core/sim/sde.h"
 #include "core/sim/simulate.h"
 #include "core/util/json.h"
 
@@ -148,6 +157,124 @@ void BM_Chain10StateScore(benchmark::State& state) {
   RunScore(state, f);
 }
 BENCHMARK(BM_Chain10StateScore)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// ---- the extended Kalman filter --------------------------------------------------------------
+
+// n tanks in a chain, each draining through an orifice into the next; the pump fills the first
+// and the last is measured. With `fast_sensor`, the measured level passes a first-order sensor
+// with time constant 0.002 (one more state).
+std::string TankChain(int n, bool fast_sensor) {
+  Json j;
+  j["greybench_model"] = 1;
+  std::vector<std::string> states;
+  for (int i = 1; i <= n; ++i) states.push_back(fmt::format("h{}", i));
+  if (fast_sensor) states.push_back("m");
+  j["states"] = states;
+  j["inputs"] = {"u"};
+  j["outputs"] = {"y"};
+  j["parameters"] = {{"k", 0.5}, {"kin", 0.6}, {"s", 0.02}, {"r", 0.001}, {"tau", 0.002}};
+  for (int i = 1; i <= n; ++i) {
+    const std::string in = i == 1 ? "kin*u" : fmt::format("k*sqrt(h{})", i - 1);
+    j["drift"][states[i - 1]] = fmt::format("{} - k*sqrt(h{})", in, i);
+    j["diffusion"][states[i - 1]] = "s";
+    j["initial_state"][states[i - 1]] = "1.4";
+  }
+  if (fast_sensor) {
+    j["drift"]["m"] = fmt::format("(h{} - m)/tau", n);
+    j["initial_state"]["m"] = "1.4";
+    j["observation"]["y"] = "m";
+  } else {
+    j["observation"]["y"] = fmt::format("h{}", n);
+  }
+  j["measurement_variance"]["y"] = "r";
+  return j.dump();
+}
+
+struct EkfFixture {
+  std::shared_ptr<const model::NonlinearModel> model;
+  std::shared_ptr<const data::Series> series;
+  std::vector<double> theta;
+};
+
+// PRBS between 0.8 and 1.2 (levels near 1.4), sampled every 0.5 time units.
+EkfFixture MakeEkf(const std::string& model_json, int n_samples, model::OdeMethod method) {
+  auto spec = *model::ParseModel(Json::parse(model_json), "bench.json");
+  spec.ekf.method = method;
+  auto nm = std::make_shared<const model::NonlinearModel>(*model::NonlinearModel::Compile(spec));
+  design::PrbsOptions o;
+  o.order = 6;
+  o.bit_period = 5.0;
+  o.sample_time = 0.5;
+  o.duration = n_samples * o.sample_time;
+  o.low = 0.8;
+  o.high = 1.2;
+  auto u = *design::MakePrbs(o);
+  data::Series s;
+  s.source = "bench";
+  s.time = u.t;
+  s.U = Eigen::Map<const Eigen::MatrixXd>(u.u.data(), 1, static_cast<Eigen::Index>(u.u.size()));
+  s.Y.setZero(1, static_cast<Eigen::Index>(u.t.size()));
+  s.intervals = data::GroupIntervals(s.time);
+  const std::vector<double> theta = spec.Values();
+  s.Y = sim::SamplePath(*nm, theta, s, filter::FilterSettings::FromModel(spec), 1)->Y;
+  return {nm, std::make_shared<const data::Series>(std::move(s)), theta};
+}
+
+model::OdeMethod MethodOf(const benchmark::State& state) {
+  return state.range(0) == 1   ? model::OdeMethod::kExplicit
+         : state.range(0) == 2 ? model::OdeMethod::kBdf
+                               : model::OdeMethod::kAuto;
+}
+
+void RunEkf(benchmark::State& state, const EkfFixture& f) {
+  auto lik = *filter::Likelihood::Create(f.model, {f.series});
+  for (auto _ : state) {
+    auto l = lik.Evaluate(f.theta);
+    if (!l) state.SkipWithError(l.error().ToString().c_str());
+    benchmark::DoNotOptimize(l);
+  }
+  const double n = static_cast<double>(f.series->size());
+  state.counters["ns_per_sample"] = benchmark::Counter(
+      n * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  const filter::OdeCounts c = lik.ode_counts();
+  state.counters["steps_per_interval"] =
+      c.intervals ? static_cast<double>(c.steps) / static_cast<double>(c.intervals) : 0.0;
+  state.counters["rhs_per_interval"] =
+      c.intervals ? static_cast<double>(c.rhs) / static_cast<double>(c.intervals) : 0.0;
+}
+
+void BM_EkfTanks2State(benchmark::State& state) {
+  const EkfFixture f = MakeEkf(TankChain(2, false), 2000, MethodOf(state));
+  RunEkf(state, f);
+}
+BENCHMARK(BM_EkfTanks2State)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+
+void BM_EkfStiffTanks3State(benchmark::State& state) {
+  const EkfFixture f = MakeEkf(TankChain(2, true), 2000, MethodOf(state));
+  RunEkf(state, f);
+}
+BENCHMARK(BM_EkfStiffTanks3State)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+
+void BM_EkfTanks10State(benchmark::State& state) {
+  const EkfFixture f = MakeEkf(TankChain(10, false), 2000, MethodOf(state));
+  RunEkf(state, f);
+}
+BENCHMARK(BM_EkfTanks10State)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+
+// The linear fuel film, 10 000 samples: argument 0 the exact Kalman filter, 1 the EKF (explicit
+// ODE method, default tolerances) on the same model and data.
+void BM_FuelFilmExactVsEkf(benchmark::State& state) {
+  static const Fixture f = Make(kFuelFilm, 10000, 0.0125, 0.5, 0.9, 1.1);
+  if (state.range(0) == 0) {
+    RunLoglik(state, f);
+    return;
+  }
+  EkfFixture e{std::make_shared<const model::NonlinearModel>(
+                   *model::NonlinearModel::Compile(f.model->spec())),
+               f.series, f.theta};
+  RunEkf(state, e);
+}
+BENCHMARK(BM_FuelFilmExactVsEkf)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

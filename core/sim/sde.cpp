@@ -69,9 +69,24 @@ Result<Simulation> SamplePath(const model::NonlinearModel& model, std::span<cons
     if (j + 1 == N) break;
     const double t0 = series.time[j];
     const double dt = series.time[j + 1] - t0;
-    const double h = dt / substeps;
+    // A stiff model needs more sub-steps for the explicit scheme to stay stable: at least
+    // ρ Δ, ρ = max_i Σ_j |∂f_i/∂x_j| (Gershgorin) at the interval's start.
+    std::copy(x.data(), x.data() + n, slots.begin());
+    for (int i = 0; i < m; ++i) slots[n + i] = series.U(i, j);
+    slots[model.time_slot()] = t0;
+    model.Dynamics(slots, dyn);
+    double rho = 0.0;
+    for (int i = 0; i < n; ++i) {
+      double row = 0.0;
+      for (int k = 0; k < n; ++k) row += std::abs(dyn[n + i * n + k]);
+      rho = std::max(rho, row);
+    }
+    const int steps = std::isfinite(rho) ? std::max(substeps, static_cast<int>(std::min(
+                                                                  std::ceil(rho * dt), 1e6)))
+                                         : substeps;
+    const double h = dt / steps;
     const double sqrt_h = std::sqrt(h);
-    for (int s = 0; s < substeps; ++s) {
+    for (int s = 0; s < steps; ++s) {
       const double t = t0 + s * h;
       std::copy(x.data(), x.data() + n, slots.begin());
       for (int i = 0; i < m; ++i) {

@@ -5,7 +5,9 @@
 //     open-loop moment equations, core/filter/ekf_predict.h, integrated with error control),
 //     y_{o,k} = h_o(x_{k-d_o}, u_{k-d_o}, θ, t_{k-d_o})                    (NaN for k < d_o)
 //   sample path  x_0 ~ N(x0, P0) (P0 as the filter starts); between samples the Milstein scheme
-//     on `substeps` equal sub-steps of each interval (u held or interpolated as the filter does):
+//     on `substeps` equal sub-steps of each interval, more where the model is stiff (at least
+//     ρ Δ with ρ = max_i Σ_j |∂f_i/∂x_j| at the interval's start, so that the explicit scheme
+//     stays stable), u held or interpolated as the filter does:
 //       x_i <- x_i + f_i h + σ_i ΔW_i + ½ σ_i ∂σ_i/∂x_i (ΔW_i² - h),   ΔW_i ~ N(0, h)
 //     which has strong order 1 when each σ_i depends on the states through x_i only (diagonal
 //     noise; always so for additive noise) and order ½ otherwise (the Lévy areas are not drawn);
