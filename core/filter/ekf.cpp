@@ -54,7 +54,7 @@ Result<Loglik> Run::operator()() const {
 
   std::vector<double> meas(model.measurement_size());
   auto measure = [&](int j, const Eigen::VectorXd& at) { return propagator.Measure(j, at, meas); };
-  auto H_row = [&](int o) { return Eigen::Map<const Eigen::RowVectorXd>(meas.data() + p + o * n, n); };
+  auto H_row = [&](int o) { return Eigen::Map<const Eigen::RowVectorXd>(meas.data() + p + static_cast<std::ptrdiff_t>(o) * n, n); };
   auto S_of = [&](int o) { return meas[p + p * n + o]; };
 
   const double huber = settings.huber.value_or(0.0);

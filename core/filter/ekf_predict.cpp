@@ -33,7 +33,7 @@ Status Store(MomentPropagator& propagator, const data::Series& series,
   for (int o = 0; o < p; ++o) {
     const int k = j + delay[o];
     if (k >= N) continue;
-    const Eigen::Map<const Eigen::RowVectorXd> H(meas.data() + p + o * n, n);
+    const Eigen::Map<const Eigen::RowVectorXd> H(meas.data() + p + static_cast<std::ptrdiff_t>(o) * n, n);
     out->y_pred(o, k) = meas[o];
     out->y_sd(o, k) = std::sqrt((H * P * H.transpose()).value() + meas[p + p * n + o]);
   }

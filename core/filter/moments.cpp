@@ -79,7 +79,7 @@ class MomentPropagator::Moments final : public OdeSystem {
     for (int i = 0; i < n_; ++i) dz[i] = out_[i];
     Unpack(z, &P_);
     M_.noalias() = J_ * P_;
-    const double* sigma = out_.data() + n_ + n_ * n_;
+    const double* sigma = out_.data() + n_ + static_cast<std::ptrdiff_t>(n_) * n_;
     for (int b = 0; b < n_; ++b) {
       for (int a = b; a < n_; ++a) {
         double v = M_(a, b) + M_(b, a);
@@ -128,7 +128,7 @@ class MomentPropagator::Moments final : public OdeSystem {
   }
 
   const Eigen::MatrixXd& J() const { return J_; }
-  const double* sigma() const { return out_.data() + n_ + n_ * n_; }
+  const double* sigma() const { return out_.data() + n_ + static_cast<std::ptrdiff_t>(n_) * n_; }
   const std::optional<Error>& failure() const { return failure_; }
   void clear_failure() { failure_.reset(); }
 

@@ -60,7 +60,7 @@ Result<Simulation> SamplePath(const model::NonlinearModel& model, std::span<cons
 
   std::vector<double> slots(model.n_slots(), 0.0);
   std::copy(theta.begin(), theta.end(), slots.begin() + model.parameter_slot());
-  std::vector<double> dyn(model.dynamics_size()), noise(2 * n), meas(model.measurement_size());
+  std::vector<double> dyn(model.dynamics_size()), noise(2 * static_cast<std::size_t>(n)), meas(model.measurement_size());
   Simulation sim;
   sim.X.resize(n, N);
   sim.Y.setConstant(p, N, std::numeric_limits<double>::quiet_NaN());

@@ -218,5 +218,21 @@ PY
 check "predict --simulate-after" simulate_check
 expect 2 "--simulate-after 40: expected a number of rows from 1 to 39" -- predict "$model" "$csv" --simulate-after 40 --out "$tmp/x.csv"
 
+# --- the Cascaded Tanks case study (docs/case-study-tanks.md): the bundled model at its recorded
+# estimates simulates the benchmark's test record, state from its first 5 samples, with an RMS
+# error below the published NLSS2's 0.343 V ---
+tanks_check() {
+  python3 - "$cli" "$data/../../assets" "$data/tanks/estimates.json" "$tmp" <<'PY'
+import json, subprocess, sys
+cli, assets, result, tmp = sys.argv[1:5]
+r = subprocess.run([cli, "predict", assets + "/models/cascaded_tanks.json",
+                    assets + "/data/tanks_test.csv", "--result", result, "--simulate-after", "5",
+                    "--out", tmp + "/tanks.csv"], check=True, capture_output=True, text=True)
+y = json.loads(r.stdout)["outputs"]["y"]
+assert y["n"] == 1019 and y["rms"] < 0.34, y
+PY
+}
+check "Cascaded Tanks: simulation RMS on the test record below 0.34 V" tanks_check
+
 echo "$passes passed, $failures failed"
 [ "$failures" -eq 0 ]
