@@ -171,6 +171,9 @@ void DrawKeyFigures(AppState& state, const FitResult& r) {
   row.Add("Evaluations", GroupedCount(s.evaluations));
   row.Add("Time", Elapsed(state, s.elapsed_s));
   row.Add("Algorithm", Info(r.settings.algorithm).name);
+  // Which filter ran: a nonlinear model's estimate comes from the extended Kalman filter.
+  row.Add("Filter", s.extended ? (s.ekf.iterations > 1 ? "iterated EKF" : "EKF")
+                               : "Kalman (exact)");
 }
 
 // ---------------------------------------------------------------------------------------------
