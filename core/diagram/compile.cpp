@@ -10,6 +10,7 @@
 #include "core/diagram/internal.h"
 #include "core/expr/expr.h"
 #include "core/model/linear_model.h"
+#include "core/model/nonlinear_model.h"
 
 namespace gb::diagram {
 
@@ -462,9 +463,13 @@ CompileResult Compile(const BlockDiagram& d, const std::string& source) {
     result.problems.push_back(ProblemFromModelError(d, reread.error()));
     return result;
   }
-  if (auto linear = model::LinearModel::Compile(*reread); !linear) {
-    result.problems.push_back(ProblemFromModelError(d, linear.error()));
-    return result;
+  // A linear model compiles for the exact filter; any other for the extended one (the state
+  // block's f may be nonlinear), which refuses only expressions too deep to compile.
+  if (!model::LinearModel::Compile(*reread)) {
+    if (auto nonlinear = model::NonlinearModel::Compile(*reread); !nonlinear) {
+      result.problems.push_back(ProblemFromModelError(d, nonlinear.error()));
+      return result;
+    }
   }
   result.model = std::move(*reread);
   return result;

@@ -1,4 +1,6 @@
-// Block diagrams of linear grey-box models: the semantics a diagram editor draws and edits.
+// Block diagrams of grey-box models: the semantics a diagram editor draws and edits. A diagram
+// whose state blocks are linear compiles to a linear model (the exact filter); a state block's f
+// may be any expression, and the model then runs through the extended Kalman filter.
 //
 // A `BlockDiagram` is a value: blocks and links with stable integer ids (never reused within a
 // diagram), the parameter table (model::Parameter, as in a model file) and the model options.
@@ -51,7 +53,8 @@
 //   measurement_variance.<out> = variance
 //   output_delay.<out> = the delay of the delay block in front (or the output's own delay)
 // States, inputs and outputs appear in block order. The model is written as JSON and read back by
-// model::ParseModel, and model::LinearModel::Compile must accept it.
+// model::ParseModel, and model::LinearModel::Compile or else model::NonlinearModel::Compile must
+// accept it.
 #pragma once
 
 #include <array>

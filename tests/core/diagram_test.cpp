@@ -11,6 +11,7 @@
 #include <string>
 
 #include "core/model/linear_model.h"
+#include "core/model/nonlinear_model.h"
 #include "core/project/problem.h"
 #include "core/project/project.h"
 
@@ -314,6 +315,22 @@ TEST(DiagramEdit, SetPortNamesKeepsTheNoiseLinkAndRechecksF) {
   ASSERT_FALSE(c.ok());
   EXPECT_EQ(c.problems.front().block, n);
   EXPECT_EQ(c.problems.front().in_port, 2);
+}
+
+// A state block's f may be nonlinear: the diagram compiles to a model for the extended Kalman
+// filter (the crankshaft's f with a quadratic friction term).
+TEST(DiagramCompile, ANonlinearStateBlockCompilesForTheEkf) {
+  auto d = FromModel(LoadModel("crankshaft.json"));
+  ASSERT_TRUE(d.ok());
+  int n = 0;
+  for (const auto& b : d->blocks)
+    if (b.kind == BlockKind::kState) n = b.id;
+  const std::string f = d->FindBlock(n)->fields.at("f");
+  ASSERT_TRUE(SetBlockParameter(&*d, n, "f", "(" + f + ") - 0.01*" + d->FindBlock(n)->name + "^2").ok());
+  CompileResult c = Compile(*d);
+  ASSERT_TRUE(c.ok()) << c.problems.front().message;
+  EXPECT_FALSE(model::LinearModel::Compile(*c.model).ok());
+  EXPECT_TRUE(model::NonlinearModel::Compile(*c.model).ok());
 }
 
 TEST(DiagramEdit, RemoveBlockTakesItsLinksAndMoveOnlyTheLayout) {
