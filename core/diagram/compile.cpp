@@ -43,6 +43,14 @@ ExprPtr Binary(Op op, ExprPtr a, ExprPtr b) {
   return n;
 }
 
+ExprPtr Call(expr::Func f, std::vector<ExprPtr> args) {
+  auto n = std::make_shared<Node>();
+  n->op = Op::kCall;
+  n->func = f;
+  n->args = std::move(args);
+  return n;
+}
+
 // Replaces every variable named in `by` at once (so a replacement is never substituted again).
 ExprPtr SubstituteAll(const ExprPtr& e, const std::map<std::string, ExprPtr>& by) {
   if (e->op == Op::kVar) {
@@ -257,9 +265,50 @@ class Compiler {
       }
       case BlockKind::kDelay:
         return InSignal(b, 0);
+      case BlockKind::kProduct:
+      case BlockKind::kQuotient: {
+        ExprPtr a = InSignal(b, 0);
+        ExprPtr c = InSignal(b, 1);
+        if (!a || !c) return nullptr;
+        return Binary(b.kind == BlockKind::kProduct ? Op::kMul : Op::kDiv, a, c);
+      }
+      case BlockKind::kFunction: {
+        ExprPtr g = Field(b, "g", "the function g is not set");
+        auto by = PortSignals(b);
+        if (!g || !by) return nullptr;
+        return SubstituteAll(g, *by);
+      }
+      case BlockKind::kOrifice: {
+        ExprPtr u = InSignal(b, 0);
+        ExprPtr k = Field(b, "k", "the orifice coefficient k is not set");
+        if (!u || !k) return nullptr;
+        return Binary(Op::kMul, k, Call(expr::Func::kSqrt, {Call(expr::Func::kMax, {u, expr::Constant(0)})}));
+      }
+      case BlockKind::kSaturation:
+        return Saturate(b);
       default:
         return nullptr;  // outputs and noise blocks have no signal out-port
     }
+  }
+
+  // lower + w log(1 + e^{(u-lower)/w}) - w log(1 + e^{(u-upper)/w}), or min(max(u, lower), upper)
+  // when the width w is the constant 0.
+  ExprPtr Saturate(const Block& b) {
+    ExprPtr u = InSignal(b, 0);
+    ExprPtr lo = Field(b, "lower", "the lower limit is not set");
+    ExprPtr hi = Field(b, "upper", "the upper limit is not set");
+    ExprPtr w = Field(b, "width", "the width is not set (0 for a sharp saturation)");
+    if (!u || !lo || !hi || !w) return nullptr;
+    double width = 0.0;
+    if (expr::IsConstant(expr::Simplify(w), &width) && width == 0.0)
+      return Call(expr::Func::kMin, {Call(expr::Func::kMax, {u, lo}), hi});
+    auto softplus = [&](const ExprPtr& limit) {  // w log(1 + e^{(u - limit)/w})
+      ExprPtr arg = Binary(Op::kDiv, Binary(Op::kSub, u, limit), w);
+      return Binary(Op::kMul, w,
+                    Call(expr::Func::kLog, {Binary(Op::kAdd, expr::Constant(1),
+                                                   Call(expr::Func::kExp, {arg}))}));
+    };
+    return Binary(Op::kSub, Binary(Op::kAdd, lo, softplus(lo)), softplus(hi));
   }
 
   // dx/dt of a state block (without noise).

@@ -24,13 +24,18 @@ constexpr KindInfo kKinds[] = {
     {BlockKind::kLag, "lag"},     {BlockKind::kIntegrator, "integrator"},
     {BlockKind::kState, "state"}, {BlockKind::kSplit, "split"},
     {BlockKind::kDelay, "delay"}, {BlockKind::kNoise, "noise"},
+    {BlockKind::kProduct, "product"}, {BlockKind::kQuotient, "quotient"},
+    {BlockKind::kFunction, "function"}, {BlockKind::kOrifice, "orifice"},
+    {BlockKind::kSaturation, "saturation"},
 };
 
 bool HasModelName(BlockKind k) {
   return k == BlockKind::kInput || k == BlockKind::kOutput || HoldsState(k);
 }
 
-bool HasPortNames(BlockKind k) { return k == BlockKind::kState || k == BlockKind::kOutput; }
+bool HasPortNames(BlockKind k) {
+  return k == BlockKind::kState || k == BlockKind::kOutput || k == BlockKind::kFunction;
+}
 
 }  // namespace
 
@@ -59,7 +64,16 @@ const std::vector<std::string>& FieldsOf(BlockKind kind) {
   static const std::vector<std::string> kState = {"f", "x0"};
   static const std::vector<std::string> kSplit = {"X"};
   static const std::vector<std::string> kNoise = {"sigma"};
+  static const std::vector<std::string> kFunction = {"g"};
+  static const std::vector<std::string> kOrifice = {"k"};
+  static const std::vector<std::string> kSaturation = {"lower", "upper", "width"};
   switch (kind) {
+    case BlockKind::kFunction:
+      return kFunction;
+    case BlockKind::kOrifice:
+      return kOrifice;
+    case BlockKind::kSaturation:
+      return kSaturation;
     case BlockKind::kOutput:
       return kOutput;
     case BlockKind::kGain:
@@ -109,6 +123,16 @@ Block MakeBlock(BlockKind kind, std::string name) {
     case BlockKind::kNoise:
       b.fields = {{"sigma", "1"}};
       break;
+    case BlockKind::kFunction:
+      b.ports = {"u"};
+      b.fields = {{"g", "u"}};
+      break;
+    case BlockKind::kOrifice:
+      b.fields = {{"k", "1"}};
+      break;
+    case BlockKind::kSaturation:
+      b.fields = {{"lower", "0"}, {"upper", "1"}, {"width", "0"}};
+      break;
     default:
       break;
   }
@@ -136,6 +160,17 @@ std::vector<PortInfo> InPorts(const Block& b) {
     case BlockKind::kState:
       for (const auto& p : b.ports) in.push_back({p, PortType::kSignal, false});
       in.push_back({"noise", PortType::kNoise, true});
+      break;
+    case BlockKind::kFunction:
+      for (const auto& p : b.ports) in.push_back({p, PortType::kSignal, false});
+      break;
+    case BlockKind::kProduct:
+      in.push_back({"u1", PortType::kSignal, false});
+      in.push_back({"u2", PortType::kSignal, false});
+      break;
+    case BlockKind::kQuotient:
+      in.push_back({"num", PortType::kSignal, false});
+      in.push_back({"den", PortType::kSignal, false});
       break;
     default:
       in.push_back({"u", PortType::kSignal, false});
@@ -206,7 +241,8 @@ std::set<std::string> AllowedNames(const BlockDiagram& d, const Block& b,
   std::set<std::string> names;
   for (const auto& p : d.parameters) names.insert(p.name);
   if ((b.kind == BlockKind::kState && field == "f") ||
-      (b.kind == BlockKind::kOutput && field == "h"))
+      (b.kind == BlockKind::kOutput && field == "h") ||
+      (b.kind == BlockKind::kFunction && field == "g"))
     names.insert(b.ports.begin(), b.ports.end());
   if (b.kind == BlockKind::kState && field == "f") names.insert(b.name);
   return names;
@@ -236,6 +272,8 @@ Result<expr::ExprPtr> ParseField(const BlockDiagram& d, const Block& b, const st
     msg += " (f reads parameters, the block's ports and its own state)";
   else if (b.kind == BlockKind::kOutput && field == "h")
     msg += " (h reads parameters and the block's ports)";
+  else if (b.kind == BlockKind::kFunction && field == "g")
+    msg += " (g reads parameters and the block's ports)";
   else
     msg += " (not a parameter of the diagram)";
   Error e = InputError(msg);
@@ -482,9 +520,10 @@ Status SetDelay(BlockDiagram* d, int block, model::DelaySpec delay) {
 Status SetPortNames(BlockDiagram* d, int block, const std::vector<std::string>& ports) {
   Block* b = FindMutable(d, block);
   if (!b) return NoSuchBlock(block);
-  if (b->kind != BlockKind::kState && b->kind != BlockKind::kOutput)
+  if (!HasPortNames(b->kind))
     return Refuse(fmt::format("block {}.ports", block),
-                  BlockLabel(*b) + " has fixed ports (only state and output blocks name theirs)");
+                  BlockLabel(*b) +
+                      " has fixed ports (only state, output and function blocks name theirs)");
   Block renamed = *b;
   renamed.ports = ports;
   if (auto s = CheckBlock(*d, renamed, b->id); !s) return s;

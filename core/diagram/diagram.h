@@ -22,6 +22,14 @@
 //   state       in: `ports`..., noise   out: x   dx = f(ports, x, θ) dt   (a state named `name`)
 //               f reads its ports by name, its own state by `name`, and parameters
 //   split       in: u            out 0: X u,  out 1: (1 - X) u
+//   product     in: u1, u2       out: u1 u2
+//   quotient    in: num, den     out: num / den
+//   function    in: `ports`...   out: g(ports, θ)   a static nonlinearity written as an expression
+//   orifice     in: u (a level)  out: k sqrt(max(u, 0))   flow through an orifice (Torricelli)
+//   saturation  in: u            out: u clipped to [lower, upper]; with width w > 0 the smooth
+//               lower + w log(1 + e^{(u-lower)/w}) - w log(1 + e^{(u-upper)/w}) (differentiable
+//               everywhere, so the extended Kalman filter's linearisation is defined; w = 0 gives
+//               min/max, whose derivative jumps at the limits)
 //   delay       in: u            out: u delayed by `delay` whole samples; allowed only directly in
 //               front of output blocks (CONTRACT 1: y_k = h(x_{k-d}, u_{k-d}) + e_k)
 //   noise       out (a noise port): σ = sigma; linked to the noise in-port of a lag, integrator
@@ -80,12 +88,18 @@ enum class BlockKind {
   kState,
   kSplit,
   kDelay,
-  kNoise
+  kNoise,
+  kProduct,
+  kQuotient,
+  kFunction,
+  kOrifice,
+  kSaturation
 };
 enum class PortType { kSignal, kNoise };
 enum class PortSide { kIn, kOut };
 
-// "input", "output", "gain", "sum", "lag", "integrator", "state", "split", "delay", "noise".
+// "input", "output", "gain", "sum", "lag", "integrator", "state", "split", "delay", "noise",
+// "product", "quotient", "function", "orifice", "saturation".
 const char* KindName(BlockKind kind);
 std::optional<BlockKind> KindFromName(const std::string& name);
 // Lag, integrator and state blocks hold a state.
@@ -98,7 +112,7 @@ struct Block {
   BlockKind kind = BlockKind::kGain;
   std::string name;                           // model name (input, output, state); else a label
   std::map<std::string, std::string> fields;  // expression texts, keys from FieldsOf(kind)
-  std::vector<std::string> ports;             // state and output blocks: in-port names
+  std::vector<std::string> ports;             // state, output, function blocks: in-port names
   std::string signs;                          // sum blocks: one '+' or '-' per in-port
   model::DelaySpec delay;                     // delay blocks; output blocks' own delay
 };

@@ -41,7 +41,9 @@ Json ToJson(const BlockDiagram& d) {
     jb["id"] = b.id;
     jb["kind"] = KindName(b.kind);
     if (!b.name.empty()) jb["name"] = b.name;
-    if (b.kind == BlockKind::kState || b.kind == BlockKind::kOutput) jb["ports"] = b.ports;
+    if (b.kind == BlockKind::kState || b.kind == BlockKind::kOutput ||
+        b.kind == BlockKind::kFunction)
+      jb["ports"] = b.ports;
     if (b.kind == BlockKind::kSum) jb["signs"] = b.signs;
     for (const auto& field : FieldsOf(b.kind)) {
       auto it = b.fields.find(field);
@@ -270,7 +272,8 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
           auto s = r.String(*it, kpath);
           if (!s) return s.error();
           b.name = *s;
-        } else if (key == "ports" && (*kind == BlockKind::kState || *kind == BlockKind::kOutput)) {
+        } else if (key == "ports" && (*kind == BlockKind::kState || *kind == BlockKind::kOutput ||
+                                      *kind == BlockKind::kFunction)) {
           if (!it->is_array()) return r.Fail(kpath, "expected a list of port names");
           b.ports.clear();
           for (std::size_t p = 0; p < it->size(); ++p) {

@@ -182,7 +182,9 @@ class Fitter {
   bool Scores(const std::vector<double>& z, const std::vector<int>& delay, double* f,
               Eigen::VectorXd* g, Eigen::MatrixXd* info, bool split = true,
               bool* exact = nullptr) {
-    if (exact) *exact = true;
+    // The EKF's scores are differences (filter::Likelihood::EvaluateWithScore): good enough to
+    // climb with, too noisy to difference once more for the Hessian.
+    if (exact) *exact = lik_.linear() != nullptr;
     if (Cancelled()) return false;
     const std::vector<double> theta = Theta(z);
     const int chunks = split ? std::clamp(std::min(threads_, k() / 2), 1, k()) : 1;

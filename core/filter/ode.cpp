@@ -1,6 +1,8 @@
 #include "core/filter/ode.h"
 
 #include <algorithm>
+#include <cstdlib>
+#include <string>
 #include <cmath>
 #include <vector>
 
@@ -22,6 +24,14 @@ using State = std::vector<double>;
 namespace odeint = boost::numeric::odeint;
 using Dopri5 = odeint::runge_kutta_dopri5<State>;
 using Controlled = odeint::controlled_runge_kutta<Dopri5>;
+
+// CVODE's name of a return flag ("CV_TOO_MUCH_WORK"); CVodeGetReturnFlagName allocates it.
+std::string FlagName(int flag) {
+  char* name = CVodeGetReturnFlagName(flag);
+  std::string copy = name ? name : fmt::format("flag {}", flag);
+  free(name);  // NOLINT(cppcoreguidelines-no-malloc): SUNDIALS allocates it with malloc
+  return copy;
+}
 
 }  // namespace
 
@@ -151,13 +161,13 @@ Status OdeSolver::AdvanceBdf(OdeSystem& system, double t0, double t1, std::span<
     if (flag >= 0) flag = CVodeSetMaxNumSteps(b.memory, kMaxSteps);
     if (flag < 0)
       return NumericalError(fmt::format("the BDF solver could not be set up ({})",
-                                        CVodeGetReturnFlagName(flag)));
+                                        FlagName(flag)));
     b.initialised = true;
   } else {
     flag = CVodeReInit(b.memory, t0, b.y);
     if (flag < 0)
       return NumericalError(fmt::format("the BDF solver could not restart ({})",
-                                        CVodeGetReturnFlagName(flag)));
+                                        FlagName(flag)));
   }
   CVodeSetStopTime(b.memory, t1);
   sunrealtype t_reached = t0;
@@ -172,7 +182,7 @@ Status OdeSolver::AdvanceBdf(OdeSystem& system, double t0, double t1, std::span<
   b.system = nullptr;
   if (flag < 0)
     return NumericalError(fmt::format("the BDF solver failed at t = {:g} ({})", t_reached,
-                                      CVodeGetReturnFlagName(flag)));
+                                      FlagName(flag)));
   std::copy(N_VGetArrayPointer(b.y), N_VGetArrayPointer(b.y) + size_, z.begin());
   return Ok{};
 }

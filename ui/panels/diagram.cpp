@@ -285,6 +285,13 @@ constexpr PaletteEntry kPalette[] = {
     {BlockKind::kSplit, "Split X / 1\xE2\x88\x92X", "X u and (1 - X) u"},
     {BlockKind::kDelay, "Transport delay", "whole samples, directly in front of an output"},
     {BlockKind::kNoise, "Process noise", "sigma d\xCF\x89 on the state it is linked to"},
+    // Nonlinear maps last: a model with them runs through the extended Kalman filter.
+    {BlockKind::kProduct, "Product", "out = u1 u2"},
+    {BlockKind::kQuotient, "Quotient", "out = num / den"},
+    {BlockKind::kFunction, "Static function", "out = g(ports): any expression of its inputs"},
+    {BlockKind::kOrifice, "Orifice (sqrt flow)", "out = k sqrt(u): flow out of a tank of level u"},
+    {BlockKind::kSaturation, "Saturation",
+     "u clipped to [lower, upper]; smooth with width > 0 (for the EKF)"},
 };
 
 void PlaceBlock(AppState& state, BlockKind kind) {
@@ -352,7 +359,8 @@ void DrawBlockInspector(AppState& state, const Block& b) {
     DiagramEdit e = InspectorEdit(DiagramEditKind::kRename, id, "name", *t);
     Emit(state, std::move(e));
   }
-  if (b.kind == BlockKind::kState || b.kind == BlockKind::kOutput) {
+  if (b.kind == BlockKind::kState || b.kind == BlockKind::kOutput ||
+      b.kind == BlockKind::kFunction) {
     if (auto t = TextRow(state, id, "ports", "in-ports", JoinPorts(b.ports), "a, b")) {
       DiagramEdit e = InspectorEdit(DiagramEditKind::kSetPorts, id, "ports", *t);
       e.names = SplitPorts(*t);
@@ -387,8 +395,9 @@ void DrawBlockInspector(AppState& state, const Block& b) {
     }
   }
   ImGui::EndTable();
-  ImGui::TextDisabled("%s", b.kind == BlockKind::kState || b.kind == BlockKind::kOutput
-                                ? "Fields are expressions of the parameters; f or h reads the "
+  ImGui::TextDisabled("%s", b.kind == BlockKind::kState || b.kind == BlockKind::kOutput ||
+                                    b.kind == BlockKind::kFunction
+                                ? "Fields are expressions of the parameters; f, h or g reads the "
                                   "in-ports by name."
                                 : "Fields are expressions of the parameters.");
   if (ImGui::Button("Delete block")) {

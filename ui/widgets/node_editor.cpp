@@ -375,6 +375,16 @@ const char* KindSummary(BlockKind kind) {
       return "transport delay (in front of an output)";
     case BlockKind::kNoise:
       return "process noise: adds sigma d\xCF\x89 to a state";
+    case BlockKind::kProduct:
+      return "product: out = u1 u2";
+    case BlockKind::kQuotient:
+      return "quotient: out = num / den";
+    case BlockKind::kFunction:
+      return "static function: out = g(ports)";
+    case BlockKind::kOrifice:
+      return "orifice: out = k sqrt(max(u, 0))";
+    case BlockKind::kSaturation:
+      return "saturation: u clipped to [lower, upper] (smooth with width > 0)";
   }
   return "";
 }
