@@ -1,9 +1,10 @@
 #include "core/filter/ode.h"
 
 #include <algorithm>
+#include <cassert>
+#include <cmath>
 #include <cstdlib>
 #include <string>
-#include <cmath>
 #include <vector>
 
 #include <boost/numeric/odeint/stepper/controlled_runge_kutta.hpp>
