@@ -394,8 +394,10 @@ TEST(DiagramCompile, NonlinearBlocksComposeTheirFormulas) {
   EXPECT_TRUE(model::NonlinearModel::Compile(m).ok());
   const double k1 = 0.5, k3 = 0.5, k4 = 0.5, w = 0.5;
   auto softplus = [&](double v) { return w * std::log(1 + std::exp(v / w)); };
-  for (const auto& [vu, vh1, vh2] : std::vector<std::array<double, 3>>{
+  for (const std::array<double, 3>& point : std::vector<std::array<double, 3>>{
            {1.5, 2.0, 3.0}, {0.2, 0.01, 9.7}, {3.0, 5.0, 12.0}}) {
+    // (Plain variables: clang 14 cannot capture structured bindings in a lambda.)
+    const double vu = point[0], vh1 = point[1], vh2 = point[2];
     auto at = [&](const std::string& name) {
       if (name == "u") return vu;
       if (name == "h1") return vh1;
