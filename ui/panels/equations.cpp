@@ -191,7 +191,7 @@ void DrawVariables(AppState& state, const ModelJson& model) {
 
 void DrawSystemEquations(AppState& state, const ModelJson& model, bool editable) {
   SectionHeading(state,
-                 "System equations   dx = f(x, u, \xCE\xB8) dt + \xCF\x83(\xCE\xB8) d\xCF\x89");
+                 "System equations   dx = f(x, u, \xCE\xB8, t) dt + \xCF\x83(x, u, \xCE\xB8, t) d\xCF\x89");
   const ModelJson empty = ModelJson::object();
   const ModelJson* drift = Member(model, "drift");
   const ModelJson* diffusion = Member(model, "diffusion");
@@ -216,7 +216,7 @@ void DrawSystemEquations(AppState& state, const ModelJson& model, bool editable)
 }
 
 void DrawObservationEquations(AppState& state, const ModelJson& model, bool editable) {
-  SectionHeading(state, "Observation equations   y_k = h(x_k, u_k, \xCE\xB8) + e_k");
+  SectionHeading(state, "Observation equations   y_k = h(x_k, u_k, \xCE\xB8, t_k) + e_k");
   const ModelJson empty = ModelJson::object();
   const ModelJson* h = Member(model, "observation");
   const ModelJson* var = Member(model, "measurement_variance");
