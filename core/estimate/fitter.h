@@ -182,10 +182,14 @@ class Fitter {
   bool Scores(const std::vector<double>& z, const std::vector<int>& delay, double* f,
               Eigen::VectorXd* g, Eigen::MatrixXd* info, bool split = true,
               bool* exact = nullptr) {
-    // The EKF's scores are differences (filter::Likelihood::EvaluateWithScore): good enough to
-    // climb with, too noisy to difference once more for the Hessian.
-    if (exact) *exact = lik_.linear() != nullptr;
+    if (exact) *exact = true;
     if (Cancelled()) return false;
+    // The extended Kalman filter has no exact score: differences of its terms, as where an exact
+    // score fails (and, not being exact, they are not differenced again for the Hessian).
+    if (!lik_.linear()) {
+      if (exact) *exact = false;
+      return ScoresByDifferences(z, delay, f, g, info);
+    }
     const std::vector<double> theta = Theta(z);
     const int chunks = split ? std::clamp(std::min(threads_, k() / 2), 1, k()) : 1;
     std::vector<std::vector<int>> which(chunks);

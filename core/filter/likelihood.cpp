@@ -82,46 +82,49 @@ std::vector<std::vector<int>> Likelihood::DelayGrid() const {
   return grid;
 }
 
-Result<Loglik> Likelihood::EvaluateAt(const model::StateSpace& ss, std::span<const int> delay,
-                                      std::vector<double>* terms) const {
+// Σ over the series of one(series, settings, terms of that series), with the per-series terms
+// concatenated into *terms.
+template <class One>
+Result<Loglik> Likelihood::SumOverSeries(std::span<const int> delay, std::vector<double>* terms,
+                                         One&& one) const {
   FilterSettings settings = settings_;
   if (!delay.empty()) settings.delay.assign(delay.begin(), delay.end());
   Loglik total;
-  std::vector<double> one;
+  std::vector<double> series_terms;
   if (terms) terms->clear();
   for (const auto& s : series_) {
-    auto l = LogLikelihood(ss, *s, settings, terms ? &one : nullptr);
+    auto l = one(*s, settings, terms ? &series_terms : nullptr);
     if (!l) return l.error();
-    if (terms) terms->insert(terms->end(), one.begin(), one.end());
+    if (terms) terms->insert(terms->end(), series_terms.begin(), series_terms.end());
     total.loglik += l->loglik;
     total.n_obs += l->n_obs;
   }
   return total;
+}
+
+Result<Loglik> Likelihood::EvaluateAt(const model::StateSpace& ss, std::span<const int> delay,
+                                      std::vector<double>* terms) const {
+  return SumOverSeries(delay, terms, [&](const data::Series& s, const FilterSettings& settings,
+                                         std::vector<double>* t) {
+    return LogLikelihood(ss, s, settings, t);
+  });
 }
 
 Result<Loglik> Likelihood::EvaluateEkf(std::span<const double> theta, std::span<const int> delay,
                                        std::vector<double>* terms) const {
-  FilterSettings settings = settings_;
-  if (!delay.empty()) settings.delay.assign(delay.begin(), delay.end());
-  Loglik total;
-  std::vector<double> one;
-  if (terms) terms->clear();
   OdeCounts counts;
-  for (const auto& s : series_) {
-    auto l = EkfLogLikelihood(*nonlinear_, theta, *s, settings, terms ? &one : nullptr, &counts);
-    if (!l) {
-      counts_->Add(counts);
-      return l.error();
-    }
-    if (terms) terms->insert(terms->end(), one.begin(), one.end());
-    total.loglik += l->loglik;
-    total.n_obs += l->n_obs;
-  }
+  auto total = SumOverSeries(delay, terms, [&](const data::Series& s,
+                                               const FilterSettings& settings,
+                                               std::vector<double>* t) {
+    return EkfLogLikelihood(*nonlinear_, theta, s, settings, t, &counts);
+  });
   counts_->Add(counts);
   return total;
 }
 
-// Central differences of the per-state-index terms (one-sided at a bound).
+// Central differences of the per-state-index terms (one-sided at a bound), for callers of
+// EvaluateWithScore such as `loglik --gradient`; the estimator differences the terms itself
+// (estimate::Fitter::ScoresByDifferences), in its scaled units and in parallel.
 Result<Loglik> Likelihood::EkfScore(std::span<const double> theta, std::span<const int> delay,
                                     std::span<const int> free, Eigen::VectorXd* gradient,
                                     Eigen::MatrixXd* J_terms_theta) const {

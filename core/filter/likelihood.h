@@ -92,6 +92,9 @@ class Likelihood {
  private:
   static Result<Likelihood> CreateFor(const model::ModelSpec& spec,
                                       std::vector<std::shared_ptr<const data::Series>> series);
+  template <class One>
+  Result<Loglik> SumOverSeries(std::span<const int> delay, std::vector<double>* terms,
+                               One&& one) const;
   Result<Loglik> EvaluateAt(const model::StateSpace& ss, std::span<const int> delay,
                             std::vector<double>* terms = nullptr) const;
   Result<Loglik> EvaluateEkf(std::span<const double> theta, std::span<const int> delay,
