@@ -91,6 +91,10 @@ int main(int argc, char** argv) {
   c_pred->add_option("--simulate-after", predict.simulate_after,
                      "N: use the outputs of the first N rows only and simulate the rest from the "
                      "state estimated on them; prints the simulation's RMS error");
+  c_pred->add_option("--states", predict.states,
+                     "CSV of the states: t, then x_filtered, x_filtered_sd, x_smoothed, "
+                     "x_smoothed_sd for every state x, and o_smoothed, o_smoothed_sd for every "
+                     "output o (the smoother conditions on every observation)");
   c_pred->callback([&] { run = [&] { return RunPredict(predict); }; });
 
   DiagnoseArgs diag;

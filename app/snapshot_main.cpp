@@ -32,6 +32,7 @@
 #include <GL/osmesa.h>
 #include <imgui.h>
 
+#include <algorithm>
 #include <cfloat>
 #include <cmath>
 #include <cstdio>
@@ -73,6 +74,8 @@ struct Options {
   std::string profile;  // --profile NAME: with --estimate, profile intervals and NAME's plot
   std::optional<gb::ui::plot::Range> time;  // --time: the time axes' range (else the whole record)
   std::string dialog;  // a dialog of the shell drawn over the view (ui/shell/shell.h)
+  // --overlays: the predictions view's checkboxes to tick (ahead, simulation, smoothed).
+  bool ahead = false, simulation = false, smoothed = false;
 };
 
 constexpr const char* kUsage =
@@ -80,6 +83,7 @@ constexpr const char* kUsage =
     "                          [--view VIEW --out OUT.png ...]\n"
     "                          [--width W] [--height H] [--estimate] [--dialog DIALOG]\n"
     "                          [--time T0:T1] [--profile PARAMETER]\n"
+    "                          [--overlays ahead,simulation,smoothed]\n"
     "VIEW: data diagram equations estimate predictions residuals parameters operating-points\n"
     "DIALOG: open-project save-project-as new-project keyboard-shortcuts unsaved-changes\n";
 
@@ -106,7 +110,7 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
     if (arg == "--help" || arg == "-h") return "help";
     const bool takes_value = arg == "--project" || arg == "--view" || arg == "--out" ||
                              arg == "--width" || arg == "--height" || arg == "--dialog" ||
-                             arg == "--time" || arg == "--profile";
+                             arg == "--time" || arg == "--profile" || arg == "--overlays";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
@@ -129,6 +133,24 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       o->shots.back().out = value;
     } else if (arg == "--dialog") {
       o->dialog = value;
+    } else if (arg == "--overlays") {
+      // The predictions view's overlays, ticked as their checkboxes would be.
+      std::size_t begin = 0;
+      while (begin <= value.size()) {
+        const std::size_t end = std::min(value.find(',', begin), value.size());
+        const std::string name = value.substr(begin, end - begin);
+        if (name == "ahead") {
+          o->ahead = true;
+        } else if (name == "simulation") {
+          o->simulation = true;
+        } else if (name == "smoothed") {
+          o->smoothed = true;
+        } else {
+          return "--overlays '" + value + "': unknown overlay '" + name +
+                 "' (expected a comma-separated list of ahead, simulation, smoothed)";
+        }
+        begin = end + 1;
+      }
     } else if (arg == "--time") {
       double t0 = 0, t1 = 0;
       char rest = 0;
@@ -166,6 +188,9 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
   *fatal = true;
   state.view = options.shots.front().view;
   state.deterministic = true;
+  state.analysis.show_ahead = options.ahead;
+  state.analysis.show_simulation = options.simulation;
+  state.analysis.show_smoothed = options.smoothed;
   ui::OpenProject(state, options.project);
   ui::WaitForJobs(state);
   if (!state.project) return Fail(kExitBadInput, state.open_error);

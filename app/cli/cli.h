@@ -140,8 +140,13 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
                                             const std::string& result_path);
 // Comment lines for output files: the tool, the files, the parameter values and the delays.
 std::vector<std::string> DescribeEvaluation(const EvaluatedSeries& e, const std::string& tool);
-// One-step predictions of the series at θ, by the Kalman filter or the EKF.
-Result<filter::OneStepPredictions> PredictOneStep(const EvaluatedSeries& e);
+// One-step predictions of the series at θ, by the Kalman filter or the EKF; with `trace`, what
+// the filter computed as well (for SmoothStates).
+Result<filter::OneStepPredictions> PredictOneStep(const EvaluatedSeries& e,
+                                                  filter::FilterTrace* trace = nullptr);
+// The smoothed states from that trace: Rauch-Tung-Striebel, or its extended form for the EKF.
+Result<filter::SmoothedStates> SmoothStates(const EvaluatedSeries& e,
+                                            const filter::FilterTrace& trace);
 
 struct PredictArgs {
   std::string model;
@@ -153,6 +158,8 @@ struct PredictArgs {
   // predicted open loop from the state estimated on them (a simulation with its initial state
   // from N samples). stdout then gets the simulation's RMS error per output over rows >= N.
   int simulate_after = 0;
+  // With a path: the filtered and smoothed states (and the smoothed outputs) written there.
+  std::string states;
 };
 int RunPredict(const PredictArgs& args);
 

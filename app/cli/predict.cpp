@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -77,6 +78,44 @@ Result<std::vector<int>> ApplyResult(const std::string& path, const std::set<std
   return delay;
 }
 
+// predict --states: t, then per state x_filtered, x_filtered_sd, x_smoothed, x_smoothed_sd, then
+// per output o_smoothed, o_smoothed_sd (the noise-free output at the smoothed state).
+Status WriteStates(const std::string& path, const EvaluatedSeries& e,
+                   const filter::FilterTrace& trace, const filter::SmoothedStates& smoothed,
+                   std::vector<std::string> comments) {
+  const model::ModelSpec& m = e.spec();
+  const auto N = static_cast<Eigen::Index>(e.series->size());
+  std::vector<std::vector<double>> storage;
+  std::vector<std::string> names;
+  auto add = [&](std::string name, auto value) {
+    std::vector<double> column(static_cast<std::size_t>(N));
+    for (Eigen::Index k = 0; k < N; ++k) column[static_cast<std::size_t>(k)] = value(k);
+    storage.push_back(std::move(column));
+    names.push_back(std::move(name));
+  };
+  for (std::size_t i = 0; i < m.states.size(); ++i) {
+    const auto r = static_cast<Eigen::Index>(i);
+    const auto sd = [r](const Eigen::MatrixXd& P) { return std::sqrt(std::max(P(r, r), 0.0)); };
+    add(m.states[i] + "_filtered", [&](Eigen::Index k) { return trace.x_filt(r, k); });
+    add(m.states[i] + "_filtered_sd", [&](Eigen::Index k) { return sd(trace.P_filt[k]); });
+    add(m.states[i] + "_smoothed", [&](Eigen::Index k) { return smoothed.x(r, k); });
+    add(m.states[i] + "_smoothed_sd", [&](Eigen::Index k) { return sd(smoothed.P[k]); });
+  }
+  for (std::size_t o = 0; o < m.outputs.size(); ++o) {
+    const auto r = static_cast<Eigen::Index>(o);
+    add(m.outputs[o] + "_smoothed", [&](Eigen::Index k) { return smoothed.y(r, k); });
+    add(m.outputs[o] + "_smoothed_sd", [&](Eigen::Index k) { return smoothed.y_sd(r, k); });
+  }
+  std::vector<data::CsvColumn> cols = {{"t", e.series->time}};
+  for (std::size_t c = 0; c < storage.size(); ++c) cols.push_back({names[c], storage[c]});
+  comments.insert(comments.begin() + 1,
+                  e.nonlinear ? "states: filtered by the extended Kalman filter, smoothed by "
+                                "the extended Rauch-Tung-Striebel smoother"
+                              : "states: filtered by the Kalman filter, smoothed by the "
+                                "Rauch-Tung-Striebel smoother");
+  return data::WriteCsvFile(path, cols, comments);
+}
+
 }  // namespace
 
 Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
@@ -139,9 +178,21 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
   return out;
 }
 
-Result<filter::OneStepPredictions> PredictOneStep(const EvaluatedSeries& e) {
-  if (e.nonlinear) return filter::EkfPredictOneStep(*e.nonlinear, e.theta, *e.series, e.settings);
-  return filter::PredictOneStep(e.ss, *e.series, e.settings);
+Result<filter::OneStepPredictions> PredictOneStep(const EvaluatedSeries& e,
+                                                  filter::FilterTrace* trace) {
+  filter::FilterTrace own;
+  if (!trace) trace = &own;
+  const Result<filter::Loglik> l =
+      e.nonlinear ? filter::EkfRunFilter(*e.nonlinear, e.theta, *e.series, e.settings, trace)
+                  : filter::RunFilter(e.ss, *e.series, e.settings, trace);
+  if (!l) return l.error();
+  return filter::OneStepFromTrace(*e.series, e.settings, *trace, *l);
+}
+
+Result<filter::SmoothedStates> SmoothStates(const EvaluatedSeries& e,
+                                            const filter::FilterTrace& trace) {
+  if (e.nonlinear) return filter::EkfSmooth(*e.nonlinear, e.theta, *e.series, e.settings, trace);
+  return filter::SmoothFromTrace(e.ss, *e.series, e.settings, trace);
 }
 
 std::vector<std::string> DescribeEvaluation(const EvaluatedSeries& e, const std::string& tool) {
@@ -175,7 +226,8 @@ int RunPredict(const PredictArgs& args) {
     masked->Y.rightCols(N - args.simulate_after).setConstant(std::numeric_limits<double>::quiet_NaN());
     e->series = masked;
   }
-  auto pred = PredictOneStep(*e);
+  filter::FilterTrace trace;
+  auto pred = PredictOneStep(*e, &trace);
   if (!pred) return Fail(pred.error());
   pred->residual = s.Y - pred->y_pred;
   const model::ModelSpec& m = e->spec();
@@ -223,6 +275,12 @@ int RunPredict(const PredictArgs& args) {
   comments.push_back(fmt::format("log-likelihood {:.10g} over {} observations", pred->loglik.loglik,
                                  pred->loglik.n_obs));
   if (auto st = data::WriteCsvFile(args.out, cols, comments); !st) return Fail(st.error());
+  if (!args.states.empty()) {
+    auto smoothed = SmoothStates(*e, trace);
+    if (!smoothed) return Fail(smoothed.error());
+    if (auto st = WriteStates(args.states, *e, trace, *smoothed, comments); !st)
+      return Fail(st.error());
+  }
   return 0;
 }
 

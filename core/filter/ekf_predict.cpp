@@ -1,7 +1,10 @@
 #include "core/filter/ekf_predict.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+
+#include <Eigen/QR>
 
 #include "core/filter/moments.h"
 
@@ -104,6 +107,48 @@ Result<HorizonPredictions> EkfOpenLoop(const model::NonlinearModel& model,
     if (auto s = Store(propagator, series, delay, j, x, P, meas, &out); !s) return s.error();
     if (j + 1 < N) {
       if (auto s = propagator.Advance(j, &x, &P); !s) return s.error();
+    }
+  }
+  return out;
+}
+
+Result<SmoothedStates> EkfSmooth(const model::NonlinearModel& model, std::span<const double> theta,
+                                 const data::Series& series, const FilterSettings& settings,
+                                 const FilterTrace& trace) {
+  const int n = model.n_states(), p = model.n_outputs();
+  const int N = static_cast<int>(series.size());
+  assert(trace.x_filt.cols() == N && trace.x_filt.rows() == n && "the trace of this series");
+  MomentPropagator propagator(model, theta, series, settings.hold, /*transition=*/true);
+  SmoothedStates out;
+  out.x = trace.x_filt;
+  out.P = trace.P_filt;
+  Eigen::VectorXd x;
+  Eigen::MatrixXd P, Phi;
+  for (int j = N - 2; j >= 0; --j) {
+    // The prediction of j + 1 again, now with Φ_j (it equals the trace's to the ODE tolerance).
+    x = trace.x_filt.col(j);
+    P = trace.P_filt[j];
+    if (auto s = propagator.Advance(j, &x, &P, &Phi); !s) return s.error();
+    // G' = P_{j+1|j}⁺ Φ P_{j|j}, rank-revealing as the linear smoother's (a noise-free state
+    // makes P_{j+1|j} singular up to rounding).
+    const Eigen::MatrixXd Gt = P.completeOrthogonalDecomposition().solve(Phi * trace.P_filt[j]);
+    const Eigen::MatrixXd G = Gt.transpose();
+    out.x.col(j) = trace.x_filt.col(j) + G * (out.x.col(j + 1) - x);
+    const Eigen::MatrixXd Ps = trace.P_filt[j] + G * (out.P[j + 1] - P) * Gt;
+    out.P[j] = 0.5 * (Ps + Ps.transpose());
+  }
+  const std::vector<int> delay = EffectiveDelay(settings, p);
+  out.y.setConstant(p, N, kNaN);
+  out.y_sd.setConstant(p, N, kNaN);
+  std::vector<double> meas(model.measurement_size());
+  for (int j = 0; j < N; ++j) {
+    if (auto s = propagator.Measure(j, out.x.col(j), meas); !s) return s.error();
+    for (int o = 0; o < p; ++o) {
+      const int k = j + delay[o];
+      if (k >= N) continue;
+      const Eigen::Map<const Eigen::RowVectorXd> H(meas.data() + p + static_cast<std::ptrdiff_t>(o) * n, n);
+      out.y(o, k) = meas[o];
+      out.y_sd(o, k) = std::sqrt(std::max((H * out.P[j] * H.transpose()).value(), 0.0));
     }
   }
   return out;

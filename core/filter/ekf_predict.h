@@ -9,7 +9,15 @@
 //   open loop  from the prior at index 0 over the whole series, without any update: the mean is
 //              the deterministic response (the "simulation": dx/dt = f(x, u, θ, t) from x0), and
 //              P its first-order uncertainty
-// Outputs at state index j are y_{o, j+d_o} = h_o(x̂_j, u_j, θ, t_j) with sd² = H_o P H_o' + S_o.
+//   smoothed   the extended Rauch-Tung-Striebel smoother: backwards from the last filtered state,
+//                x̂_{j|N} = x̂_{j|j} + G_j (x̂_{j+1|N} - x̂_{j+1|j}),   G_j = P_{j|j} Φ_j' P_{j+1|j}⁻¹
+//                P_{j|N} = P_{j|j} + G_j (P_{j+1|N} - P_{j+1|j}) G_j'
+//              with Φ_j = ∂x̂(t_{j+1})/∂x̂(t_j) the transition matrix of the linearisation about
+//              the predicted mean (MomentPropagator::Advance), so P_{j|j} Φ_j' is the first-order
+//              cross-covariance of x_j and x_{j+1}. For a linear model Φ_j = e^{AΔ_j}: the linear
+//              smoother (predict.h) to the ODE tolerance.
+// Outputs at state index j are y_{o, j+d_o} = h_o(x̂_j, u_j, θ, t_j) with sd² = H_o P H_o' + S_o
+// (the smoothed outputs without S_o, as predict.h's).
 #pragma once
 
 #include <span>
@@ -31,6 +39,13 @@ Result<HorizonPredictions> EkfPredictAhead(const model::NonlinearModel& model,
                                            const data::Series& series,
                                            const FilterSettings& settings,
                                            const FilterTrace& trace, int horizon);
+
+// Smoothed states and outputs from a trace EkfRunFilter made for the same θ, series, settings.
+// Fails where the moment equations fail (they did not for the filter, but are integrated again
+// with Φ).
+Result<SmoothedStates> EkfSmooth(const model::NonlinearModel& model, std::span<const double> theta,
+                                 const data::Series& series, const FilterSettings& settings,
+                                 const FilterTrace& trace);
 
 // The open-loop prediction (horizon = -1 in the result).
 Result<HorizonPredictions> EkfOpenLoop(const model::NonlinearModel& model,

@@ -24,12 +24,14 @@ Error AtRow(Error e, const data::Series& series, int j) {
 
 }  // namespace
 
-// The moment equations over one sample interval: z = [x̂; lower triangle of P, column by column].
+// The moment equations over one sample interval: z = [x̂; lower triangle of P, column by column],
+// and with `transition` also Φ (column-major), dΦ/dt = J Φ from Φ = I.
 class MomentPropagator::Moments final : public OdeSystem {
  public:
-  Moments(const model::NonlinearModel& model, std::span<const double> theta)
+  Moments(const model::NonlinearModel& model, std::span<const double> theta, bool transition)
       : model_(model),
         n_(model.n_states()),
+        transition_(transition),
         m_(model.n_inputs()),
         slots_(model.n_slots(), 0.0),
         out_(model.dynamics_size()),
@@ -43,7 +45,8 @@ class MomentPropagator::Moments final : public OdeSystem {
       for (int a = b; a < n_; ++a) packed_(a, b) = packed_(b, a) = k++;
   }
 
-  int size() const override { return n_ + n_ * (n_ + 1) / 2; }
+  int moments_size() const { return n_ + n_ * (n_ + 1) / 2; }
+  int size() const override { return moments_size() + (transition_ ? n_ * n_ : 0); }
 
   // The inputs over [t0, t0 + dt]: u0 (zoh), or from u0 to u1 (foh; u1 may be null for zoh).
   void SetInterval(const double* u0, const double* u1, double t0, double dt) {
@@ -87,6 +90,10 @@ class MomentPropagator::Moments final : public OdeSystem {
         dz[packed_(a, b)] = v;
       }
     }
+    if (transition_) {
+      const Eigen::Map<const Eigen::MatrixXd> Phi(z.data() + moments_size(), n_, n_);
+      Eigen::Map<Eigen::MatrixXd>(dz.data() + moments_size(), n_, n_).noalias() = J_ * Phi;
+    }
     return true;
   }
 
@@ -108,6 +115,12 @@ class MomentPropagator::Moments final : public OdeSystem {
           at(row, packed_(a, k)) += J_(b, k);
         }
       }
+    }
+    // dΦ_·c/dt = J Φ_·c: J on every column of Φ.
+    for (int c = 0; transition_ && c < n_; ++c) {
+      const int base = moments_size() + c * n_;
+      for (int i = 0; i < n_; ++i)
+        for (int j = 0; j < n_; ++j) at(base + i, base + j) = J_(i, j);
     }
   }
 
@@ -134,7 +147,9 @@ class MomentPropagator::Moments final : public OdeSystem {
 
  private:
   const model::NonlinearModel& model_;
-  const int n_, m_;
+  const int n_;
+  const bool transition_;
+  const int m_;
   std::vector<double> slots_;
   std::vector<double> out_;
   Eigen::MatrixXi packed_;
@@ -147,12 +162,12 @@ class MomentPropagator::Moments final : public OdeSystem {
 
 MomentPropagator::MomentPropagator(const model::NonlinearModel& model,
                                    std::span<const double> theta, const data::Series& series,
-                                   model::InputHold hold)
+                                   model::InputHold hold, bool transition)
     : model_(model),
       series_(series),
       theta_(theta.begin(), theta.end()),
       foh_(hold == model::InputHold::kFoh),
-      moments_(std::make_unique<Moments>(model, theta_)),
+      moments_(std::make_unique<Moments>(model, theta_, transition)),
       solver_(std::make_unique<OdeSolver>(model.spec().ekf, moments_->size())),
       z_(moments_->size()),
       slots_(model.n_slots(), 0.0) {
@@ -165,14 +180,19 @@ MomentPropagator::~MomentPropagator() = default;
 
 const OdeCounts& MomentPropagator::counts() const { return solver_->counts(); }
 
-Status MomentPropagator::Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P) {
+Status MomentPropagator::Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P,
+                                 Eigen::MatrixXd* Phi) {
   const int n = model_.n_states(), m = model_.n_inputs();
+  const bool transition = moments_->size() > moments_->moments_size();
   const double* U = series_.U.data();
   const double* u0 = U + static_cast<std::size_t>(j) * m;
   moments_->SetInterval(u0, foh_ ? u0 + m : nullptr, series_.time[j],
                         series_.time[j + 1] - series_.time[j]);
   std::copy(x->data(), x->data() + n, z_.begin());
   moments_->Pack(*P, z_);
+  if (transition) {
+    Eigen::Map<Eigen::MatrixXd>(z_.data() + moments_->moments_size(), n, n).setIdentity();
+  }
   const double stiffness =
       model_.spec().ekf.method == model::OdeMethod::kAuto ? moments_->Stiffness(z_.data()) : 0.0;
   moments_->clear_failure();
@@ -189,6 +209,7 @@ Status MomentPropagator::Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P) 
   }
   *x = Eigen::Map<const Eigen::VectorXd>(z_.data(), n);
   moments_->Unpack(z_, P);
+  if (Phi && transition) *Phi = Eigen::Map<const Eigen::MatrixXd>(z_.data() + moments_->moments_size(), n, n);
   return Ok{};
 }
 

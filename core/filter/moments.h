@@ -23,9 +23,10 @@ namespace gb::filter {
 
 class MomentPropagator {
  public:
-  // θ: all parameters; `series` bound to the model. Holds references to all three.
+  // θ: all parameters; `series` bound to the model. Holds references to all three. With
+  // `transition`, Advance also integrates the transition matrix of the linearisation (below).
   MomentPropagator(const model::NonlinearModel& model, std::span<const double> theta,
-                   const data::Series& series, model::InputHold hold);
+                   const data::Series& series, model::InputHold hold, bool transition = false);
   ~MomentPropagator();
   MomentPropagator(const MomentPropagator&) = delete;
   MomentPropagator& operator=(const MomentPropagator&) = delete;
@@ -36,8 +37,10 @@ class MomentPropagator {
   Status Initial(model::InitialCovariance kind, Eigen::VectorXd* x, Eigen::MatrixXd* P);
 
   // (x̂, P) at t_j -> at t_{j+1}. Errors name row j + 1 and the model entry that was not finite
-  // where the solver tried it, or the solver's reason.
-  Status Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P);
+  // where the solver tried it, or the solver's reason. With `transition` and Phi: also
+  // Φ = ∂x̂(t_{j+1})/∂x̂(t_j), the solution of dΦ/dt = J(x̂(t)) Φ, Φ(t_j) = I, integrated with the
+  // moments under the same error control (the smoother's cross-covariance P_{j|j} Φ').
+  Status Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P, Eigen::MatrixXd* Phi = nullptr);
 
   // h, H = ∂h/∂x (row-major) and S at (x, u_j, θ, t_j): the model's measurement program
   // (NonlinearModel::Measurement). Errors name the entry and row.

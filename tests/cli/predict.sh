@@ -218,6 +218,41 @@ PY
 check "predict --simulate-after" simulate_check
 expect 2 "--simulate-after 40: expected a number of rows from 1 to 39" -- predict "$model" "$csv" --simulate-after 40 --out "$tmp/x.csv"
 
+# --- predict --states: filtered and smoothed states; the smoother ends at the filter's last state,
+# never claims more uncertainty than the filter, and the EKF's extended smoother equals the linear
+# one on a linear model (forced onto the EKF by a diffusion that depends on t) ---
+states_check() {
+  python3 - "$cli" "$model" "$csv" "$tmp" <<'PY'
+import csv, json, math, subprocess, sys
+cli, model, data, tmp = sys.argv[1:5]
+def states(model_path, out):
+    subprocess.run([cli, "predict", model_path, data, "--out", tmp + "/p.csv", "--states", out],
+                   check=True, capture_output=True, text=True)
+    rows = [r for r in csv.reader(l for l in open(out) if not l.startswith("#"))]
+    return rows[0], [[math.nan if v == "NA" else float(v) for v in r] for r in rows[1:]]
+m = json.load(open(model))
+header, body = states(model, tmp + "/states.csv")
+expected = ["t"]
+for x in m["states"]:
+    expected += [x + "_filtered", x + "_filtered_sd", x + "_smoothed", x + "_smoothed_sd"]
+for o in m["outputs"]:
+    expected += [o + "_smoothed", o + "_smoothed_sd"]
+assert header == expected, header
+for x in m["states"]:
+    f, fs, s, ss = (header.index(x + c) for c in ("_filtered", "_filtered_sd", "_smoothed", "_smoothed_sd"))
+    assert abs(body[-1][f] - body[-1][s]) <= 1e-12 * abs(body[-1][f]), body[-1]
+    assert all(r[ss] <= r[fs] * (1 + 1e-9) for r in body), x
+m["diffusion"] = {k: "(" + v + ")*(1 + 0*t)" for k, v in m["diffusion"].items()}
+json.dump(m, open(tmp + "/ekf.json", "w"))
+header_ekf, body_ekf = states(tmp + "/ekf.json", tmp + "/states_ekf.csv")
+assert header_ekf == header
+worst = max(abs(a - b) / (1 + abs(b)) for ra, rb in zip(body_ekf, body) for a, b in zip(ra, rb)
+            if not math.isnan(b))
+assert worst < 1e-6, worst
+PY
+}
+check "predict --states: the filtered and smoothed states, linear and EKF" states_check
+
 # --- the Cascaded Tanks case study (docs/case-study-tanks.md): the bundled model at its recorded
 # estimates simulates the benchmark's test record, state from its first 5 samples, with an RMS
 # error below the published NLSS2's 0.343 V ---

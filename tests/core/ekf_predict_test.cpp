@@ -80,6 +80,72 @@ TEST(EkfPredict, LinearModelEqualsTheExactPredictionsAndSimulation) {
     ASSERT_TRUE(exact_sim && ekf_sim);
     EXPECT_LT(MaxRelativeDifference(ekf_sim->X, exact_sim->X), 1e-7);
     EXPECT_LT(MaxRelativeDifference(ekf_sim->Y, exact_sim->Y), 1e-7);
+
+    auto exact_smooth = Smooth(b.ss, series, settings);
+    auto ekf_smooth = EkfSmooth(*b.nm, b.spec.Values(), series, settings, trace);
+    ASSERT_TRUE(exact_smooth && ekf_smooth) << ekf_smooth.error().ToString();
+    EXPECT_LT(MaxRelativeDifference(ekf_smooth->x, exact_smooth->x), 1e-7);
+    EXPECT_LT(MaxRelativeDifference(ekf_smooth->y, exact_smooth->y), 1e-7);
+    EXPECT_LT(MaxRelativeDifference(ekf_smooth->y_sd, exact_smooth->y_sd), 1e-7);
+    double worst_P = 0.0;
+    for (std::size_t j = 0; j < exact_smooth->P.size(); ++j)
+      worst_P = std::max(worst_P, MaxRelativeDifference(ekf_smooth->P[j], exact_smooth->P[j]));
+    EXPECT_LT(worst_P, 1e-7);
+  }
+}
+
+TEST(EkfSmooth, SmoothedStatesOfANonlinearModelAreCalibratedAndBeatTheFilteredOnes) {
+  // Two tanks draining through orifices, only the lower level measured: the upper level is
+  // seen through the flow it sends down, later. Over sample paths of the model, the smoothed
+  // errors x - x̂_{j|N} must have the variance the smoother claims (mean of the squared errors
+  // over P_{j|N} near 1) and be smaller than the filtered ones.
+  const char* const kTanks = R"json({
+    "greybench_model": 1, "states": ["h1", "h2"], "inputs": ["u"], "outputs": ["y"],
+    "parameters": {"k1": 0.5, "k2": 0.4, "s": 0.05, "r": 0.0004},
+    "drift": {"h1": "u - k1*sqrt(h1)", "h2": "k1*sqrt(h1) - k2*sqrt(h2)"},
+    "diffusion": {"h1": "s", "h2": "s"},
+    "observation": {"y": "h2"}, "measurement_variance": {"y": "r"},
+    "initial_state": {"h1": "4", "h2": "6"}, "initial_covariance": {"h1": "0.01", "h2": "0.01"}
+  })json";
+  const model::ModelSpec spec = *model::ParseModel(Json::parse(kTanks), "test.json");
+  const model::NonlinearModel nm = *model::NonlinearModel::Compile(spec);
+  const int rows = 400;
+  std::vector<double> t(rows);
+  Eigen::MatrixXd U(1, rows);
+  for (int k = 0; k < rows; ++k) {
+    t[k] = 0.5 * k;
+    U(0, k) = ((k / 17) % 3 == 1) ? 1.4 : 0.8;  // a square wave of unequal halves
+  }
+  const FilterSettings settings = FilterSettings::FromModel(spec);
+  double z2[2] = {0, 0}, smoothed_sq[2] = {0, 0}, filtered_sq[2] = {0, 0};
+  long count = 0;
+  const int paths = 30;
+  for (int path = 0; path < paths; ++path) {
+    data::Series series = fixtures::MakeSeries(t, U, Eigen::MatrixXd::Zero(1, rows));
+    auto truth = sim::SamplePath(nm, spec.Values(), series, settings, 500 + path);
+    ASSERT_TRUE(truth) << truth.error().ToString();
+    series.Y = truth->Y;
+    FilterTrace trace;
+    ASSERT_TRUE(EkfRunFilter(nm, spec.Values(), series, settings, &trace));
+    auto smoothed = EkfSmooth(nm, spec.Values(), series, settings, trace);
+    ASSERT_TRUE(smoothed) << smoothed.error().ToString();
+    for (int j = 0; j < rows; ++j) {
+      for (int i = 0; i < 2; ++i) {
+        const double e = truth->X(i, j) - smoothed->x(i, j);
+        z2[i] += e * e / smoothed->P[j](i, i);
+        smoothed_sq[i] += e * e;
+        const double f = truth->X(i, j) - trace.x_filt(i, j);
+        filtered_sq[i] += f * f;
+      }
+      ++count;
+    }
+  }
+  for (int i = 0; i < 2; ++i) {
+    SCOPED_TRACE(i == 0 ? "h1" : "h2");
+    // 12 000 correlated terms per state; the EKF's linearisation error is small at these levels.
+    // Measured: 1.018 (h1) and 1.001 (h2); smoothed/filtered squared errors 0.87 and 0.84.
+    EXPECT_NEAR(z2[i] / count, 1.0, 0.1);
+    EXPECT_LT(smoothed_sq[i], 0.93 * filtered_sq[i]);
   }
 }
 

@@ -129,12 +129,18 @@ void ExpectMatchesCore(const Analysis& a, const Direct& direct, int first_obs) {
   ASSERT_TRUE(ahead.ok());
   auto sim = sim::DeterministicResponse(direct.ss, *direct.series, direct.settings);
   ASSERT_TRUE(sim.ok());
+  auto smoothed = filter::Smooth(direct.ss, *direct.series, direct.settings);
+  ASSERT_TRUE(smoothed.ok());
   ASSERT_EQ(o.ahead.size(), y.size());
   ASSERT_EQ(o.simulated.size(), y.size());
+  ASSERT_EQ(o.smoothed.size(), y.size()) << o.smoothed_error;
   for (std::size_t k = 0; k < y.size(); ++k) {
     const auto j = static_cast<Eigen::Index>(k);
     EXPECT_TRUE(Same(o.ahead[k], ahead->y_pred(0, j))) << "k = " << k;
     EXPECT_TRUE(Same(o.simulated[k], sim->Y(0, j))) << "k = " << k;
+    EXPECT_TRUE(Same(o.smoothed[k], smoothed->y(0, j))) << "k = " << k;
+    EXPECT_TRUE(Same(o.smoothed_upper[k], smoothed->y(0, j) + 2.0 * smoothed->y_sd(0, j)))
+        << "k = " << k;
   }
 
   // The diagnostics: core's Diagnose on core's standardised residuals, with the input.

@@ -149,21 +149,25 @@ bool AnalyseSeries(const ModelAt& at, const Preview& preview, const data::Series
                    JobControl& control) {
   Result<filter::OneStepPredictions> pred = InputError("");
   Result<filter::HorizonPredictions> ahead = InputError("");
-  if (at.ss) {
-    pred = filter::PredictOneStep(*at.ss, series, settings);
-    if (control.cancel) return false;
-    if (pred) ahead = filter::PredictAhead(*at.ss, series, settings, a.request.horizon);
-  } else {
-    filter::FilterTrace trace;
-    Result<filter::Loglik> l = filter::EkfRunFilter(*at.nonlinear, at.theta, series, settings, &trace);
-    if (control.cancel) return false;
-    if (l) {
-      pred = filter::OneStepFromTrace(series, settings, trace, *l);
+  Result<filter::SmoothedStates> smoothed = InputError("");
+  filter::FilterTrace trace;
+  const Result<filter::Loglik> l =
+      at.ss ? filter::RunFilter(*at.ss, series, settings, &trace)
+            : filter::EkfRunFilter(*at.nonlinear, at.theta, series, settings, &trace);
+  if (control.cancel) return false;
+  if (l) {
+    pred = filter::OneStepFromTrace(series, settings, trace, *l);
+    if (at.ss) {
+      ahead = filter::PredictAheadFromTrace(*at.ss, series, settings, trace, a.request.horizon);
+      smoothed = filter::SmoothFromTrace(*at.ss, series, settings, trace);
+    } else {
       ahead = filter::EkfPredictAhead(*at.nonlinear, at.theta, series, settings, trace,
                                       a.request.horizon);
-    } else {
-      pred = l.error();
+      if (control.cancel) return false;
+      smoothed = filter::EkfSmooth(*at.nonlinear, at.theta, series, settings, trace);
     }
+  } else {
+    pred = l.error();
   }
   if (control.cancel) return false;
   if (!pred) {
@@ -215,6 +219,19 @@ bool AnalyseSeries(const ModelAt& at, const Preview& preview, const data::Series
       oa.ahead = Row(ahead->y_pred, r);
     } else {
       oa.ahead_error = ahead.error().ToString();
+    }
+    if (smoothed) {
+      oa.smoothed = Row(smoothed->y, r);
+      oa.smoothed_lower.resize(oa.smoothed.size());
+      oa.smoothed_upper.resize(oa.smoothed.size());
+      for (Eigen::Index k = 0; k < n; ++k) {
+        const auto i = static_cast<std::size_t>(k);
+        const double half = kBandSd * smoothed->y_sd(r, k);
+        oa.smoothed_lower[i] = oa.smoothed[i] - half;
+        oa.smoothed_upper[i] = oa.smoothed[i] + half;
+      }
+    } else {
+      oa.smoothed_error = smoothed.error().ToString();
     }
     if (simulated) oa.simulated = Row(simulated->Y, r);
     if (preview.same_as_theta) {

@@ -12,6 +12,9 @@
 //   predicted    ŷ_{o,k|k-1}, band ŷ ± 2 sd         (sd includes the measurement noise S_o)
 //   residual     ε_{o,k} = y_{o,k} - ŷ_{o,k|k-1}, band 0 ± 2 sd
 //   ahead        ŷ_{o,k|k-h}: the h-step prediction (PredictAhead), h chosen in the view
+//   smoothed     the noise-free output at the smoothed state x̂_{j|N} (conditioned on every
+//                observation: Rauch-Tung-Striebel, or its extended form for the EKF), band ± 2 sd
+//                of that output (without the measurement noise)
 //   simulated    the deterministic response from x0 (core/sim/response.h): no data assimilated
 //   preview      the same at the model's current values (the Data view's overlay), whatever θ is
 //   rms          sqrt(mean ε²) over the n_observed observations the likelihood uses (k >= the
@@ -98,6 +101,8 @@ struct OutputAnalysis {
   std::vector<double> standardized;  // NaN where the likelihood does not use y
   std::vector<double> ahead;         // h-step predictions (empty when they failed: ahead_error)
   std::string ahead_error;
+  std::vector<double> smoothed, smoothed_lower, smoothed_upper;  // empty when smoothed_error
+  std::string smoothed_error;
   std::vector<double> simulated;
   std::vector<double> preview;  // empty when the model's values cannot be evaluated
   int n_observed = 0;

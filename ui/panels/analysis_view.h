@@ -23,6 +23,7 @@ inline constexpr ImU32 kMeasuredColor = IM_COL32(60, 64, 72, 255);
 inline constexpr ImU32 kPredictionColor = IM_COL32(31, 119, 180, 255);
 inline constexpr ImU32 kAheadColor = IM_COL32(255, 127, 14, 255);
 inline constexpr ImU32 kSimulationColor = IM_COL32(44, 160, 44, 255);
+inline constexpr ImU32 kSmoothedColor = IM_COL32(148, 103, 189, 255);
 inline constexpr ImU32 kReferenceColor = IM_COL32(214, 39, 40, 255);
 inline constexpr ImU32 kBandColor = IM_COL32(120, 130, 150, 255);
 inline constexpr ImU32 kGoodColor = IM_COL32(34, 139, 34, 255);

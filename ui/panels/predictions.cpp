@@ -1,8 +1,8 @@
 // The predictions view: for every output of the selected dataset, the measurements (markers),
 // the one-step predictions (line) with their ± 2 sd band, and on request the h-step-ahead
-// predictions and the simulation (the deterministic response, no data assimilated); the plots
-// are stacked with their time axes linked, each titled with the output's RMS of residuals, the
-// observations used and the delay.
+// predictions, the simulation (the deterministic response, no data assimilated) and the
+// smoothed output (conditioned on every measurement); the plots are stacked with their time axes
+// linked, each titled with the output's RMS of residuals, the observations used and the delay.
 //
 // The numbers come from AppState::analysis (ui/jobs/analysis.h), computed in the background; this
 // panel only reads the installed result.
@@ -39,6 +39,13 @@ bool DrawOverlayControls(AppState& state) {
     ImGui::SetTooltip(
         "The deterministic response of the model to the measured inputs from its "
         "initial state: no measurement is assimilated");
+  ImGui::SameLine(0, 1.6f * ImGui::GetFontSize());
+  ImGui::Checkbox("Smoothed", &a.show_smoothed);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "The output at the smoothed state, which every measurement informs, earlier and "
+        "later (Rauch-Tung-Striebel; extended for a nonlinear model), \xC2\xB1 2 sd without "
+        "the measurement noise");
   return true;
 }
 
@@ -85,6 +92,14 @@ void DrawOutputPlot(AppState& state, const DatasetAnalysis& d, const OutputAnaly
     sim.color = kSimulationColor;
     plot::PlotLine(state.plots, "simulation", t, o.simulated.data(), n, sim);
   }
+  if (a.show_smoothed && o.smoothed.size() == d.time.size()) {
+    plot::ItemStyle smoothed;
+    smoothed.color = kSmoothedColor;
+    smoothed.fill_alpha = 0.18f;
+    plot::PlotBand(state.plots, "smoothed \xC2\xB1 2 sd", t, o.smoothed_lower.data(),
+                   o.smoothed_upper.data(), n, smoothed);
+    plot::PlotLine(state.plots, "smoothed", t, o.smoothed.data(), n, smoothed);
+  }
   plot::EndPlot(state.plots);
 }
 
@@ -98,6 +113,10 @@ void DrawPredictionsPanel(AppState& state) {
       ImGui::TextColored(SeverityColor(Severity::kWarning), "No %s-ahead predictions for %s: %s",
                          SamplesText(state.analysis.result->request.horizon).c_str(),
                          o.name.c_str(), o.ahead_error.c_str());
+    }
+    if (state.analysis.show_smoothed && !o.smoothed_error.empty()) {
+      ImGui::TextColored(SeverityColor(Severity::kWarning), "No smoothed output for %s: %s",
+                         o.name.c_str(), o.smoothed_error.c_str());
     }
   }
 

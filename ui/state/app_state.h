@@ -131,6 +131,7 @@ struct AnalysisState {
   int horizon = 10;                 // h of the h-step-ahead overlay
   bool show_ahead = false;
   bool show_simulation = false;
+  bool show_smoothed = false;
   bool show_raw_ccf = false;  // also the CCF with the input as measured
   int dataset = 0;            // shown in both views
   int output = 0;             // the Residuals view's output
