@@ -3,10 +3,12 @@
 // a profile interval; and a linear model forced through the EKF reaches the exact filter's
 // estimate.
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <sstream>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "core/data/dataset.h"
@@ -16,6 +18,7 @@
 #include "core/filter/likelihood.h"
 #include "core/model/nonlinear_model.h"
 #include "core/sim/sde.h"
+#include "core/util/sanitizers.h"
 #include "core/util/json.h"
 
 namespace gb::estimate {
@@ -48,7 +51,7 @@ std::shared_ptr<const model::NonlinearModel> Compile(const Json& j) {
 }
 
 // The truth: k = 0.8, a = 0.5, s = 0.08, r = 0.004, h0 = 2.5 (steady level (k u / a)² ≈ 2.6).
-std::shared_ptr<const data::Series> Simulate(std::uint64_t seed) {
+std::shared_ptr<const data::Series> Simulate(std::uint64_t seed, double duration = 300.0) {
   Json truth = Json::parse(kTank);
   truth["parameters"]["k"]["value"] = 0.8;
   truth["parameters"]["a"]["value"] = 0.5;
@@ -60,7 +63,7 @@ std::shared_ptr<const data::Series> Simulate(std::uint64_t seed) {
   o.order = 6;
   o.bit_period = 4.0;
   o.sample_time = 0.5;
-  o.duration = 300.0;
+  o.duration = duration;
   o.low = 0.7;
   o.high = 1.3;
   auto u = *design::MakePrbs(o);
@@ -134,6 +137,51 @@ const std::map<std::string, double> kCtsmEstimates = {
     {"S11", 0.0075248},     {"S22", 0.0010636},
     {"S33", 0.011388},      {"X0", 1.0095462824854442},
     {"S0", 0.23834703891425607}, {"V0", 1.0039507255993247}};
+
+TEST(EkfEstimate, NinetyFivePercentIntervalsCoverTheTruthAtTheNominalRate) {
+  // The tank above: replicates of 600 samples, fitted from the model file's generic starts (one
+  // start each); the Wald intervals estimate ± 1.96 SE of the five parameters (standard errors
+  // from second differences of log L through the EKF). Measured: 92.8 % of 500 (k 90, a 89,
+  // s 96, r 94, h0 95 of 100); the z-scores (estimate - truth)/SE have means within ±0.16 of 0
+  // and standard deviations 1.15 (k), 1.11 (a), 0.98-1.04 (s, r, h0): the flow parameters,
+  // strongly correlated, have Wald intervals slightly too narrow at 600 samples.
+  const int replicates = kSanitized ? 3 : 100;
+  const std::map<std::string, double> truth = {
+      {"k", 0.8}, {"a", 0.5}, {"s", 0.08}, {"r", 0.004}, {"h0", 2.5}};
+  const auto nm = Compile(Json::parse(kTank));
+  std::map<std::string, int> covered_by;
+  int covered = 0, total = 0;
+  for (int rep = 0; rep < replicates; ++rep) {
+    auto lik = filter::Likelihood::Create(nm, {Simulate(2000 + rep)});
+    ASSERT_TRUE(lik);
+    EstimateOptions options;
+    options.threads = 1;
+    options.starts_on_bound = 0;
+    auto fit = Estimate(*lik, options);
+    ASSERT_TRUE(fit) << fit.error().ToString();
+    EXPECT_TRUE(fit->converged) << rep << ": " << fit->message;
+    for (const ParameterEstimate& p : fit->parameters) {
+      if (!p.std_error) continue;
+      ++total;
+      if (std::abs(p.estimate - truth.at(p.name)) <= 1.96 * *p.std_error) {
+        ++covered;
+        ++covered_by[p.name];
+      }
+    }
+  }
+  EXPECT_GE(total, 5 * replicates - 2);
+  const double rate = static_cast<double>(covered) / total;
+  std::string per_parameter;
+  for (const auto& [name, n] : covered_by) per_parameter += fmt::format(" {} {}", name, n);
+  RecordProperty("coverage", fmt::format("{:.4f}", rate));
+  RecordProperty("covered_per_parameter", per_parameter);
+  std::printf("coverage %.4f over %d intervals;%s of %d each\n", rate, total,
+              per_parameter.c_str(), replicates);
+  if (!kSanitized) {
+    EXPECT_GE(rate, 0.90);
+    EXPECT_LE(rate, 0.98);
+  }
+}
 
 TEST(Bioreactor, LogLikelihoodAtCtsmsEstimatesIsItsPublishedValue) {
   Bioreactor b = LoadBioreactor(kCtsmEstimates);
