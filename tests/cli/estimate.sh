@@ -94,5 +94,35 @@ PY
 check "a negative prior sd is bad input" test $? -eq 2
 check "... named by its path" grep -q "parameters.X.prior.sd" "$tmp/err.txt"
 
+# A sweep of a nonlinear model (the EKF): a tank draining through an orifice, simulated at three
+# pump gains k = 0.8, 1.0, 1.2 tagged load = 1, 2, 3; the trend of k against load has slope 0.2.
+cat >"$tmp/tank.json" <<'JSON'
+{"greybench_model": 1, "states": ["h"], "inputs": ["u"], "outputs": ["y"],
+ "parameters": {"k": {"value": 0.5, "lower": 0.01, "upper": 5}, "a": {"value": 0.5, "lower": 0.01, "upper": 5},
+   "s": {"value": 0.05, "lower": 1e-4, "upper": 1}, "r": {"value": 0.01, "lower": 1e-6, "upper": 1},
+   "h0": {"value": 2.5, "lower": 0.1, "upper": 10}},
+ "drift": {"h": "k*u - a*sqrt(h)"}, "diffusion": {"h": "s*sqrt(h)"},
+ "observation": {"y": "h + 0.1*h^2"}, "measurement_variance": {"y": "r"}, "initial_state": {"h": "h0"}}
+JSON
+for i in 1 2 3; do
+  "$cli" prbs --order 6 --period 4 --ts 0.5 --duration 300 --low 0.7 --high 1.3 --seed "$i" \
+    --out "$tmp/u$i.csv" >/dev/null
+  "$cli" simulate "$tmp/tank.json" --inputs "$tmp/u$i.csv" --set "k=0.$((6 + 2 * i))" --set a=0.5 \
+    --set s=0.08 --set r=0.004 --seed "$i" --out "$tmp/s$i.csv" >/dev/null
+  { echo "# greybench: {\"operating_point\": {\"name\": \"p$i\", \"load\": $i}}"; cat "$tmp/s$i.csv"; } \
+    >"$tmp/tank$i.csv"
+done
+"$cli" sweep "$tmp/tank.json" "$tmp/tank1.csv" "$tmp/tank2.csv" "$tmp/tank3.csv" --trend k:load \
+  --out-csv "$tmp/tank_sweep.csv" >"$tmp/tank_sweep.txt"
+check "a sweep of a nonlinear model" test $? -eq 0
+check "... fits the trend of k against load (slope 0.2 within 3 SE)" python3 - "$tmp/tank_sweep.txt" <<'PY'
+import re, sys
+text = open(sys.argv[1]).read()
+m = re.search(r"Trend: k = \S+ \(± \S+\) \+ (\S+) \(± (\S+)\) · load", text)
+assert m, text
+slope, se = float(m.group(1)), float(m.group(2))
+assert abs(slope - 0.2) < 3 * se, (slope, se)
+PY
+
 echo "$passes passed, $failures failed"
 [ "$failures" -eq 0 ]
