@@ -65,6 +65,9 @@ int main(int argc, char** argv) {
                     "without --multistart: extra starts where the fit ends with a parameter on a "
                     "bound (default 8; 0: never)")
       ->check(CLI::NonNegativeNumber);
+  c_est->add_flag("--score-differences", est.score_differences,
+                  "scores from central differences of log L instead of the exact ones (for "
+                  "comparison; standard errors then from second differences)");
   c_est->add_option("--max-evaluations", est.max_evaluations, "per fit (default 20000)");
   c_est->add_option("--algorithm", est.algorithm, "auto (default: BHHH with BFGS corrections), bhhh, slsqp, lbfgs or bobyqa");
   c_est->add_option("--ftol", est.ftol, "relative tolerance on -log L (default 1e-12)");

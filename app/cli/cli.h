@@ -81,6 +81,7 @@ struct EstimateArgs {
   int threads = 0;
   int multistart = 0;
   int starts_on_bound = 8;
+  bool score_differences = false;
   int max_evaluations = 20000;
   std::string algorithm = "auto";
   double ftol = 1e-12;

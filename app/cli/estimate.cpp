@@ -19,6 +19,7 @@ int RunEstimate(const EstimateArgs& args) {
   options.threads = args.threads;
   options.multistart = args.multistart;
   options.starts_on_bound = args.starts_on_bound;
+  options.score_differences = args.score_differences;
   options.max_evaluations = args.max_evaluations;
   options.ftol_rel = args.ftol;
   options.profile_intervals = args.profile_intervals;

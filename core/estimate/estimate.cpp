@@ -598,6 +598,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   // Cancellation can arrive in any stage; each stage ends by looking at the flag.
   s.extended = lik.nonlinear() != nullptr;
   s.ekf = spec.ekf;
+  s.exact_scores = lik.exact_scores() && !options.score_differences;
   const filter::OdeCounts ode_at_start = lik.ode_counts();
   auto finish = [&] {
     s.evaluations = fitter.evaluations();

@@ -105,6 +105,10 @@ struct EstimateOptions {
   bool full_delay_profile = true;
   // Likelihood-ratio (profile) intervals for every free parameter, at profile_level.
   bool profile_intervals = false;
+  // Scores from central differences of log L even where exact ones exist (for comparison and
+  // for models whose derivatives misbehave; the standard errors then come from second
+  // differences of log L).
+  bool score_differences = false;
   double profile_level = 0.95;
   // Called from the estimating thread after every iteration (keep it short).
   std::function<void(const Progress&)> progress;
@@ -181,6 +185,9 @@ struct EstimateSummary {
   bool extended = false;
   model::EkfOptions ekf;
   filter::OdeCounts ode;
+  // The scores were exact (the Kalman filter's, or the EKF's forward sensitivities); false:
+  // central differences of log L (the iterated EKF, or EstimateOptions::score_differences).
+  bool exact_scores = true;
   int starts = 1;           // start points fitted (the model's and the multistart ones)
   bool starts_for_bound = false;  // the extra starts were starts_on_bound's (not multistart's)
   int starts_at_best = 1;   // of them, those that reached the best optimum (within 1e-3 in log L)

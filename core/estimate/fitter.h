@@ -184,9 +184,9 @@ class Fitter {
               bool* exact = nullptr) {
     if (exact) *exact = true;
     if (Cancelled()) return false;
-    // The extended Kalman filter has no exact score: differences of its terms, as where an exact
-    // score fails (and, not being exact, they are not differenced again for the Hessian).
-    if (!lik_.linear()) {
+    // The iterated extended Kalman filter has no exact score: differences of its terms, as where
+    // an exact score fails (and, not being exact, they are not differenced again for the Hessian).
+    if (!lik_.exact_scores() || options_.score_differences) {
       if (exact) *exact = false;
       return ScoresByDifferences(z, delay, f, g, info);
     }

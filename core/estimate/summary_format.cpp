@@ -45,6 +45,10 @@ std::string EstimateSummary::Report() const {
   } else {
     line("Filter: Kalman filter, exact discretisation (the model is linear)");
   }
+  line(exact_scores ? (extended ? "Scores: exact (forward sensitivities of the filter)"
+                                : "Scores: exact (derivatives of the filter)")
+                    : "Scores: central differences of log L; standard errors from second "
+                      "differences");
   line("");
   line(fmt::format("Log-likelihood: {:.6f}   AIC: {:.3f}   BIC: {:.3f}   free parameters: {}",
                    loglik, aic, bic, n_free));
@@ -176,6 +180,7 @@ Json EstimateSummary::ToJson() const {
   } else {
     j["filter"] = {{"kind", "kalman"}};
   }
+  j["filter"]["scores"] = exact_scores ? "exact" : "differences";
   if (log_posterior) j["log_posterior"] = *log_posterior;
   j["starts"] = {{"total", starts}, {"at_best", starts_at_best}, {"on_bound", starts_for_bound}};
   Json params = Json::object();

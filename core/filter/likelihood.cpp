@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "core/filter/ekf_score.h"
 #include "core/filter/score.h"
 
 namespace gb::filter {
@@ -40,7 +41,12 @@ Result<Likelihood> Likelihood::Create(std::shared_ptr<const model::LinearModel> 
 Result<Likelihood> Likelihood::Create(std::shared_ptr<const model::NonlinearModel> model,
                                       std::vector<std::shared_ptr<const data::Series>> series) {
   auto l = CreateFor(model->spec(), std::move(series));
-  if (l) l->nonlinear_ = std::move(model);
+  if (!l) return l;
+  // The derivatives for exact scores; a model whose derivatives do not compile (too deeply
+  // nested) keeps the differences.
+  if (auto sens = model::NonlinearSensitivity::Compile(*model))
+    l->sensitivity_ = std::make_shared<const model::NonlinearSensitivity>(std::move(*sens));
+  l->nonlinear_ = std::move(model);
   return l;
 }
 
@@ -180,16 +186,11 @@ Result<Loglik> Likelihood::Evaluate(std::span<const double> theta, std::span<con
   return EvaluateAt(*ss, delay, terms);
 }
 
-Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
-                                             std::span<const int> delay, std::span<const int> free,
-                                             Eigen::VectorXd* gradient,
-                                             Eigen::MatrixXd* J_terms_theta) const {
-  assert(gradient != nullptr);
-  if (nonlinear_) return EkfScore(theta, delay, free, gradient, J_terms_theta);
-  auto ss = linear_->Evaluate(theta);
-  if (!ss) return ss.error();
-  auto dss = linear_->EvaluateJacobian(theta, free);
-  if (!dss) return dss.error();
+// The scores of every series summed, and their per-term rows stacked series after series.
+template <class One>
+Result<Loglik> Likelihood::ScoreOverSeries(std::span<const int> delay, std::span<const int> free,
+                                           Eigen::VectorXd* gradient,
+                                           Eigen::MatrixXd* J_terms_theta, One&& one) const {
   FilterSettings settings = settings_;
   if (!delay.empty()) settings.delay.assign(delay.begin(), delay.end());
   const Eigen::Index k = static_cast<Eigen::Index>(free.size());
@@ -199,8 +200,7 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
   std::vector<Eigen::MatrixXd> J_per_series;
   for (const auto& s : series_) {
     Eigen::MatrixXd one_J;
-    auto l = LogLikelihoodScore(*ss, *dss, *s, settings, &one_gradient,
-                                J_terms_theta ? &one_J : nullptr);
+    auto l = one(*s, settings, &one_gradient, J_terms_theta ? &one_J : nullptr);
     if (!l) return l.error();
     total.loglik += l->loglik;
     total.n_obs += l->n_obs;
@@ -219,6 +219,36 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
   }
   return total;
 }
+
+Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
+                                             std::span<const int> delay, std::span<const int> free,
+                                             Eigen::VectorXd* gradient,
+                                             Eigen::MatrixXd* J_terms_theta) const {
+  assert(gradient != nullptr);
+  if (nonlinear_ && !exact_scores()) return EkfScore(theta, delay, free, gradient, J_terms_theta);
+  if (nonlinear_) {
+    OdeCounts counts;
+    auto total = ScoreOverSeries(delay, free, gradient, J_terms_theta,
+                                 [&](const data::Series& s, const FilterSettings& settings,
+                                     Eigen::VectorXd* g, Eigen::MatrixXd* J) {
+                                   return EkfLogLikelihoodWithScore(*nonlinear_, *sensitivity_,
+                                                                    theta, s, settings, free, g, J,
+                                                                    &counts);
+                                 });
+    counts_->Add(counts);
+    return total;
+  }
+  auto ss = linear_->Evaluate(theta);
+  if (!ss) return ss.error();
+  auto dss = linear_->EvaluateJacobian(theta, free);
+  if (!dss) return dss.error();
+  return ScoreOverSeries(delay, free, gradient, J_terms_theta,
+                         [&](const data::Series& s, const FilterSettings& settings,
+                             Eigen::VectorXd* g, Eigen::MatrixXd* J) {
+                           return LogLikelihoodScore(*ss, *dss, s, settings, g, J);
+                         });
+}
+
 
 Result<DelayProfile> Likelihood::Profile(std::span<const double> theta) const {
   std::optional<model::StateSpace> ss;

@@ -1,8 +1,8 @@
 // The log-likelihood of a model over several independent data series, with output delays
 // (CONTRACT section 1): log L(θ) = Σ_series log L_series(θ). A linear model (LinearModel) runs
 // the exact Kalman filter (kalman.h) with exact scores (score.h); any other model
-// (NonlinearModel) runs the extended Kalman filter (ekf.h), whose scores are central differences
-// of the per-state-index terms (see EvaluateWithScore).
+// (NonlinearModel) runs the extended Kalman filter (ekf.h), whose scores are its forward
+// sensitivities (ekf_score.h; differences for the iterated EKF, see EvaluateWithScore).
 //
 // Delays: each output o has a delay range [min_o, max_o] from the model (a fixed delay has
 // min_o = max_o). Every delay candidate is scored on the same observations, y_{o,k} with
@@ -21,6 +21,7 @@
 #include "core/filter/kalman.h"
 #include "core/model/linear_model.h"
 #include "core/model/nonlinear_model.h"
+#include "core/model/nonlinear_sensitivity.h"
 
 namespace gb::filter {
 
@@ -60,10 +61,11 @@ class Likelihood {
   // ∂ℓ_r/∂θ of the r-th term that Evaluate's `terms` returns (series after series), so the rows
   // sum to the gradient and BHHH's information is J' J. Fails as Evaluate does, and when a
   // derivative of the model's entries is not finite (LinearModel::EvaluateJacobian).
-  // For the extended Kalman filter the derivatives are central differences of the terms with
-  // the step h_i = kDifferenceStep max(|θ_i|, 1e-3 s_i), s_i the width of θ_i's bounds or 1 when
-  // unbounded (one-sided where a step would leave the bounds); they are as accurate as the ODE
-  // tolerance allows (about rtol / kDifferenceStep relative).
+  // For the extended Kalman filter the derivatives are exact to the ODE tolerance (forward
+  // sensitivities, core/filter/ekf_score.h) unless exact_scores() is false (the iterated EKF):
+  // then central differences of the terms with the step h_i = kDifferenceStep max(|θ_i|,
+  // 1e-3 s_i), s_i the width of θ_i's bounds or 1 when unbounded (one-sided where a step would
+  // leave the bounds), as accurate as the ODE tolerance allows (about rtol / kDifferenceStep).
   Result<Loglik> EvaluateWithScore(std::span<const double> theta, std::span<const int> delay,
                                    std::span<const int> free, Eigen::VectorXd* gradient,
                                    Eigen::MatrixXd* J_terms_theta = nullptr) const;
@@ -75,6 +77,12 @@ class Likelihood {
   std::vector<std::vector<int>> DelayGrid() const;
 
   static constexpr double kDifferenceStep = 1e-5;
+
+  // Whether EvaluateWithScore's derivatives are exact (to the ODE tolerance for the EKF): every
+  // linear model, and every other whose EKF is not iterated.
+  bool exact_scores() const {
+    return linear_ || (sensitivity_ && nonlinear_->spec().ekf.iterations == 1);
+  }
 
   const model::ModelSpec& spec() const { return linear_ ? linear_->spec() : nonlinear_->spec(); }
   // The linear model, or null when the extended Kalman filter runs.
@@ -93,6 +101,10 @@ class Likelihood {
   static Result<Likelihood> CreateFor(const model::ModelSpec& spec,
                                       std::vector<std::shared_ptr<const data::Series>> series);
   template <class One>
+  Result<Loglik> ScoreOverSeries(std::span<const int> delay, std::span<const int> free,
+                                 Eigen::VectorXd* gradient, Eigen::MatrixXd* J_terms_theta,
+                                 One&& one) const;
+  template <class One>
   Result<Loglik> SumOverSeries(std::span<const int> delay, std::vector<double>* terms,
                                One&& one) const;
   Result<Loglik> EvaluateAt(const model::StateSpace& ss, std::span<const int> delay,
@@ -105,6 +117,7 @@ class Likelihood {
 
   std::shared_ptr<const model::LinearModel> linear_;
   std::shared_ptr<const model::NonlinearModel> nonlinear_;
+  std::shared_ptr<const model::NonlinearSensitivity> sensitivity_;  // for exact EKF scores
   struct Counts;
   std::shared_ptr<Counts> counts_;  // the ODE work, shared by copies
   std::vector<std::shared_ptr<const data::Series>> series_;

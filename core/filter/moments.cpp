@@ -5,6 +5,7 @@
 #include <limits>
 #include <optional>
 
+#include <Eigen/LU>
 #include <fmt/format.h>
 
 #include "core/filter/discretize.h"
@@ -28,10 +29,13 @@ Error AtRow(Error e, const data::Series& series, int j) {
 // and with `transition` also Φ (column-major), dΦ/dt = J Φ from Φ = I.
 class MomentPropagator::Moments final : public OdeSystem {
  public:
-  Moments(const model::NonlinearModel& model, std::span<const double> theta, bool transition)
+  Moments(const model::NonlinearModel& model, std::span<const double> theta, bool transition,
+          const model::NonlinearSensitivity* sens, std::span<const int> free)
       : model_(model),
         n_(model.n_states()),
         transition_(transition),
+        sens_(sens),
+        free_(free.begin(), free.end()),
         m_(model.n_inputs()),
         slots_(model.n_slots(), 0.0),
         out_(model.dynamics_size()),
@@ -43,10 +47,20 @@ class MomentPropagator::Moments final : public OdeSystem {
     int k = n_;
     for (int b = 0; b < n_; ++b)
       for (int a = b; a < n_; ++a) packed_(a, b) = packed_(b, a) = k++;
+    if (sens_) {
+      dense_ = sens_->dynamics().Zeroed();
+      scratch_.resize(sens_->dynamics().nonzeros());
+      dJ_.resize(n_, n_);
+      SP_.resize(n_, n_);
+    }
   }
 
   int moments_size() const { return n_ + n_ * (n_ + 1) / 2; }
-  int size() const override { return moments_size() + (transition_ ? n_ * n_ : 0); }
+  // Where the sensitivities' blocks begin (one of moments_size() per free parameter).
+  int sensitivity_offset() const { return moments_size() + (transition_ ? n_ * n_ : 0); }
+  int n_free() const { return static_cast<int>(free_.size()); }
+  int size() const override { return sensitivity_offset() + n_free() * moments_size(); }
+  int controlled_size() const override { return sensitivity_offset(); }
 
   // The inputs over [t0, t0 + dt]: u0 (zoh), or from u0 to u1 (foh; u1 may be null for zoh).
   void SetInterval(const double* u0, const double* u1, double t0, double dt) {
@@ -94,6 +108,47 @@ class MomentPropagator::Moments final : public OdeSystem {
       const Eigen::Map<const Eigen::MatrixXd> Phi(z.data() + moments_size(), n_, n_);
       Eigen::Map<Eigen::MatrixXd>(dz.data() + moments_size(), n_, n_).noalias() = J_ * Phi;
     }
+    if (!free_.empty()) return SensitivityRhs(z, dz);
+    return true;
+  }
+
+  // For each free θ_l, with S = ∂x̂/∂θ_l and SP = ∂P/∂θ_l:
+  //   dS/dt  = J S + ∂f/∂θ_l
+  //   dSP/dt = dJ P + P dJ' + J SP + SP J' + diag(2 σ_i dσ_i)
+  // with dJ = Σ_m ∂J/∂x_m S_m + ∂J/∂θ_l and dσ = ∂σ/∂x S + ∂σ/∂θ_l. EvaluateAt has filled the
+  // slots, J_ and σ; P_ holds P.
+  bool SensitivityRhs(std::span<const double> z, std::span<double> dz) {
+    const model::NonlinearSensitivity& sens = *sens_;
+    sens.dynamics().Eval(slots_, dense_, scratch_);
+    if (auto bad = sens.NotFinite(sens.dynamics(), dense_, slots_)) {
+      failure_ = std::move(*bad);
+      return false;
+    }
+    const int np = model_.n_parameters();
+    const Eigen::Map<const Eigen::MatrixXd> f_theta(dense_.data(), n_, np);
+    const Eigen::Map<const Eigen::MatrixXd> sigma_x(dense_.data() + sens.DynSigmaX(), n_, n_);
+    const Eigen::Map<const Eigen::MatrixXd> sigma_theta(dense_.data() + sens.DynSigmaTheta(), n_, np);
+    const double* sigma = this->sigma();
+    const int ms = moments_size();
+    for (int q = 0; q < n_free(); ++q) {
+      const int l = free_[q];
+      const int base = sensitivity_offset() + q * ms;
+      const Eigen::Map<const Eigen::VectorXd> S(z.data() + base, n_);
+      dJ_ = Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJtheta(l), n_, n_);
+      for (int m = 0; m < n_; ++m)
+        dJ_.noalias() += S(m) * Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJx(m), n_, n_);
+      Eigen::Map<Eigen::VectorXd>(dz.data() + base, n_).noalias() = J_ * S + f_theta.col(l);
+      Unpack(z.subspan(base), &SP_);
+      M_.noalias() = dJ_ * P_;
+      M_.noalias() += J_ * SP_;
+      for (int b = 0; b < n_; ++b) {
+        for (int a = b; a < n_; ++a) {
+          double v = M_(a, b) + M_(b, a);
+          if (a == b) v += 2.0 * sigma[a] * (sigma_x.row(a).dot(S) + sigma_theta(a, l));
+          dz[base + packed_(a, b)] = v;
+        }
+      }
+    }
     return true;
   }
 
@@ -122,6 +177,12 @@ class MomentPropagator::Moments final : public OdeSystem {
       for (int i = 0; i < n_; ++i)
         for (int j = 0; j < n_; ++j) at(base + i, base + j) = J_(i, j);
     }
+    // Each sensitivity block: the same operator on itself (its coupling to x̂ and P left out).
+    for (int q = 0; q < n_free(); ++q) {
+      const int base = sensitivity_offset() + q * moments_size();
+      for (int r = 0; r < moments_size(); ++r)
+        for (int c = 0; c < moments_size(); ++c) at(base + r, base + c) = at(r, c);
+    }
   }
 
   // An upper bound of ρ(∂F/∂z) times dt at (x, t0): the covariance part has the eigenvalues
@@ -129,6 +190,40 @@ class MomentPropagator::Moments final : public OdeSystem {
   double Stiffness(const double* x) {
     if (!EvaluateAt(t0_, x)) return std::numeric_limits<double>::infinity();
     return 2.0 * J_.cwiseAbs().rowwise().sum().maxCoeff() * dt_;
+  }
+
+  // "stationary" P0's sensitivities: J dP + dP J' = -(dJ P + P dJ' + diag(2 σ dσ)) for each free
+  // θ_l, dJ and dσ with the initial state's own S = ∂x0/∂θ_l (ds->x). EvaluateAt(x0) has run.
+  // Solved through the Kronecker form (I ⊗ J + J ⊗ I) vec dP = -vec Q (n² unknowns).
+  bool StationarySensitivities(const Eigen::MatrixXd& P, MomentSensitivities* ds) {
+    const model::NonlinearSensitivity& sens = *sens_;
+    sens.dynamics().Eval(slots_, dense_, scratch_);
+    if (auto bad = sens.NotFinite(sens.dynamics(), dense_, slots_)) {
+      failure_ = std::move(*bad);
+      return false;
+    }
+    const int np = model_.n_parameters();
+    const Eigen::Map<const Eigen::MatrixXd> sigma_x(dense_.data() + sens.DynSigmaX(), n_, n_);
+    const Eigen::Map<const Eigen::MatrixXd> sigma_theta(dense_.data() + sens.DynSigmaTheta(), n_, np);
+    const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n_, n_);
+    Eigen::MatrixXd L(n_ * n_, n_ * n_);
+    for (int a = 0; a < n_; ++a)
+      for (int b = 0; b < n_; ++b)
+        L.block(a * n_, b * n_, n_, n_) = I(a, b) * J_ + J_(a, b) * I;
+    const Eigen::PartialPivLU<Eigen::MatrixXd> lu(L);
+    for (int q = 0; q < n_free(); ++q) {
+      const int l = free_[q];
+      const Eigen::VectorXd S = ds->x.col(q);
+      dJ_ = Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJtheta(l), n_, n_);
+      for (int m = 0; m < n_; ++m)
+        dJ_.noalias() += S(m) * Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJx(m), n_, n_);
+      Eigen::MatrixXd Q = dJ_ * P + P * dJ_.transpose();
+      for (int i = 0; i < n_; ++i) Q(i, i) += 2.0 * sigma()[i] * (sigma_x.row(i).dot(S) + sigma_theta(i, l));
+      Eigen::VectorXd v = lu.solve(-Eigen::Map<const Eigen::VectorXd>(Q.data(), n_ * n_));
+      Eigen::Map<const Eigen::MatrixXd> dP(v.data(), n_, n_);
+      ds->P[q] = 0.5 * (dP + dP.transpose());
+    }
+    return true;
   }
 
   void Unpack(std::span<const double> z, Eigen::MatrixXd* P) const {
@@ -149,7 +244,11 @@ class MomentPropagator::Moments final : public OdeSystem {
   const model::NonlinearModel& model_;
   const int n_;
   const bool transition_;
+  const model::NonlinearSensitivity* sens_;
+  const std::vector<int> free_;
   const int m_;
+  std::vector<double> dense_, scratch_;  // the sensitivity program's output
+  Eigen::MatrixXd dJ_, SP_;
   std::vector<double> slots_;
   std::vector<double> out_;
   Eigen::MatrixXi packed_;
@@ -162,17 +261,23 @@ class MomentPropagator::Moments final : public OdeSystem {
 
 MomentPropagator::MomentPropagator(const model::NonlinearModel& model,
                                    std::span<const double> theta, const data::Series& series,
-                                   model::InputHold hold, bool transition)
+                                   model::InputHold hold, bool transition,
+                                   const model::NonlinearSensitivity* sensitivity,
+                                   std::span<const int> free)
     : model_(model),
       series_(series),
       theta_(theta.begin(), theta.end()),
       foh_(hold == model::InputHold::kFoh),
-      moments_(std::make_unique<Moments>(model, theta_, transition)),
+      transition_(transition),
+      sensitivity_(sensitivity),
+      free_(free.begin(), free.end()),
+      moments_(std::make_unique<Moments>(model, theta_, transition, sensitivity, free)),
       solver_(std::make_unique<OdeSolver>(model.spec().ekf, moments_->size())),
       z_(moments_->size()),
       slots_(model.n_slots(), 0.0) {
   assert(static_cast<int>(theta.size()) == model.n_parameters());
   assert(series.U.rows() == model.n_inputs() && series.Y.rows() == model.n_outputs());
+  assert((sensitivity != nullptr || free.empty()) && "sensitivities need the model's derivatives");
   std::copy(theta.begin(), theta.end(), slots_.begin() + model.parameter_slot());
 }
 
@@ -181,9 +286,13 @@ MomentPropagator::~MomentPropagator() = default;
 const OdeCounts& MomentPropagator::counts() const { return solver_->counts(); }
 
 Status MomentPropagator::Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P,
-                                 Eigen::MatrixXd* Phi) {
+                                 Eigen::MatrixXd* Phi, MomentSensitivities* ds) {
   const int n = model_.n_states(), m = model_.n_inputs();
-  const bool transition = moments_->size() > moments_->moments_size();
+  const bool transition = transition_;
+  const int K = static_cast<int>(free_.size());
+  assert((K == 0 || (ds && ds->x.cols() == K && static_cast<int>(ds->P.size()) == K)) &&
+         "the sensitivities of every free parameter");
+  const int ms = moments_->moments_size();
   const double* U = series_.U.data();
   const double* u0 = U + static_cast<std::size_t>(j) * m;
   moments_->SetInterval(u0, foh_ ? u0 + m : nullptr, series_.time[j],
@@ -192,6 +301,11 @@ Status MomentPropagator::Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P,
   moments_->Pack(*P, z_);
   if (transition) {
     Eigen::Map<Eigen::MatrixXd>(z_.data() + moments_->moments_size(), n, n).setIdentity();
+  }
+  for (int q = 0; q < K; ++q) {
+    const std::span<double> block = std::span<double>(z_).subspan(moments_->sensitivity_offset() + q * ms);
+    std::copy(ds->x.col(q).data(), ds->x.col(q).data() + n, block.begin());
+    moments_->Pack(ds->P[q], block);
   }
   const double stiffness =
       model_.spec().ekf.method == model::OdeMethod::kAuto ? moments_->Stiffness(z_.data()) : 0.0;
@@ -210,12 +324,18 @@ Status MomentPropagator::Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P,
   *x = Eigen::Map<const Eigen::VectorXd>(z_.data(), n);
   moments_->Unpack(z_, P);
   if (Phi && transition) *Phi = Eigen::Map<const Eigen::MatrixXd>(z_.data() + moments_->moments_size(), n, n);
+  for (int q = 0; q < K; ++q) {
+    const std::span<const double> block = std::span<const double>(z_).subspan(moments_->sensitivity_offset() + q * ms);
+    ds->x.col(q) = Eigen::Map<const Eigen::VectorXd>(block.data(), n);
+    moments_->Unpack(block, &ds->P[q]);
+  }
   return Ok{};
 }
 
 Status MomentPropagator::Initial(model::InitialCovariance kind, Eigen::VectorXd* x,
-                                 Eigen::MatrixXd* P) {
+                                 Eigen::MatrixXd* P, MomentSensitivities* ds) {
   const int n = model_.n_states();
+  const int K = static_cast<int>(free_.size());
   std::vector<double> initial(model_.initial_size());
   model_.Initial(slots_, initial);
   for (std::size_t k = 0; k < initial.size(); ++k) {
@@ -223,11 +343,28 @@ Status MomentPropagator::Initial(model::InitialCovariance kind, Eigen::VectorXd*
   }
   *x = Eigen::Map<const Eigen::VectorXd>(initial.data(), n);
   P->setZero(n, n);
+  std::vector<double> dense;
+  if (K > 0) {
+    assert(ds && "the sensitivities of every free parameter");
+    const auto& program = sensitivity_->initial();
+    dense = program.Zeroed();
+    std::vector<double> scratch(program.nonzeros());
+    program.Eval(slots_, dense, scratch);
+    if (auto bad = sensitivity_->NotFinite(program, dense, slots_)) return *bad;
+    ds->x.resize(n, K);
+    ds->P.assign(K, Eigen::MatrixXd::Zero(n, n));
+    for (int q = 0; q < K; ++q)
+      ds->x.col(q) = Eigen::Map<const Eigen::VectorXd>(dense.data() + free_[q] * n, n);
+  }
   switch (kind) {
     case model::InitialCovariance::kCtsm: {
       // The covariance gathered over the first interval from zero, the mean starting at x0.
       Eigen::VectorXd moved = *x;
-      return Advance(0, &moved, P);
+      if (K == 0) return Advance(0, &moved, P);
+      const Eigen::MatrixXd x0_theta = ds->x;
+      auto s = Advance(0, &moved, P, nullptr, ds);
+      ds->x = x0_theta;
+      return s;
     }
     case model::InitialCovariance::kStationary: {
       moments_->SetInterval(series_.U.data(), nullptr, series_.time[0], 1.0);
@@ -242,6 +379,8 @@ Status MomentPropagator::Initial(model::InitialCovariance kind, Eigen::VectorXd*
             "state, but ∂f/∂x has the eigenvalue {:.6g}{:+.6g}i there (real part not negative); "
             "use \"ctsm\" or explicit variances",
             bad.real(), bad.imag()));
+      if (K > 0 && !moments_->StationarySensitivities(*P, ds))
+        return AtRow(*moments_->failure(), series_, 0);
       return Ok{};
     }
     case model::InitialCovariance::kExplicit:
@@ -252,8 +391,25 @@ Status MomentPropagator::Initial(model::InitialCovariance kind, Eigen::VectorXd*
                                             initial[n + i]));
         (*P)(i, i) = initial[n + i];
       }
+      for (int q = 0; q < K; ++q)
+        ds->P[q].diagonal() = Eigen::Map<const Eigen::VectorXd>(
+            dense.data() + sensitivity_->InitP0theta() + free_[q] * n, n);
       return Ok{};
   }
+  return Ok{};
+}
+
+Status MomentPropagator::MeasureSensitivities(int j, const Eigen::VectorXd& x,
+                                              std::span<double> dense) {
+  const int n = model_.n_states(), m = model_.n_inputs();
+  std::copy(x.data(), x.data() + n, slots_.begin());
+  const double* u = series_.U.data() + static_cast<std::size_t>(j) * m;
+  for (int i = 0; i < m; ++i) slots_[n + i] = u[i];
+  slots_[model_.time_slot()] = series_.time[j];
+  const auto& program = sensitivity_->measurement();
+  measure_scratch_.resize(program.nonzeros());
+  program.Eval(slots_, dense, measure_scratch_);
+  if (auto bad = sensitivity_->NotFinite(program, dense, slots_)) return AtRow(*bad, series_, j);
   return Ok{};
 }
 

@@ -17,16 +17,33 @@
 #include "core/filter/kalman.h"
 #include "core/filter/ode.h"
 #include "core/model/nonlinear_model.h"
+#include "core/model/nonlinear_sensitivity.h"
 #include "core/util/result.h"
 
 namespace gb::filter {
+
+// The derivatives of (x̂, P) with respect to the free parameters θ_l (MomentPropagator's `free`):
+// column q of x is ∂x̂/∂θ_{free[q]}, P[q] is ∂P/∂θ_{free[q]}.
+struct MomentSensitivities {
+  Eigen::MatrixXd x;               // n x K
+  std::vector<Eigen::MatrixXd> P;  // K of n x n
+};
 
 class MomentPropagator {
  public:
   // θ: all parameters; `series` bound to the model. Holds references to all three. With
   // `transition`, Advance also integrates the transition matrix of the linearisation (below).
+  // With `sensitivity` and `free`: also the derivatives of the moments with respect to the
+  // parameters θ_l, l in `free`, integrated with them (the forward sensitivity equations, under
+  // the same error control):
+  //   dS/dt  = J S + ∂f/∂θ_l,   S = ∂x̂/∂θ_l
+  //   dSP/dt = dJ P + P dJ' + J SP + SP J' + diag(2 σ_i dσ_i),   SP = ∂P/∂θ_l
+  // with dJ = Σ_m ∂J/∂x_m S_m + ∂J/∂θ_l, dσ = ∂σ/∂x S + ∂σ/∂θ_l. Initial and Advance then take
+  // and return them (MomentSensitivities).
   MomentPropagator(const model::NonlinearModel& model, std::span<const double> theta,
-                   const data::Series& series, model::InputHold hold, bool transition = false);
+                   const data::Series& series, model::InputHold hold, bool transition = false,
+                   const model::NonlinearSensitivity* sensitivity = nullptr,
+                   std::span<const int> free = {});
   ~MomentPropagator();
   MomentPropagator(const MomentPropagator&) = delete;
   MomentPropagator& operator=(const MomentPropagator&) = delete;
@@ -34,17 +51,23 @@ class MomentPropagator {
   // The prior at t_0: x0 and P0 ("ctsm", "stationary" or explicit, as ekf.h says). Errors: an
   // initial entry that is not finite or a negative variance, an unstable linearisation for
   // "stationary", a failed integration for "ctsm".
-  Status Initial(model::InitialCovariance kind, Eigen::VectorXd* x, Eigen::MatrixXd* P);
+  Status Initial(model::InitialCovariance kind, Eigen::VectorXd* x, Eigen::MatrixXd* P,
+                 MomentSensitivities* ds = nullptr);
 
   // (x̂, P) at t_j -> at t_{j+1}. Errors name row j + 1 and the model entry that was not finite
   // where the solver tried it, or the solver's reason. With `transition` and Phi: also
   // Φ = ∂x̂(t_{j+1})/∂x̂(t_j), the solution of dΦ/dt = J(x̂(t)) Φ, Φ(t_j) = I, integrated with the
   // moments under the same error control (the smoother's cross-covariance P_{j|j} Φ').
-  Status Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P, Eigen::MatrixXd* Phi = nullptr);
+  Status Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P, Eigen::MatrixXd* Phi = nullptr,
+                 MomentSensitivities* ds = nullptr);
 
   // h, H = ∂h/∂x (row-major) and S at (x, u_j, θ, t_j): the model's measurement program
   // (NonlinearModel::Measurement). Errors name the entry and row.
   Status Measure(int j, const Eigen::VectorXd& x, std::span<double> out);
+
+  // The measurement program's derivatives (NonlinearSensitivity::measurement()) at
+  // (x, u_j, θ, t_j) into `dense` (from its Zeroed()). Errors name the entry and row.
+  Status MeasureSensitivities(int j, const Eigen::VectorXd& x, std::span<double> dense);
 
   const OdeCounts& counts() const;
 
@@ -54,9 +77,12 @@ class MomentPropagator {
   const data::Series& series_;
   std::vector<double> theta_;
   bool foh_ = false;
+  bool transition_ = false;
+  const model::NonlinearSensitivity* sensitivity_ = nullptr;
+  std::vector<int> free_;
   std::unique_ptr<Moments> moments_;
   std::unique_ptr<OdeSolver> solver_;
-  std::vector<double> z_, slots_;
+  std::vector<double> z_, slots_, measure_scratch_;
 };
 
 }  // namespace gb::filter

@@ -24,7 +24,36 @@ constexpr double kMinStepFraction = 1e-14;  // of the interval
 using State = std::vector<double>;
 namespace odeint = boost::numeric::odeint;
 using Dopri5 = odeint::runge_kutta_dopri5<State>;
-using Controlled = odeint::controlled_runge_kutta<Dopri5>;
+
+// Odeint's default error test (|err_i| / (atol + rtol (|x_i| + Δt |dx_i/dt|)), the largest over
+// i) on the first `controlled` components only: the others (sensitivities) ride along on the
+// steps the moments need, as CVODES does by default for its sensitivities.
+class PartialErrorChecker {
+ public:
+  using value_type = double;
+  using algebra_type = odeint::range_algebra;
+  using operations_type = odeint::default_operations;
+
+  PartialErrorChecker(double atol, double rtol, std::size_t controlled)
+      : atol_(atol), rtol_(rtol), controlled_(controlled) {}
+
+  template <class St, class Deriv, class Err, class Time>
+  double error(algebra_type& /*algebra*/, const St& x_old, const Deriv& dxdt_old, Err& x_err,
+               Time dt) const {
+    double worst = 0.0;
+    for (std::size_t i = 0; i < controlled_; ++i) {
+      const double scale = atol_ + rtol_ * (std::abs(x_old[i]) + std::abs(dt) * std::abs(dxdt_old[i]));
+      worst = std::max(worst, std::abs(x_err[i]) / scale);
+    }
+    return worst;
+  }
+
+ private:
+  double atol_, rtol_;
+  std::size_t controlled_;
+};
+
+using Controlled = odeint::controlled_runge_kutta<Dopri5, PartialErrorChecker>;
 
 // CVODE's name of a return flag ("CV_TOO_MUCH_WORK"); CVodeGetReturnFlagName allocates it.
 std::string FlagName(int flag) {
@@ -39,9 +68,8 @@ std::string FlagName(int flag) {
 // ---- explicit: Dormand-Prince 5(4) ------------------------------------------------------------
 
 struct OdeSolver::Explicit {
-  Explicit(double atol, double rtol, int size)
-      : stepper(odeint::default_error_checker<double, odeint::range_algebra,
-                                              odeint::default_operations>(atol, rtol)),
+  Explicit(double atol, double rtol, int size, int controlled)
+      : stepper(PartialErrorChecker(atol, rtol, static_cast<std::size_t>(controlled))),
         x(size), dxdt(size), x_new(size), dxdt_new(size) {}
   Controlled stepper;
   State x, dxdt, x_new, dxdt_new;
@@ -49,7 +77,8 @@ struct OdeSolver::Explicit {
 };
 
 Status OdeSolver::AdvanceExplicit(OdeSystem& system, double t0, double t1, std::span<double> z) {
-  if (!explicit_) explicit_ = std::make_unique<Explicit>(options_.atol, options_.rtol, size_);
+  if (!explicit_)
+    explicit_ = std::make_unique<Explicit>(options_.atol, options_.rtol, size_, system.controlled_size());
   Explicit& e = *explicit_;
   bool finite = true;
   auto rhs = [&](const State& x, State& dxdt, double t) {

@@ -29,6 +29,9 @@ class OdeSystem {
  public:
   virtual ~OdeSystem() = default;
   virtual int size() const = 0;
+  // The first components that the explicit method's error test covers (the others, such as
+  // sensitivities, follow on the steps those need); BDF tests them all.
+  virtual int controlled_size() const { return size(); }
   // dz = F(t, z). Returns false when F is not finite there: the solver then shortens the step.
   virtual bool Rhs(double t, std::span<const double> z, std::span<double> dz) = 0;
   // An approximation of ∂F/∂z, column-major size x size, for the implicit method's Newton matrix.

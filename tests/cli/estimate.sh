@@ -124,5 +124,22 @@ slope, se = float(m.group(1)), float(m.group(2))
 assert abs(slope - 0.2) < 3 * se, (slope, se)
 PY
 
+# The EKF's exact scores (forward sensitivities) and --score-differences reach the same optimum,
+# and the result says which ran.
+"$cli" estimate "$tmp/tank.json" "$tmp/tank2.csv" --threads 1 --out "$tmp/tank_exact.json" >/dev/null
+"$cli" estimate "$tmp/tank.json" "$tmp/tank2.csv" --threads 1 --score-differences \
+  --out "$tmp/tank_diff.json" >"$tmp/tank_diff.txt"
+check "--score-differences is said in the report" grep -q "Scores: central differences" "$tmp/tank_diff.txt"
+check "exact and differenced scores reach the same optimum" python3 - "$tmp/tank_exact.json" "$tmp/tank_diff.json" <<'PY'
+import json, sys
+a, b = (json.load(open(f)) for f in sys.argv[1:3])
+assert a["filter"]["scores"] == "exact" and b["filter"]["scores"] == "differences", (a["filter"], b["filter"])
+assert abs(a["loglik"] - b["loglik"]) < 1e-5, (a["loglik"], b["loglik"])
+for name, p in a["parameters"].items():
+    q = b["parameters"][name]
+    assert abs(p["estimate"] - q["estimate"]) < 1e-2 * p["std_error"], (name, p, q)
+    assert abs(p["std_error"] - q["std_error"]) < 1e-2 * p["std_error"], (name, p, q)
+PY
+
 echo "$passes passed, $failures failed"
 [ "$failures" -eq 0 ]
