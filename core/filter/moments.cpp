@@ -207,9 +207,10 @@ class MomentPropagator::Moments final : public OdeSystem {
     const Eigen::Map<const Eigen::MatrixXd> sigma_theta(dense_.data() + sens.DynSigmaTheta(), n_, np);
     const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n_, n_);
     Eigen::MatrixXd L(n_ * n_, n_ * n_);
-    for (int a = 0; a < n_; ++a)
-      for (int b = 0; b < n_; ++b)
-        L.block(a * n_, b * n_, n_, n_) = I(a, b) * J_ + J_(a, b) * I;
+    const Eigen::Index n = n_;
+    for (Eigen::Index a = 0; a < n; ++a)
+      for (Eigen::Index b = 0; b < n; ++b)
+        L.block(a * n, b * n, n, n) = I(a, b) * J_ + J_(a, b) * I;
     const Eigen::PartialPivLU<Eigen::MatrixXd> lu(L);
     for (int q = 0; q < n_free(); ++q) {
       const int l = free_[q];
@@ -219,7 +220,7 @@ class MomentPropagator::Moments final : public OdeSystem {
         dJ_.noalias() += S(m) * Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJx(m), n_, n_);
       Eigen::MatrixXd Q = dJ_ * P + P * dJ_.transpose();
       for (int i = 0; i < n_; ++i) Q(i, i) += 2.0 * sigma()[i] * (sigma_x.row(i).dot(S) + sigma_theta(i, l));
-      Eigen::VectorXd v = lu.solve(-Eigen::Map<const Eigen::VectorXd>(Q.data(), n_ * n_));
+      Eigen::VectorXd v = lu.solve(-Eigen::Map<const Eigen::VectorXd>(Q.data(), n * n));
       Eigen::Map<const Eigen::MatrixXd> dP(v.data(), n_, n_);
       ds->P[q] = 0.5 * (dP + dP.transpose());
     }
@@ -354,7 +355,8 @@ Status MomentPropagator::Initial(model::InitialCovariance kind, Eigen::VectorXd*
     ds->x.resize(n, K);
     ds->P.assign(K, Eigen::MatrixXd::Zero(n, n));
     for (int q = 0; q < K; ++q)
-      ds->x.col(q) = Eigen::Map<const Eigen::VectorXd>(dense.data() + free_[q] * n, n);
+      ds->x.col(q) = Eigen::Map<const Eigen::VectorXd>(
+          dense.data() + static_cast<std::ptrdiff_t>(free_[q]) * n, n);
   }
   switch (kind) {
     case model::InitialCovariance::kCtsm: {
@@ -393,7 +395,7 @@ Status MomentPropagator::Initial(model::InitialCovariance kind, Eigen::VectorXd*
       }
       for (int q = 0; q < K; ++q)
         ds->P[q].diagonal() = Eigen::Map<const Eigen::VectorXd>(
-            dense.data() + sensitivity_->InitP0theta() + free_[q] * n, n);
+            dense.data() + sensitivity_->InitP0theta() + static_cast<std::size_t>(free_[q]) * n, n);
       return Ok{};
   }
   return Ok{};

@@ -38,91 +38,91 @@ void NonlinearSensitivity::Program::Eval(std::span<const double> slots, std::spa
 }
 
 Result<NonlinearSensitivity> NonlinearSensitivity::Compile(const NonlinearModel& model) {
+  using std::size_t;
   const ModelSpec& spec = model.spec();
   NonlinearSensitivity s;
-  const int n = s.n_ = model.n_states();
-  const int p = s.p_ = model.n_outputs();
-  const int np = s.np_ = model.n_parameters();
-  const int m_in = model.n_inputs();
+  const size_t n = s.n_ = spec.states.size();
+  const size_t p = s.p_ = spec.outputs.size();
+  const size_t np = s.np_ = spec.parameters.size();
   s.source_ = spec.source;
-  for (int i = 0; i < n; ++i) s.slot_names_.push_back(spec.states[i]);
-  for (int i = 0; i < m_in; ++i) s.slot_names_.push_back(spec.inputs[i]);
-  for (int l = 0; l < np; ++l) s.slot_names_.push_back(spec.parameters[l].name);
+  s.slot_names_ = spec.states;
+  s.slot_names_.insert(s.slot_names_.end(), spec.inputs.begin(), spec.inputs.end());
+  for (const Parameter& par : spec.parameters) s.slot_names_.push_back(par.name);
   s.slot_names_.push_back("t");
-  auto par = [&](int l) -> const std::string& { return spec.parameters[l].name; };
+  auto par = [&](size_t l) -> const std::string& { return spec.parameters[l].name; };
   auto builder = [](Program& program) {
     return Builder{&program, &program.positions_, &program.names_, &program.exprs_};
   };
-  using std::size_t;
+  auto at = [](size_t offset, size_t column, size_t rows, size_t row) {
+    return offset + column * rows + row;
+  };
+  auto constant = [](const expr::ExprPtr& e) {
+    double value = 0.0;
+    return expr::IsConstant(e, &value);
+  };
 
   // dynamics
-  s.dynamics_.size_ = static_cast<size_t>(n * np + n * n * n + np * n * n + n * n + n * np);
+  s.dynamics_.size_ = n * np + n * n * n + np * n * n + n * n + n * np;
   const Builder dyn = builder(s.dynamics_);
-  for (int l = 0; l < np; ++l)
-    for (int i = 0; i < n; ++i)
-      dyn.Add(static_cast<size_t>(l * n + i), expr::Differentiate(spec.drift[i].expr, par(l)),
-              Derivative(spec.drift[i].path, par(l)));
-  for (int i = 0; i < n; ++i) {
-    for (int j = 0; j < n; ++j) {
-      const expr::ExprPtr Jij = expr::Differentiate(spec.drift[i].expr, spec.states[j]);
-      double value = 0.0;
-      if (expr::IsConstant(Jij, &value)) continue;  // its derivatives are all zero
-      const std::string name = Derivative(spec.drift[i].path, spec.states[j]);
-      for (int m = 0; m < n; ++m)
-        dyn.Add(s.DynJx(m) + static_cast<size_t>(j * n + i), expr::Differentiate(Jij, spec.states[m]),
-                Derivative(name, spec.states[m]));
-      for (int l = 0; l < np; ++l)
-        dyn.Add(s.DynJtheta(l) + static_cast<size_t>(j * n + i), expr::Differentiate(Jij, par(l)),
+  for (size_t i = 0; i < n; ++i) {
+    const Formula& drift = spec.drift[i];
+    for (size_t l = 0; l < np; ++l)
+      dyn.Add(at(0, l, n, i), expr::Differentiate(drift.expr, par(l)), Derivative(drift.path, par(l)));
+    for (size_t j = 0; j < n; ++j) {
+      const expr::ExprPtr Jij = expr::Differentiate(drift.expr, spec.states[j]);
+      if (constant(Jij)) continue;  // its derivatives are all zero
+      const std::string name = Derivative(drift.path, spec.states[j]);
+      for (size_t m = 0; m < n; ++m)
+        dyn.Add(at(s.DynJx(static_cast<int>(m)), j, n, i),
+                expr::Differentiate(Jij, spec.states[m]), Derivative(name, spec.states[m]));
+      for (size_t l = 0; l < np; ++l)
+        dyn.Add(at(s.DynJtheta(static_cast<int>(l)), j, n, i), expr::Differentiate(Jij, par(l)),
                 Derivative(name, par(l)));
     }
-  }
-  for (int i = 0; i < n; ++i) {
-    for (int m = 0; m < n; ++m)
-      dyn.Add(s.DynSigmaX() + static_cast<size_t>(m * n + i),
-              expr::Differentiate(spec.diffusion[i].expr, spec.states[m]),
-              Derivative(spec.diffusion[i].path, spec.states[m]));
-    for (int l = 0; l < np; ++l)
-      dyn.Add(s.DynSigmaTheta() + static_cast<size_t>(l * n + i),
-              expr::Differentiate(spec.diffusion[i].expr, par(l)),
-              Derivative(spec.diffusion[i].path, par(l)));
+    const Formula& diffusion = spec.diffusion[i];
+    for (size_t m = 0; m < n; ++m)
+      dyn.Add(at(s.DynSigmaX(), m, n, i), expr::Differentiate(diffusion.expr, spec.states[m]),
+              Derivative(diffusion.path, spec.states[m]));
+    for (size_t l = 0; l < np; ++l)
+      dyn.Add(at(s.DynSigmaTheta(), l, n, i), expr::Differentiate(diffusion.expr, par(l)),
+              Derivative(diffusion.path, par(l)));
   }
 
   // measurement
-  s.measurement_.size_ = static_cast<size_t>(p * np + n * p * n + np * p * n + p * np);
+  s.measurement_.size_ = p * np + n * p * n + np * p * n + p * np;
   const Builder mea = builder(s.measurement_);
-  for (int o = 0; o < p; ++o) {
-    const std::string& path = spec.observation[o].path;
-    for (int l = 0; l < np; ++l)
-      mea.Add(static_cast<size_t>(l * p + o), expr::Differentiate(spec.observation[o].expr, par(l)),
-              Derivative(path, par(l)));
-    for (int j = 0; j < n; ++j) {
-      const expr::ExprPtr Hoj = expr::Differentiate(spec.observation[o].expr, spec.states[j]);
-      double value = 0.0;
-      if (expr::IsConstant(Hoj, &value)) continue;
-      const std::string name = Derivative(path, spec.states[j]);
-      for (int m = 0; m < n; ++m)
-        mea.Add(s.MeasHx(m) + static_cast<size_t>(j * p + o), expr::Differentiate(Hoj, spec.states[m]),
-                Derivative(name, spec.states[m]));
-      for (int l = 0; l < np; ++l)
-        mea.Add(s.MeasHtheta(l) + static_cast<size_t>(j * p + o), expr::Differentiate(Hoj, par(l)),
+  for (size_t o = 0; o < p; ++o) {
+    const Formula& observation = spec.observation[o];
+    for (size_t l = 0; l < np; ++l)
+      mea.Add(at(0, l, p, o), expr::Differentiate(observation.expr, par(l)),
+              Derivative(observation.path, par(l)));
+    for (size_t j = 0; j < n; ++j) {
+      const expr::ExprPtr Hoj = expr::Differentiate(observation.expr, spec.states[j]);
+      if (constant(Hoj)) continue;
+      const std::string name = Derivative(observation.path, spec.states[j]);
+      for (size_t m = 0; m < n; ++m)
+        mea.Add(at(s.MeasHx(static_cast<int>(m)), j, p, o),
+                expr::Differentiate(Hoj, spec.states[m]), Derivative(name, spec.states[m]));
+      for (size_t l = 0; l < np; ++l)
+        mea.Add(at(s.MeasHtheta(static_cast<int>(l)), j, p, o), expr::Differentiate(Hoj, par(l)),
                 Derivative(name, par(l)));
     }
-    for (int l = 0; l < np; ++l)
-      mea.Add(s.MeasStheta() + static_cast<size_t>(l * p + o),
-              expr::Differentiate(spec.measurement_variance[o].expr, par(l)),
-              Derivative(spec.measurement_variance[o].path, par(l)));
+    const Formula& variance = spec.measurement_variance[o];
+    for (size_t l = 0; l < np; ++l)
+      mea.Add(at(s.MeasStheta(), l, p, o), expr::Differentiate(variance.expr, par(l)),
+              Derivative(variance.path, par(l)));
   }
 
   // initial
   const bool explicit_p0 = spec.initial_covariance == InitialCovariance::kExplicit;
-  s.initial_.size_ = static_cast<size_t>(n * np * (explicit_p0 ? 2 : 1));
+  s.initial_.size_ = n * np * (explicit_p0 ? 2 : 1);
   const Builder ini = builder(s.initial_);
-  for (int l = 0; l < np; ++l) {
-    for (int i = 0; i < n; ++i) {
-      ini.Add(static_cast<size_t>(l * n + i), expr::Differentiate(spec.initial_state[i].expr, par(l)),
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t l = 0; l < np; ++l) {
+      ini.Add(at(0, l, n, i), expr::Differentiate(spec.initial_state[i].expr, par(l)),
               Derivative(spec.initial_state[i].path, par(l)));
       if (explicit_p0)
-        ini.Add(s.InitP0theta() + static_cast<size_t>(l * n + i),
+        ini.Add(at(s.InitP0theta(), l, n, i),
                 expr::Differentiate(spec.initial_variance[i].expr, par(l)),
                 Derivative(spec.initial_variance[i].path, par(l)));
     }

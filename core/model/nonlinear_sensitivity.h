@@ -66,14 +66,14 @@ class NonlinearSensitivity {
   const Program& initial() const { return initial_; }
 
   // Offsets into the dense arrays (see above).
-  std::size_t DynJx(int m) const { return static_cast<std::size_t>(n_ * np_ + m * n_ * n_); }
-  std::size_t DynJtheta(int l) const { return static_cast<std::size_t>(n_ * np_ + n_ * n_ * n_ + l * n_ * n_); }
-  std::size_t DynSigmaX() const { return DynJtheta(np_); }
-  std::size_t DynSigmaTheta() const { return DynSigmaX() + static_cast<std::size_t>(n_ * n_); }
-  std::size_t MeasHx(int m) const { return static_cast<std::size_t>(p_ * np_ + m * p_ * n_); }
-  std::size_t MeasHtheta(int l) const { return static_cast<std::size_t>(p_ * np_ + n_ * p_ * n_ + l * p_ * n_); }
-  std::size_t MeasStheta() const { return MeasHtheta(np_); }
-  std::size_t InitP0theta() const { return static_cast<std::size_t>(n_ * np_); }
+  std::size_t DynJx(int m) const { return n_ * np_ + Z(m) * n_ * n_; }
+  std::size_t DynJtheta(int l) const { return n_ * np_ + n_ * n_ * n_ + Z(l) * n_ * n_; }
+  std::size_t DynSigmaX() const { return DynJtheta(static_cast<int>(np_)); }
+  std::size_t DynSigmaTheta() const { return DynSigmaX() + n_ * n_; }
+  std::size_t MeasHx(int m) const { return p_ * np_ + Z(m) * p_ * n_; }
+  std::size_t MeasHtheta(int l) const { return p_ * np_ + n_ * p_ * n_ + Z(l) * p_ * n_; }
+  std::size_t MeasStheta() const { return MeasHtheta(static_cast<int>(np_)); }
+  std::size_t InitP0theta() const { return n_ * np_; }
 
   // The first entry of a program's nonzeros at which `dense` is not finite, as an error naming
   // it ("the derivative of drift.h1 with respect to k1 is infinite at these values (...)"), or
@@ -82,9 +82,11 @@ class NonlinearSensitivity {
                                  std::span<const double> slots) const;
 
  private:
+  static std::size_t Z(int i) { return static_cast<std::size_t>(i); }
+
   std::vector<std::string> slot_names_;
   std::string source_;
-  int n_ = 0, p_ = 0, np_ = 0;
+  std::size_t n_ = 0, p_ = 0, np_ = 0;
   Program dynamics_, measurement_, initial_;
 };
 
