@@ -59,6 +59,8 @@ int main(int argc, char** argv) {
   c_est->add_option("data", est.data, "data files (CSV), fitted jointly")->required();
   c_est->add_option("--set", est.sets, "NAME=VALUE: override a start (or fixed) value");
   c_est->add_option("--out", est.out, "result file (JSON, CONTRACT section 5)");
+  c_est->add_option("--start", est.start,
+                    "start the free parameters at a result file's estimates (--set overrides)");
   c_est->add_option("--threads", est.threads, "threads for the score and the Hessian (default: all cores)");
   c_est->add_option("--multistart", est.multistart, "extra starts spread over the bounds");
   c_est->add_option("--starts-on-bound", est.starts_on_bound,

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -31,9 +32,18 @@ struct LoadedLikelihood {
   filter::Likelihood likelihood;
   std::vector<double> theta;
 };
+// With `start_result`: the free parameters' values from that result file's estimates (those not
+// set by `sets`; the model's fixed parameters keep theirs).
 Result<LoadedLikelihood> LoadLikelihood(const std::string& model_path,
                                         const std::vector<std::string>& data_paths,
-                                        const std::vector<std::string>& sets);
+                                        const std::vector<std::string>& sets,
+                                        const std::string& start_result = "");
+// Copies the estimates of a result file into `spec`, except the parameters named in `keep`
+// (those set by --set) and, with `free_only`, the model's fixed ones. Errors name the result
+// file and the JSON path (a parameter the model lacks, an estimate outside the model's bounds).
+// Returns the delay per output the result names (-1: not named).
+Result<std::vector<int>> ApplyResult(const std::string& path, const std::set<std::string>& keep,
+                                     model::ModelSpec* spec, bool free_only = false);
 
 struct LoglikArgs {
   std::string model;
@@ -82,6 +92,7 @@ struct EstimateArgs {
   int multistart = 0;
   int starts_on_bound = 8;
   bool score_differences = false;
+  std::string start;  // a result file whose estimates are the start values
   int max_evaluations = 20000;
   std::string algorithm = "auto";
   double ftol = 1e-12;

@@ -9,7 +9,7 @@
 namespace gb::cli {
 
 int RunEstimate(const EstimateArgs& args) {
-  auto loaded = LoadLikelihood(args.model, args.data, args.sets);
+  auto loaded = LoadLikelihood(args.model, args.data, args.sets, args.start);
   if (!loaded) return Fail(loaded.error());
   // A fit may take minutes: a result file that cannot be written is reported before it.
   if (!args.out.empty())

@@ -141,5 +141,26 @@ for name, p in a["parameters"].items():
     assert abs(p["std_error"] - q["std_error"]) < 1e-2 * p["std_error"], (name, p, q)
 PY
 
+# --start RESULT.json: the fit starts at a result's estimates (here its own optimum: it stays there
+# in a few iterations); --set overrides one; a result naming a parameter the model lacks is bad
+# input, named by its JSON path.
+"$cli" estimate "$tmp/tank.json" "$tmp/tank2.csv" --threads 1 --starts-on-bound 0 \
+  --start "$tmp/tank_exact.json" --out "$tmp/tank_restart.json" >/dev/null
+check "--start from a result's own optimum stays there" python3 - "$tmp/tank_exact.json" "$tmp/tank_restart.json" <<'PY'
+import json, sys
+a, b = (json.load(open(f)) for f in sys.argv[1:3])
+assert abs(a["loglik"] - b["loglik"]) < 1e-6, (a["loglik"], b["loglik"])
+assert b["iterations"] <= 5, b["iterations"]
+PY
+python3 - "$tmp/tank_exact.json" "$tmp/tank_alien.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+r["parameters"]["zeta"] = r["parameters"]["k"]
+json.dump(r, open(sys.argv[2], "w"))
+PY
+"$cli" estimate "$tmp/tank.json" "$tmp/tank2.csv" --start "$tmp/tank_alien.json" >/dev/null 2>"$tmp/alien.txt"
+check "--start with a parameter the model lacks is bad input" test $? -eq 2
+check "... named by the result file and its JSON path" grep -q "tank_alien.json.*parameters.zeta.*no parameter 'zeta'" "$tmp/alien.txt"
+
 echo "$passes passed, $failures failed"
 [ "$failures" -eq 0 ]
