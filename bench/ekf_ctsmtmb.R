@@ -14,6 +14,8 @@
 #       The Cascaded Tanks fit (assets/models/cascaded_tanks.json translated, below) from the model
 #       file's start values with nlminb. AT_FILE (lines "name value"): also print log L at those
 #       parameter values (greybench's optimum) through the same tape.
+#   Rscript bench/ekf_ctsmtmb.R tanks-loglik DATA.csv SUBSTEPS AT_FILE
+#       The same model's log L at its start values and at AT_FILE's, without a fit.
 #   Rscript bench/ekf_ctsmtmb.R ou SUBSTEPS DATA.csv...
 #       Ornstein-Uhlenbeck dx = -theta x dt + sigma dw, y = x + e, e ~ N(0, r), r = 0.01 known:
 #       fits theta and sigma on each record (start at the truth 1, 0.5).
@@ -84,32 +86,7 @@ tank_chain <- function(n, fast) {
   m
 }
 
-if (mode == "loglik") {
-  n <- as.integer(args[2]); fast <- args[3] == "1"; file <- args[4]
-  substeps <- as.integer(args[5])
-  repeats <- if (length(args) >= 6) as.integer(args[6]) else 21
-  data <- read.csv(file, comment.char = "#")
-  if (length(args) >= 7) data <- data[seq_len(as.integer(args[7])), ]
-  delta <- data$t[2] - data$t[1]
-  t0 <- Sys.time()
-  m <- tank_chain(n, fast)
-  nll <- m$likelihood(data, method = "ekf", ode.timestep = delta / substeps, silent = TRUE)
-  setup <- secs(t0)
-  tape <- m$getTimers()["Constructing AD Fun", "elapsed"]
-  par <- nll$par
-  value <- nll$fn(par)
-  fn_s <- median_time(nll$fn, par, repeats)
-  gr_s <- median_time(nll$gr, par, max(3, repeats %/% 4))  # value and gradient at a new x
-  json_line(list(tool = "ctsmTMB", model = sprintf("tanks%d%s", n, if (fast) "+sensor" else ""),
-                 substeps = substeps, n = nrow(data), setup_s = setup, tape_s = tape,
-                 fn_s = fn_s, ns_per_sample = 1e9 * fn_s / nrow(data), gr_s = gr_s,
-                 n_par = length(par), loglik = -value))
-} else if (mode == "tanks") {
-  file <- args[2]
-  substeps <- if (length(args) >= 3) as.integer(args[3]) else 1
-  data <- read.csv(file, comment.char = "#")[, c("t", "u", "y")]
-  delta <- data$t[2] - data$t[1]
-  t0 <- Sys.time()
+tanks_model <- function() {
   m <- ctsmTMB$new()
   # h = z + h0; max(h, 1e-6) as 0.5 (h + 1e-6 + sqrt((h - 1e-6)^2 + 1e-12)) (within 5e-7 of it);
   # o(z) = w log(1 + e^{z/w}) as in the model file
@@ -137,6 +114,36 @@ if (mode == "loglik") {
     h10 = c(initial = 5, lower = 0.1, upper = 100),
     h20 = c(initial = 5, lower = 0.1, upper = 40))
   m$setInitialState(list(mean = c(0, 0), cov = 4e-8 * diag(2)))
+  m
+}
+
+if (mode == "loglik") {
+  n <- as.integer(args[2]); fast <- args[3] == "1"; file <- args[4]
+  substeps <- as.integer(args[5])
+  repeats <- if (length(args) >= 6) as.integer(args[6]) else 21
+  data <- read.csv(file, comment.char = "#")
+  if (length(args) >= 7) data <- data[seq_len(as.integer(args[7])), ]
+  delta <- data$t[2] - data$t[1]
+  t0 <- Sys.time()
+  m <- tank_chain(n, fast)
+  nll <- m$likelihood(data, method = "ekf", ode.timestep = delta / substeps, silent = TRUE)
+  setup <- secs(t0)
+  tape <- m$getTimers()["Constructing AD Fun", "elapsed"]
+  par <- nll$par
+  value <- nll$fn(par)
+  fn_s <- median_time(nll$fn, par, repeats)
+  gr_s <- median_time(nll$gr, par, max(3, repeats %/% 4))  # value and gradient at a new x
+  json_line(list(tool = "ctsmTMB", model = sprintf("tanks%d%s", n, if (fast) "+sensor" else ""),
+                 substeps = substeps, n = nrow(data), setup_s = setup, tape_s = tape,
+                 fn_s = fn_s, ns_per_sample = 1e9 * fn_s / nrow(data), gr_s = gr_s,
+                 n_par = length(par), loglik = -value))
+} else if (mode == "tanks") {
+  file <- args[2]
+  substeps <- if (length(args) >= 3) as.integer(args[3]) else 1
+  data <- read.csv(file, comment.char = "#")[, c("t", "u", "y")]
+  delta <- data$t[2] - data$t[1]
+  t0 <- Sys.time()
+  m <- tanks_model()
   fit <- m$estimate(data, method = "ekf", ode.timestep = delta / substeps, silent = TRUE,
                     control = list(trace = 0, iter.max = 1e5, eval.max = 1e5))
   wall <- secs(t0)
@@ -160,6 +167,17 @@ if (mode == "loglik") {
     out$loglik_at_given <- -nll$fn(x)
   }
   json_line(out)
+} else if (mode == "tanks-loglik") {
+  data <- read.csv(args[2], comment.char = "#")[, c("t", "u", "y")]
+  substeps <- as.integer(args[3])
+  at <- read.table(args[4], col.names = c("name", "value"), stringsAsFactors = FALSE)
+  m <- tanks_model()
+  nll <- m$likelihood(data, method = "ekf", ode.timestep = (data$t[2] - data$t[1]) / substeps,
+                      silent = TRUE)
+  x <- nll$par
+  x[at$name[at$name %in% names(x)]] <- at$value[at$name %in% names(x)]
+  json_line(list(tool = "ctsmTMB", substeps = substeps, loglik_start = -nll$fn(nll$par),
+                 loglik_at_given = -nll$fn(x)))
 } else if (mode == "ou") {
   substeps <- as.integer(args[2])
   m <- ctsmTMB$new()

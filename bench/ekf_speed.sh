@@ -31,14 +31,65 @@
 # single-threaded; estimate gets --threads 1). Prints each measurement as it goes, then medians.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-passes=${1:-3}
-parts=${2:-"loglik tanks"}
 cli=${GREYBENCH_CLI:-build/app/greybench-cli}
 export OMP_NUM_THREADS=1
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 rscript() { Rscript bench/ekf_ctsmtmb.R "$@" 2>/dev/null | grep '^{' | tee -a "$tmp/all.jsonl"; }
 load() { cut -d' ' -f1 /proc/loadavg; }
+summary() {  # summary FILE: medians of the JSON lines a run printed
+  python3 - "$1" <<'PY'
+import json, statistics, sys
+rows = [json.loads(l) for l in open(sys.argv[1])]
+med = statistics.median
+groups = {}
+for r in rows:
+    if "ns_per_sample" in r:
+        key = (r["model"], r["tool"], r.get("substeps", ""), r["n"])
+        groups.setdefault(("loglik",) + key, []).append(r)
+    elif "fit" in r or ("substeps" in r and "wall_s" in r and "file" not in r):
+        groups.setdefault(("fit", r["tool"], r.get("fit", r.get("substeps"))), []).append(r)
+    elif "loglik_at_ctsmTMB_optimum" in r:
+        groups.setdefault(("cross", r["ctsmTMB_substeps"]), []).append(r)
+    elif "theta" in r and "file" in r:
+        groups.setdefault(("ou", r["tool"], r.get("ou", r.get("substeps"))), []).append(r)
+for key, v in groups.items():
+    if key[0] == "loglik":
+        _, model, tool, sub, n = key
+        line = (f"{model:14s} {tool:9s} {('RK4 x' + str(sub)) if sub else 'DP5/BDF':8s} n={n}: "
+                f"{med(x['ns_per_sample'] for x in v):10.0f} ns/sample, fn {med(x['fn_s'] for x in v)*1e3:9.3f} ms")
+        if tool == "ctsmTMB":
+            line += (f", gradient {med(x['gr_s'] for x in v)*1e3:9.3f} ms, tape {med(x['tape_s'] for x in v):7.2f} s"
+                     f" (setup {med(x['setup_s'] for x in v):6.2f} s)")
+        else:
+            line += f", gradient's 2k extra runs {med(x['gr_extra_s'] for x in v)*1e3:9.3f} ms (process wall)"
+        ll = v[-1]["loglik"]
+        print(line + f", log L {'NaN' if ll is None else format(ll, '.4f')}  ({len(v)} passes)")
+    elif key[0] == "fit":
+        t = "elapsed_s" if key[1] == "greybench" else "wall_s"
+        r = v[-1]
+        extra = f"nlminb {med(x['nlminb_s'] for x in v):.2f} s, tape {med(x['tape_s'] for x in v):.2f} s, " if key[1] == "ctsmTMB" else ""
+        print(f"tanks fit {key[1]:9s} {str(key[2]):8s}: {med(x[t] for x in v):8.2f} s ({extra}log L {r['loglik']}, "
+              f"iterations {r['iterations']}, {r.get('converged', r.get('message'))}"
+              + (f", log L at greybench's optimum {r['loglik_at_given']}" if 'loglik_at_given' in r else "")
+              + f")  ({len(v)} passes)")
+    elif key[0] == "cross":
+        print(f"greybench's log L at ctsmTMB's optimum (RK4 x{key[1]}): {v[-1]['loglik_at_ctsmTMB_optimum']}")
+    elif key[0] == "ou":
+        th = [x["theta"] for x in v]; sg = [x["sigma"] for x in v]
+        se = lambda a: statistics.stdev(a) / len(a) ** 0.5
+        print(f"OU {key[1]:9s} {str(key[2]):7s}: theta {statistics.mean(th):.4f} ± {se(th):.4f} "
+              f"(bias {100*(statistics.mean(th)-1):+.1f} %), sigma {statistics.mean(sg):.4f} ± {se(sg):.4f} "
+              f"(bias {100*(statistics.mean(sg)/0.5-1):+.1f} %), {len(v)} records")
+PY
+}
+if [[ ${1:-} == summary ]]; then
+  grep '^{' "$2" > "$tmp/all.jsonl"
+  summary "$tmp/all.jsonl"
+  exit 0
+fi
+passes=${1:-3}
+parts=${2:-"loglik tanks"}
 
 if [[ " $parts " == *" loglik "* ]]; then
   # TankChain(n, fast) of bench/loglik_bench.cpp, with P0 = 1e-4 I (ctsmTMB needs a number)
@@ -180,46 +231,5 @@ print(json.dumps({'tool': 'greybench', 'ou': sys.argv[2], 'file': sys.argv[3], '
 fi
 
 echo "# medians over the passes (load at the end $(load))"
-python3 - "$tmp/all.jsonl" <<'PY'
-import json, statistics, sys
-rows = [json.loads(l) for l in open(sys.argv[1])]
-med = statistics.median
-groups = {}
-for r in rows:
-    if "ns_per_sample" in r:
-        key = (r["model"], r["tool"], r.get("substeps", ""), r["n"])
-        groups.setdefault(("loglik",) + key, []).append(r)
-    elif "fit" in r or ("substeps" in r and "wall_s" in r and "file" not in r):
-        groups.setdefault(("fit", r["tool"], r.get("fit", r.get("substeps"))), []).append(r)
-    elif "loglik_at_ctsmTMB_optimum" in r:
-        groups.setdefault(("cross", r["ctsmTMB_substeps"]), []).append(r)
-    elif "theta" in r and "file" in r:
-        groups.setdefault(("ou", r["tool"], r.get("ou", r.get("substeps"))), []).append(r)
-for key, v in groups.items():
-    if key[0] == "loglik":
-        _, model, tool, sub, n = key
-        line = (f"{model:14s} {tool:9s} {('RK4 x' + str(sub)) if sub else 'DP5/BDF':8s} n={n}: "
-                f"{med(x['ns_per_sample'] for x in v):10.0f} ns/sample, fn {med(x['fn_s'] for x in v)*1e3:9.3f} ms")
-        if tool == "ctsmTMB":
-            line += (f", gradient {med(x['gr_s'] for x in v)*1e3:9.3f} ms, tape {med(x['tape_s'] for x in v):7.2f} s"
-                     f" (setup {med(x['setup_s'] for x in v):6.2f} s)")
-        else:
-            line += f", gradient's 2k extra runs {med(x['gr_extra_s'] for x in v)*1e3:9.3f} ms (process wall)"
-        print(line + f", log L {v[-1]['loglik']:.4f}  ({len(v)} passes)")
-    elif key[0] == "fit":
-        t = "elapsed_s" if key[1] == "greybench" else "wall_s"
-        r = v[-1]
-        extra = f"nlminb {med(x['nlminb_s'] for x in v):.2f} s, tape {med(x['tape_s'] for x in v):.2f} s, " if key[1] == "ctsmTMB" else ""
-        print(f"tanks fit {key[1]:9s} {str(key[2]):8s}: {med(x[t] for x in v):8.2f} s ({extra}log L {r['loglik']}, "
-              f"iterations {r['iterations']}, {r.get('converged', r.get('message'))}"
-              + (f", log L at greybench's optimum {r['loglik_at_given']}" if 'loglik_at_given' in r else "")
-              + f")  ({len(v)} passes)")
-    elif key[0] == "cross":
-        print(f"greybench's log L at ctsmTMB's optimum (RK4 x{key[1]}): {v[-1]['loglik_at_ctsmTMB_optimum']}")
-    elif key[0] == "ou":
-        th = [x["theta"] for x in v]; sg = [x["sigma"] for x in v]
-        se = lambda a: statistics.stdev(a) / len(a) ** 0.5
-        print(f"OU {key[1]:9s} {str(key[2]):7s}: theta {statistics.mean(th):.4f} ± {se(th):.4f} "
-              f"(bias {100*(statistics.mean(th)-1):+.1f} %), sigma {statistics.mean(sg):.4f} ± {se(sg):.4f} "
-              f"(bias {100*(statistics.mean(sg)/0.5-1):+.1f} %), {len(v)} records")
-PY
+# (bench/ekf_speed.sh summary FILE: the same summary of a run's printed lines)
+summary "$tmp/all.jsonl"
