@@ -35,7 +35,7 @@ cli=${GREYBENCH_CLI:-build/app/greybench-cli}
 export OMP_NUM_THREADS=1
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-rscript() { Rscript bench/ekf_ctsmtmb.R "$@" 2>/dev/null | grep '^{' | tee -a "$tmp/all.jsonl"; }
+rscript() { { Rscript bench/ekf_ctsmtmb.R "$@" 2>/dev/null || true; } | { grep '^{' || true; } | tee -a "$tmp/all.jsonl"; }
 load() { cut -d' ' -f1 /proc/loadavg; }
 summary() {  # summary FILE: medians of the JSON lines a run printed
   python3 - "$1" <<'PY'
@@ -175,24 +175,27 @@ print(json.dumps({'tool': 'greybench', 'fit': sys.argv[3], 'elapsed_s': r['elaps
   }
   ct_fit() {  # ct_fit SUBSTEPS: ctsmTMB's fit (with log L at greybench's last optimum), then
               # greybench's log L at ctsmTMB's optimum
-    rscript tanks "$data" "$1" "$tmp/at-single.txt" > "$tmp/ct.jsonl"
-    python3 - "$tmp/ct.jsonl" "$model" "$data" "$cli" <<'PY' | tee -a "$tmp/all.jsonl"
+    rscript tanks "$data" "$1" "$tmp/at-single.txt" > "$tmp/ct.jsonl" || true
+    cat "$tmp/ct.jsonl"
+    python3 - "$tmp/ct.jsonl" "$model" "$data" "$cli" <<'PY' | tee -a "$tmp/all.jsonl" || true
 import json, subprocess, sys
-r = json.loads(open(sys.argv[1]).readline())
+lines = open(sys.argv[1]).readlines()
+r = json.loads(lines[0]) if lines else {}
 names = ["k1", "a1", "k3", "a2", "k4", "kx", "h1max", "h2max", "y0", "r", "h10", "h20"]
 if r.get(names[0]) is not None:
     sets = [f"{k}={r[k]!r}" for k in names]
-    out = subprocess.run([sys.argv[4], "loglik", sys.argv[2], sys.argv[3], "--set", *sets],
-                         capture_output=True, text=True).stdout
-    print(json.dumps({"tool": "greybench", "loglik_at_ctsmTMB_optimum": json.loads(out)["loglik"],
-                      "ctsmTMB_substeps": r["substeps"]}))
+    p = subprocess.run([sys.argv[4], "loglik", sys.argv[2], sys.argv[3], "--set", *sets],
+                       capture_output=True, text=True)
+    ll = json.loads(p.stdout)["loglik"] if p.returncode == 0 else None
+    print(json.dumps({"tool": "greybench", "loglik_at_ctsmTMB_optimum": ll,
+                      "ctsmTMB_substeps": r["substeps"], "error": p.stderr.strip()[:200]}))
 PY
   }
   for pass in $(seq "${TANK_PASSES:-1}"); do
     echo "# tanks pass $pass, load $(load)"
     gb_fit single --starts-on-bound 0
     ct_fit 1
-    [[ ${TANK_DEFAULT:-0} == 1 ]] && gb_fit default
+    if [[ ${TANK_DEFAULT:-0} == 1 ]]; then gb_fit default; fi
     ct_fit 10
   done
 fi
