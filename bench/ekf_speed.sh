@@ -28,7 +28,8 @@
 #           fitted by greybench (exact filter; and its EKF, forced by a diffusion "sigma + 0*t")
 #           and by ctsmTMB's ekf with 1 and 10 RK4 steps per interval.
 # R runs with OMP_NUM_THREADS=1 and greybench with one thread (bench and loglik are
-# single-threaded; estimate gets --threads 1). Prints each measurement as it goes, then medians.
+# single-threaded; estimate gets --threads 1). Prints each measurement as it goes (one JSON line
+# each), then medians; `bench/ekf_speed.sh summary LOG` prints the medians of a saved output again.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cli=${GREYBENCH_CLI:-build/app/greybench-cli}
@@ -226,11 +227,11 @@ import json, sys
 r = json.load(open(sys.argv[1]))
 print(json.dumps({'tool': 'greybench', 'ou': sys.argv[2], 'file': sys.argv[3], 'elapsed_s': r['elapsed_s'],
                   'theta': r['parameters']['theta']['estimate'], 'sigma': r['parameters']['sigma']['estimate'],
-                  'loglik': r['loglik'], 'converged': r['converged']}))" "$tmp/r.json" "$v" "ou$s.csv" >> "$tmp/all.jsonl"
+                  'loglik': r['loglik'], 'converged': r['converged']}))" "$tmp/r.json" "$v" "ou$s.csv" | tee -a "$tmp/all.jsonl"
     done
   done
-  rscript ou 1 "${files[@]}" > /dev/null
-  rscript ou 10 "${files[@]}" > /dev/null
+  rscript ou 1 "${files[@]}"
+  rscript ou 10 "${files[@]}"
 fi
 
 echo "# medians over the passes (load at the end $(load))"
