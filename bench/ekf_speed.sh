@@ -81,7 +81,8 @@ for key, v in groups.items():
         se = lambda a: statistics.stdev(a) / len(a) ** 0.5
         print(f"OU {key[1]:9s} {str(key[2]):7s}: theta {statistics.mean(th):.4f} ± {se(th):.4f} "
               f"(bias {100*(statistics.mean(th)-1):+.1f} %), sigma {statistics.mean(sg):.4f} ± {se(sg):.4f} "
-              f"(bias {100*(statistics.mean(sg)/0.5-1):+.1f} %), {len(v)} records")
+              f"(bias {100*(statistics.mean(sg)/0.5-1):+.1f} %; median {med(sg):.4f}), {len(v)} records, "
+              f"median fit {med(x.get('elapsed_s', x.get('wall_s')) for x in v):.3g} s")
 PY
 }
 if [[ ${1:-} == summary ]]; then
