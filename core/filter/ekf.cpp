@@ -149,14 +149,7 @@ Result<Loglik> Run::operator()() const {
     // Time update: the moment equations over [t_j, t_{j+1}].
     if (auto s = propagator.Advance(j, &x, &P); !s) return s.error();
   }
-  if (counts) {
-    const OdeCounts& c = propagator.counts();
-    counts->intervals += c.intervals;
-    counts->stiff_intervals += c.stiff_intervals;
-    counts->steps += c.steps;
-    counts->rejected += c.rejected;
-    counts->rhs += c.rhs;
-  }
+  if (counts) *counts += propagator.counts();
   if (!std::isfinite(loglik)) return internal::NotFiniteLoglik(series);
   return Loglik{loglik, n_obs};
 }

@@ -139,14 +139,7 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
     if (j == window->last_j) break;  // nothing later is observed
     if (auto s = propagator.Advance(j, &x, &P, nullptr, &ds); !s) return s.error();
   }
-  if (counts) {
-    const OdeCounts& c = propagator.counts();
-    counts->intervals += c.intervals;
-    counts->stiff_intervals += c.stiff_intervals;
-    counts->steps += c.steps;
-    counts->rejected += c.rejected;
-    counts->rhs += c.rhs;
-  }
+  if (counts) *counts += propagator.counts();
   if (!std::isfinite(loglik)) return internal::NotFiniteLoglik(series);
   if (!gradient->allFinite())
     return NumericalError("the derivatives of the log-likelihood are not finite");

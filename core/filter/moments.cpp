@@ -52,6 +52,7 @@ class MomentPropagator::Moments final : public OdeSystem {
       scratch_.resize(sens_->dynamics().nonzeros());
       dJ_.resize(n_, n_);
       SP_.resize(n_, n_);
+      dsigma_.resize(n_);
     }
   }
 
@@ -118,25 +119,14 @@ class MomentPropagator::Moments final : public OdeSystem {
   // with dJ = Σ_m ∂J/∂x_m S_m + ∂J/∂θ_l and dσ = ∂σ/∂x S + ∂σ/∂θ_l. EvaluateAt has filled the
   // slots, J_ and σ; P_ holds P.
   bool SensitivityRhs(std::span<const double> z, std::span<double> dz) {
-    const model::NonlinearSensitivity& sens = *sens_;
-    sens.dynamics().Eval(slots_, dense_, scratch_);
-    if (auto bad = sens.NotFinite(sens.dynamics(), dense_, slots_)) {
-      failure_ = std::move(*bad);
-      return false;
-    }
-    const int np = model_.n_parameters();
-    const Eigen::Map<const Eigen::MatrixXd> f_theta(dense_.data(), n_, np);
-    const Eigen::Map<const Eigen::MatrixXd> sigma_x(dense_.data() + sens.DynSigmaX(), n_, n_);
-    const Eigen::Map<const Eigen::MatrixXd> sigma_theta(dense_.data() + sens.DynSigmaTheta(), n_, np);
-    const double* sigma = this->sigma();
+    if (!EvaluateDerivatives()) return false;
+    const Eigen::Map<const Eigen::MatrixXd> f_theta(dense_.data(), n_, model_.n_parameters());
     const int ms = moments_size();
     for (int q = 0; q < n_free(); ++q) {
       const int l = free_[q];
       const int base = sensitivity_offset() + q * ms;
       const Eigen::Map<const Eigen::VectorXd> S(z.data() + base, n_);
-      dJ_ = Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJtheta(l), n_, n_);
-      for (int m = 0; m < n_; ++m)
-        dJ_.noalias() += S(m) * Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJx(m), n_, n_);
+      DerivativesAlong(l, S);
       Eigen::Map<Eigen::VectorXd>(dz.data() + base, n_).noalias() = J_ * S + f_theta.col(l);
       Unpack(z.subspan(base), &SP_);
       M_.noalias() = dJ_ * P_;
@@ -144,12 +134,34 @@ class MomentPropagator::Moments final : public OdeSystem {
       for (int b = 0; b < n_; ++b) {
         for (int a = b; a < n_; ++a) {
           double v = M_(a, b) + M_(b, a);
-          if (a == b) v += 2.0 * sigma[a] * (sigma_x.row(a).dot(S) + sigma_theta(a, l));
+          if (a == b) v += 2.0 * sigma()[a] * dsigma_(a);
           dz[base + packed_(a, b)] = v;
         }
       }
     }
     return true;
+  }
+
+  // The derivative program at the slots EvaluateAt filled; false (failure() set) if not finite.
+  bool EvaluateDerivatives() {
+    sens_->dynamics().Eval(slots_, dense_, scratch_);
+    if (auto bad = sens_->NotFinite(sens_->dynamics(), dense_, slots_)) {
+      failure_ = std::move(*bad);
+      return false;
+    }
+    return true;
+  }
+
+  // Along θ_l with the state's sensitivity S, from EvaluateDerivatives' values:
+  // dJ_ = Σ_m ∂J/∂x_m S_m + ∂J/∂θ_l and dsigma_ = ∂σ/∂x S + ∂σ/∂θ_l.
+  void DerivativesAlong(int l, const Eigen::Ref<const Eigen::VectorXd>& S) {
+    const model::NonlinearSensitivity& sens = *sens_;
+    dJ_ = Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJtheta(l), n_, n_);
+    for (int m = 0; m < n_; ++m)
+      dJ_.noalias() += S(m) * Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJx(m), n_, n_);
+    dsigma_.noalias() = Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynSigmaX(), n_, n_) * S;
+    dsigma_ += Eigen::Map<const Eigen::VectorXd>(
+        dense_.data() + sens.DynSigmaTheta() + static_cast<std::size_t>(l) * static_cast<std::size_t>(n_), n_);
   }
 
   // ∂F/∂z without the terms of ∂J/∂x̂ and ∂σ/∂x̂ (second derivatives): [J 0; 0 L(J)] with
@@ -196,32 +208,20 @@ class MomentPropagator::Moments final : public OdeSystem {
   // θ_l, dJ and dσ with the initial state's own S = ∂x0/∂θ_l (ds->x). EvaluateAt(x0) has run.
   // Solved through the Kronecker form (I ⊗ J + J ⊗ I) vec dP = -vec Q (n² unknowns).
   bool StationarySensitivities(const Eigen::MatrixXd& P, MomentSensitivities* ds) {
-    const model::NonlinearSensitivity& sens = *sens_;
-    sens.dynamics().Eval(slots_, dense_, scratch_);
-    if (auto bad = sens.NotFinite(sens.dynamics(), dense_, slots_)) {
-      failure_ = std::move(*bad);
-      return false;
-    }
-    const int np = model_.n_parameters();
-    const Eigen::Map<const Eigen::MatrixXd> sigma_x(dense_.data() + sens.DynSigmaX(), n_, n_);
-    const Eigen::Map<const Eigen::MatrixXd> sigma_theta(dense_.data() + sens.DynSigmaTheta(), n_, np);
-    const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n_, n_);
-    Eigen::MatrixXd L(n_ * n_, n_ * n_);
+    if (!EvaluateDerivatives()) return false;
     const Eigen::Index n = n_;
+    const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
+    Eigen::MatrixXd L(n * n, n * n);
     for (Eigen::Index a = 0; a < n; ++a)
       for (Eigen::Index b = 0; b < n; ++b)
         L.block(a * n, b * n, n, n) = I(a, b) * J_ + J_(a, b) * I;
     const Eigen::PartialPivLU<Eigen::MatrixXd> lu(L);
     for (int q = 0; q < n_free(); ++q) {
-      const int l = free_[q];
-      const Eigen::VectorXd S = ds->x.col(q);
-      dJ_ = Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJtheta(l), n_, n_);
-      for (int m = 0; m < n_; ++m)
-        dJ_.noalias() += S(m) * Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJx(m), n_, n_);
+      DerivativesAlong(free_[q], ds->x.col(q));
       Eigen::MatrixXd Q = dJ_ * P + P * dJ_.transpose();
-      for (int i = 0; i < n_; ++i) Q(i, i) += 2.0 * sigma()[i] * (sigma_x.row(i).dot(S) + sigma_theta(i, l));
+      for (int i = 0; i < n_; ++i) Q(i, i) += 2.0 * sigma()[i] * dsigma_(i);
       Eigen::VectorXd v = lu.solve(-Eigen::Map<const Eigen::VectorXd>(Q.data(), n * n));
-      Eigen::Map<const Eigen::MatrixXd> dP(v.data(), n_, n_);
+      Eigen::Map<const Eigen::MatrixXd> dP(v.data(), n, n);
       ds->P[q] = 0.5 * (dP + dP.transpose());
     }
     return true;
@@ -250,6 +250,7 @@ class MomentPropagator::Moments final : public OdeSystem {
   const int m_;
   std::vector<double> dense_, scratch_;  // the sensitivity program's output
   Eigen::MatrixXd dJ_, SP_;
+  Eigen::VectorXd dsigma_;
   std::vector<double> slots_;
   std::vector<double> out_;
   Eigen::MatrixXi packed_;

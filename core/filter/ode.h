@@ -44,6 +44,15 @@ struct OdeCounts {
   long steps = 0;            // accepted steps
   long rejected = 0;         // steps rejected by the error test (explicit) or failed (BDF)
   long rhs = 0;              // evaluations of F
+
+  OdeCounts& operator+=(const OdeCounts& c) {
+    intervals += c.intervals;
+    stiff_intervals += c.stiff_intervals;
+    steps += c.steps;
+    rejected += c.rejected;
+    rhs += c.rhs;
+    return *this;
+  }
 };
 
 class OdeSolver {

@@ -115,22 +115,29 @@ std::string NonlinearModel::SlotName(int slot) const {
   return "t";
 }
 
+Error NotFiniteEntry(const std::string& name, double value, const expr::ExprPtr& e,
+                     std::span<const std::string> slot_names, std::span<const double> slots,
+                     const std::string& source) {
+  std::set<std::string> used;
+  expr::CollectNames(e, &used);
+  std::string values;
+  for (std::size_t slot = 0; slot < slot_names.size() && slot < slots.size(); ++slot) {
+    if (!used.count(slot_names[slot])) continue;
+    values += fmt::format("{}{} = {:g}", values.empty() ? "" : ", ", slot_names[slot], slots[slot]);
+  }
+  Error err = NumericalError(fmt::format("{} is {} at these values{}", name,
+                                         std::isnan(value) ? "not a number" : "infinite",
+                                         values.empty() ? "" : " (" + values + ")"));
+  err.file = source;
+  return err;
+}
+
 Error NonlinearModel::NotFinite(Program program, std::size_t k, double value,
                                 std::span<const double> slots) const {
   const Entries& entries = EntriesOf(program);
-  std::set<std::string> used;
-  expr::CollectNames(entries.exprs[k], &used);
-  std::string values;
-  for (int slot = 0; slot < n_slots() && slot < static_cast<int>(slots.size()); ++slot) {
-    const std::string name = SlotName(slot);
-    if (!used.count(name)) continue;
-    values += fmt::format("{}{} = {:g}", values.empty() ? "" : ", ", name, slots[slot]);
-  }
-  Error e = NumericalError(fmt::format("{} is {} at these values{}", entries.names[k],
-                                       std::isnan(value) ? "not a number" : "infinite",
-                                       values.empty() ? "" : " (" + values + ")"));
-  e.file = spec_.source;
-  return e;
+  std::vector<std::string> names;
+  for (int slot = 0; slot < n_slots(); ++slot) names.push_back(SlotName(slot));
+  return NotFiniteEntry(entries.names[k], value, entries.exprs[k], names, slots, spec_.source);
 }
 
 }  // namespace gb::model

@@ -25,6 +25,12 @@
 
 namespace gb::model {
 
+// "NAME is not a number at these values (h1 = -0.2, k1 = 0.5)" (or "infinite"), listing the
+// slots `e` uses, with `source` as the error's file.
+Error NotFiniteEntry(const std::string& name, double value, const expr::ExprPtr& e,
+                     std::span<const std::string> slot_names, std::span<const double> slots,
+                     const std::string& source);
+
 class NonlinearModel {
  public:
   // Fails (kInput) only when an expression or a derivative is too deeply nested to compile.

@@ -1,7 +1,6 @@
 #include "core/model/nonlinear_sensitivity.h"
 
 #include <cmath>
-#include <set>
 
 #include <fmt/format.h>
 
@@ -151,19 +150,8 @@ std::optional<Error> NonlinearSensitivity::NotFinite(const Program& program,
                                                      std::span<const double> slots) const {
   for (std::size_t k = 0; k < program.positions_.size(); ++k) {
     const double value = dense[program.positions_[k]];
-    if (std::isfinite(value)) continue;
-    std::set<std::string> used;
-    expr::CollectNames(program.exprs_[k], &used);
-    std::string values;
-    for (std::size_t slot = 0; slot < slot_names_.size() && slot < slots.size(); ++slot) {
-      if (!used.count(slot_names_[slot])) continue;
-      values += fmt::format("{}{} = {:g}", values.empty() ? "" : ", ", slot_names_[slot], slots[slot]);
-    }
-    Error e = NumericalError(fmt::format("{} is {} at these values{}", program.names_[k],
-                                         std::isnan(value) ? "not a number" : "infinite",
-                                         values.empty() ? "" : " (" + values + ")"));
-    e.file = source_;
-    return e;
+    if (!std::isfinite(value))
+      return NotFiniteEntry(program.names_[k], value, program.exprs_[k], slot_names_, slots, source_);
   }
   return std::nullopt;
 }
