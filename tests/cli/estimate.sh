@@ -104,10 +104,11 @@ cat >"$tmp/tank.json" <<'JSON'
  "drift": {"h": "k*u - a*sqrt(h)"}, "diffusion": {"h": "s*sqrt(h)"},
  "observation": {"y": "h + 0.1*h^2"}, "measurement_variance": {"y": "r"}, "initial_state": {"h": "h0"}}
 JSON
+gains=(0 0.8 1.0 1.2)
 for i in 1 2 3; do
   "$cli" prbs --order 6 --period 4 --ts 0.5 --duration 300 --low 0.7 --high 1.3 --seed "$i" \
     --out "$tmp/u$i.csv" >/dev/null
-  "$cli" simulate "$tmp/tank.json" --inputs "$tmp/u$i.csv" --set "k=0.$((6 + 2 * i))" --set a=0.5 \
+  "$cli" simulate "$tmp/tank.json" --inputs "$tmp/u$i.csv" --set "k=${gains[$i]}" --set a=0.5 \
     --set s=0.08 --set r=0.004 --seed "$i" --out "$tmp/s$i.csv" >/dev/null
   { echo "# greybench: {\"operating_point\": {\"name\": \"p$i\", \"load\": $i}}"; cat "$tmp/s$i.csv"; } \
     >"$tmp/tank$i.csv"
@@ -115,8 +116,12 @@ done
 "$cli" sweep "$tmp/tank.json" "$tmp/tank1.csv" "$tmp/tank2.csv" "$tmp/tank3.csv" --trend k:load \
   --out-csv "$tmp/tank_sweep.csv" >"$tmp/tank_sweep.txt"
 check "a sweep of a nonlinear model" test $? -eq 0
-check "... fits the trend of k against load (slope 0.2 within 3 SE)" python3 - "$tmp/tank_sweep.txt" <<'PY'
-import re, sys
+check "... recovers every point's k and the trend against load (slope 0.2 within 3 SE)" python3 - "$tmp/tank_sweep.txt" "$tmp/tank_sweep.csv" <<'PY'
+import csv, re, sys
+rows = list(csv.DictReader(l for l in open(sys.argv[2]) if not l.startswith("#")))
+assert len(rows) == 3, rows
+for row, k in zip(rows, (0.8, 1.0, 1.2)):
+    assert abs(float(row["k"]) - k) < 4 * float(row["k_se"]), (row, k)
 text = open(sys.argv[1]).read()
 m = re.search(r"Trend: k = \S+ \(± \S+\) \+ (\S+) \(± (\S+)\) · load", text)
 assert m, text
