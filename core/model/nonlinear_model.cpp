@@ -135,8 +135,8 @@ Error NotFiniteEntry(const std::string& name, double value, const expr::ExprPtr&
 Error NonlinearModel::NotFinite(Program program, std::size_t k, double value,
                                 std::span<const double> slots) const {
   const Entries& entries = EntriesOf(program);
-  std::vector<std::string> names;
-  for (int slot = 0; slot < n_slots(); ++slot) names.push_back(SlotName(slot));
+  std::vector<std::string> names(static_cast<std::size_t>(n_slots()));
+  for (int slot = 0; slot < n_slots(); ++slot) names[static_cast<std::size_t>(slot)] = SlotName(slot);
   return NotFiniteEntry(entries.names[k], value, entries.exprs[k], names, slots, spec_.source);
 }
 
