@@ -72,12 +72,7 @@ Result<Loglik> Run::operator()() const {
     if (settings.cancel && (j & (internal::kCancelCheckInterval - 1)) == 0 &&
         settings.cancel->load(std::memory_order_relaxed))
       return NumericalError("cancelled");
-    observed.clear();
-    for (int o = 0; o < p; ++o) {
-      const int k = j + window->delay[o];
-      if (k >= N || k < window->first_obs[o]) continue;
-      if (!std::isnan(Y[static_cast<std::size_t>(k) * p + o])) observed.push_back(o);
-    }
+    internal::ObservedAt(j, series, *window, &observed);
     if (trace) {
       trace->x_pred.col(j) = x;
       trace->P_pred[j] = P;

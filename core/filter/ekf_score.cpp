@@ -3,6 +3,7 @@
 #include <cmath>
 #include <vector>
 
+#include "core/filter/ekf.h"
 #include "core/filter/internal.h"
 #include "core/filter/moments.h"
 
@@ -69,12 +70,7 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
     if (settings.cancel && (j & (internal::kCancelCheckInterval - 1)) == 0 &&
         settings.cancel->load(std::memory_order_relaxed))
       return NumericalError("cancelled");
-    observed.clear();
-    for (int o = 0; o < p; ++o) {
-      const int k = j + window->delay[o];
-      if (k >= N || k < window->first_obs[o]) continue;
-      if (!std::isnan(Y[static_cast<std::size_t>(k) * p + o])) observed.push_back(o);
-    }
+    internal::ObservedAt(j, series, *window, &observed);
     if (!observed.empty()) {
       if (auto s = propagator.Measure(j, x, meas); !s) return s.error();
       if (auto s = propagator.MeasureSensitivities(j, x, dmeas); !s) return s.error();
