@@ -126,11 +126,7 @@ Result<Loglik> Run::operator()() const {
         }
         if ((x - x_lin).norm() <= 1e-10 * (1.0 + x.norm())) break;
       }
-      double rho = 0.5 * r2;
-      if (robust) {
-        const double r = std::sqrt(r2);
-        if (r > huber) rho = huber * r - 0.5 * huber * huber;
-      }
+      const double rho = internal::HuberRho(r2, robust, huber);
       const double term = -(0.5 * (logdet + static_cast<double>(observed.size()) * kLog2Pi) + rho);
       loglik += term;
       n_obs += static_cast<long>(observed.size());

@@ -113,15 +113,8 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
         x.noalias() += PHt * (eps / R);
         P.noalias() -= (1.0 / R) * PHt * PHt.transpose();
       }
-      double rho = 0.5 * r2;
       double drho_dr2 = 0.5;
-      if (robust) {
-        const double r = std::sqrt(r2);
-        if (r > huber) {
-          rho = huber * r - 0.5 * huber * huber;
-          drho_dr2 = 0.5 * huber / r;
-        }
-      }
+      const double rho = internal::HuberRho(r2, robust, huber, &drho_dr2);
       const double term = -(0.5 * (logdet + static_cast<double>(observed.size()) * kLog2Pi) + rho);
       loglik += term;
       n_obs += static_cast<long>(observed.size());

@@ -1,6 +1,7 @@
 // Pieces the filter loops share (kalman.cpp, score.cpp); not part of the public API.
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <type_traits>
 
@@ -18,6 +19,18 @@ inline constexpr double kLog2Pi = 1.8378770664093454835606594728112;  // log(2π
 // The loops look at the cancel flag every this many samples (a few milliseconds at most).
 inline constexpr int kCancelCheckInterval = 4096;  // a power of two
 static_assert((kCancelCheckInterval & (kCancelCheckInterval - 1)) == 0);
+
+// The negative log-density's quadratic part at a state index, from r2 = Σ ε²/R over its observed
+// outputs: ½ r2 (Gaussian), or with Huber's threshold c (`robust`) c r − ½ c² beyond r = c. With
+// d_rho: its derivative with respect to r2 (½, or c / (2r) beyond the threshold).
+inline double HuberRho(double r2, bool robust, double c, double* d_rho = nullptr) {
+  if (d_rho) *d_rho = 0.5;
+  if (!robust) return 0.5 * r2;
+  const double r = std::sqrt(r2);
+  if (r <= c) return 0.5 * r2;
+  if (d_rho) *d_rho = c / (2.0 * r);
+  return c * r - 0.5 * c * c;
+}
 
 // Largest state dimension with a fixed-size instantiation of the loops.
 inline constexpr int kMaxFixedStates = 8;

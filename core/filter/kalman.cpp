@@ -272,11 +272,7 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
       x.noalias() += PCt * (eps / R);
     }
     if (p_j > 0) {
-      double rho = 0.5 * r2;
-      if (robust) {
-        const double r = std::sqrt(r2);
-        if (r > huber) rho = huber * r - 0.5 * huber * huber;
-      }
+      const double rho = internal::HuberRho(r2, robust, huber);
       const double term = -(0.5 * (logdet + p_j * kLog2Pi) + rho);
       loglik += term;
       n_obs += p_j;

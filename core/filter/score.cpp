@@ -237,14 +237,8 @@ Result<Loglik> ScoreLoop(const Context& ctx, Eigen::VectorXd* gradient, Eigen::M
       if (!steady) P.noalias() -= (1.0 / R) * PCt * PCt.transpose();
     }
     if (p_j > 0) {
-      double rho = 0.5 * r2, d_rho = 0.5;
-      if (robust) {
-        const double r = std::sqrt(r2);
-        if (r > huber) {
-          rho = huber * r - 0.5 * huber * huber;
-          d_rho = huber / (2.0 * r);
-        }
-      }
+      double d_rho = 0.5;
+      const double rho = internal::HuberRho(r2, robust, huber, &d_rho);
       loglik -= 0.5 * (logdet + p_j * kLog2Pi) + rho;
       n_obs += p_j;
       d_term = -(0.5 * d_logdet + d_rho * d_r2);
