@@ -69,8 +69,7 @@ Result<Loglik> Run::operator()() const {
   std::vector<double> h_lin(p);
   Eigen::MatrixXd H_lin(p, n);
   for (int j = 0; j <= j_end; ++j) {
-    if (settings.cancel && (j & (internal::kCancelCheckInterval - 1)) == 0 &&
-        settings.cancel->load(std::memory_order_relaxed))
+    if (settings.cancel && settings.cancel->load(std::memory_order_relaxed))
       return NumericalError("cancelled");
     internal::ObservedAt(j, series, *window, &observed);
     if (trace) {

@@ -67,8 +67,7 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
   Eigen::VectorXd dlogdet(K), dr2(K), dyhat(K), dR(K);
   Eigen::MatrixXd dks(n, K);
   for (int j = 0; j <= window->last_j; ++j) {
-    if (settings.cancel && (j & (internal::kCancelCheckInterval - 1)) == 0 &&
-        settings.cancel->load(std::memory_order_relaxed))
+    if (settings.cancel && settings.cancel->load(std::memory_order_relaxed))
       return NumericalError("cancelled");
     internal::ObservedAt(j, series, *window, &observed);
     if (!observed.empty()) {
