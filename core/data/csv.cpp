@@ -1,10 +1,12 @@
 // Reading CSV text into a Dataset (format in dataset.h).
 //
+// The pieces in namespace internal are shared with core/online (declared in internal.h).
+//
 // Contents
 //   Cells                  ParseCell: number, missing marker or not a number
 //   Lines and fields       LineReader (LF, CRLF, CR), DetectSeparator, FieldSplitter
 //   Header                 ReadHeader: column names and the time column
-//   Rows                   NotANumberReason, ParseCsv
+//   Rows                   NotANumberReason, SplitRow, ParseCsv
 //   Files                  ReadCsvFile, Dataset::Find
 #include <fmt/format.h>
 
@@ -14,19 +16,26 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <deque>
-#include <limits>
 #include <system_error>
 
 #include "core/data/dataset.h"
+#include "core/data/internal.h"
 #include "core/util/file.h"
 
 namespace gb::data {
-namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using internal::Cell;
+using internal::DetectSeparator;
+using internal::FieldSplitter;
+using internal::FileError;
+using internal::IsSkipped;
+using internal::kByteOrderMark;
+using internal::kNaN;
+using internal::ParseCell;
+using internal::ReadHeader;
+using internal::SplitRow;
 
-Error FileError(const std::string& file, int line, int col, std::string message) {
+Error internal::FileError(const std::string& file, int line, int col, std::string message) {
   Error e = InputError(std::move(message));
   e.file = file;
   e.line = line;
@@ -34,10 +43,10 @@ Error FileError(const std::string& file, int line, int col, std::string message)
   return e;
 }
 
+namespace {
+
 // ---------------------------------------------------------------------------------------------
 // Cells
-
-enum class Cell { kNumber, kMissing, kNotANumber };
 
 bool EqualsIgnoringCase(std::string_view a, std::string_view b) {
   return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](char x, char y) {
@@ -56,8 +65,9 @@ bool IsUnderflow(std::string_view s) {
   return e != std::string_view::npos && e + 1 < s.size() && s[e + 1] == '-';
 }
 
-// `s` is a trimmed field. Only a complete finite decimal number is a number.
-Cell ParseCell(std::string_view s, double* value) {
+}  // namespace
+
+Cell internal::ParseCell(std::string_view s, double* value) {
   if (IsMissingMarker(s)) {
     *value = kNaN;
     return Cell::kMissing;
@@ -81,6 +91,8 @@ Cell ParseCell(std::string_view s, double* value) {
 
 // ---------------------------------------------------------------------------------------------
 // Lines and fields
+
+namespace {
 
 // Splits text into lines ending in LF, CRLF or CR, counting from 1.
 class LineReader {
@@ -120,14 +132,14 @@ std::size_t CountLineEnds(std::string_view text) {
   return lf > 0 ? lf : count('\r');
 }
 
-// Blank lines and comment lines ('#' after optional spaces) carry no data.
-bool IsSkipped(std::string_view line) {
+}  // namespace
+
+bool internal::IsSkipped(std::string_view line) {
   const std::size_t first = line.find_first_not_of(" \t");
   return first == std::string_view::npos || line[first] == '#';
 }
 
-// The candidate occurring most often outside quotes; ',' when none occurs (ties: , ; TAB).
-char DetectSeparator(std::string_view header) {
+char internal::DetectSeparator(std::string_view header) {
   int comma = 0, semicolon = 0, tab = 0;
   bool quoted = false;
   for (char c : header) {
@@ -142,88 +154,72 @@ char DetectSeparator(std::string_view header) {
   return ',';
 }
 
-// Splits one line into trimmed, unquoted fields. The views point into the line, or into the
-// splitter's own buffers for quoted fields holding "" (valid until the next Split).
-class FieldSplitter {
- public:
-  explicit FieldSplitter(char separator) : sep_(separator) {}
+namespace internal {
 
-  // On a malformed quote, returns false with the 1-based field in *bad_field and the problem.
-  bool Split(std::string_view line, int* bad_field, std::string* problem) {
-    fields_.clear();
-    std::size_t pos = 0;
-    while (true) {
-      pos = SkipSpaces(line, pos);
-      const int field = static_cast<int>(fields_.size()) + 1;
-      if (pos < line.size() && line[pos] == '"') {
-        std::string_view value;
-        if (!SplitQuoted(line, &pos, &value)) {
-          *bad_field = field;
-          *problem = fmt::format("field {} opens a quote that is not closed on this line", field);
-          return false;
-        }
-        pos = SkipSpaces(line, pos);
-        if (pos < line.size() && line[pos] != sep_) {
-          *bad_field = field;
-          *problem = fmt::format("field {} has text after its closing quote", field);
-          return false;
-        }
-        fields_.push_back(value);
-      } else {
-        std::size_t end = line.find(sep_, pos);
-        if (end == std::string_view::npos) end = line.size();
-        std::size_t last = end;
-        while (last > pos && IsTrimmed(line[last - 1])) --last;
-        fields_.push_back(line.substr(pos, last - pos));
-        pos = end;
+bool FieldSplitter::Split(std::string_view line, int* bad_field, std::string* problem) {
+  fields_.clear();
+  std::size_t pos = 0;
+  while (true) {
+    pos = SkipSpaces(line, pos);
+    const int field = static_cast<int>(fields_.size()) + 1;
+    if (pos < line.size() && line[pos] == '"') {
+      std::string_view value;
+      if (!SplitQuoted(line, &pos, &value)) {
+        *bad_field = field;
+        *problem = fmt::format("field {} opens a quote that is not closed on this line", field);
+        return false;
       }
-      if (pos >= line.size()) return true;
-      ++pos;  // the separator
+      pos = SkipSpaces(line, pos);
+      if (pos < line.size() && line[pos] != sep_) {
+        *bad_field = field;
+        *problem = fmt::format("field {} has text after its closing quote", field);
+        return false;
+      }
+      fields_.push_back(value);
+    } else {
+      std::size_t end = line.find(sep_, pos);
+      if (end == std::string_view::npos) end = line.size();
+      std::size_t last = end;
+      while (last > pos && IsTrimmed(line[last - 1])) --last;
+      fields_.push_back(line.substr(pos, last - pos));
+      pos = end;
     }
+    if (pos >= line.size()) return true;
+    ++pos;  // the separator
   }
-  const std::vector<std::string_view>& fields() const { return fields_; }
+}
 
- private:
-  bool IsTrimmed(char c) const { return c == ' ' || (c == '\t' && sep_ != '\t'); }
-  std::size_t SkipSpaces(std::string_view line, std::size_t pos) const {
-    while (pos < line.size() && IsTrimmed(line[pos])) ++pos;
-    return pos;
-  }
-
-  // *pos is at the opening quote; leaves it after the closing one.
-  bool SplitQuoted(std::string_view line, std::size_t* pos, std::string_view* value) {
-    const std::size_t begin = *pos + 1;
-    std::size_t close = line.find('"', begin);
-    if (close == std::string_view::npos) return false;
-    if (close + 1 >= line.size() || line[close + 1] != '"') {  // the common case: no ""
-      *value = line.substr(begin, close - begin);
-      *pos = close + 1;
-      return true;
-    }
-    if (unescaped_.size() <= fields_.size()) unescaped_.resize(fields_.size() + 1);
-    std::string& buffer = unescaped_[fields_.size()];
-    buffer.clear();
-    std::size_t from = begin;
-    while (close + 1 < line.size() && line[close + 1] == '"') {
-      buffer.append(line.substr(from, close + 1 - from));  // keeps one quote
-      from = close + 2;
-      close = line.find('"', from);
-      if (close == std::string_view::npos) return false;
-    }
-    buffer.append(line.substr(from, close - from));
-    *value = buffer;
+bool FieldSplitter::SplitQuoted(std::string_view line, std::size_t* pos, std::string_view* value) {
+  const std::size_t begin = *pos + 1;
+  std::size_t close = line.find('"', begin);
+  if (close == std::string_view::npos) return false;
+  if (close + 1 >= line.size() || line[close + 1] != '"') {  // the common case: no ""
+    *value = line.substr(begin, close - begin);
     *pos = close + 1;
     return true;
   }
+  if (unescaped_.size() <= fields_.size()) unescaped_.resize(fields_.size() + 1);
+  std::string& buffer = unescaped_[fields_.size()];
+  buffer.clear();
+  std::size_t from = begin;
+  while (close + 1 < line.size() && line[close + 1] == '"') {
+    buffer.append(line.substr(from, close + 1 - from));  // keeps one quote
+    from = close + 2;
+    close = line.find('"', from);
+    if (close == std::string_view::npos) return false;
+  }
+  buffer.append(line.substr(from, close - from));
+  *value = buffer;
+  *pos = close + 1;
+  return true;
+}
 
-  char sep_;
-  std::vector<std::string_view> fields_;
-  // One buffer per field, reused across lines; a deque so growing it keeps earlier views valid.
-  std::deque<std::string> unescaped_;
-};
+}  // namespace internal
 
 // ---------------------------------------------------------------------------------------------
 // Header
+
+namespace {
 
 std::string JoinNames(const std::vector<std::string_view>& names) {
   std::string out;
@@ -234,7 +230,10 @@ std::string JoinNames(const std::vector<std::string_view>& names) {
   return out;
 }
 
-Status ReadHeader(FieldSplitter& splitter, std::string_view line, int line_no, Dataset* d) {
+}  // namespace
+
+Status internal::ReadHeader(FieldSplitter& splitter, std::string_view line, int line_no,
+                            Dataset* d) {
   int bad_field = 0;
   std::string problem;
   if (!splitter.Split(line, &bad_field, &problem)) {
@@ -262,7 +261,8 @@ Status ReadHeader(FieldSplitter& splitter, std::string_view line, int line_no, D
   return Ok{};
 }
 
-}  // namespace
+// ---------------------------------------------------------------------------------------------
+// Rows
 
 std::string NotANumberReason(std::string_view text) {
   std::string_view digits = text;
@@ -277,13 +277,43 @@ std::string NotANumberReason(std::string_view text) {
       text.find(',') != std::string_view::npos ? " (the decimal point must be '.')" : "");
 }
 
-// ---------------------------------------------------------------------------------------------
-// Rows
+Status internal::SplitRow(FieldSplitter& splitter, std::string_view line, int line_no,
+                          const Dataset& header, int previous_line, double previous_time,
+                          double* t) {
+  int bad_field = 0;
+  std::string problem;
+  if (!splitter.Split(line, &bad_field, &problem)) {
+    return FileError(header.source, line_no, bad_field, problem);
+  }
+  const std::vector<std::string_view>& fields = splitter.fields();
+  const std::size_t n_fields = header.columns.size() + 1;
+  if (fields.size() != n_fields) {
+    return FileError(header.source, line_no,
+                     static_cast<int>(std::min(fields.size(), n_fields)) + 1,
+                     fmt::format("line {} has {} field{}, the header has {}", line_no,
+                                 fields.size(), fields.size() == 1 ? "" : "s", n_fields));
+  }
+  const std::string_view time = fields[static_cast<std::size_t>(header.time_field - 1)];
+  switch (ParseCell(time, t)) {
+    case Cell::kNumber:
+      break;
+    case Cell::kMissing:
+      return FileError(header.source, line_no, header.time_field,
+                       "the time is missing (every row needs a time)");
+    case Cell::kNotANumber:
+      return FileError(header.source, line_no, header.time_field, "time " + NotANumberReason(time));
+  }
+  if (previous_line > 0 && !(*t > previous_time)) {
+    return FileError(header.source, line_no, header.time_field,
+                     fmt::format("time {} does not increase (previous row, line {}, has {})", *t,
+                                 previous_line, previous_time));
+  }
+  return Ok{};
+}
 
 Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::string source) {
   auto d = std::make_shared<Dataset>();
   d->source = std::move(source);
-  constexpr std::string_view kByteOrderMark = "\xEF\xBB\xBF";
   if (text.starts_with(kByteOrderMark)) text.remove_prefix(kByteOrderMark.size());
 
   LineReader lines(text);
@@ -308,38 +338,16 @@ Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::stri
   d->row_line.reserve(max_rows);
   for (Column& c : d->columns) c.values.reserve(max_rows);
 
-  const std::size_t time_index = static_cast<std::size_t>(d->time_field - 1);
-  int bad_field = 0;
-  std::string problem;
   while (lines.Next(&line)) {
     if (IsSkipped(line)) continue;
     const int line_no = lines.number();
-    if (!splitter.Split(line, &bad_field, &problem)) {
-      return FileError(d->source, line_no, bad_field, problem);
+    double t = 0;
+    const int previous_line = d->time.empty() ? 0 : d->row_line.back();
+    const double previous_time = d->time.empty() ? 0.0 : d->time.back();
+    if (Status s = SplitRow(splitter, line, line_no, *d, previous_line, previous_time, &t); !s) {
+      return s.error();
     }
     const std::vector<std::string_view>& fields = splitter.fields();
-    if (fields.size() != n_fields) {
-      return FileError(d->source, line_no, static_cast<int>(std::min(fields.size(), n_fields)) + 1,
-                       fmt::format("line {} has {} field{}, the header has {}", line_no,
-                                   fields.size(), fields.size() == 1 ? "" : "s", n_fields));
-    }
-
-    double t = 0;
-    switch (ParseCell(fields[time_index], &t)) {
-      case Cell::kNumber:
-        break;
-      case Cell::kMissing:
-        return FileError(d->source, line_no, d->time_field,
-                         "the time is missing (every row needs a time)");
-      case Cell::kNotANumber:
-        return FileError(d->source, line_no, d->time_field,
-                         "time " + NotANumberReason(fields[time_index]));
-    }
-    if (!d->time.empty() && !(t > d->time.back())) {
-      return FileError(d->source, line_no, d->time_field,
-                       fmt::format("time {} does not increase (previous row, line {}, has {})", t,
-                                   d->row_line.back(), d->time.back()));
-    }
     d->time.push_back(t);
     d->row_line.push_back(line_no);
 
