@@ -132,7 +132,25 @@ int main(int argc, char** argv) {
   c_dyno->add_option("--bit-period", dyno.bit_period, "PRBS bit period in s (default 0.5 / 1)");
   c_dyno->add_flag("--no-filter", dyno.no_filter, "record without the anti-alias filters");
   c_dyno->add_flag("--constant-load", dyno.constant_load, "crankshaft: hold the load torque");
-  c_dyno->add_option("--out", dyno.out, "output CSV")->required();
+  c_dyno->add_option("--out", dyno.out, "output CSV (with --live: default or - is stdout)");
+  auto* live = c_dyno->add_flag("--live", dyno.live,
+                                "fuel: stream the live dyno's CSV row by row (each row flushed) "
+                                "until --duration, or without end");
+  c_dyno
+      ->add_option("--speed", dyno.speed,
+                   "with --live: times real time (default 1; 0: as "
+                   "fast as possible)")
+      ->needs(live);
+  c_dyno
+      ->add_option("--fault", dyno.faults,
+                   "with --live: TIME:PARAMETER*FACTOR[/RAMP] (PARAMETER tau_ff, X, delay or "
+                   "gain; a step, or linear over RAMP s) or TIME:clear[/RAMP], e.g. "
+                   "60:tau_ff*1.5/30")
+      ->needs(live);
+  c_dyno
+      ->add_flag("--truth", dyno.truth,
+                 "with --live: also columns true_tau_ff, true_X, true_delay, true_Kb")
+      ->needs(live);
   c_dyno->callback([&] { run = [&] { return RunDyno(dyno); }; });
 
   SweepArgs sweep;

@@ -110,13 +110,20 @@ int RunCompare(const CompareArgs& args);
 struct DynoArgs {
   std::string experiment;  // fuel, crankshaft, square-wave
   std::string point = "f1";
-  double duration = 0;     // 0: the experiment's default
+  double duration = 0;  // 0: the experiment's default; with --live, without end
   std::uint64_t seed = 1;
   int order = 0;           // 0: default
   double bit_period = 0;   // 0: default
   bool no_filter = false;
   bool constant_load = false;
-  std::string out;
+  std::string out;  // required without --live; with it, empty or "-" is stdout
+  // --live (fuel): the live dyno (core/sim/live_dyno.h) writes its CSV a row at a time, each row
+  // flushed, paced at `speed` times real time (0: as fast as it can), until `duration` or until
+  // the reader goes away (exit 0). `faults`: TIME:PARAMETER*FACTOR[/RAMP] or TIME:clear[/RAMP].
+  bool live = false;
+  double speed = 1;
+  std::vector<std::string> faults;
+  bool truth = false;  // also the true values of the faulted parameters, as columns
 };
 int RunDyno(const DynoArgs& args);
 

@@ -1,12 +1,230 @@
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <optional>
+#include <string_view>
+#include <thread>
+
 #include <fmt/format.h>
 
 #include "app/cli/cli.h"
 #include "core/data/write_csv.h"
 #include "core/sim/dyno.h"
+#include "core/sim/live_dyno.h"
 
 namespace gb::cli {
 
+namespace {
+
+// ---- --live: the fuel experiment streamed, with faults ------------------------------------------
+
+// One --fault: at `at_s` the fault, or with `clear` every parameter back to nominal over its ramp.
+struct TimedFault {
+  std::string text;  // as given
+  double at_s = 0;
+  bool clear = false;
+  sim::FuelFault fault;
+};
+
+constexpr const char* kFaultForm =
+    "expected TIME:PARAMETER*FACTOR[/RAMP] (PARAMETER tau_ff, X, delay or gain; e.g. "
+    "60:tau_ff*1.5 for a step at 60 s, 60:tau_ff*1.5/30 for a ramp over 30 s) or TIME:clear[/RAMP]";
+
+Error FaultError(const std::string& text, const std::string& what) {
+  return InputError(fmt::format("--fault '{}': {}", text, what));
+}
+
+// The whole of `s` as a finite number.
+std::optional<double> Number(std::string_view s) {
+  double value = 0;
+  const char* end = s.data() + s.size();
+  auto [ptr, ec] = std::from_chars(s.data(), end, value);
+  if (s.empty() || ec != std::errc() || ptr != end || !std::isfinite(value)) return std::nullopt;
+  return value;
+}
+
+Result<TimedFault> ParseFault(const std::string& text) {
+  TimedFault f;
+  f.text = text;
+  const auto colon = text.find(':');
+  if (colon == std::string::npos) return FaultError(text, kFaultForm);
+  const std::string_view spec = std::string_view(text).substr(colon + 1);
+  const std::string_view time = std::string_view(text).substr(0, colon);
+  const auto at = Number(time);
+  if (!at || *at < 0)
+    return FaultError(text, fmt::format("the time '{}' is not a number of seconds >= 0", time));
+  f.at_s = *at;
+  const auto slash = spec.find('/');
+  const std::string_view change = spec.substr(0, slash);
+  if (slash != std::string_view::npos) {
+    const std::string_view ramp = spec.substr(slash + 1);
+    const auto r = Number(ramp);
+    if (!r || *r < 0)
+      return FaultError(text, fmt::format("the ramp '{}' is not a number of seconds >= 0", ramp));
+    f.fault.ramp_s = *r;
+  }
+  if (change == "clear") {
+    f.clear = true;
+    return f;
+  }
+  const auto star = change.find('*');
+  const std::string_view name = change.substr(0, star);
+  using Kind = sim::FuelFault::Kind;
+  bool known = false;
+  for (Kind kind : {Kind::kTauFF, Kind::kX, Kind::kSensorDelay, Kind::kSensorGain}) {
+    if (name == sim::FaultName(kind)) {
+      f.fault.kind = kind;
+      known = true;
+    }
+  }
+  if (!known)
+    return FaultError(
+        text, fmt::format("unknown parameter '{}' (tau_ff, X, delay, gain, or clear)", name));
+  if (star == std::string_view::npos)
+    return FaultError(text, fmt::format("no factor: expected {}*FACTOR", name));
+  const std::string_view factor = change.substr(star + 1);
+  const auto x = Number(factor);
+  if (!x) return FaultError(text, fmt::format("the factor '{}' is not a number", factor));
+  f.fault.factor = *x;
+  return f;
+}
+
+// The --fault arguments in time order (the command line's order at equal times), checked by
+// replaying them on the operating point's values: a fault the dyno would refuse is refused here,
+// before the run.
+Result<std::vector<TimedFault>> ParseFaults(const std::vector<std::string>& texts,
+                                            const sim::FuelOperatingPoint& point, double duration) {
+  std::vector<TimedFault> faults;
+  for (const auto& text : texts) {
+    auto f = ParseFault(text);
+    if (!f) return f.error();
+    if (duration > 0 && f->at_s >= duration)
+      return FaultError(text, fmt::format("{} s is not before the end of the run (--duration {})",
+                                          f->at_s, duration));
+    faults.push_back(std::move(*f));
+  }
+  std::stable_sort(faults.begin(), faults.end(),
+                   [](const TimedFault& a, const TimedFault& b) { return a.at_s < b.at_s; });
+  sim::FuelFaults replay(point, sim::LiveFuelDyno::MaxSensorDelay(point));
+  for (const auto& f : faults) {
+    const Status st =
+        f.clear ? replay.Clear(f.at_s, f.fault.ramp_s) : replay.Inject(f.fault, f.at_s);
+    if (!st) return FaultError(f.text, st.error().message);
+  }
+  return faults;
+}
+
+std::string Describe(const TimedFault& f) {
+  const std::string ramp =
+      f.fault.ramp_s > 0 ? fmt::format("linearly over {} s", f.fault.ramp_s) : "as a step";
+  if (f.clear)
+    return fmt::format("fault: at {} s every parameter back to nominal, {}", f.at_s, ramp);
+  return fmt::format("fault: at {} s {} x {}, {}", f.at_s, sim::FaultName(f.fault.kind),
+                     f.fault.factor, ramp);
+}
+
+std::string Regenerate(const DynoArgs& args) {
+  std::string line = fmt::format("regenerate: greybench-cli dyno fuel --point {} --seed {}",
+                                 args.point, args.seed);
+  if (args.order > 0) line += fmt::format(" --order {}", args.order);
+  if (args.bit_period > 0) line += fmt::format(" --bit-period {}", args.bit_period);
+  if (args.no_filter) line += " --no-filter";
+  line += " --live --speed 0";
+  if (args.duration > 0) line += fmt::format(" --duration {}", args.duration);
+  for (const auto& f : args.faults) line += " --fault '" + f + "'";
+  if (args.truth) line += " --truth";
+  return line + " --out FILE";
+}
+
+// Writes `text` and flushes. false when the stream failed; *reader_gone when that was because
+// the reader of a pipe went away.
+bool Put(std::FILE* out, const std::string& text, bool* reader_gone) {
+  if (std::fputs(text.c_str(), out) >= 0 && std::fflush(out) == 0) return true;
+  *reader_gone = errno == EPIPE;
+  return false;
+}
+
+int StreamFuel(const DynoArgs& args, const sim::FuelExperiment& e) {
+  if (!(args.speed >= 0 && std::isfinite(args.speed)))
+    return Fail(InputError(fmt::format(
+        "--speed {}: expected a factor of real time >= 0 (0: as fast as possible)", args.speed)));
+  if (!(args.duration >= 0 && std::isfinite(args.duration)))
+    return Fail(InputError(fmt::format(
+        "--duration {}: expected seconds >= 0 (0 or none: without end)", args.duration)));
+  auto faults = ParseFaults(args.faults, e.point, args.duration);
+  if (!faults) return Fail(faults.error());
+  auto dyno = sim::LiveFuelDyno::Create(e);
+  if (!dyno) return Fail(dyno.error());
+
+  const bool to_stdout = args.out.empty() || args.out == "-";
+  std::FILE* out = to_stdout ? stdout : std::fopen(args.out.c_str(), "w");
+  if (!out)
+    return Fail(
+        InputError(fmt::format("{}: cannot write the file: {}", args.out, std::strerror(errno))));
+  std::signal(SIGPIPE, SIG_IGN);  // a reader that goes away is EPIPE, and the end of the run
+  auto finish = [&](bool ok, bool reader_gone) {
+    const int error = errno;
+    if (!to_stdout && std::fclose(out) != 0) ok = false;
+    if (ok || reader_gone) return 0;
+    return Fail(InputError(fmt::format("{}: cannot write: {}", to_stdout ? "stdout" : args.out,
+                                       std::strerror(error))));
+  };
+
+  std::string head;
+  std::vector<std::string> comments = sim::FuelExperimentComments(e);
+  for (const auto& f : *faults) comments.push_back(Describe(f));
+  comments.push_back(Regenerate(args));
+  for (const auto& c : comments) head += "# " + c + "\n";
+  head += args.truth ? "t,mfi,ilambda,true_tau_ff,true_X,true_delay,true_Kb\n" : "t,mfi,ilambda\n";
+  bool reader_gone = false;
+  if (!Put(out, head, &reader_gone)) return finish(false, reader_gone);
+
+  const double ts = e.recording.sample_time;
+  const auto n_samples =
+      args.duration > 0 ? static_cast<std::int64_t>(std::ceil(args.duration / ts - 1e-9)) : -1;
+  const auto start = std::chrono::steady_clock::now();
+  std::size_t next_fault = 0;
+  std::string row;
+  for (std::int64_t k = 0; n_samples < 0 || k < n_samples; ++k) {
+    // A fault at T acts from the first sample at or after T.
+    for (; next_fault < faults->size() && (*faults)[next_fault].at_s <= dyno->Time() + 1e-6 * ts;
+         ++next_fault) {
+      const TimedFault& f = (*faults)[next_fault];
+      const Status st = f.clear ? dyno->ClearFaults(f.fault.ramp_s) : dyno->Inject(f.fault);
+      if (!st) {
+        finish(true, false);
+        return Fail(FaultError(f.text, st.error().message));
+      }
+    }
+    const sim::FuelTruth truth = dyno->Truth();
+    const sim::FuelSample s = dyno->Next();
+    row.clear();
+    fmt::format_to(std::back_inserter(row), "{},{},{}", s.t, s.mfi, s.ilambda);
+    if (args.truth)
+      fmt::format_to(std::back_inserter(row), ",{},{},{},{}", truth.tau_ff, truth.X, truth.delay_s,
+                     truth.Kb);
+    row += '\n';
+    if (args.speed > 0)
+      std::this_thread::sleep_until(start + std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                                std::chrono::duration<double>(s.t / args.speed)));
+    if (!Put(out, row, &reader_gone)) return finish(false, reader_gone);
+  }
+  return finish(true, false);
+}
+
+}  // namespace
+
 int RunDyno(const DynoArgs& args) {
+  if (args.live && args.experiment != "fuel")
+    return Fail(
+        InputError(fmt::format("--live streams the fuel experiment, not {}", args.experiment)));
+  if (!args.live && args.out.empty())
+    return Fail(InputError("dyno: --out is required (or --live to stream the CSV to stdout)"));
   Result<sim::Record> record = InputError("unknown experiment");
   if (args.experiment == "fuel") {
     auto point = sim::FindFuelPoint(args.point);
@@ -18,6 +236,7 @@ int RunDyno(const DynoArgs& args) {
     if (args.bit_period > 0) e.bit_period = args.bit_period;
     e.seed = args.seed;
     if (args.no_filter) e.recording.filter_hz = 0;
+    if (args.live) return StreamFuel(args, e);
     record = sim::RunFuelExperiment(e);
   } else if (args.experiment == "crankshaft") {
     sim::CrankshaftExperiment e;

@@ -1,5 +1,7 @@
 #include "core/design/prbs.h"
 
+#include <bit>
+#include <cassert>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -41,19 +43,26 @@ Signal Sample(double sample_time, double duration, F level) {
 
 }  // namespace
 
-std::vector<std::uint8_t> PrbsBits(int order, std::uint32_t seed, std::size_t count) {
+PrbsRegister::PrbsRegister(int order, std::uint32_t seed) : order_(order) {
   assert(order >= kMinPrbsOrder && order <= kMaxPrbsOrder);
-  const auto& taps = Taps()[order];
-  const std::uint32_t mask = (1u << order) - 1u;
-  std::uint32_t reg = seed & mask;
-  if (reg == 0) reg = 1;
+  mask_ = (1u << order) - 1u;
+  taps_ = 0;
+  for (int tap : Taps()[order]) taps_ |= 1u << (tap - 1);
+  reg_ = seed & mask_;
+  if (reg_ == 0) reg_ = 1;
+}
+
+std::uint8_t PrbsRegister::Next() {
+  const auto bit = static_cast<std::uint8_t>((reg_ >> (order_ - 1)) & 1u);
+  const auto feedback = static_cast<std::uint32_t>(std::popcount(reg_ & taps_) & 1);
+  reg_ = ((reg_ << 1) | feedback) & mask_;
+  return bit;
+}
+
+std::vector<std::uint8_t> PrbsBits(int order, std::uint32_t seed, std::size_t count) {
+  PrbsRegister reg(order, seed);
   std::vector<std::uint8_t> bits(count);
-  for (std::size_t i = 0; i < count; ++i) {
-    bits[i] = static_cast<std::uint8_t>((reg >> (order - 1)) & 1u);
-    std::uint32_t feedback = 0;
-    for (int tap : taps) feedback ^= (reg >> (tap - 1)) & 1u;
-    reg = ((reg << 1) | feedback) & mask;
-  }
+  for (auto& b : bits) b = reg.Next();
   return bits;
 }
 

@@ -25,6 +25,21 @@ constexpr int kMaxPrbsOrder = 24;
 // (any value; it is reduced to n bits, and 0 is replaced by 1 since the all-zero state is stuck).
 std::vector<std::uint8_t> PrbsBits(int order, std::uint32_t seed, std::size_t count);
 
+// The same register, for a sequence without end (a live experiment): Next() returns the bits
+// PrbsBits(order, seed, ·) returns, one at a time, and repeats after 2^n - 1 of them.
+// Precondition: kMinPrbsOrder <= order <= kMaxPrbsOrder.
+class PrbsRegister {
+ public:
+  PrbsRegister(int order, std::uint32_t seed);
+  std::uint8_t Next();
+
+ private:
+  int order_;
+  std::uint32_t mask_;
+  std::uint32_t taps_;  // bit (tap - 1) set for every tap
+  std::uint32_t reg_;
+};
+
 struct PrbsOptions {
   int order = 6;
   double bit_period = 0.5;     // T_prbs, in the time unit of the data

@@ -5,9 +5,10 @@
 // Fuel experiment (eq. 13-14), per operating point:
 //   injected fuel  mfi(t) = bias · (1 ± 10 %) PRBS (order n, bit period T_prbs), bias = 1/K_b g/s
 //                  so that 1/λ ≈ 1 at the operating point
-//   fuel film      dmfv = (-mfv + (1-X) mfi)/τ_fv dt + σ11 dω1,  dmff = (-mff + X mfi)/τ_ff dt + σ12 dω2
-//   λ sensor       1/λ(t) = K_b (mfv + mff)(t - Δt)     (exhaust transport delay Δt; linear sensor)
-//   recording      every channel (mfi and 1/λ) through the same 4th-order Butterworth low-pass
+//   fuel film      dmfv = (-mfv + (1-X) mfi)/τ_fv dt + σ11 dω1,  dmff = (-mff + X mfi)/τ_ff dt +
+//   σ12 dω2 λ sensor       1/λ(t) = K_b (mfv + mff)(t - Δt)     (exhaust transport delay Δt; linear
+//   sensor) recording      every channel (mfi and 1/λ) through the same 4th-order Butterworth
+//   low-pass
 //                  (20 Hz), sampled at 80 Hz (T_s = 0.0125 s); white noise of variance σ2² added at
 //                  the samples (the converter's noise)
 // The continuous world is simulated on a grid T_s / oversample with exact discretisation (the
@@ -20,6 +21,10 @@
 // Crankshaft experiment (eq. 15-16): throttle (and in a second run the load torque) perturbed by
 // PRBS; engine speed N and manifold pressure P_man recorded through the same filters at 16 Hz
 // (T_s = 0.0625 s).
+//
+// The fuel and crankshaft experiments also run live, one sample at a time and with faults
+// injected while they run (live_dyno.h); the records here are those live runs, without faults,
+// for `duration`.
 //
 // Square-wave test (Fig. 2): ±10 % square wave on the fuel at 43.5°, 3380 rpm, with an
 // instantaneous vapour path (τ_fv = 0): 1/λ = K_b ((1-X) mfi + mff), τ_ff = 0.25 s, X = 0.22.
@@ -66,7 +71,7 @@ struct FuelExperiment {
   int prbs_order = 6;
   double bit_period = 0.5;
   double amplitude = 0.10;      // ± fraction of the bias
-  double duration = 125.0;      // s (10 000 samples at 80 Hz)
+  double duration = 125.0;      // s (10 000 samples at 80 Hz); the live dyno does not use it
   std::uint64_t seed = 1;
   RecordingOptions recording;
   bool IsValid(std::string* why) const;
@@ -81,6 +86,8 @@ struct Record {
 };
 
 Result<Record> RunFuelExperiment(const FuelExperiment& e);
+// The comment lines of its record: the truth and the settings.
+std::vector<std::string> FuelExperimentComments(const FuelExperiment& e);
 
 // The crankshaft model's values of section 5.
 struct CrankshaftPoint {
@@ -101,7 +108,7 @@ struct CrankshaftExperiment {
   double load_amplitude = 5.0;      // ± N m around the bias
   int prbs_order = 7;
   double bit_period = 1.0;
-  double duration = 600.0;
+  double duration = 600.0;  // s; the live dyno does not use it
   std::uint64_t seed = 1;
   RecordingOptions recording{0.0625, 10, 20.0, 4};
   bool IsValid(std::string* why) const;
