@@ -1,0 +1,511 @@
+// Sections: 1. set-up (tracked parameters, the prior, the start)  2. the filter and its
+//           sensitivities, one row at a time  3. the parameter step
+#include "core/online/recursive.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <set>
+
+#include "core/filter/internal.h"
+
+namespace gb::online {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr int kMaxHalvings = 20;
+// A parameter on a bound starts this fraction of its range (or of 1 + |bound|) inside it.
+constexpr double kInside = 1e-6;
+// The largest step of one row in the working coordinates (a factor e^1 in a scale parameter).
+constexpr double kMaxWorkingStep = 0.1;
+
+// The working coordinate w of a parameter with bounds [lo, hi]: log((θ-lo)/(hi-θ)) with both,
+// log(θ-lo) or -log(hi-θ) with one, θ itself with none. The steps are taken in w, so that the
+// bounds hold by construction and a variance moves by factors, not by increments.
+double ToWorking(double v, double lo, double hi) {
+  const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
+  if (has_lo && has_hi) return std::log((v - lo) / (hi - v));
+  if (has_lo) return std::log(v - lo);
+  if (has_hi) return -std::log(hi - v);
+  return v;
+}
+double FromWorking(double w, double lo, double hi) {
+  const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
+  if (has_lo && has_hi) return lo + (hi - lo) / (1.0 + std::exp(-w));
+  if (has_lo) return lo + std::exp(w);
+  if (has_hi) return hi - std::exp(-w);
+  return w;
+}
+// dθ/dw at θ = v.
+double WorkingSlope(double v, double lo, double hi) {
+  const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
+  if (has_lo && has_hi) return (v - lo) * (hi - v) / (hi - lo);
+  if (has_lo) return v - lo;
+  if (has_hi) return hi - v;
+  return 1.0;
+}
+double Inside(double v, double lo, double hi) {
+  const double span =
+      std::isfinite(hi - lo) ? hi - lo : 1.0 + std::abs(std::isfinite(lo) ? lo : hi);
+  if (std::isfinite(lo)) v = std::max(v, lo + kInside * span);
+  if (std::isfinite(hi)) v = std::min(v, hi - kInside * span);
+  return v;
+}
+
+}  // namespace
+
+// ---- 1. set-up -------------------------------------------------------------------------------
+
+std::vector<int> TrackableParameters(const model::LinearModel& model, std::span<const int> free,
+                                     std::span<const double> /*theta*/) {
+  const int n = model.n_states(), m = model.n_inputs(), p = model.n_outputs();
+  // Entries in LinearModel::entries() order: A, B, c, C, D, d, sigma, S, then x0 and P0.
+  const std::size_t dynamic =
+      static_cast<std::size_t>(n * n + n * m + n + p * n + p * m + p + n + p);
+  std::set<std::string> names;
+  const auto& entries = model.entries();
+  for (std::size_t k = 0; k < dynamic && k < entries.size(); ++k)
+    expr::CollectNames(entries[k], &names);
+  std::vector<int> out;
+  for (int i : free)
+    if (names.count(model.spec().parameters[i].name)) out.push_back(i);
+  return out;
+}
+
+Reference ReferenceFromSummary(const estimate::EstimateSummary& summary,
+                               const model::ModelSpec& spec, std::string source) {
+  Reference r;
+  r.source = std::move(source);
+  r.theta = summary.theta;
+  for (const estimate::DelayEstimate& d : summary.delays) r.delay.push_back(d.estimate);
+  for (const std::string& name : summary.correlation_names)
+    r.free.push_back(spec.ParameterIndex(name));
+  r.covariance = summary.covariance;
+  r.n_obs = summary.n_obs;
+  return r;
+}
+
+RecursiveMl::RecursiveMl(const model::LinearModel& model, const Reference& reference,
+                         const RecursiveOptions& options, bool adapt)
+    : model_(model),
+      options_(options),
+      adapt_(adapt),
+      source_(reference.source),
+      theta_(reference.theta) {}
+
+std::vector<std::string> RecursiveMl::tracked_names() const {
+  std::vector<std::string> out;
+  for (int i : tracked_) out.push_back(model_.spec().parameters[i].name);
+  return out;
+}
+
+Result<RecursiveMl> RecursiveMl::Create(const model::LinearModel& model, const Reference& reference,
+                                        const RecursiveOptions& options, bool adapt) {
+  if (!(options.forgetting > 0.0 && options.forgetting <= 1.0))
+    return InputError(
+        fmt::format("the forgetting factor must be in (0, 1], not {:g}", options.forgetting));
+  if (options.forgetting_start > options.forgetting)
+    return InputError(fmt::format("the starting forgetting factor {:g} is above the final one {:g}",
+                                  options.forgetting_start, options.forgetting));
+  if (!(options.max_step_sd > 0.0))
+    return InputError(
+        fmt::format("the largest step must be positive, not {:g} SD", options.max_step_sd));
+  const model::ModelSpec& spec = model.spec();
+  if (reference.theta.size() != spec.parameters.size())
+    return InputError(fmt::format("the reference has {} parameter values, the model {}",
+                                  reference.theta.size(), spec.parameters.size()));
+  RecursiveMl r(model, reference, options, adapt);
+  const int p = model.n_outputs();
+  r.delay_ = reference.delay;
+  if (r.delay_.empty())
+    for (const model::DelaySpec& d : spec.output_delay) r.delay_.push_back(d.min);
+  if (static_cast<int>(r.delay_.size()) != p)
+    return InputError(fmt::format("the reference gives {} output delays, the model has {} outputs",
+                                  r.delay_.size(), p));
+  for (int d : r.delay_) {
+    if (d < 0) return InputError(fmt::format("an output delay of {} samples", d));
+    r.lag_ = std::max(r.lag_, d);
+  }
+  if (adapt) r.tracked_ = TrackableParameters(model, reference.free, reference.theta);
+  const int k = static_cast<int>(r.tracked_.size());
+  for (int i : r.tracked_) {
+    const model::Parameter& par = spec.parameters[i];
+    r.lower_.push_back(par.lower.value_or(-kInf));
+    r.upper_.push_back(par.upper.value_or(kInf));
+    r.theta_[i] = Inside(r.theta_[i], r.lower_.back(), r.upper_.back());
+  }
+  if (Status s = r.Evaluate(); !s) return s.error();
+
+  // The prior information (working coordinates): the reference's, restricted to the tracked
+  // parameters and scaled to prior_rows rows; without a covariance, a weak prior of two units of
+  // the working coordinate (a factor e² in a scale parameter) or a parameter's size.
+  r.F_ = Eigen::MatrixXd::Zero(k, k);
+  const Eigen::VectorXd slope = r.Slopes();
+  std::vector<int> at(k, -1);
+  for (int a = 0; a < k; ++a)
+    for (std::size_t b = 0; b < reference.free.size(); ++b)
+      if (reference.free[b] == r.tracked_[a]) at[a] = static_cast<int>(b);
+  const bool have_cov =
+      reference.covariance.rows() == static_cast<Eigen::Index>(reference.free.size()) &&
+      std::all_of(at.begin(), at.end(), [](int b) { return b >= 0; }) && reference.n_obs > 0;
+  bool prior_set = false;
+  if (have_cov && k > 0) {
+    Eigen::MatrixXd cov(k, k);
+    for (int a = 0; a < k; ++a)
+      for (int b = 0; b < k; ++b) cov(a, b) = reference.covariance(at[a], at[b]);
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(cov);
+    if (ldlt.info() == Eigen::Success && ldlt.isPositive() && cov.allFinite() &&
+        (ldlt.vectorD().array() > 0.0).all()) {
+      const double ref_rows = static_cast<double>(reference.n_obs) / std::max(p, 1);
+      double rows = options.prior_rows;
+      if (!(rows > 0.0))
+        rows = options.forgetting < 1.0 ? 1.0 / (1.0 - options.forgetting) : ref_rows;
+      r.F_ = slope.asDiagonal() * ldlt.solve(Eigen::MatrixXd::Identity(k, k)) * slope.asDiagonal() *
+             (rows / ref_rows);
+      r.F_ = 0.5 * (r.F_ + r.F_.transpose()).eval();
+      prior_set = r.F_.allFinite();
+    }
+  }
+  if (!prior_set) {
+    r.F_.setZero();
+    for (int a = 0; a < k; ++a) {
+      const bool bounded = std::isfinite(r.lower_[a]) || std::isfinite(r.upper_[a]);
+      const double sd = bounded ? 2.0 : std::max(std::abs(r.theta_[r.tracked_[a]]), 1.0);
+      r.F_(a, a) = 1.0 / (sd * sd);
+    }
+  }
+  r.G_ = r.F_;
+  r.lambda_ = options.forgetting_start > 0.0 ? options.forgetting_start : options.forgetting;
+  r.rows_.resize(static_cast<std::size_t>(r.lag_) + 2);
+  return r;
+}
+
+Eigen::VectorXd RecursiveMl::Slopes() const {
+  Eigen::VectorXd out(static_cast<Eigen::Index>(tracked_.size()));
+  for (std::size_t a = 0; a < tracked_.size(); ++a)
+    out(static_cast<Eigen::Index>(a)) = WorkingSlope(theta_[tracked_[a]], lower_[a], upper_[a]);
+  return out;
+}
+
+Status RecursiveMl::Evaluate() {
+  auto ss = model_.Evaluate(theta_);
+  if (!ss) return ss.error();
+  std::vector<model::StateSpace> dss;
+  if (!tracked_.empty()) {
+    auto d = model_.EvaluateJacobian(theta_, tracked_);
+    if (!d) return d.error();
+    dss = std::move(*d);
+  }
+  ss_ = std::move(*ss);
+  dss_ = std::move(dss);
+  disc_dt_ = -1.0;
+  return Ok{};
+}
+
+Status RecursiveMl::Discretise(double dt) {
+  if (dt == disc_dt_) return Ok{};
+  const Eigen::VectorXd sigma2 = ss_.sigma.array().square();
+  const model::InputHold hold = model_.spec().input_hold;
+  filter::Discrete disc = filter::Discretize(ss_.A, ss_.B, ss_.c, sigma2, dt, hold);
+  if (!disc.Phi.allFinite() || !disc.Q.allFinite())
+    return NumericalError(
+        fmt::format("the model cannot be discretised over {:g} at the current estimate", dt));
+  std::vector<filter::Discrete> ddisc;
+  ddisc.reserve(dss_.size());
+  for (const model::StateSpace& d : dss_)
+    ddisc.push_back(filter::DiscretizeDerivative(ss_.A, ss_.B, ss_.c, sigma2, d.A, d.B, d.c,
+                                                 2.0 * ss_.sigma.cwiseProduct(d.sigma), dt, hold));
+  disc_ = std::move(disc);
+  ddisc_ = std::move(ddisc);
+  disc_dt_ = dt;
+  return Ok{};
+}
+
+Status RecursiveMl::Start(const Sample& first, const Sample* second) {
+  const int n = ss_.n_states();
+  const int k = static_cast<int>(tracked_.size());
+  Eigen::ComplexEigenSolver<Eigen::MatrixXd> es(ss_.A, false);
+  double slowest = 0.0;
+  bool stable = es.info() == Eigen::Success;
+  if (stable) {
+    for (Eigen::Index i = 0; i < es.eigenvalues().size(); ++i) {
+      const double re = es.eigenvalues()(i).real();
+      if (!(re < 0.0))
+        stable = false;
+      else
+        slowest = std::max(slowest, -1.0 / re);
+    }
+  }
+  dx_ = Eigen::MatrixXd::Zero(n, k);
+  dP_.assign(static_cast<std::size_t>(k), Eigen::MatrixXd::Zero(n, n));
+  const Eigen::VectorXd sigma2 = ss_.sigma.array().square();
+  Eigen::MatrixXd P;
+  std::complex<double> bad;
+  if (options_.start == RecursiveOptions::Start::kModel) {
+    // As the batch filter: x0, P0 and their derivatives (score.h).
+    x_ = ss_.x0;
+    for (int i = 0; i < k; ++i) dx_.col(i) = dss_[i].x0;
+    switch (model_.spec().initial_covariance) {
+      case model::InitialCovariance::kCtsm: {
+        if (Status s = Discretise(second->t - first.t); !s) return s;
+        P_ = disc_.Q;
+        for (int i = 0; i < k; ++i) dP_[i] = ddisc_[i].Q;
+        break;
+      }
+      case model::InitialCovariance::kStationary: {
+        if (!filter::StationaryCovariance(ss_.A, sigma2, &P, &bad))
+          return NumericalError("initial_covariance \"stationary\" needs a stable A");
+        P_ = P;
+        const Eigen::PartialPivLU<Eigen::MatrixXd> lu(filter::LyapunovOperator(ss_.A));
+        for (int i = 0; i < k; ++i) {
+          Eigen::MatrixXd rhs = dss_[i].A * P + P * dss_[i].A.transpose();
+          rhs.diagonal() += 2.0 * ss_.sigma.cwiseProduct(dss_[i].sigma);
+          const Eigen::VectorXd v = lu.solve(-Eigen::Map<const Eigen::VectorXd>(rhs.data(), n * n));
+          const Eigen::MatrixXd dP = Eigen::Map<const Eigen::MatrixXd>(v.data(), n, n);
+          dP_[i] = 0.5 * (dP + dP.transpose());
+        }
+        break;
+      }
+      case model::InitialCovariance::kExplicit:
+        P_ = ss_.P0_diag.asDiagonal();
+        for (int i = 0; i < k; ++i) dP_[i] = dss_[i].P0_diag.asDiagonal();
+        break;
+    }
+  } else if (stable && filter::StationaryCovariance(ss_.A, sigma2, &P, &bad)) {
+    // The equilibrium for the first input and the stationary covariance.
+    const Eigen::Map<const Eigen::VectorXd> u0(first.u.data(),
+                                               static_cast<Eigen::Index>(first.u.size()));
+    x_ = ss_.A.fullPivLu().solve(-(ss_.B * u0 + ss_.c));
+    P_ = P;
+  } else {
+    x_ = ss_.x0;
+    P_ = ss_.P0_diag.size() == n ? Eigen::MatrixXd(ss_.P0_diag.asDiagonal())
+                                 : Eigen::MatrixXd(sigma2.asDiagonal());
+  }
+  if (options_.warmup >= 0) {
+    warmup_ = options_.warmup;
+  } else {
+    // Five of the slowest time constants, in rows of the first interval (the rows are not yet
+    // known: the second row's time decides).
+    warmup_ = -1;
+    warmup_time_ = 5.0 * slowest;
+  }
+  return Ok{};
+}
+
+// ---- 2. the filter and its sensitivities -----------------------------------------------------
+
+Status RecursiveMl::TimeUpdate(const Sample& from, const Sample& to) {
+  const double dt = to.t - from.t;
+  if (!(dt > 0.0))
+    return InputError(
+        fmt::format("time {:g} does not increase (the row before has {:g})", to.t, from.t));
+  if (warmup_ < 0) warmup_ = static_cast<int>(std::ceil(warmup_time_ / dt));
+  if (Status s = Discretise(dt); !s) return s;
+  const int m = ss_.n_inputs();
+  const int k = static_cast<int>(tracked_.size());
+  const bool foh = model_.spec().input_hold == model::InputHold::kFoh;
+  const Eigen::Map<const Eigen::VectorXd> u0(from.u.data(), m);
+  const Eigen::Map<const Eigen::VectorXd> u1(to.u.data(), m);
+  const Eigen::MatrixXd PhiP = disc_.Phi * P_;
+  for (int i = 0; i < k; ++i) {
+    const filter::Discrete& d = ddisc_[i];
+    Eigen::VectorXd next = d.Phi * x_ + disc_.Phi * dx_.col(i) + d.g;
+    if (m > 0) {
+      next.noalias() += d.Gamma0 * u0;
+      if (foh) next.noalias() += d.Gamma1 * u1;
+    }
+    dx_.col(i) = next;
+    const Eigen::MatrixXd T = d.Phi * PhiP.transpose();
+    Eigen::MatrixXd dP = disc_.Phi * dP_[i] * disc_.Phi.transpose();
+    dP += T + T.transpose() + d.Q;
+    dP_[i] = 0.5 * (dP + dP.transpose());
+  }
+  Eigen::VectorXd next = disc_.Phi * x_ + disc_.g;
+  if (m > 0) {
+    next.noalias() += disc_.Gamma0 * u0;
+    if (foh) next.noalias() += disc_.Gamma1 * u1;
+  }
+  x_ = next;
+  Eigen::MatrixXd P = PhiP * disc_.Phi.transpose() + disc_.Q;
+  P_ = 0.5 * (P + P.transpose());
+  return Ok{};
+}
+
+Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
+  const int n = ss_.n_states(), m = ss_.n_inputs(), p = ss_.n_outputs();
+  const int k = static_cast<int>(tracked_.size());
+  const std::size_t ring = rows_.size();
+  const Sample& row_j = rows_[static_cast<std::size_t>(j) % ring];
+  RecursiveUpdate up;
+  up.index = j;
+  up.t = row_j.t;
+  up.line = row_j.line;
+  up.innovation.assign(static_cast<std::size_t>(p), kNaN);
+  up.innovation_sd.assign(static_cast<std::size_t>(p), kNaN);
+  const Eigen::Map<const Eigen::VectorXd> u(row_j.u.data(), m);
+
+  Eigen::VectorXd score = Eigen::VectorXd::Zero(k), info_eps(k), info_R(k);
+  Eigen::MatrixXd info = Eigen::MatrixXd::Zero(k, k);
+  Eigen::VectorXd d_logdet = Eigen::VectorXd::Zero(k), d_r2 = Eigen::VectorXd::Zero(k);
+  double logdet = 0.0, r2 = 0.0;
+  int p_j = 0;
+  Eigen::VectorXd dPCt(n);
+  for (int o = 0; o < p; ++o) {
+    const Sample& row = rows_[static_cast<std::size_t>(j + delay_[o]) % ring];
+    const double y = row.y[o];
+    if (std::isnan(y)) continue;
+    const auto c = ss_.C.row(o);
+    const double yhat = c.dot(x_) + ss_.D.row(o).dot(u) + ss_.d(o);
+    const Eigen::VectorXd PCt = P_ * c.transpose();
+    const double R = c.dot(PCt) + ss_.S(o);
+    if (!(R > 0.0)) {
+      Error e = NumericalError(fmt::format(
+          "the innovation variance of output '{}' is {:g}, not positive, at the current estimate",
+          model_.spec().outputs[o], R));
+      e.file = source_;
+      e.line = row.line;
+      return e;
+    }
+    const double eps = y - yhat;
+    for (int i = 0; i < k; ++i) {
+      const model::StateSpace& d = dss_[i];
+      const auto dc = d.C.row(o);
+      const double dyhat = dc.dot(x_) + c.dot(dx_.col(i)) + d.D.row(o).dot(u) + d.d(o);
+      dPCt.noalias() = dP_[i] * c.transpose();
+      dPCt.noalias() += P_ * dc.transpose();
+      const double dR = dc.dot(PCt) + c.dot(dPCt) + d.S(o);
+      const double deps = -dyhat;
+      d_logdet(i) += dR / R;
+      d_r2(i) += (2.0 * eps * deps - eps * eps * dR / R) / R;
+      info_eps(i) = deps;
+      info_R(i) = dR;
+      dx_.col(i) += dPCt * (eps / R) + PCt * ((deps - eps * dR / R) / R);
+      Eigen::MatrixXd dP = dP_[i] - (dPCt * PCt.transpose() + PCt * dPCt.transpose()) / R;
+      dP.noalias() += PCt * PCt.transpose() * (dR / (R * R));
+      dP_[i] = std::move(dP);
+    }
+    info.noalias() += info_eps * info_eps.transpose() / R;
+    info.noalias() += 0.5 * info_R * info_R.transpose() / (R * R);
+    logdet += std::log(R);
+    r2 += eps * eps / R;
+    ++p_j;
+    x_.noalias() += PCt * (eps / R);
+    P_.noalias() -= PCt * PCt.transpose() / R;
+    up.innovation[o] = eps;
+    up.innovation_sd[o] = std::sqrt(R);
+  }
+  if (p_j > 0) {
+    double d_rho = 0.5;
+    const auto& huber = model_.spec().robust_huber;
+    const double rho =
+        filter::internal::HuberRho(r2, huber.has_value(), huber.value_or(0.0), &d_rho);
+    up.loglik_term = -0.5 * (logdet + p_j * filter::internal::kLog2Pi) - rho;
+    score = -(0.5 * d_logdet + d_rho * d_r2);
+  }
+  up.score.assign(score.data(), score.data() + k);
+  up.warming_up = j < warmup_ || warmup_ < 0;
+  if (k > 0 && p_j > 0 && !up.warming_up) {
+    if (options_.forgetting_start > 0.0)
+      lambda_ = ramp_ * lambda_ + (1.0 - ramp_) * options_.forgetting;
+    const Eigen::VectorXd slope = Slopes();
+    const Eigen::MatrixXd info_w = slope.asDiagonal() * info * slope.asDiagonal();
+    F_ = lambda_ * F_ + info_w;
+    G_ = lambda_ * lambda_ * G_ + info_w;
+    Step(slope.cwiseProduct(score));
+  }
+  for (int i : tracked_) up.theta.push_back(theta_[i]);
+  const Eigen::MatrixXd cov = Covariance();
+  for (int a = 0; a < k; ++a) up.sd.push_back(std::sqrt(std::max(cov(a, a), 0.0)));
+  return up;
+}
+
+Result<std::vector<RecursiveUpdate>> RecursiveMl::Push(const Sample& row) {
+  if (static_cast<int>(row.u.size()) != ss_.n_inputs() ||
+      static_cast<int>(row.y.size()) != ss_.n_outputs())
+    return InputError("a row with the wrong number of inputs or outputs");
+  const std::size_t ring = rows_.size();
+  if (n_rows_ > 0) {
+    const Sample& last = rows_[static_cast<std::size_t>(n_rows_ - 1) % ring];
+    if (!(row.t > last.t)) {
+      Error e =
+          InputError(fmt::format("time {:g} does not increase (the row before, line {}, has {:g})",
+                                 row.t, last.line, last.t));
+      e.file = source_;
+      e.line = row.line;
+      return e;
+    }
+  }
+  rows_[static_cast<std::size_t>(n_rows_) % ring] = row;
+  ++n_rows_;
+  // State index j is complete once row j + lag is in (and, for the model's own start, the
+  // second row: P0 "ctsm" is Q over the first interval).
+  const bool model_start = options_.start == RecursiveOptions::Start::kModel;
+  std::vector<RecursiveUpdate> out;
+  while (next_index_ + lag_ < n_rows_ && !(model_start && n_rows_ < 2)) {
+    const int j = next_index_;
+    const Sample& at = rows_[static_cast<std::size_t>(j) % ring];
+    Status s = j == 0 ? Start(rows_[0], n_rows_ > 1 ? &rows_[1] : nullptr)
+                      : TimeUpdate(rows_[static_cast<std::size_t>(j - 1) % ring], at);
+    if (!s) {
+      Error e = s.error();
+      e.file = source_;
+      e.line = at.line;
+      return e;
+    }
+    auto up = MeasurementUpdate(j);
+    if (!up) return up.error();
+    ++next_index_;
+    out.push_back(std::move(*up));
+  }
+  return out;
+}
+
+// ---- 3. the parameter step -------------------------------------------------------------------
+
+Eigen::MatrixXd RecursiveMl::Covariance() const {
+  const Eigen::Index k = F_.rows();
+  if (k == 0) return {};
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(F_);
+  const Eigen::MatrixXd Finv = ldlt.solve(Eigen::MatrixXd::Identity(k, k));
+  const Eigen::VectorXd slope = Slopes();
+  Eigen::MatrixXd cov = slope.asDiagonal() * (Finv * G_ * Finv) * slope.asDiagonal();
+  return 0.5 * (cov + cov.transpose());
+}
+
+void RecursiveMl::Step(const Eigen::VectorXd& score) {
+  const int k = static_cast<int>(tracked_.size());
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(F_);
+  if (ldlt.info() != Eigen::Success) return;
+  Eigen::VectorXd step = ldlt.solve(score);
+  if (!step.allFinite()) return;
+  // At most max_step_sd of the current SDs (sqrt of diag F⁻¹), and kMaxWorkingStep, in any
+  // working coordinate.
+  const Eigen::MatrixXd Finv = ldlt.solve(Eigen::MatrixXd::Identity(k, k));
+  double scale = 1.0;
+  for (int a = 0; a < k; ++a) {
+    const double limit =
+        std::min(options_.max_step_sd * std::sqrt(std::max(Finv(a, a), 0.0)), kMaxWorkingStep);
+    if (std::abs(step(a)) > limit) scale = std::min(scale, limit / std::abs(step(a)));
+  }
+  const std::vector<double> before = theta_;
+  for (int halving = 0; halving <= kMaxHalvings; ++halving) {
+    for (int a = 0; a < k; ++a) {
+      const int i = tracked_[a];
+      const double w = ToWorking(before[i], lower_[a], upper_[a]) + scale * step(a);
+      theta_[i] = Inside(FromWorking(w, lower_[a], upper_[a]), lower_[a], upper_[a]);
+    }
+    if (Evaluate()) return;
+    scale *= 0.5;
+  }
+  theta_ = before;  // the model refuses every step: stay
+  (void)Evaluate();
+}
+
+}  // namespace gb::online

@@ -1,0 +1,172 @@
+// The recursive maximum-likelihood estimator (core/online/recursive.h).
+#include "core/online/recursive.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "core/data/write_csv.h"
+#include "core/estimate/estimate.h"
+#include "core/filter/score.h"
+#include "core/project/problem.h"
+#include "core/sim/dyno.h"
+
+namespace gb::online {
+namespace {
+
+const std::string kAssets = std::string(GREYBENCH_SOURCE_DIR) + "/assets/";
+
+std::vector<Sample> Rows(const data::Series& s) {
+  std::vector<Sample> rows;
+  for (std::size_t j = 0; j < s.size(); ++j) {
+    Sample r;
+    r.t = s.time[j];
+    r.u.assign(s.U.col(j).data(), s.U.col(j).data() + s.U.rows());
+    r.y.assign(s.Y.col(j).data(), s.Y.col(j).data() + s.Y.rows());
+    r.line = static_cast<int>(j) + 2;
+    rows.push_back(std::move(r));
+  }
+  return rows;
+}
+
+struct Fitted {
+  project::Problem problem;
+  estimate::EstimateSummary summary;
+};
+
+Fitted Fit(const std::string& model, const std::string& data) {
+  auto spec = model::LoadModelFile(kAssets + model);
+  EXPECT_TRUE(spec) << spec.error().ToString();
+  auto problem = project::LoadProblem(std::move(*spec), {kAssets + data});
+  EXPECT_TRUE(problem) << problem.error().ToString();
+  auto lik = project::MakeLikelihood(*problem);
+  EXPECT_TRUE(lik) << lik.error().ToString();
+  auto s = estimate::Estimate(*lik, estimate::EstimateOptions{});
+  EXPECT_TRUE(s) << s.error().ToString();
+  return {std::move(*problem), std::move(*s)};
+}
+
+// Held at θ (no step ever: the warm-up outlasts the record), the recursion is the batch filter
+// and its score: Σ ℓ_j is log L (kalman.h) and Σ ∂ℓ_j/∂θ its gradient (score.h).
+TEST(Recursive, HeldAtThetaItsTermsAndScoresSumToTheBatchLikelihoodAndGradient) {
+  for (const char* name : {"models/fuel_film.json", "models/crankshaft.json"}) {
+    SCOPED_TRACE(name);
+    auto spec = model::LoadModelFile(kAssets + name);
+    ASSERT_TRUE(spec) << spec.error().ToString();
+    const bool fuel = std::string(name).find("fuel") != std::string::npos;
+    auto problem = project::LoadProblem(
+        std::move(*spec), {kAssets + (fuel ? "data/fuel_f1.csv" : "data/crankshaft.csv")});
+    ASSERT_TRUE(problem) << problem.error().ToString();
+    const model::LinearModel& model = *problem->model;
+    const data::Series& series = *problem->series[0];
+    Reference ref;
+    ref.theta = model.spec().Values();
+    for (int i = 0; i < model.n_parameters(); ++i)
+      if (!model.spec().parameters[i].fixed) ref.free.push_back(i);
+    ref.delay.assign(static_cast<std::size_t>(model.n_outputs()), fuel ? 5 : 0);
+    RecursiveOptions o;
+    o.start = RecursiveOptions::Start::kModel;
+    o.warmup = 1 << 30;
+    auto rml = RecursiveMl::Create(model, ref, o);
+    ASSERT_TRUE(rml) << rml.error().ToString();
+    const std::vector<int> tracked = rml->tracked();
+    double loglik = 0.0;
+    Eigen::VectorXd score = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(tracked.size()));
+    for (const Sample& r : Rows(series)) {
+      auto up = rml->Push(r);
+      ASSERT_TRUE(up) << up.error().ToString();
+      for (const RecursiveUpdate& u : *up) {
+        loglik += u.loglik_term;
+        for (std::size_t a = 0; a < tracked.size(); ++a) score(a) += u.score[a];
+      }
+    }
+    filter::FilterSettings settings = filter::FilterSettings::FromModel(model.spec());
+    settings.delay = ref.delay;
+    const auto ss = *model.Evaluate(ref.theta);
+    const auto dss = *model.EvaluateJacobian(ref.theta, tracked);
+    Eigen::VectorXd gradient;
+    auto batch = filter::LogLikelihoodScore(ss, dss, series, settings, &gradient);
+    ASSERT_TRUE(batch) << batch.error().ToString();
+    EXPECT_NEAR(loglik, batch->loglik, 1e-9 * std::abs(batch->loglik));
+    for (std::size_t a = 0; a < tracked.size(); ++a)
+      EXPECT_NEAR(score(a), gradient(a), 1e-7 * (1.0 + std::abs(gradient(a)))) << a;
+  }
+}
+
+// A record of the virtual dyno other than the bundled one, as a dataset file would give it.
+std::shared_ptr<const data::Dataset> Record(const sim::Record& r) {
+  std::vector<data::CsvColumn> columns;
+  for (std::size_t c = 0; c < r.names.size(); ++c) columns.push_back({r.names[c], r.columns[c]});
+  auto d = data::ParseCsv(data::FormatCsv(columns), "dyno seed 7");
+  EXPECT_TRUE(d) << d.error().ToString();
+  return *d;
+}
+
+// On a stationary record, λ = 1, from the batch fit of another record (worth 500 rows): the end
+// of the record is within 2 standard errors of that record's own batch estimate.
+void EndsWithinTwoBatchStandardErrors(const std::string& model_file,
+                                      const std::string& reference_data,
+                                      const sim::Record& record) {
+  const Fitted ref_fit = Fit(model_file, reference_data);
+  ASSERT_TRUE(ref_fit.summary.converged) << ref_fit.summary.message;
+  auto spec = model::LoadModelFile(kAssets + model_file);
+  ASSERT_TRUE(spec);
+  auto problem = project::MakeProblem(std::move(*spec), {Record(record)});
+  ASSERT_TRUE(problem) << problem.error().ToString();
+  auto lik = project::MakeLikelihood(*problem);
+  ASSERT_TRUE(lik) << lik.error().ToString();
+  auto batch = estimate::Estimate(*lik, estimate::EstimateOptions{});
+  ASSERT_TRUE(batch && batch->converged);
+  const model::LinearModel& model = *problem->model;
+
+  Reference ref = ReferenceFromSummary(ref_fit.summary, model.spec());
+  RecursiveOptions o;
+  o.forgetting = 1.0;
+  o.prior_rows = 500;
+  auto rml = RecursiveMl::Create(model, ref, o);
+  ASSERT_TRUE(rml) << rml.error().ToString();
+  std::optional<RecursiveUpdate> last;
+  for (const Sample& r : Rows(*problem->series[0])) {
+    auto up = rml->Push(r);
+    ASSERT_TRUE(up) << up.error().ToString();
+    if (!up->empty()) last = up->back();
+  }
+  ASSERT_TRUE(last);
+  // And log L at the end is within a few units of the maximum (the 2-SE box in 8 dimensions).
+  std::vector<int> delay;
+  for (const auto& d : batch->delays) delay.push_back(d.estimate);
+  const auto at_end = lik->Evaluate(rml->theta(), delay);
+  ASSERT_TRUE(at_end);
+  EXPECT_GT(at_end->loglik, batch->loglik - 2.0);
+  ::testing::Test::RecordProperty("loglik_below_batch",
+                                  fmt::format("{:.3f}", batch->loglik - at_end->loglik));
+  const std::vector<std::string> names = rml->tracked_names();
+  EXPECT_EQ(names.size(), 8u);
+  for (std::size_t a = 0; a < names.size(); ++a) {
+    const estimate::ParameterEstimate& pe =
+        batch->parameters[model.spec().ParameterIndex(names[a])];
+    ASSERT_TRUE(pe.std_error) << names[a];
+    const double z = (last->theta[a] - pe.estimate) / *pe.std_error;
+    ::testing::Test::RecordProperty(names[a] + "_z", fmt::format("{:.2f}", z));
+    EXPECT_LT(std::abs(z), 2.0) << names[a] << ": batch " << pe.estimate << " ± " << *pe.std_error
+                                << ", recursive " << last->theta[a] << " ± " << last->sd[a];
+    // Its own standard deviation is the batch one's size (λ = 1: the inverse information).
+    EXPECT_GT(last->sd[a], 0.5 * *pe.std_error) << names[a];
+    EXPECT_LT(last->sd[a], 2.0 * *pe.std_error) << names[a];
+  }
+}
+
+TEST(Recursive, OnAStationaryCrankshaftRecordTheEndIsWithinTwoBatchStandardErrors) {
+  sim::CrankshaftExperiment e;
+  e.seed = 7;
+  auto record = sim::RunCrankshaftExperiment(e);
+  ASSERT_TRUE(record);
+  EndsWithinTwoBatchStandardErrors("models/crankshaft.json", "data/crankshaft.csv", *record);
+}
+
+}  // namespace
+}  // namespace gb::online
