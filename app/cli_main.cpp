@@ -120,6 +120,26 @@ int main(int argc, char** argv) {
   c_export->add_option("--out", export_model.out, "model file to write (JSON)")->required();
   c_export->callback([&] { run = [&] { return RunExportModel(export_model); }; });
 
+  MonitorArgs monitor;
+  auto* c_monitor = app.add_subcommand(
+      "monitor", "watch a linear model on-line: recursive estimates and alarms from a reference");
+  c_monitor->add_option("model", monitor.model, "model file (JSON)")->required();
+  c_monitor->add_option("source", monitor.source, "- to read rows from standard input");
+  c_monitor->add_option("--reference", monitor.reference, "batch result file (JSON) to start from")
+      ->required();
+  c_monitor->add_option("--follow", monitor.follow,
+                        "CSV file to follow as it grows (as tail -f does)");
+  c_monitor->add_option("--set", monitor.sets, "NAME=VALUE: override a parameter of the model");
+  c_monitor->add_option("--forgetting", monitor.forgetting,
+                        "forgetting factor in (0, 1] (memory 1/(1-λ) rows; default 0.999)");
+  c_monitor->add_option("--false-alarms", monitor.false_alarms,
+                        "false alarms per hour, all tests together (default 0.125)");
+  c_monitor->add_option("--idle", monitor.idle,
+                        "--follow: stop after this many seconds without a new row (default: never)");
+  c_monitor->add_option("--every", monitor.every, "write every N-th update (alarms always)");
+  c_monitor->add_option("--out", monitor.out, "log file (JSON Lines; default or - is stdout)");
+  c_monitor->callback([&] { run = [&] { return RunMonitor(monitor); }; });
+
   DynoArgs dyno;
   auto* c_dyno = app.add_subcommand("dyno", "run an experiment on the virtual dyno (simulated data)");
   c_dyno->add_option("experiment", dyno.experiment, "fuel, crankshaft or square-wave")

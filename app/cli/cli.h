@@ -38,12 +38,6 @@ Result<LoadedLikelihood> LoadLikelihood(const std::string& model_path,
                                         const std::vector<std::string>& data_paths,
                                         const std::vector<std::string>& sets,
                                         const std::string& start_result = "");
-// Copies the estimates of a result file into `spec`, except the parameters named in `keep`
-// (those set by --set) and, with `free_only`, the model's fixed ones. Errors name the result
-// file and the JSON path (a parameter the model lacks, an estimate outside the model's bounds).
-// Returns the delay per output the result names (-1: not named).
-Result<std::vector<int>> ApplyResult(const std::string& path, const std::set<std::string>& keep,
-                                     model::ModelSpec* spec, bool free_only = false);
 
 struct LoglikArgs {
   std::string model;
@@ -126,6 +120,23 @@ struct DynoArgs {
   bool truth = false;  // also the true values of the faulted parameters, as columns
 };
 int RunDyno(const DynoArgs& args);
+
+// monitor MODEL --reference RESULT.json (--follow FILE | -): the condition monitor of
+// core/online/monitor.h over rows that arrive; one JSON line per update to --out or stdout, and
+// every problem (a skipped row, an alarm) to stderr.
+struct MonitorArgs {
+  std::string model;
+  std::vector<std::string> sets;
+  std::string reference;
+  std::string follow;             // a file to follow; "-" (as `source`): standard input
+  std::string source;             // the positional "-"
+  double forgetting = 0.999;
+  double false_alarms = 0.125;    // per hour, all tests together
+  double idle = 0;                // --follow: stop after this many seconds without a new row (0: never)
+  int every = 1;                  // write every this-many-th update (alarms always)
+  std::string out;                // JSON Lines; empty or "-": stdout
+};
+int RunMonitor(const MonitorArgs& args);
 
 struct SweepArgs {
   std::string model;

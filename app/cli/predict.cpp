@@ -12,6 +12,7 @@
 #include "core/filter/predict.h"
 #include "core/project/problem.h"
 #include "core/project/project.h"
+#include "core/project/result_file.h"
 
 namespace gb::cli {
 namespace {
@@ -66,7 +67,7 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
   if (!result_path.empty()) {
     std::set<std::string> set_names;
     for (const auto& s : sets) set_names.insert(s.substr(0, s.find('=')));
-    auto d = ApplyResult(result_path, set_names, &*spec);
+    auto d = project::ApplyResultFile(result_path, set_names, &*spec);
     if (!d) return d.error();
     result_delay = *d;
   }

@@ -1,0 +1,268 @@
+#include "core/online/monitor.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <boost/math/distributions/normal.hpp>
+#include <cmath>
+#include <limits>
+
+#include "core/project/result_file.h"
+
+namespace gb::online {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kMinParameterZ = 3.0;
+constexpr double kRearm = 0.8;  // a parameter alarm re-arms below this fraction of z_par
+
+}  // namespace
+
+bool MonitorOptions::IsValid(std::string* why) const {
+  if (!(false_alarms_per_hour > 0.0) || !std::isfinite(false_alarms_per_hour)) {
+    *why = fmt::format("the false-alarm rate must be a positive number per hour, not {:g}",
+                       false_alarms_per_hour);
+    return false;
+  }
+  return true;
+}
+
+Result<Monitor> Monitor::Create(const model::LinearModel& model, const Reference& reference,
+                                const MonitorOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) return InputError(why);
+  auto estimator = RecursiveMl::Create(model, reference, options.recursive, /*adapt=*/true);
+  if (!estimator) return estimator.error();
+  RecursiveOptions held = options.recursive;
+  auto ref = RecursiveMl::Create(model, reference, held, /*adapt=*/false);
+  if (!ref) return ref.error();
+  Monitor m(std::move(*estimator), std::move(*ref), options);
+  for (int i : m.estimator_.tracked()) {
+    m.ref_theta_.push_back(reference.theta[i]);
+    double sd = kNaN;
+    for (std::size_t b = 0; b < reference.free.size(); ++b)
+      if (reference.free[b] == i && static_cast<Eigen::Index>(b) < reference.covariance.rows())
+        sd = std::sqrt(std::max(
+            reference.covariance(static_cast<Eigen::Index>(b), static_cast<Eigen::Index>(b)), 0.0));
+    m.ref_sd_.push_back(sd);
+  }
+  m.out_.assign(m.ref_theta_.size(), false);
+  m.back_.assign(m.ref_theta_.size(), 0);
+  m.rearm_rows_ = options.recursive.forgetting < 1.0
+                      ? static_cast<long>(std::ceil(1.0 / (1.0 - options.recursive.forgetting)))
+                      : 1;
+  return m;
+}
+
+std::vector<double> Monitor::reference_values() const { return ref_theta_; }
+std::vector<double> Monitor::reference_sd() const { return ref_sd_; }
+
+Status Monitor::Design(double sample_time) {
+  CusumOptions o;
+  o.outputs = estimator_.model().n_outputs();
+  o.sample_time = sample_time;
+  o.false_alarms_per_hour = options_.false_alarms_per_hour;
+  o.mean_shift = options_.mean_shift;
+  o.variance_ratio = options_.variance_ratio;
+  // Half of the rate for the innovation tests, half for the parameters (when any are tracked).
+  const std::size_t k = ref_theta_.size();
+  if (k > 0) o.false_alarms_per_hour *= 0.5;
+  auto design = DesignCusum(o);
+  if (!design) return design.error();
+  design_ = *design;
+  detector_.emplace(*design_);
+  if (k > 0) {
+    const double lambda = options_.recursive.forgetting;
+    const double memory = lambda < 1.0 ? 1.0 / (1.0 - lambda) : 1e6;
+    const double p = 0.5 * options_.false_alarms_per_hour * sample_time * memory /
+                     (3600.0 * static_cast<double>(k));
+    const boost::math::normal normal;
+    z_parameter_ = p < 1.0 ? std::max(kMinParameterZ,
+                                      boost::math::quantile(boost::math::complement(normal, p / 2)))
+                           : kMinParameterZ;
+  }
+  return Ok{};
+}
+
+Result<std::vector<MonitorUpdate>> Monitor::Push(const Sample& row) {
+  if (rows_ == 0) first_t_ = row.t;
+  ++rows_;
+  if (rows_ == 2 && !design_) {
+    if (Status s = Design(row.t - first_t_); !s) return s.error();
+  }
+  auto estimates = estimator_.Push(row);
+  if (!estimates) return estimates.error();
+  auto held = reference_.Push(row);
+  if (!held) return held.error();
+  const int p = estimator_.model().n_outputs();
+  const std::vector<std::string>& outputs = estimator_.model().spec().outputs;
+  const std::vector<std::string> names = estimator_.tracked_names();
+  std::vector<MonitorUpdate> out;
+  for (std::size_t u = 0; u < estimates->size(); ++u) {
+    MonitorUpdate m;
+    m.estimate = std::move((*estimates)[u]);
+    const RecursiveUpdate& r = (*held)[u];
+    m.z.assign(static_cast<std::size_t>(p), kNaN);
+    m.cusum.assign(static_cast<std::size_t>(3 * p), 0.0);
+    for (int o = 0; o < p; ++o) m.z[o] = r.innovation[o] / r.innovation_sd[o];
+    const bool watching = !m.estimate.warming_up && detector_.has_value();
+    if (watching) {
+      for (int o = 0; o < p; ++o) {
+        for (const CusumAlarm& a : detector_->Update(o, m.z[o])) {
+          MonitorAlarm alarm;
+          alarm.what = fmt::format("{}: {}", outputs[o], a.name());
+          alarm.message = fmt::format(
+              "the innovations of {} drift ({}): the system no longer behaves as the reference "
+              "model says (t = {:g})",
+              outputs[o], a.name(), m.estimate.t);
+          m.alarms.push_back(std::move(alarm));
+        }
+      }
+    }
+    if (detector_) {
+      for (int o = 0; o < p; ++o)
+        for (int c = 0; c < kCusumKinds; ++c)
+          m.cusum[static_cast<std::size_t>(3 * o + c)] =
+              detector_->Statistic(o, static_cast<CusumKind>(c));
+    }
+    for (std::size_t a = 0; a < ref_theta_.size(); ++a) {
+      const double se2 = std::isnan(ref_sd_[a]) ? 0.0 : ref_sd_[a] * ref_sd_[a];
+      const double sd = std::sqrt(m.estimate.sd[a] * m.estimate.sd[a] + se2);
+      const double z = sd > 0.0 ? (m.estimate.theta[a] - ref_theta_[a]) / sd : 0.0;
+      m.parameter_z.push_back(z);
+      if (!watching || z_parameter_ <= 0.0) continue;
+      if (!out_[a] && std::abs(z) > z_parameter_) {
+        out_[a] = true;
+        MonitorAlarm alarm;
+        alarm.kind = MonitorAlarm::Kind::kParameter;
+        alarm.what = names[a];
+        alarm.message = fmt::format(
+            "{} = {:.4g} ± {:.2g} has left its reference interval {:.4g} ± {:.2g} ({:.1f} SD "
+            "away; t = {:g})",
+            names[a], m.estimate.theta[a], m.estimate.sd[a], ref_theta_[a], ref_sd_[a], z,
+            m.estimate.t);
+        m.alarms.push_back(std::move(alarm));
+      } else if (out_[a]) {
+        // Re-armed once back below kRearm z_par for a whole memory of the estimator.
+        back_[a] = std::abs(z) < kRearm * z_parameter_ ? back_[a] + 1 : 0;
+        if (back_[a] >= rearm_rows_) out_[a] = false, back_[a] = 0;
+      }
+    }
+    if (!m.alarms.empty()) {
+      alarm_ = true;
+      alarm_count_ += static_cast<long long>(m.alarms.size());
+    }
+    m.alarm = alarm_;
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
+Json Monitor::ToJson(const MonitorUpdate& u) const {
+  auto number = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
+  Json j;
+  j["t"] = u.estimate.t;
+  j["line"] = u.estimate.line;
+  j["index"] = u.estimate.index;
+  j["warming_up"] = u.estimate.warming_up;
+  Json params = Json::object();
+  const std::vector<std::string> names = estimator_.tracked_names();
+  for (std::size_t a = 0; a < names.size(); ++a) {
+    params[names[a]] = {{"estimate", number(u.estimate.theta[a])},
+                        {"sd", number(u.estimate.sd[a])},
+                        {"reference", number(ref_theta_[a])},
+                        {"z", number(u.parameter_z[a])}};
+  }
+  j["parameters"] = params;
+  Json innovations = Json::object();
+  Json cusum = Json::object();
+  const auto& outputs = estimator_.model().spec().outputs;
+  for (std::size_t o = 0; o < outputs.size(); ++o) {
+    innovations[outputs[o]] = {{"value", number(u.estimate.innovation[o])},
+                               {"sd", number(u.estimate.innovation_sd[o])},
+                               {"z", number(u.z[o])}};
+    cusum[outputs[o]] = {{"mean up", u.cusum[3 * o]},
+                         {"mean down", u.cusum[3 * o + 1]},
+                         {"variance up", u.cusum[3 * o + 2]}};
+  }
+  j["innovations"] = innovations;
+  j["cusum"] = cusum;
+  Json alarms = Json::array();
+  for (const MonitorAlarm& a : u.alarms)
+    alarms.push_back(
+        {{"kind", a.kind == MonitorAlarm::Kind::kParameter ? "parameter" : "innovations"},
+         {"what", a.what},
+         {"message", a.message}});
+  j["alarms"] = alarms;
+  j["alarm"] = u.alarm;
+  return j;
+}
+
+Result<Reference> LoadReference(const std::string& path, const model::ModelSpec& spec) {
+  model::ModelSpec copy = spec;
+  Json j;
+  auto delays = project::ApplyResultFile(path, {}, &copy, /*free_only=*/true, &j);
+  if (!delays) return delays.error();
+  Reference r;
+  r.source = path;
+  r.theta = copy.Values();
+  for (std::size_t o = 0; o < delays->size(); ++o)
+    r.delay.push_back((*delays)[o] >= 0 ? (*delays)[o] : spec.output_delay[o].min);
+  if (j.contains("n_obs") && j["n_obs"].is_number_integer()) r.n_obs = j["n_obs"].get<long>();
+  // The covariance from the standard errors and the correlation matrix, where the file has them.
+  const Json& params = j["parameters"];
+  std::vector<double> se;
+  for (int i = 0; i < static_cast<int>(spec.parameters.size()); ++i) {
+    if (spec.parameters[i].fixed) continue;
+    const std::string& name = spec.parameters[i].name;
+    if (!params.contains(name)) continue;
+    const Json& e = params[name];
+    if (!e.contains("std_error") || !e["std_error"].is_number()) continue;
+    const double s = e["std_error"].get<double>();
+    if (!(s > 0.0) || !std::isfinite(s))
+      return project::ResultFileError(path, "parameters." + name + ".std_error",
+                                      fmt::format("{:g} is not a standard error", s));
+    r.free.push_back(i);
+    se.push_back(s);
+  }
+  const Eigen::Index k = static_cast<Eigen::Index>(r.free.size());
+  r.covariance = Eigen::MatrixXd::Zero(k, k);
+  for (Eigen::Index a = 0; a < k; ++a) r.covariance(a, a) = se[a] * se[a];
+  if (j.contains("correlation") && j["correlation"].is_object()) {
+    const Json& c = j["correlation"];
+    if (!c.contains("names") || !c["names"].is_array() || !c.contains("matrix") ||
+        !c["matrix"].is_array())
+      return project::ResultFileError(path, "correlation",
+                                      "expected an object with \"names\" and \"matrix\"");
+    const Json& names = c["names"];
+    const Json& matrix = c["matrix"];
+    std::vector<Eigen::Index> at(names.size(), -1);
+    for (std::size_t n = 0; n < names.size(); ++n) {
+      if (!names[n].is_string())
+        return project::ResultFileError(path, fmt::format("correlation.names[{}]", n),
+                                        "expected a parameter name");
+      const int i = spec.ParameterIndex(names[n].get<std::string>());
+      for (Eigen::Index a = 0; a < k; ++a)
+        if (r.free[a] == i) at[n] = a;
+    }
+    if (matrix.size() != names.size())
+      return project::ResultFileError(path, "correlation.matrix",
+                                      fmt::format("expected {} rows, one per name", names.size()));
+    for (std::size_t x = 0; x < names.size(); ++x) {
+      if (!matrix[x].is_array() || matrix[x].size() != names.size())
+        return project::ResultFileError(path, fmt::format("correlation.matrix[{}]", x),
+                                        fmt::format("expected {} numbers", names.size()));
+      for (std::size_t y = 0; y < names.size(); ++y) {
+        const Json& v = matrix[x][y];
+        if (!v.is_number() || !(std::abs(v.get<double>()) <= 1.0))
+          return project::ResultFileError(path, fmt::format("correlation.matrix[{}][{}]", x, y),
+                                          "expected a correlation in [-1, 1]");
+        if (at[x] >= 0 && at[y] >= 0 && at[x] != at[y])
+          r.covariance(at[x], at[y]) = v.get<double>() * se[at[x]] * se[at[y]];
+      }
+    }
+  }
+  return r;
+}
+
+}  // namespace gb::online
