@@ -20,6 +20,7 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr int kMaxHalvings = 20;
+constexpr double kSameInterval = 1e-10;  // relative: data::Intervals::kIntervalRelTol
 // A parameter on a bound starts this fraction of its range (or of 1 + |bound|) inside it.
 constexpr double kInside = 1e-6;
 // The largest step of one row in the working coordinates (a factor e^1 in a scale parameter).
@@ -141,6 +142,7 @@ Result<RecursiveMl> RecursiveMl::Create(const model::LinearModel& model, const R
     r.theta_[i] = Inside(r.theta_[i], r.lower_.back(), r.upper_.back());
   }
   if (Status s = r.Evaluate(); !s) return s.error();
+  r.theta_model_ = r.theta_;
 
   // The prior information (working coordinates): the reference's, restricted to the tracked
   // parameters and scaled to prior_rows rows; without a covariance, a weak prior of two units of
@@ -181,6 +183,7 @@ Result<RecursiveMl> RecursiveMl::Create(const model::LinearModel& model, const R
     }
   }
   r.G_ = r.F_;
+  r.sd_w_.assign(static_cast<std::size_t>(k), 0.0);
   r.lambda_ = options.forgetting_start > 0.0 ? options.forgetting_start : options.forgetting;
   r.rows_.resize(static_cast<std::size_t>(r.lag_) + 2);
   return r;
@@ -204,12 +207,42 @@ Status RecursiveMl::Evaluate() {
   }
   ss_ = std::move(*ss);
   dss_ = std::move(dss);
-  disc_dt_ = -1.0;
   return Ok{};
 }
 
-Status RecursiveMl::Discretise(double dt) {
-  if (dt == disc_dt_) return Ok{};
+Status RecursiveMl::Refresh(double dt) {
+  // The model and its exact discretisation (with their derivatives) are kept while the interval
+  // is the same (to rounding) and no parameter has moved by more than rediscretise_sd of its
+  // current SD since they were computed (in working coordinates).
+  const std::size_t k = tracked_.size();
+  bool fresh = disc_dt_ > 0.0 && std::abs(dt - disc_dt_) <= kSameInterval * disc_dt_;
+  for (std::size_t a = 0; a < k && fresh; ++a) {
+    const double w = ToWorking(theta_[tracked_[a]], lower_[a], upper_[a]);
+    fresh = std::abs(w - disc_w_[a]) <= options_.rediscretise_sd * sd_w_[a];
+  }
+  if (fresh) return Ok{};
+  if (theta_ != theta_model_) {
+    // A point the model refuses (a variance it computes negative, say) is approached by halving
+    // the move from the last point it accepted, in working coordinates.
+    const std::vector<double> target = theta_;
+    bool accepted = false;
+    for (int halving = 0; halving <= kMaxHalvings && !accepted; ++halving) {
+      const double f = std::ldexp(1.0, -halving);
+      for (std::size_t a = 0; a < k; ++a) {
+        const int i = tracked_[a];
+        const double w0 = ToWorking(theta_model_[i], lower_[a], upper_[a]);
+        const double w1 = ToWorking(target[i], lower_[a], upper_[a]);
+        theta_[i] = Inside(FromWorking(w0 + f * (w1 - w0), lower_[a], upper_[a]), lower_[a],
+                           upper_[a]);
+      }
+      accepted = static_cast<bool>(Evaluate());
+    }
+    if (!accepted) {
+      theta_ = theta_model_;
+      if (Status s = Evaluate(); !s) return s;
+    }
+    theta_model_ = theta_;
+  }
   const Eigen::VectorXd sigma2 = ss_.sigma.array().square();
   const model::InputHold hold = model_.spec().input_hold;
   filter::Discrete disc = filter::Discretize(ss_.A, ss_.B, ss_.c, sigma2, dt, hold);
@@ -224,6 +257,9 @@ Status RecursiveMl::Discretise(double dt) {
   disc_ = std::move(disc);
   ddisc_ = std::move(ddisc);
   disc_dt_ = dt;
+  disc_w_.resize(k);
+  for (std::size_t a = 0; a < k; ++a)
+    disc_w_[a] = ToWorking(theta_[tracked_[a]], lower_[a], upper_[a]);
   return Ok{};
 }
 
@@ -253,7 +289,7 @@ Status RecursiveMl::Start(const Sample& first, const Sample* second) {
     for (int i = 0; i < k; ++i) dx_.col(i) = dss_[i].x0;
     switch (model_.spec().initial_covariance) {
       case model::InitialCovariance::kCtsm: {
-        if (Status s = Discretise(second->t - first.t); !s) return s;
+        if (Status s = Refresh(second->t - first.t); !s) return s;
         P_ = disc_.Q;
         for (int i = 0; i < k; ++i) dP_[i] = ddisc_[i].Q;
         break;
@@ -307,7 +343,7 @@ Status RecursiveMl::TimeUpdate(const Sample& from, const Sample& to) {
     return InputError(
         fmt::format("time {:g} does not increase (the row before has {:g})", to.t, from.t));
   if (warmup_ < 0) warmup_ = static_cast<int>(std::ceil(warmup_time_ / dt));
-  if (Status s = Discretise(dt); !s) return s;
+  if (Status s = Refresh(dt); !s) return s;
   const int m = ss_.n_inputs();
   const int k = static_cast<int>(tracked_.size());
   const bool foh = model_.spec().input_hold == model::InputHold::kFoh;
@@ -488,24 +524,18 @@ void RecursiveMl::Step(const Eigen::VectorXd& score) {
   // At most max_step_sd of the current SDs (sqrt of diag F⁻¹), and kMaxWorkingStep, in any
   // working coordinate.
   const Eigen::MatrixXd Finv = ldlt.solve(Eigen::MatrixXd::Identity(k, k));
+  for (int a = 0; a < k; ++a) sd_w_[a] = std::sqrt(std::max(Finv(a, a), 0.0));
   double scale = 1.0;
   for (int a = 0; a < k; ++a) {
     const double limit =
         std::min(options_.max_step_sd * std::sqrt(std::max(Finv(a, a), 0.0)), kMaxWorkingStep);
     if (std::abs(step(a)) > limit) scale = std::min(scale, limit / std::abs(step(a)));
   }
-  const std::vector<double> before = theta_;
-  for (int halving = 0; halving <= kMaxHalvings; ++halving) {
-    for (int a = 0; a < k; ++a) {
-      const int i = tracked_[a];
-      const double w = ToWorking(before[i], lower_[a], upper_[a]) + scale * step(a);
-      theta_[i] = Inside(FromWorking(w, lower_[a], upper_[a]), lower_[a], upper_[a]);
-    }
-    if (Evaluate()) return;
-    scale *= 0.5;
+  for (int a = 0; a < k; ++a) {
+    const int i = tracked_[a];
+    const double w = ToWorking(theta_[i], lower_[a], upper_[a]) + scale * step(a);
+    theta_[i] = Inside(FromWorking(w, lower_[a], upper_[a]), lower_[a], upper_[a]);
   }
-  theta_ = before;  // the model refuses every step: stay
-  (void)Evaluate();
 }
 
 }  // namespace gb::online

@@ -80,6 +80,11 @@ struct RecursiveOptions {
   double prior_rows = 0.0;
   int warmup = -1;           // rows before θ moves; < 0: five of the slowest time constants
   double max_step_sd = 3.0;  // a step is at most this many current SDs in any parameter
+  // The model and its exact discretisation (with their derivatives) are recomputed once a
+  // parameter has moved by more than this many of its current SDs since they were last computed
+  // (0: at every row). Between, the filter runs at that point: an error in θ of at most this
+  // fraction of its uncertainty.
+  double rediscretise_sd = 0.1;
   // kLive: the equilibrium and stationary covariance (above). kModel: the model's own x0 and P0
   // as the batch filter starts (kalman.h), with their sensitivities; the first update then waits
   // for the second row (P0 "ctsm" needs the first interval).
@@ -126,7 +131,7 @@ class RecursiveMl {
   RecursiveMl(const model::LinearModel& model, const Reference& reference,
               const RecursiveOptions& options, bool adapt);
   Status Evaluate();             // ss_, dss_ at theta_; discretisations dropped
-  Status Discretise(double dt);  // disc_, ddisc_ for dt at theta_
+  Status Refresh(double dt);  // ss_, dss_, disc_, ddisc_ for dt at theta_, when stale
   Status Start(const Sample& first, const Sample* second);
   Status TimeUpdate(const Sample& from, const Sample& to);
   Result<RecursiveUpdate> MeasurementUpdate(int j);
@@ -138,6 +143,7 @@ class RecursiveMl {
   bool adapt_ = true;
   std::string source_;
   std::vector<double> theta_;
+  std::vector<double> theta_model_;  // where ss_, dss_ (and disc_) were evaluated
   std::vector<int> tracked_;           // parameter indices
   std::vector<double> lower_, upper_;  // bounds of the tracked parameters (±inf when none)
   std::vector<int> delay_;
@@ -152,6 +158,8 @@ class RecursiveMl {
   double disc_dt_ = -1.0;
   filter::Discrete disc_;
   std::vector<filter::Discrete> ddisc_;
+  std::vector<double> disc_w_;  // working coordinates the discretisation was computed at
+  std::vector<double> sd_w_;    // current SDs in working coordinates (sqrt diag F⁻¹)
 
   Eigen::VectorXd x_;
   Eigen::MatrixXd P_;
