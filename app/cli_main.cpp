@@ -132,8 +132,14 @@ int main(int argc, char** argv) {
   c_monitor->add_option("--set", monitor.sets, "NAME=VALUE: override a parameter of the model");
   c_monitor->add_option("--forgetting", monitor.forgetting,
                         "forgetting factor in (0, 1] (memory 1/(1-λ) rows; default 0.999)");
+  c_monitor
+      ->add_option("--track", monitor.track,
+                   "parameters to track (default: all free ones in the dynamics and observations)")
+      ->delimiter(',');
   c_monitor->add_option("--false-alarms", monitor.false_alarms,
                         "false alarms per hour, all tests together (default 0.125)");
+  c_monitor->add_option("--change", monitor.change,
+                        "relative change of a parameter worth an alarm (default 0.25)");
   c_monitor->add_option("--idle", monitor.idle,
                         "--follow: stop after this many seconds without a new row (default: never)");
   c_monitor->add_option("--every", monitor.every, "write every N-th update (alarms always)");

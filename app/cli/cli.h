@@ -131,7 +131,9 @@ struct MonitorArgs {
   std::string follow;             // a file to follow; "-" (as `source`): standard input
   std::string source;             // the positional "-"
   double forgetting = 0.999;
+  std::vector<std::string> track;  // parameter names (empty: all that can be)
   double false_alarms = 0.125;    // per hour, all tests together
+  double change = 0.25;           // relative parameter change worth an alarm
   double idle = 0;                // --follow: stop after this many seconds without a new row (0: never)
   int every = 1;                  // write every this-many-th update (alarms always)
   std::string out;                // JSON Lines; empty or "-": stdout

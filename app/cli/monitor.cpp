@@ -59,6 +59,8 @@ int RunMonitor(const MonitorArgs& args) {
   if (!reference) return Fail(reference.error());
   online::MonitorOptions options;
   options.recursive.forgetting = args.forgetting;
+  options.recursive.track = args.track;
+  options.parameter_change = args.change;
   options.false_alarms_per_hour = args.false_alarms;
   auto monitor = online::Monitor::Create(*model, *reference, options);
   if (!monitor) return Fail(monitor.error());
@@ -101,10 +103,15 @@ int RunMonitor(const MonitorArgs& args) {
       if (!reported_design && monitor->design()) {
         reported_design = true;
         std::fprintf(stderr, "greybench-cli: monitor: %s\n", monitor->design()->Report().c_str());
-        if (monitor->parameter_threshold() > 0)
+        const std::vector<std::string> names = monitor->estimator().tracked_names();
+        for (std::size_t a = 0; a < names.size(); ++a) {
+          if (monitor->parameter_block()[a] == 0) continue;
           std::fprintf(stderr,
-                       "greybench-cli: monitor: a parameter alarms %.2f SD from its reference\n",
-                       monitor->parameter_threshold());
+                       "greybench-cli: monitor: %s: score test for a change of %g %%, blocks of "
+                       "%d rows, h = %.3f\n",
+                       names[a].c_str(), 100.0 * args.change, monitor->parameter_block()[a],
+                       monitor->parameter_h()[a]);
+        }
       }
       for (const online::MonitorUpdate& u : *ups) {
         ++updates;

@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <boost/math/distributions/normal.hpp>
 #include <cmath>
 #include <limits>
 
@@ -13,8 +12,10 @@ namespace gb::online {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kMinParameterZ = 3.0;
-constexpr double kRearm = 0.8;  // a parameter alarm re-arms below this fraction of z_par
+// A parameter's score test sums blocks of rows so that the change it looks for is about this many
+// SDs of a block's standardised score (at most kMaxBlock rows).
+constexpr double kBlockShift = 0.5;
+constexpr int kMaxBlock = 100000;
 
 }  // namespace
 
@@ -33,8 +34,11 @@ Result<Monitor> Monitor::Create(const model::LinearModel& model, const Reference
   if (!options.IsValid(&why)) return InputError(why);
   auto estimator = RecursiveMl::Create(model, reference, options.recursive, /*adapt=*/true);
   if (!estimator) return estimator.error();
+  // The reference filter: held at the reference, with the scores of the same parameters.
   RecursiveOptions held = options.recursive;
-  auto ref = RecursiveMl::Create(model, reference, held, /*adapt=*/false);
+  held.hold = true;
+  held.track = estimator->tracked_names();
+  auto ref = RecursiveMl::Create(model, reference, held, /*adapt=*/!held.track.empty());
   if (!ref) return ref.error();
   Monitor m(std::move(*estimator), std::move(*ref), options);
   for (int i : m.estimator_.tracked()) {
@@ -46,11 +50,36 @@ Result<Monitor> Monitor::Create(const model::LinearModel& model, const Reference
             reference.covariance(static_cast<Eigen::Index>(b), static_cast<Eigen::Index>(b)), 0.0));
     m.ref_sd_.push_back(sd);
   }
-  m.out_.assign(m.ref_theta_.size(), false);
-  m.back_.assign(m.ref_theta_.size(), 0);
-  m.rearm_rows_ = options.recursive.forgetting < 1.0
-                      ? static_cast<long>(std::ceil(1.0 / (1.0 - options.recursive.forgetting)))
-                      : 1;
+  const std::size_t k = m.ref_theta_.size();
+  m.delta_.resize(k);
+  m.block_.assign(k, 0);
+  m.h_par_.assign(k, 0.0);
+  m.sum_s_.assign(k * k, 0.0);
+  // The reference covariance of the tracked parameters (zero where unknown).
+  m.ref_cov_ = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k));
+  const std::vector<int>& tracked = m.estimator_.tracked();
+  for (std::size_t a = 0; a < k; ++a)
+    for (std::size_t b = 0; b < k; ++b)
+      for (std::size_t x = 0; x < reference.free.size(); ++x)
+        for (std::size_t y = 0; y < reference.free.size(); ++y)
+          if (reference.free[x] == tracked[a] && reference.free[y] == tracked[b] &&
+              static_cast<Eigen::Index>(x) < reference.covariance.rows())
+            m.ref_cov_(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) =
+                reference.covariance(static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y));
+  m.in_block_.assign(k, 0);
+  m.up_.assign(k, 0.0);
+  m.down_.assign(k, 0.0);
+  const double ref_rows = static_cast<double>(reference.n_obs) / std::max(1, model.n_outputs());
+  m.ref_rows_ = ref_rows;
+  for (std::size_t a = 0; a < k; ++a) {
+    m.delta_[a] = options.parameter_change * std::abs(m.ref_theta_[a]);
+    if (std::isnan(m.ref_sd_[a]) || !(ref_rows > 0.0) || !(m.delta_[a] > 0.0)) continue;
+    const double info_per_row = 1.0 / (m.ref_sd_[a] * m.ref_sd_[a] * ref_rows);
+    const double delta_row = m.delta_[a] * std::sqrt(info_per_row);
+    m.block_[a] =
+        std::clamp(static_cast<int>(std::ceil(kBlockShift * kBlockShift / (delta_row * delta_row))),
+                   1, kMaxBlock);
+  }
   return m;
 }
 
@@ -66,20 +95,23 @@ Status Monitor::Design(double sample_time) {
   o.variance_ratio = options_.variance_ratio;
   // Half of the rate for the innovation tests, half for the parameters (when any are tracked).
   const std::size_t k = ref_theta_.size();
-  if (k > 0) o.false_alarms_per_hour *= 0.5;
+  if (std::any_of(block_.begin(), block_.end(), [](int b) { return b > 0; }))
+    o.false_alarms_per_hour *= 0.5;
   auto design = DesignCusum(o);
   if (!design) return design.error();
   design_ = *design;
   detector_.emplace(*design_);
-  if (k > 0) {
-    const double lambda = options_.recursive.forgetting;
-    const double memory = lambda < 1.0 ? 1.0 / (1.0 - lambda) : 1e6;
-    const double p = 0.5 * options_.false_alarms_per_hour * sample_time * memory /
-                     (3600.0 * static_cast<double>(k));
-    const boost::math::normal normal;
-    z_parameter_ = p < 1.0 ? std::max(kMinParameterZ,
-                                      boost::math::quantile(boost::math::complement(normal, p / 2)))
-                           : kMinParameterZ;
+  // Each parameter's up and down tests share the other half of the rate (Bonferroni over the
+  // 2k statistics); a block of B rows is one step of its CUSUM.
+  for (std::size_t a = 0; a < k; ++a) {
+    if (block_[a] == 0) continue;
+    const double per_row = 0.5 * options_.false_alarms_per_hour / (2.0 * static_cast<double>(k));
+    const double arl0_blocks = 3600.0 / (per_row * sample_time * block_[a]);
+    const double info_block = block_[a] / (ref_sd_[a] * ref_sd_[a] * ref_rows_);
+    const CusumChange change{CusumKind::kMeanUp, delta_[a] * std::sqrt(info_block)};
+    auto h = ThresholdForArl0(change, arl0_blocks);
+    if (!h) return h.error();
+    h_par_[a] = *h;
   }
   return Ok{};
 }
@@ -125,28 +157,51 @@ Result<std::vector<MonitorUpdate>> Monitor::Push(const Sample& row) {
           m.cusum[static_cast<std::size_t>(3 * o + c)] =
               detector_->Statistic(o, static_cast<CusumKind>(c));
     }
+    const RecursiveUpdate& r_held = (*held)[u];
+    const std::size_t k = ref_theta_.size();
+    for (std::size_t a = 0; a < ref_theta_.size(); ++a) {
+      m.parameter_cusum.push_back(h_par_[a] > 0.0 ? up_[a] / h_par_[a] : 0.0);
+      m.parameter_cusum.push_back(h_par_[a] > 0.0 ? down_[a] / h_par_[a] : 0.0);
+      if (!watching || h_par_[a] <= 0.0) continue;
+      for (std::size_t b = 0; b < ref_theta_.size(); ++b) sum_s_[a * k + b] += r_held.score[b];
+      if (++in_block_[a] < block_[a]) continue;
+      // The efficient score of θ_a over the block (the others free): Δ̂_a = (Ī⁻¹ Σ s)_a / B,
+      // Ī⁻¹ = n Σ_ref, with variance n Σ_ref,aa / B; z = Δ̂_a / SD, and the log-likelihood
+      // ratios of ±Δ_a are ±δ z - δ²/2 with δ = Δ_a / SD.
+      double estimate = 0.0;
+      for (std::size_t b = 0; b < k; ++b)
+        estimate += ref_cov_(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) *
+                    sum_s_[a * k + b];
+      estimate *= ref_rows_ / block_[a];
+      const double sd = ref_sd_[a] * std::sqrt(ref_rows_ / block_[a]);
+      const double z = estimate / sd, delta = delta_[a] / sd;
+      const double llr_up = delta * z - 0.5 * delta * delta;
+      const double llr_down = -delta * z - 0.5 * delta * delta;
+      std::fill(sum_s_.begin() + static_cast<std::ptrdiff_t>(a * k),
+                sum_s_.begin() + static_cast<std::ptrdiff_t>((a + 1) * k), 0.0);
+      in_block_[a] = 0;
+      up_[a] = std::max(0.0, up_[a] + llr_up);
+      down_[a] = std::max(0.0, down_[a] + llr_down);
+      for (int side = 0; side < 2; ++side) {
+        double& stat = side == 0 ? up_[a] : down_[a];
+        if (!(stat > h_par_[a])) continue;
+        stat = 0.0;
+        MonitorAlarm alarm;
+        alarm.kind = MonitorAlarm::Kind::kParameter;
+        alarm.what = fmt::format("{}: {}", names[a], side == 0 ? "up" : "down");
+        alarm.message = fmt::format(
+            "{} has moved {} from its reference {:.4g} (by {:.0f} % or more, score test; the "
+            "recursive estimate is {:.4g} ± {:.2g}; t = {:g})",
+            names[a], side == 0 ? "up" : "down", ref_theta_[a], 100.0 * options_.parameter_change,
+            m.estimate.theta[a], m.estimate.sd[a], m.estimate.t);
+        m.alarms.push_back(std::move(alarm));
+      }
+    }
     for (std::size_t a = 0; a < ref_theta_.size(); ++a) {
       const double se2 = std::isnan(ref_sd_[a]) ? 0.0 : ref_sd_[a] * ref_sd_[a];
       const double sd = std::sqrt(m.estimate.sd[a] * m.estimate.sd[a] + se2);
       const double z = sd > 0.0 ? (m.estimate.theta[a] - ref_theta_[a]) / sd : 0.0;
       m.parameter_z.push_back(z);
-      if (!watching || z_parameter_ <= 0.0) continue;
-      if (!out_[a] && std::abs(z) > z_parameter_) {
-        out_[a] = true;
-        MonitorAlarm alarm;
-        alarm.kind = MonitorAlarm::Kind::kParameter;
-        alarm.what = names[a];
-        alarm.message = fmt::format(
-            "{} = {:.4g} ± {:.2g} has left its reference interval {:.4g} ± {:.2g} ({:.1f} SD "
-            "away; t = {:g})",
-            names[a], m.estimate.theta[a], m.estimate.sd[a], ref_theta_[a], ref_sd_[a], z,
-            m.estimate.t);
-        m.alarms.push_back(std::move(alarm));
-      } else if (out_[a]) {
-        // Re-armed once back below kRearm z_par for a whole memory of the estimator.
-        back_[a] = std::abs(z) < kRearm * z_parameter_ ? back_[a] + 1 : 0;
-        if (back_[a] >= rearm_rows_) out_[a] = false, back_[a] = 0;
-      }
     }
     if (!m.alarms.empty()) {
       alarm_ = true;
@@ -168,10 +223,12 @@ Json Monitor::ToJson(const MonitorUpdate& u) const {
   Json params = Json::object();
   const std::vector<std::string> names = estimator_.tracked_names();
   for (std::size_t a = 0; a < names.size(); ++a) {
-    params[names[a]] = {{"estimate", number(u.estimate.theta[a])},
-                        {"sd", number(u.estimate.sd[a])},
-                        {"reference", number(ref_theta_[a])},
-                        {"z", number(u.parameter_z[a])}};
+    params[names[a]] = {
+        {"estimate", number(u.estimate.theta[a])},
+        {"sd", number(u.estimate.sd[a])},
+        {"reference", number(ref_theta_[a])},
+        {"z", number(u.parameter_z[a])},
+        {"cusum", {{"up", u.parameter_cusum[2 * a]}, {"down", u.parameter_cusum[2 * a + 1]}}}};
   }
   j["parameters"] = params;
   Json innovations = Json::object();

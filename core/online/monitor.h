@@ -10,13 +10,23 @@
 //     their variance, with thresholds designed for the false-alarm rate the user sets.
 // Alarms:
 //   - "innovations": a CUSUM test crossed its threshold (then it restarts; see cusum.h);
-//   - "parameter": a tracked parameter left its reference interval, i.e. the standardised
-//     distance |θ_j - θ_ref| / √(sd_j² + se_ref²) passed z_par. The estimate is correlated from
-//     row to row over its memory m = 1/(1-λ) rows, so the test is taken as one look per memory:
-//     z_par is the two-sided normal quantile of a false-alarm probability of
-//     r T_s m / (3600 k) per look (k tracked parameters, Bonferroni), at least 3. It fires when
-//     the distance first passes z_par, and again only after it has stayed below 0.8 z_par for a
-//     whole memory.
+//   - "parameter": a tracked parameter has moved from its reference by the change the user names
+//     (parameter_change, relative), up or down. The test is the statistical local approach
+//     (Basseville & Nikiforov, Detection of Abrupt Changes, 1993, ch. 4; Basseville 1998): the
+//     reference filter also carries the sensitivities of the tracked parameters, so at every row
+//     it gives their exact score s_j = ∂ℓ_j/∂θ at θ_ref. While the system is the reference's,
+//     the scores are martingale differences with variance Ī (the information per row, n Σ_ref⁻¹
+//     from the reference's covariance over its n rows); after θ moves by Δ their mean is Ī Δ. So
+//     over a block of B rows the efficient estimate of the move, Δ̂ = Ī⁻¹ Σ s / B, is N(Δ, Ī⁻¹/B):
+//     for parameter a, z = Δ̂_a / √(n Σ_ref,aa / B) is N(0, 1) before a change and N(δ, 1) after a
+//     change Δ_a, δ = Δ_a / √(n Σ_ref,aa / B), whatever the other parameters do (to first order:
+//     the efficient score projects them out, which isolates the parameter that moved). Two
+//     mean-shift CUSUMs of cusum.h per parameter (up, down) watch z, one step per block. B makes
+//     δ about ½ (the scores of one row are far from normal; a block's sum is close to it); the
+//     thresholds come from the share of the false-alarm rate as for the innovations. This is far
+//     more sensitive than waiting for the recursive estimate to leave an interval: it
+//     accumulates evidence at the reference instead of comparing two noisy estimates.
+// Half of the false-alarm rate goes to the innovation tests, half to the parameter tests.
 // Nothing alarms during the estimator's warm-up. Both filters start as recursive.h says (kLive).
 // The alarm state is sticky: `alarm` stays true from the first alarm until Acknowledge().
 #pragma once
@@ -34,10 +44,16 @@
 namespace gb::online {
 
 struct MonitorOptions {
-  RecursiveOptions recursive{.forgetting = 0.999};
+  RecursiveOptions recursive = DefaultRecursive();
+  static RecursiveOptions DefaultRecursive() {
+    RecursiveOptions o;
+    o.forgetting = 0.999;  // a memory of 1000 rows (12.5 s at 80 Hz)
+    return o;
+  }
   double false_alarms_per_hour = 0.125;  // r: all tests together (one false alarm per 8 hours)
   double mean_shift = 1.0;               // δ of the innovation tests (SD units)
   double variance_ratio = 2.0;           // ρ of the innovation variance test
+  double parameter_change = 0.25;        // the relative change of a parameter worth an alarm
   bool IsValid(std::string* why) const;
 };
 
@@ -49,12 +65,13 @@ struct MonitorAlarm {
 };
 
 struct MonitorUpdate {
-  RecursiveUpdate estimate;          // the tracked parameters, their SDs, the innovations
-  std::vector<double> z;             // per output: the reference filter's ε/√R (NaN: none)
-  std::vector<double> cusum;         // per output, 3 each (mean up, down, variance): S/h
-  std::vector<double> parameter_z;   // per tracked parameter: distance from the reference
-  std::vector<MonitorAlarm> alarms;  // raised at this row
-  bool alarm = false;                // any alarm since the start or Acknowledge()
+  RecursiveUpdate estimate;             // the tracked parameters, their SDs, the innovations
+  std::vector<double> z;                // per output: the reference filter's ε/√R (NaN: none)
+  std::vector<double> cusum;            // per output, 3 each (mean up, down, variance): S/h
+  std::vector<double> parameter_z;      // per tracked parameter: distance from the reference
+  std::vector<double> parameter_cusum;  // per tracked parameter, 2 each (up, down): S/h
+  std::vector<MonitorAlarm> alarms;     // raised at this row
+  bool alarm = false;                   // any alarm since the start or Acknowledge()
 };
 
 class Monitor {
@@ -74,7 +91,9 @@ class Monitor {
 
   const RecursiveMl& estimator() const { return estimator_; }
   const std::optional<CusumDesign>& design() const { return design_; }
-  double parameter_threshold() const { return z_parameter_; }
+  // Per tracked parameter: the block of its score test (rows; 0: no test) and its threshold.
+  const std::vector<int>& parameter_block() const { return block_; }
+  const std::vector<double>& parameter_h() const { return h_par_; }
   std::vector<double> reference_values() const;  // tracked parameters
   std::vector<double> reference_sd() const;      // tracked parameters (NaN: unknown)
   long long alarm_count() const { return alarm_count_; }
@@ -90,10 +109,15 @@ class Monitor {
   std::vector<double> ref_theta_, ref_sd_;  // tracked
   std::optional<CusumDesign> design_;
   std::optional<CusumDetector> detector_;
-  double z_parameter_ = 0.0;
-  std::vector<bool> out_;   // per tracked parameter: past z_par, not yet back
-  std::vector<long> back_;  // rows since it came back below 0.8 z_par
-  long rearm_rows_ = 1;
+  // The parameter score tests, per tracked parameter a.
+  std::vector<double> delta_;  // Δ_a, natural units
+  std::vector<int> block_;     // B_a rows (0: no test: no reference SE)
+  std::vector<double> h_par_;  // threshold (log-likelihood-ratio units)
+  std::vector<double> sum_s_;  // per parameter a: Σ s (k) over its block so far
+  Eigen::MatrixXd ref_cov_;    // the reference covariance, tracked parameters
+  std::vector<int> in_block_;
+  std::vector<double> up_, down_;  // the CUSUM statistics
+  double ref_rows_ = 0.0;
   double first_t_ = 0.0;
   long rows_ = 0;
   bool alarm_ = false;

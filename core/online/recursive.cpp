@@ -134,6 +134,26 @@ Result<RecursiveMl> RecursiveMl::Create(const model::LinearModel& model, const R
     r.lag_ = std::max(r.lag_, d);
   }
   if (adapt) r.tracked_ = TrackableParameters(model, reference.free, reference.theta);
+  if (adapt && !options.track.empty()) {
+    std::vector<int> chosen;
+    std::vector<std::string> trackable;
+    for (int i : r.tracked_) trackable.push_back(spec.parameters[i].name);
+    for (const std::string& name : options.track) {
+      const int i = spec.ParameterIndex(name);
+      if (std::find(r.tracked_.begin(), r.tracked_.end(), i) == r.tracked_.end()) {
+        std::string list;
+        for (const std::string& t : trackable) list += (list.empty() ? "" : ", ") + t;
+        return InputError(fmt::format(
+            "cannot track '{}': {}; the parameters that can be tracked are {}", name,
+            i < 0 ? "the model has no such parameter"
+                  : "it is fixed, has no reference estimate, or only sets the initial state",
+            list));
+      }
+      if (std::find(chosen.begin(), chosen.end(), i) == chosen.end()) chosen.push_back(i);
+    }
+    std::sort(chosen.begin(), chosen.end());
+    r.tracked_ = chosen;
+  }
   const int k = static_cast<int>(r.tracked_.size());
   for (int i : r.tracked_) {
     const model::Parameter& par = spec.parameters[i];
@@ -232,8 +252,8 @@ Status RecursiveMl::Refresh(double dt) {
         const int i = tracked_[a];
         const double w0 = ToWorking(theta_model_[i], lower_[a], upper_[a]);
         const double w1 = ToWorking(target[i], lower_[a], upper_[a]);
-        theta_[i] = Inside(FromWorking(w0 + f * (w1 - w0), lower_[a], upper_[a]), lower_[a],
-                           upper_[a]);
+        theta_[i] =
+            Inside(FromWorking(w0 + f * (w1 - w0), lower_[a], upper_[a]), lower_[a], upper_[a]);
       }
       accepted = static_cast<bool>(Evaluate());
     }
@@ -447,7 +467,8 @@ Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
   }
   up.score.assign(score.data(), score.data() + k);
   up.warming_up = j < warmup_ || warmup_ < 0;
-  if (k > 0 && p_j > 0 && !up.warming_up) {
+  for (int a = 0; a < k; ++a) up.information.push_back(info(a, a));
+  if (k > 0 && p_j > 0 && !up.warming_up && !options_.hold) {
     if (options_.forgetting_start > 0.0)
       lambda_ = ramp_ * lambda_ + (1.0 - ramp_) * options_.forgetting;
     const Eigen::VectorXd slope = Slopes();

@@ -85,6 +85,12 @@ struct RecursiveOptions {
   // (0: at every row). Between, the filter runs at that point: an error in θ of at most this
   // fraction of its uncertainty.
   double rediscretise_sd = 0.1;
+  // The parameters to track, by name (each must be trackable: free, and in the dynamics or the
+  // observations); empty: all that are. The others stay at the reference's values.
+  std::vector<std::string> track;
+  // Compute the scores and information of the tracked parameters, but never step: the filter
+  // stays at the reference (the monitor's score tests, monitor.h).
+  bool hold = false;
   // kLive: the equilibrium and stationary covariance (above). kModel: the model's own x0 and P0
   // as the batch filter starts (kalman.h), with their sensitivities; the first update then waits
   // for the second row (P0 "ctsm" needs the first interval).
@@ -103,8 +109,9 @@ struct RecursiveUpdate {
   // Per output: innovation ε = y - ŷ and its standard deviation √R at the estimate before the
   // update (NaN where the output was not observed at this index).
   std::vector<double> innovation, innovation_sd;
-  double loglik_term = 0.0;   // ℓ_j at θ_{j-1}
-  std::vector<double> score;  // ∂ℓ_j/∂θ at θ_{j-1} (tracked parameters)
+  std::vector<double> information;  // diagonal of the row's Fisher information (tracked)
+  double loglik_term = 0.0;         // ℓ_j at θ_{j-1}
+  std::vector<double> score;        // ∂ℓ_j/∂θ at θ_{j-1} (tracked parameters)
 };
 
 class RecursiveMl {
@@ -130,7 +137,7 @@ class RecursiveMl {
  private:
   RecursiveMl(const model::LinearModel& model, const Reference& reference,
               const RecursiveOptions& options, bool adapt);
-  Status Evaluate();             // ss_, dss_ at theta_; discretisations dropped
+  Status Evaluate();          // ss_, dss_ at theta_; discretisations dropped
   Status Refresh(double dt);  // ss_, dss_, disc_, ddisc_ for dt at theta_, when stale
   Status Start(const Sample& first, const Sample* second);
   Status TimeUpdate(const Sample& from, const Sample& to);
@@ -143,7 +150,7 @@ class RecursiveMl {
   bool adapt_ = true;
   std::string source_;
   std::vector<double> theta_;
-  std::vector<double> theta_model_;  // where ss_, dss_ (and disc_) were evaluated
+  std::vector<double> theta_model_;    // where ss_, dss_ (and disc_) were evaluated
   std::vector<int> tracked_;           // parameter indices
   std::vector<double> lower_, upper_;  // bounds of the tracked parameters (±inf when none)
   std::vector<int> delay_;
