@@ -135,7 +135,7 @@ Result<std::vector<MonitorUpdate>> Monitor::Push(const Sample& row) {
     m.estimate = std::move((*estimates)[u]);
     const RecursiveUpdate& r = (*held)[u];
     m.z.assign(static_cast<std::size_t>(p), kNaN);
-    m.cusum.assign(static_cast<std::size_t>(3 * p), 0.0);
+    m.cusum.assign(3 * static_cast<std::size_t>(p), 0.0);
     for (int o = 0; o < p; ++o) m.z[o] = r.innovation[o] / r.innovation_sd[o];
     const bool watching = !m.estimate.warming_up && detector_.has_value();
     if (watching) {
@@ -154,7 +154,7 @@ Result<std::vector<MonitorUpdate>> Monitor::Push(const Sample& row) {
     if (detector_) {
       for (int o = 0; o < p; ++o)
         for (int c = 0; c < kCusumKinds; ++c)
-          m.cusum[static_cast<std::size_t>(3 * o + c)] =
+          m.cusum[3 * static_cast<std::size_t>(o) + static_cast<std::size_t>(c)] =
               detector_->Statistic(o, static_cast<CusumKind>(c));
     }
     const RecursiveUpdate& r_held = (*held)[u];

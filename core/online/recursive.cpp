@@ -67,8 +67,9 @@ std::vector<int> TrackableParameters(const model::LinearModel& model, std::span<
                                      std::span<const double> /*theta*/) {
   const int n = model.n_states(), m = model.n_inputs(), p = model.n_outputs();
   // Entries in LinearModel::entries() order: A, B, c, C, D, d, sigma, S, then x0 and P0.
+  const auto z = [](int v) { return static_cast<std::size_t>(v); };
   const std::size_t dynamic =
-      static_cast<std::size_t>(n * n + n * m + n + p * n + p * m + p + n + p);
+      z(n) * z(n) + z(n) * z(m) + z(n) + z(p) * z(n) + z(p) * z(m) + z(p) + z(n) + z(p);
   std::set<std::string> names;
   const auto& entries = model.entries();
   for (std::size_t k = 0; k < dynamic && k < entries.size(); ++k)
@@ -322,7 +323,8 @@ Status RecursiveMl::Start(const Sample& first, const Sample* second) {
         for (int i = 0; i < k; ++i) {
           Eigen::MatrixXd rhs = dss_[i].A * P + P * dss_[i].A.transpose();
           rhs.diagonal() += 2.0 * ss_.sigma.cwiseProduct(dss_[i].sigma);
-          const Eigen::VectorXd v = lu.solve(-Eigen::Map<const Eigen::VectorXd>(rhs.data(), n * n));
+          const Eigen::VectorXd v =
+              lu.solve(-Eigen::Map<const Eigen::VectorXd>(rhs.data(), Eigen::Index{n} * n));
           const Eigen::MatrixXd dP = Eigen::Map<const Eigen::MatrixXd>(v.data(), n, n);
           dP_[i] = 0.5 * (dP + dP.transpose());
         }

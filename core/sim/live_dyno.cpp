@@ -46,8 +46,8 @@ Status CheckFactor(const char* name, double factor, bool may_vanish) {
 // start when `record`), `k` counts the samples given.
 template <class State>
 void WarmUp(State& s) {
-  for (std::int64_t n = std::int64_t{s.warmup_samples} * s.e.recording.oversample; s.i < n;)
-    s.FineStep(false);
+  const std::int64_t end = std::int64_t{s.warmup_samples} * s.e.recording.oversample;
+  while (s.i < end) s.FineStep(false);
 }
 
 // The sample at fine step i (a sample's time), then the world to the next sample's time.
