@@ -205,6 +205,8 @@ Result<RecursiveMl> RecursiveMl::Create(const model::LinearModel& model, const R
   }
   r.G_ = r.F_;
   r.sd_w_.assign(static_cast<std::size_t>(k), 0.0);
+  r.Finv_ = Eigen::LDLT<Eigen::MatrixXd>(r.F_).solve(Eigen::MatrixXd::Identity(k, k));
+  for (int a = 0; a < k; ++a) r.sd_w_[a] = std::sqrt(std::max(r.Finv_(a, a), 0.0));
   r.lambda_ = options.forgetting_start > 0.0 ? options.forgetting_start : options.forgetting;
   r.rows_.resize(static_cast<std::size_t>(r.lag_) + 2);
   return r;
@@ -301,6 +303,13 @@ Status RecursiveMl::Start(const Sample& first, const Sample* second) {
   }
   dx_ = Eigen::MatrixXd::Zero(n, k);
   dP_.assign(static_cast<std::size_t>(k), Eigen::MatrixXd::Zero(n, n));
+  scratch_.PhiP.resize(n, n);
+  scratch_.T.resize(n, n);
+  scratch_.PhidP.resize(n, n);
+  scratch_.next.resize(n);
+  scratch_.PCt.resize(n);
+  scratch_.dPCt.resize(n);
+  scratch_.info.resize(k, k);
   const Eigen::VectorXd sigma2 = ss_.sigma.array().square();
   Eigen::MatrixXd P;
   std::complex<double> bad;
@@ -371,33 +380,40 @@ Status RecursiveMl::TimeUpdate(const Sample& from, const Sample& to) {
   const bool foh = model_.spec().input_hold == model::InputHold::kFoh;
   const Eigen::Map<const Eigen::VectorXd> u0(from.u.data(), m);
   const Eigen::Map<const Eigen::VectorXd> u1(to.u.data(), m);
-  const Eigen::MatrixXd PhiP = disc_.Phi * P_;
+  // Into scratch matrices held by the estimator: no allocation per row.
+  Scratch& w = scratch_;
+  w.PhiP.noalias() = disc_.Phi * P_;
   for (int i = 0; i < k; ++i) {
     const filter::Discrete& d = ddisc_[i];
-    Eigen::VectorXd next = d.Phi * x_ + disc_.Phi * dx_.col(i) + d.g;
+    w.next.noalias() = d.Phi * x_;
+    w.next.noalias() += disc_.Phi * dx_.col(i);
+    w.next += d.g;
     if (m > 0) {
-      next.noalias() += d.Gamma0 * u0;
-      if (foh) next.noalias() += d.Gamma1 * u1;
+      w.next.noalias() += d.Gamma0 * u0;
+      if (foh) w.next.noalias() += d.Gamma1 * u1;
     }
-    dx_.col(i) = next;
-    const Eigen::MatrixXd T = d.Phi * PhiP.transpose();
-    Eigen::MatrixXd dP = disc_.Phi * dP_[i] * disc_.Phi.transpose();
-    dP += T + T.transpose() + d.Q;
-    dP_[i] = 0.5 * (dP + dP.transpose());
+    dx_.col(i) = w.next;
+    w.T.noalias() = d.Phi * w.PhiP.transpose();
+    w.PhidP.noalias() = disc_.Phi * dP_[i];
+    dP_[i].noalias() = w.PhidP * disc_.Phi.transpose();
+    dP_[i] += w.T + w.T.transpose() + d.Q;
+    filter::internal::Symmetrize(dP_[i]);
   }
-  Eigen::VectorXd next = disc_.Phi * x_ + disc_.g;
+  w.next.noalias() = disc_.Phi * x_;
+  w.next += disc_.g;
   if (m > 0) {
-    next.noalias() += disc_.Gamma0 * u0;
-    if (foh) next.noalias() += disc_.Gamma1 * u1;
+    w.next.noalias() += disc_.Gamma0 * u0;
+    if (foh) w.next.noalias() += disc_.Gamma1 * u1;
   }
-  x_ = next;
-  Eigen::MatrixXd P = PhiP * disc_.Phi.transpose() + disc_.Q;
-  P_ = 0.5 * (P + P.transpose());
+  x_ = w.next;
+  P_.noalias() = w.PhiP * disc_.Phi.transpose();
+  P_ += disc_.Q;
+  filter::internal::Symmetrize(P_);
   return Ok{};
 }
 
 Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
-  const int n = ss_.n_states(), m = ss_.n_inputs(), p = ss_.n_outputs();
+  const int m = ss_.n_inputs(), p = ss_.n_outputs();
   const int k = static_cast<int>(tracked_.size());
   const std::size_t ring = rows_.size();
   const Sample& row_j = rows_[static_cast<std::size_t>(j) % ring];
@@ -410,18 +426,20 @@ Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
   const Eigen::Map<const Eigen::VectorXd> u(row_j.u.data(), m);
 
   Eigen::VectorXd score = Eigen::VectorXd::Zero(k), info_eps(k), info_R(k);
-  Eigen::MatrixXd info = Eigen::MatrixXd::Zero(k, k);
+  Eigen::MatrixXd& info = scratch_.info;
+  info.setZero();
   Eigen::VectorXd d_logdet = Eigen::VectorXd::Zero(k), d_r2 = Eigen::VectorXd::Zero(k);
   double logdet = 0.0, r2 = 0.0;
   int p_j = 0;
-  Eigen::VectorXd dPCt(n);
+  Eigen::VectorXd& PCt = scratch_.PCt;
+  Eigen::VectorXd& dPCt = scratch_.dPCt;
   for (int o = 0; o < p; ++o) {
     const Sample& row = rows_[static_cast<std::size_t>(j + delay_[o]) % ring];
     const double y = row.y[o];
     if (std::isnan(y)) continue;
     const auto c = ss_.C.row(o);
     const double yhat = c.dot(x_) + ss_.D.row(o).dot(u) + ss_.d(o);
-    const Eigen::VectorXd PCt = P_ * c.transpose();
+    PCt.noalias() = P_ * c.transpose();
     const double R = c.dot(PCt) + ss_.S(o);
     if (!(R > 0.0)) {
       Error e = NumericalError(fmt::format(
@@ -445,9 +463,9 @@ Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
       info_eps(i) = deps;
       info_R(i) = dR;
       dx_.col(i) += dPCt * (eps / R) + PCt * ((deps - eps * dR / R) / R);
-      Eigen::MatrixXd dP = dP_[i] - (dPCt * PCt.transpose() + PCt * dPCt.transpose()) / R;
-      dP.noalias() += PCt * PCt.transpose() * (dR / (R * R));
-      dP_[i] = std::move(dP);
+      dP_[i].noalias() -= (dPCt / R) * PCt.transpose();
+      dP_[i].noalias() -= (PCt / R) * dPCt.transpose();
+      dP_[i].noalias() += PCt * (PCt.transpose() * (dR / (R * R)));
     }
     info.noalias() += info_eps * info_eps.transpose() / R;
     info.noalias() += 0.5 * info_R * info_R.transpose() / (R * R);
@@ -455,7 +473,7 @@ Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
     r2 += eps * eps / R;
     ++p_j;
     x_.noalias() += PCt * (eps / R);
-    P_.noalias() -= PCt * PCt.transpose() / R;
+    P_.noalias() -= (PCt / R) * PCt.transpose();
     up.innovation[o] = eps;
     up.innovation_sd[o] = std::sqrt(R);
   }
@@ -480,6 +498,7 @@ Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
     Step(slope.cwiseProduct(score));
   }
   for (int i : tracked_) up.theta.push_back(theta_[i]);
+  if (options_.hold) return up;  // held at the reference: its scores are what is asked for
   const Eigen::MatrixXd cov = Covariance();
   for (int a = 0; a < k; ++a) up.sd.push_back(std::sqrt(std::max(cov(a, a), 0.0)));
   return up;
@@ -531,23 +550,22 @@ Result<std::vector<RecursiveUpdate>> RecursiveMl::Push(const Sample& row) {
 Eigen::MatrixXd RecursiveMl::Covariance() const {
   const Eigen::Index k = F_.rows();
   if (k == 0) return {};
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(F_);
-  const Eigen::MatrixXd Finv = ldlt.solve(Eigen::MatrixXd::Identity(k, k));
   const Eigen::VectorXd slope = Slopes();
-  Eigen::MatrixXd cov = slope.asDiagonal() * (Finv * G_ * Finv) * slope.asDiagonal();
+  Eigen::MatrixXd cov = slope.asDiagonal() * (Finv_ * G_ * Finv_) * slope.asDiagonal();
   return 0.5 * (cov + cov.transpose());
 }
 
 void RecursiveMl::Step(const Eigen::VectorXd& score) {
   const int k = static_cast<int>(tracked_.size());
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(F_);
+  Finv_ = ldlt.solve(Eigen::MatrixXd::Identity(k, k));  // F changed: the covariance's too
+  const Eigen::MatrixXd& Finv = Finv_;
+  for (int a = 0; a < k; ++a) sd_w_[a] = std::sqrt(std::max(Finv(a, a), 0.0));
   if (ldlt.info() != Eigen::Success) return;
   Eigen::VectorXd step = ldlt.solve(score);
   if (!step.allFinite()) return;
   // At most max_step_sd of the current SDs (sqrt of diag F⁻¹), and kMaxWorkingStep, in any
   // working coordinate.
-  const Eigen::MatrixXd Finv = ldlt.solve(Eigen::MatrixXd::Identity(k, k));
-  for (int a = 0; a < k; ++a) sd_w_[a] = std::sqrt(std::max(Finv(a, a), 0.0));
   double scale = 1.0;
   for (int a = 0; a < k; ++a) {
     const double limit =

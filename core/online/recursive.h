@@ -105,7 +105,7 @@ struct RecursiveUpdate {
   int line = 0;  // source line of the row
   bool warming_up = false;
   std::vector<double> theta;  // tracked parameters (RecursiveMl::tracked() order)
-  std::vector<double> sd;     // their standard deviations
+  std::vector<double> sd;     // their standard deviations (empty when held)
   // Per output: innovation ε = y - ŷ and its standard deviation √R at the estimate before the
   // update (NaN where the output was not observed at this index).
   std::vector<double> innovation, innovation_sd;
@@ -172,8 +172,14 @@ class RecursiveMl {
   Eigen::MatrixXd P_;
   Eigen::MatrixXd dx_;               // n x k
   std::vector<Eigen::MatrixXd> dP_;  // k of n x n
+  Eigen::MatrixXd Finv_;             // F⁻¹, kept current with F
   Eigen::MatrixXd F_, G_;            // k x k
 
+  struct Scratch {  // per-row temporaries, sized once (no allocation per row)
+    Eigen::MatrixXd PhiP, T, PhidP, info;
+    Eigen::VectorXd next, PCt, dPCt;
+  };
+  Scratch scratch_;
   std::vector<Sample> rows_;  // ring of the last lag_ + 2 rows
   long n_rows_ = 0;           // rows pushed
   int next_index_ = 0;        // next state index to complete
