@@ -86,7 +86,7 @@ Watched Watch(const MonitorOptions& options, std::uint64_t seed, double seconds,
 TEST(Monitor, OnStationaryDataTheFalseAlarmRateIsAtMostTheRateSet) {
   MonitorOptions o;
   o.false_alarms_per_hour = 20;
-  const double hours = kSanitized ? 0.1 : 1.0;
+  const double hours = kSanitized ? 0.03 : 1.0;
   const Watched run = Watch(o, 5, 3600 * hours);
   const double expected = o.false_alarms_per_hour * hours;
   RecordProperty("alarms", static_cast<int>(run.alarms.size()));
