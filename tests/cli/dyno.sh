@@ -9,11 +9,6 @@ cli=$1
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 source "$(dirname "${BASH_SOURCE[0]}")/expect.bash"
-check() {  # check DESCRIPTION COMMAND...
-  local what=$1
-  shift
-  if "$@"; then passes=$((passes + 1)); else echo "FAIL: $what"; failures=$((failures + 1)); fi
-}
 live() { timeout 10 "$cli" dyno fuel --live "$@" 2>"$tmp/err"; }
 
 # --- without faults: the batch record's rows -----------------------------------------------------

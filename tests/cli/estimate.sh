@@ -9,11 +9,6 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 passes=0
 failures=0
-check() {  # check DESCRIPTION COMMAND...
-  local what=$1
-  shift
-  if "$@"; then passes=$((passes + 1)); else echo "FAIL: $what"; failures=$((failures + 1)); fi
-}
 
 "$cli" prbs --order 6 --period 0.5 --ts 0.0125 --duration 50 --low 1.08 --high 1.32 --name mfi \
   --out "$tmp/u.csv"

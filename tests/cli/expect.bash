@@ -4,6 +4,13 @@
 failures=0
 passes=0
 
+# check DESCRIPTION COMMAND...: runs COMMAND and counts a pass if it succeeds.
+check() {
+  local what=$1
+  shift
+  if "$@"; then passes=$((passes + 1)); else echo "FAIL: $what"; failures=$((failures + 1)); fi
+}
+
 # expect CODE REGEX -- ARGS...: runs the CLI and checks its exit status and that stderr matches.
 expect() {
   local code=$1 pattern=$2

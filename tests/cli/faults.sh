@@ -12,11 +12,6 @@ tmp=$(mktemp -d)
 trap 'chmod -R u+w "$tmp"; rm -rf "$tmp"' EXIT
 EXPECT_TIMEOUT=60
 source "$(dirname "${BASH_SOURCE[0]}")/expect.bash"
-check() {  # check DESCRIPTION COMMAND...
-  local what=$1
-  shift
-  if "$@"; then passes=$((passes + 1)); else echo "FAIL: $what"; failures=$((failures + 1)); fi
-}
 
 model=$data/cli/fuel.json
 csv=$data/cli/fuel.csv
