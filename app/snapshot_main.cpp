@@ -2,6 +2,8 @@
 // CONTRACT section 6:
 //   greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png [--width W --height H]
 //                      [--estimate] [--dialog DIALOG] [--time T0:T1] [--profile PARAMETER]
+//                      [--live-until T [--live-fault TIME:PARAMETER*FACTOR[/RAMP] ...]
+//                       [--live-point NAME] [--live-seed N] [--live-forgetting L]]
 // Exit status: 0 written; 2 bad command line or bad input (stderr names the file); 1 the
 // rendering or the PNG writing failed, or --estimate's estimation failed (the PNG is still
 // written: it shows why).
@@ -22,6 +24,14 @@
 // Estimate view's "Profile intervals" box) and the Parameters view plots NAME's profile, as a
 // click on its interval does.
 //
+// --live-until T (the live view): runs the virtual dyno and the condition monitor to T seconds of
+// data on this thread, without a job or a clock (RunLiveSynchronously), as a Start would run them
+// in real time, then draws the view stopped there. The reference is the session's estimate, so it
+// needs --estimate. --live-fault schedules a fault as `greybench-cli dyno fuel --live --fault`
+// does (repeat it for several; e.g. 60:tau_ff*1.5, 60:X*2/30, 90:clear); --live-point,
+// --live-seed and --live-forgetting set the dyno's operating point (f1), its seed (2) and the
+// estimator's forgetting factor λ (0.999), as the view's controls do.
+//
 // --dialog opens one of the shell's dialogs over the view, as its menu item does (the file
 // browser lists a real folder, so its dates make that picture depend on the machine).
 //
@@ -35,6 +45,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
@@ -42,6 +53,8 @@
 #include <string_view>
 #include <vector>
 
+#include "core/sim/dyno.h"
+#include "core/sim/fault_schedule.h"
 #include "ui/render/fixed_gl_renderer.h"
 #include "ui/render/png.h"
 #include "ui/shell/shell.h"
@@ -76,6 +89,12 @@ struct Options {
   std::string dialog;  // a dialog of the shell drawn over the view (ui/shell/shell.h)
   // --overlays: the predictions view's checkboxes to tick (ahead, simulation, smoothed).
   bool ahead = false, simulation = false, smoothed = false;
+  // The live view: run to this many seconds of data (absent: not started), with these faults.
+  std::optional<double> live_until;
+  std::vector<gb::sim::TimedFuelFault> live_faults;  // as given; scheduled in Prepare
+  std::string live_point;                            // "": the view's default
+  std::optional<std::uint64_t> live_seed;
+  std::optional<double> live_forgetting;
 };
 
 constexpr const char* kUsage =
@@ -84,7 +103,10 @@ constexpr const char* kUsage =
     "                          [--width W] [--height H] [--estimate] [--dialog DIALOG]\n"
     "                          [--time T0:T1] [--profile PARAMETER]\n"
     "                          [--overlays ahead,simulation,smoothed]\n"
+    "                          [--live-until T [--live-fault TIME:PARAMETER*FACTOR[/RAMP] ...]\n"
+    "                           [--live-point NAME] [--live-seed N] [--live-forgetting L]]\n"
     "VIEW: data diagram equations estimate predictions residuals parameters operating-points\n"
+    "      live\n"
     "DIALOG: open-project save-project-as new-project keyboard-shortcuts unsaved-changes\n";
 
 int Fail(int status, const std::string& message) {
@@ -108,9 +130,11 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       continue;
     }
     if (arg == "--help" || arg == "-h") return "help";
-    const bool takes_value = arg == "--project" || arg == "--view" || arg == "--out" ||
-                             arg == "--width" || arg == "--height" || arg == "--dialog" ||
-                             arg == "--time" || arg == "--profile" || arg == "--overlays";
+    const bool takes_value =
+        arg == "--project" || arg == "--view" || arg == "--out" || arg == "--width" ||
+        arg == "--height" || arg == "--dialog" || arg == "--time" || arg == "--profile" ||
+        arg == "--overlays" || arg == "--live-until" || arg == "--live-fault" ||
+        arg == "--live-point" || arg == "--live-seed" || arg == "--live-forgetting";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
@@ -151,6 +175,32 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
         }
         begin = end + 1;
       }
+    } else if (arg == "--live-until") {
+      char* end = nullptr;
+      const double t = std::strtod(value.c_str(), &end);
+      if (value.empty() || *end != '\0' || !std::isfinite(t) || t < 0) {
+        return "--live-until '" + value + "': expected seconds of data >= 0";
+      }
+      o->live_until = t;
+    } else if (arg == "--live-fault") {
+      gb::Result<gb::sim::TimedFuelFault> f = gb::sim::ParseFuelFault(value, "--live-fault");
+      if (!f) return f.error().message;
+      o->live_faults.push_back(std::move(f).value());
+    } else if (arg == "--live-point") {
+      if (!gb::sim::FindFuelPoint(value)) return gb::sim::FindFuelPoint(value).error().message;
+      o->live_point = value;
+    } else if (arg == "--live-forgetting") {
+      char* end = nullptr;
+      const double lambda = std::strtod(value.c_str(), &end);
+      if (value.empty() || *end != '\0' || !(lambda > 0 && lambda <= 1))
+        return "--live-forgetting '" + value + "': expected a forgetting factor in (0, 1]";
+      o->live_forgetting = lambda;
+    } else if (arg == "--live-seed") {
+      char* end = nullptr;
+      const unsigned long long seed = std::strtoull(value.c_str(), &end, 10);
+      if (value.empty() || *end != '\0' || value[0] == '-')
+        return "--live-seed '" + value + "': expected a whole number >= 0";
+      o->live_seed = seed;
     } else if (arg == "--time") {
       double t0 = 0, t1 = 0;
       char rest = 0;
@@ -168,6 +218,8 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       (arg == "--width" ? o->width : o->height) = *size;
     }
   }
+  if (!o->live_faults.empty() && !o->live_until)
+    return "--live-fault needs --live-until (the time the run is drawn at)";
   if (o->project.empty()) return "--project is required";
   if (o->shots.empty() || o->shots.back().out.empty()) return "--out is required";
   return "";
@@ -225,6 +277,26 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
       status = kExitRenderFailed;
     }
   }
+  if (!options.live_point.empty()) state.live.settings.point = options.live_point;
+  if (options.live_seed) state.live.settings.seed = *options.live_seed;
+  if (options.live_forgetting) state.live.settings.forgetting = *options.live_forgetting;
+  if (options.live_until && Shows(options, ui::View::kLive)) {
+    // The view's run, to the time asked for, without a clock (the Start button's job paces it).
+    gb::Result<gb::sim::FuelOperatingPoint> point =
+        gb::sim::FindFuelPoint(state.live.settings.point);
+    if (!point) return Fail(kExitBadInput, point.error().message);
+    gb::Result<std::vector<gb::sim::TimedFuelFault>> faults =
+        gb::sim::ScheduleFuelFaults(options.live_faults, *point, "--live-fault");
+    if (!faults) return Fail(kExitBadInput, faults.error().message);
+    std::string why;
+    if (!ui::RunLiveSynchronously(state, *options.live_until, std::move(faults).value(), &why)) {
+      // Nothing ran (no reference, a nonlinear model) is bad input; a run that failed on the
+      // way is drawn as far as it got.
+      if (!state.live.setup) return Fail(kExitBadInput, "--live-until: " + why);
+      std::fprintf(stderr, "greybench-snapshot: error: %s\n", why.c_str());
+      status = kExitRenderFailed;
+    }
+  }
   *fatal = false;
   return status;
 }
@@ -260,6 +332,8 @@ int RenderView(const Options& options, const Shot& shot, gb::ui::AppState& state
     // every time axis (the data view's and the predictions/residuals one), as a zoom would.
     for (ui::plot::LinkedRange& r : state.data_view.x_ranges) r.range = *options.time;
     state.analysis.time_x.range = *options.time;
+    state.live.time_x.range = *options.time;
+    state.live.follow = false;
     settle();
   }
   const ImVec4 bg = ImGui::GetStyle().Colors[ImGuiCol_WindowBg];

@@ -251,6 +251,9 @@ void DrawPanel(AppState& state, View view) {
     case View::kOperatingPoints:
       DrawOperatingPointsPanel(state);
       break;
+    case View::kLive:
+      DrawLivePanel(state);
+      break;
   }
 }
 

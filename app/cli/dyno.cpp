@@ -1,12 +1,10 @@
 #include <algorithm>
 #include <cerrno>
-#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
-#include <optional>
 #include <string_view>
 #include <thread>
 
@@ -15,6 +13,7 @@
 #include "app/cli/cli.h"
 #include "core/data/write_csv.h"
 #include "core/sim/dyno.h"
+#include "core/sim/fault_schedule.h"
 #include "core/sim/live_dyno.h"
 
 namespace gb::cli {
@@ -23,109 +22,25 @@ namespace {
 
 // ---- --live: the fuel experiment streamed, with faults ------------------------------------------
 
-// One --fault: at `at_s` the fault, or with `clear` every parameter back to nominal over its ramp.
-struct TimedFault {
-  std::string text;  // as given
-  double at_s = 0;
-  bool clear = false;
-  sim::FuelFault fault;
-};
-
-constexpr const char* kFaultForm =
-    "expected TIME:PARAMETER*FACTOR[/RAMP] (PARAMETER tau_ff, X, delay or gain; e.g. "
-    "60:tau_ff*1.5 for a step at 60 s, 60:tau_ff*1.5/30 for a ramp over 30 s) or TIME:clear[/RAMP]";
-
-Error FaultError(const std::string& text, const std::string& what) {
-  return InputError(fmt::format("--fault '{}': {}", text, what));
-}
-
-// The whole of `s` as a finite number.
-std::optional<double> Number(std::string_view s) {
-  double value = 0;
-  const char* end = s.data() + s.size();
-  auto [ptr, ec] = std::from_chars(s.data(), end, value);
-  if (s.empty() || ec != std::errc() || ptr != end || !std::isfinite(value)) return std::nullopt;
-  return value;
-}
-
-Result<TimedFault> ParseFault(const std::string& text) {
-  TimedFault f;
-  f.text = text;
-  const auto colon = text.find(':');
-  if (colon == std::string::npos) return FaultError(text, kFaultForm);
-  const std::string_view spec = std::string_view(text).substr(colon + 1);
-  const std::string_view time = std::string_view(text).substr(0, colon);
-  const auto at = Number(time);
-  if (!at || *at < 0)
-    return FaultError(text, fmt::format("the time '{}' is not a number of seconds >= 0", time));
-  f.at_s = *at;
-  const auto slash = spec.find('/');
-  const std::string_view change = spec.substr(0, slash);
-  if (slash != std::string_view::npos) {
-    const std::string_view ramp = spec.substr(slash + 1);
-    const auto r = Number(ramp);
-    if (!r || *r < 0)
-      return FaultError(text, fmt::format("the ramp '{}' is not a number of seconds >= 0", ramp));
-    f.fault.ramp_s = *r;
-  }
-  if (change == "clear") {
-    f.clear = true;
-    return f;
-  }
-  const auto star = change.find('*');
-  const std::string_view name = change.substr(0, star);
-  using Kind = sim::FuelFault::Kind;
-  bool known = false;
-  for (Kind kind : {Kind::kTauFF, Kind::kX, Kind::kSensorDelay, Kind::kSensorGain}) {
-    if (name == sim::FaultName(kind)) {
-      f.fault.kind = kind;
-      known = true;
-    }
-  }
-  if (!known)
-    return FaultError(
-        text, fmt::format("unknown parameter '{}' (tau_ff, X, delay, gain, or clear)", name));
-  if (star == std::string_view::npos)
-    return FaultError(text, fmt::format("no factor: expected {}*FACTOR", name));
-  const std::string_view factor = change.substr(star + 1);
-  const auto x = Number(factor);
-  if (!x) return FaultError(text, fmt::format("the factor '{}' is not a number", factor));
-  f.fault.factor = *x;
-  return f;
-}
+constexpr std::string_view kFaultOption = "--fault";
 
 // The --fault arguments in time order (the command line's order at equal times), checked by
 // replaying them on the operating point's values: a fault the dyno would refuse is refused here,
 // before the run.
-Result<std::vector<TimedFault>> ParseFaults(const std::vector<std::string>& texts,
-                                            const sim::FuelOperatingPoint& point, double duration) {
-  std::vector<TimedFault> faults;
+Result<std::vector<sim::TimedFuelFault>> ParseFaults(const std::vector<std::string>& texts,
+                                                     const sim::FuelOperatingPoint& point,
+                                                     double duration) {
+  std::vector<sim::TimedFuelFault> faults;
   for (const auto& text : texts) {
-    auto f = ParseFault(text);
+    auto f = sim::ParseFuelFault(text, kFaultOption);
     if (!f) return f.error();
     if (duration > 0 && f->at_s >= duration)
-      return FaultError(text, fmt::format("{} s is not before the end of the run (--duration {})",
-                                          f->at_s, duration));
+      return sim::FuelFaultError(
+          kFaultOption, text,
+          fmt::format("{} s is not before the end of the run (--duration {})", f->at_s, duration));
     faults.push_back(std::move(*f));
   }
-  std::stable_sort(faults.begin(), faults.end(),
-                   [](const TimedFault& a, const TimedFault& b) { return a.at_s < b.at_s; });
-  sim::FuelFaults replay(point, sim::LiveFuelDyno::MaxSensorDelay(point));
-  for (const auto& f : faults) {
-    const Status st =
-        f.clear ? replay.Clear(f.at_s, f.fault.ramp_s) : replay.Inject(f.fault, f.at_s);
-    if (!st) return FaultError(f.text, st.error().message);
-  }
-  return faults;
-}
-
-std::string Describe(const TimedFault& f) {
-  const std::string ramp =
-      f.fault.ramp_s > 0 ? fmt::format("linearly over {} s", f.fault.ramp_s) : "as a step";
-  if (f.clear)
-    return fmt::format("fault: at {} s every parameter back to nominal, {}", f.at_s, ramp);
-  return fmt::format("fault: at {} s {} x {}, {}", f.at_s, sim::FaultName(f.fault.kind),
-                     f.fault.factor, ramp);
+  return sim::ScheduleFuelFaults(std::move(faults), point, kFaultOption);
 }
 
 std::string Regenerate(const DynoArgs& args) {
@@ -177,7 +92,7 @@ int StreamFuel(const DynoArgs& args, const sim::FuelExperiment& e) {
 
   std::string head;
   std::vector<std::string> comments = sim::FuelExperimentComments(e);
-  for (const auto& f : *faults) comments.push_back(Describe(f));
+  for (const auto& f : *faults) comments.push_back(sim::DescribeFuelFault(f));
   comments.push_back(Regenerate(args));
   for (const auto& c : comments) head += "# " + c + "\n";
   head += args.truth ? "t,mfi,ilambda,true_tau_ff,true_X,true_delay,true_Kb\n" : "t,mfi,ilambda\n";
@@ -192,14 +107,10 @@ int StreamFuel(const DynoArgs& args, const sim::FuelExperiment& e) {
   std::string row;
   for (std::int64_t k = 0; n_samples < 0 || k < n_samples; ++k) {
     // A fault at T acts from the first sample at or after T.
-    for (; next_fault < faults->size() && (*faults)[next_fault].at_s <= dyno->Time() + 1e-6 * ts;
-         ++next_fault) {
-      const TimedFault& f = (*faults)[next_fault];
-      const Status st = f.clear ? dyno->ClearFaults(f.fault.ramp_s) : dyno->Inject(f.fault);
-      if (!st) {
-        finish(true, false);
-        return Fail(FaultError(f.text, st.error().message));
-      }
+    if (const Status st = sim::ApplyDueFuelFaults(*faults, &next_fault, &*dyno, kFaultOption);
+        !st) {
+      finish(true, false);
+      return Fail(st.error());
     }
     const sim::FuelTruth truth = dyno->Truth();
     const sim::FuelSample s = dyno->Next();

@@ -6,7 +6,7 @@
 #
 # CASE: data | equations | small | deterministic | bad-project | bad-view | estimate |
 #       estimate-deterministic | estimate-case-study | operating-points | diagram | dialog |
-#       predictions | residuals | window.
+#       predictions | residuals | live | window.
 # Exit 0 pass, 1 fail, 77 skipped (window test without xvfb-run).
 set -uo pipefail
 
@@ -40,7 +40,7 @@ case "$case_name" in
   small)
     # Every view in a small window (800 x 500) still draws.
     for view in data diagram equations estimate predictions residuals parameters \
-                operating-points; do
+                operating-points live; do
       "$snapshot" --project "$project" --view "$view" --out "$out/$view.png" \
         --width 800 --height 500 || fail "snapshot of $view failed"
       "$png_check" "$out/$view.png" 800 500 || fail "$view.png"
@@ -84,6 +84,29 @@ case "$case_name" in
     if "$png_check" "$out/$case_name-no-fit.png" 1280 800 --colour b2182b:2000 >/dev/null 2>&1; then
       fail "the parameters view shows a heat map without a fit"
     fi
+    ;;
+  live)
+    # The live view run to 10 s without a clock, from the session's estimate (a poor one: the
+    # test model fixes K_b at 1, so the monitor alarms at once), with a fault at 5 s: the red
+    # alarm banner (c62828) and the fault's orange line and tag (e67800) prove the run and its
+    # marks are drawn; two runs give the same bytes.
+    for i in 1 2; do
+      "$snapshot" --project "$project" --estimate --view live --live-until 10 \
+        --live-fault '5:tau_ff*1.5' --out "$out/live$i.png" || fail "run $i"
+    done
+    "$png_check" "$out/live1.png" 1280 800 --colour c62828:10000 --colour e67800:10 \
+      || fail "live1.png"
+    cmp "$out/live1.png" "$out/live2.png" || fail "two renderings of the same live run differ"
+    expect_error 2 "--live-fault needs --live-until" \
+      "$snapshot" --project "$project" --view live --live-fault '5:X*2' --out "$out/bad.png"
+    expect_error 2 "--live-fault '5:tauff\*2': unknown parameter 'tauff'" \
+      "$snapshot" --project "$project" --view live --live-until 10 --live-fault '5:tauff*2' \
+      --out "$out/bad.png"
+    expect_error 2 "--live-fault '5:X\*9': X would become" \
+      "$snapshot" --project "$project" --view live --live-until 10 --live-fault '5:X*9' \
+      --out "$out/bad.png"
+    expect_error 2 "run an estimate first, or open a result file" \
+      "$snapshot" --project "$project" --view live --live-until 10 --out "$out/bad.png"
     ;;
   estimate-deterministic)
     for i in 1 2; do

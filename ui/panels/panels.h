@@ -16,6 +16,7 @@ void DrawPredictionsPanel(AppState& state);      // predictions.cpp
 void DrawResidualsPanel(AppState& state);        // residuals.cpp
 void DrawParametersPanel(AppState& state);       // parameters.cpp
 void DrawOperatingPointsPanel(AppState& state);  // operating_points.cpp
+void DrawLivePanel(AppState& state);             // live.cpp
 
 // Draws the panel of `view`.
 void DrawPanel(AppState& state, View view);

@@ -52,7 +52,7 @@ constexpr ShortcutInfo kShortcuts[] = {
     {"Ctrl+Q", "Quit (asks to save changes)"},
     {"F5", "Run the estimation"},
     {"Esc", "Cancel the estimation under way"},
-    {"Ctrl+1 \xE2\x80\xA6 Ctrl+8", "Show a view (Data \xE2\x80\xA6 Operating points)"},
+    {"Ctrl+1 \xE2\x80\xA6 Ctrl+9", "Show a view (Data \xE2\x80\xA6 Live)"},
     {"Ctrl+= / Ctrl+-", "Zoom in / out"},
     {"Ctrl+0", "Actual size"},
     {"", ""},

@@ -15,7 +15,7 @@ struct ViewInfo {
   std::string_view name;
   std::string_view title;
 };
-constexpr std::array<ViewInfo, 8> kViewInfo = {{
+constexpr std::array<ViewInfo, 9> kViewInfo = {{
     {View::kData, "data", "Data"},
     {View::kDiagram, "diagram", "Diagram"},
     {View::kEquations, "equations", "Equations"},
@@ -24,6 +24,7 @@ constexpr std::array<ViewInfo, 8> kViewInfo = {{
     {View::kResiduals, "residuals", "Residuals"},
     {View::kParameters, "parameters", "Parameters"},
     {View::kOperatingPoints, "operating-points", "Operating points"},
+    {View::kLive, "live", "Live"},
 }};
 
 const ViewInfo& Info(View view) {
@@ -107,6 +108,7 @@ void InstallProject(AppState& state, ProjectLoad load) {
   state.analysis.result.reset();
   state.analysis.last_failure.clear();
   state.analysis.dataset = state.analysis.output = state.analysis.input = 0;
+  ResetLive(state);  // the live run watched the previous project's model
   if (!state.model)
     AddMessage(state, Severity::kError, "The model is not valid: " + state.model_error);
 }
@@ -199,6 +201,7 @@ void PollJobs(AppState& state) {
     InstallEstimation(state, std::move(*run));
   }
   PollSweep(state);
+  PollLive(state);
 
   std::optional<ProjectLoad> load = state.load_job.TakeIfReady();
   if (!load) {
@@ -228,6 +231,16 @@ void PollJobs(AppState& state) {
   PollAnalysis(state);
 }
 
+namespace {
+
+// The jobs that end by themselves (not the live run).
+bool FiniteJobActive(const AppState& state) {
+  return state.load_job.active() || state.estimation.job.active() || state.sweep.job.active() ||
+         state.analysis.job.active();
+}
+
+}  // namespace
+
 void WaitForJobs(AppState& state) {
   // Installing one job's result may start another (a fit restarts the analysis).
   do {
@@ -239,12 +252,12 @@ void WaitForJobs(AppState& state) {
     PollJobs(state);
     state.analysis.job.Wait();
     PollJobs(state);
-  } while (AnyJobActive(state));
+  } while (FiniteJobActive(state));
 }
 
 bool AnyJobActive(const AppState& state) {
-  return state.load_job.active() || state.estimation.job.active() || state.sweep.job.active() ||
-         state.analysis.job.active();
+  // A paused live run changes nothing on screen until the user acts.
+  return FiniteJobActive(state) || (state.live.job.active() && !state.live.paused);
 }
 
 bool EstimationRunning(const AppState& state) { return state.estimation.job.active(); }

@@ -26,14 +26,17 @@
 #include "ui/jobs/analysis.h"
 #include "ui/jobs/estimation.h"
 #include "ui/jobs/job.h"
+#include "ui/jobs/live.h"
 #include "ui/jobs/sweep.h"
 #include "ui/shell/shell_state.h"
 #include "ui/state/data_summary.h"
+#include "ui/widgets/file_browser.h"
 #include "ui/widgets/plot.h"
 
 namespace gb::ui {
 
-// The views of CONTRACT section 6, in the order of the workflow.
+// The views of CONTRACT section 6 in the order of the workflow, then the Live view (on-line
+// monitoring, beyond the contract's list).
 enum class View {
   kData,
   kDiagram,
@@ -43,10 +46,12 @@ enum class View {
   kResiduals,
   kParameters,
   kOperatingPoints,
+  kLive,
 };
-inline constexpr std::array<View, 8> kAllViews = {
-    View::kData,        View::kDiagram,   View::kEquations,  View::kEstimate,
-    View::kPredictions, View::kResiduals, View::kParameters, View::kOperatingPoints};
+inline constexpr std::array<View, 9> kAllViews = {
+    View::kData,       View::kDiagram,         View::kEquations,
+    View::kEstimate,   View::kPredictions,     View::kResiduals,
+    View::kParameters, View::kOperatingPoints, View::kLive};
 
 std::string_view ViewName(View view);   // the command-line name: "operating-points"
 std::string_view ViewTitle(View view);  // the title in the UI: "Operating points"
@@ -147,6 +152,42 @@ struct AnalysisState {
   }
 };
 
+// The Live view (ui/jobs/live.h): the model watched on-line from a reference, the run under way
+// in its job, and what it has produced so far.
+enum class LiveReferenceKind {
+  kSession,  // the last fit of this session (EstimationState::result)
+  kFile,     // a result file
+};
+struct LiveState {
+  LiveSettings settings;  // edited in the Live view (speed also while a run is under way)
+  LiveReferenceKind reference = LiveReferenceKind::kSession;
+  std::string reference_file;
+  sim::FuelFault fault{sim::FuelFault::Kind::kTauFF, 1.5, 0.0};  // Inject's; Clear uses its ramp
+
+  Job<LiveRunEnd> job;
+  std::shared_ptr<LiveFeed> feed;  // of the run under way (null once it has ended)
+  bool discard_end = false;        // the run under way was reset: its end says nothing
+  int started_generation = 0;      // AppState::project_generation when it started
+  bool paused = false;             // as the user last asked
+  // The run shown (kept when it ends, until Reset or the next Start).
+  std::optional<LiveSetup> setup;
+  LiveStatus status;
+  LiveSeries series;
+  int acknowledged = 0;      // alarm episodes up to this number have been acknowledged
+  bool synchronous = false;  // computed by RunLiveSynchronously (greybench-snapshot)
+  std::string last_failure;  // why the last run could not start, or stopped
+
+  // The plots' time axis follows the data (its last `window_s`) until the user zooms or pans.
+  plot::LinkedRange time_x;
+  bool follow = true;
+  double window_s = 60.0;
+  // Whether the model is linear, checked once per model revision.
+  int checked_revision = -1;
+  std::string nonlinear;     // why the model is not linear ("" when it is)
+  FileBrowserState browser;  // for the CSV file and the result file
+  int browsing = 0;          // what the browser is choosing: 1 the CSV file, 2 the result file
+};
+
 // A parameter edit the model refused, shown in the Parameters view next to the table.
 struct ParameterRefusal {
   std::string parameter;
@@ -200,6 +241,7 @@ struct AppState {
   EstimationState estimation;
   SweepState sweep;  // the operating-point sweep
   AnalysisState analysis;
+  LiveState live;
 
   View view = View::kData;
   std::vector<Message> messages;
@@ -227,7 +269,8 @@ void AddMessage(AppState& state, Severity severity, std::string text);
 void OpenProject(AppState& state, std::string path);
 // Installs the results of finished jobs. DrawWorkbench calls it at the start of every frame.
 void PollJobs(AppState& state);
-// Blocks until every job has finished, then polls. For the snapshot renderer and tests only.
+// Blocks until every job has finished (but the live run, which has no end), then polls. For the
+// snapshot renderer and tests only.
 void WaitForJobs(AppState& state);
 bool AnyJobActive(const AppState& state);
 
@@ -266,6 +309,32 @@ void PollAnalysis(AppState& state);
 void CancelAnalysis(AppState& state);
 void RecomputeAnalysis(AppState& state);
 bool AnalysisRunning(const AppState& state);
+
+// The Live view (ui/jobs/live_state.cpp). The run is a stream without end: WaitForJobs does not
+// wait for it (AnyJobActive counts it unless it is paused, so the window keeps drawing while it
+// runs).
+// Why the model cannot be watched on-line ("" when it can: a valid, linear model); cached.
+const std::string& LiveModelProblem(AppState& state);
+// The run that Start would begin now, or nothing with why (no reference, no CSV file, ...).
+std::optional<LiveInput> LiveInputNow(const AppState& state, std::string* why = nullptr);
+// How the reference Start would use is named, or "" when there is none.
+std::string LiveReferenceText(const AppState& state);
+bool StartLive(AppState& state, std::string* why = nullptr);
+bool LiveRunning(const AppState& state);
+void PauseLive(AppState& state, bool pause);
+void SetLiveSpeed(AppState& state, LiveSpeed speed);
+void InjectLiveFault(AppState& state);  // state.live.fault, at the dyno's next sample
+void ClearLiveFaults(AppState& state);  // over state.live.fault.ramp_s
+void AcknowledgeLiveAlarm(AppState& state);
+// Stops the run under way (without waiting for it) and clears what the view shows.
+void ResetLive(AppState& state);
+// Takes the job's updates, status and notes (PollJobs calls it every frame).
+void PollLive(AppState& state);
+// greybench-snapshot: runs the dyno and the monitor to `until_s` on this thread, with the fault
+// schedule `faults` (time order), and installs the result as a run's. False, with why, when it
+// cannot (as StartLive, or the run failed).
+bool RunLiveSynchronously(AppState& state, double until_s, std::vector<sim::TimedFuelFault> faults,
+                          std::string* why = nullptr);
 
 // Applies state.parameters_view.pending (and a requested "use estimates as start values") to
 // state.model through core's validation; a refused edit is kept in parameters_view.refusal.

@@ -458,7 +458,7 @@ void DrawHover(PlotContext& ctx, PlotState& st, LinkedRange& xr, ImDrawList* dl,
   const float px = std::round(t.XToPixel(hx)) + 0.5f;
   dl->AddLine(ImVec2(px, t.min.y), ImVec2(px, t.max.y), ctx.style.crosshair);
   for (const Item& item : ctx.items) {
-    if (item.hidden || item.kind == ItemKind::kBand) continue;
+    if (item.hidden || item.kind == ItemKind::kBand || item.kind == ItemKind::kVLines) continue;
     const int i = internal::NearestIndex(item, hx);
     if (i < 0 || !std::isfinite(item.y[i])) continue;
     const ImVec2 p = t.ToPixel(item.x[i], item.y[i]);
@@ -471,7 +471,7 @@ void DrawHover(PlotContext& ctx, PlotState& st, LinkedRange& xr, ImDrawList* dl,
   const std::string x_name = ctx.options.x_label ? ctx.options.x_label : "x";
   bool first = true;
   for (const Item& item : ctx.items) {
-    if (item.hidden) continue;
+    if (item.hidden || item.kind == ItemKind::kVLines) continue;
     const int i = internal::NearestIndex(item, hx);
     if (i < 0) continue;
     if (first) {
@@ -552,6 +552,11 @@ void PlotErrorBars(PlotContext& ctx, const char* label, const double* x, const d
   Item& item = AddItem(ctx, ItemKind::kErrorBars, label, x, n, style);
   item.y = y;
   item.y2 = err;
+}
+
+void PlotVLines(PlotContext& ctx, const char* label, const double* x, int n,
+                const char* const* tags, const ItemStyle& style) {
+  AddItem(ctx, ItemKind::kVLines, label, x, n, style).tags = tags;
 }
 
 void EndPlot(PlotContext& ctx) {

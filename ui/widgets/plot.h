@@ -124,7 +124,7 @@ struct PlotState {
   bool drawn_before = false;
 };
 
-enum class ItemKind { kLine, kBand, kMarkers, kStems, kErrorBars };
+enum class ItemKind { kLine, kBand, kMarkers, kStems, kErrorBars, kVLines };
 
 // One item of the plot being built: pointers into the caller's arrays, valid until EndPlot().
 struct Item {
@@ -135,7 +135,8 @@ struct Item {
   const double* y = nullptr;   // line, markers, stems, error bars: the value; band: lower
   const double* y2 = nullptr;  // band: upper; error bars: the half-width
   int n = 0;
-  double ref = 0.0;  // stems: the baseline
+  double ref = 0.0;                   // stems: the baseline
+  const char* const* tags = nullptr;  // vertical lines: a tag per line (may be null)
   ImU32 color = 0;
   float line_weight = 0.0f, marker_radius = 0.0f, fill_alpha = 0.0f;
   bool hidden = false;
@@ -176,6 +177,12 @@ void PlotStems(PlotContext& ctx, const char* label, const double* x, const doubl
 // y ± err with caps (e.g. estimates with their standard errors).
 void PlotErrorBars(PlotContext& ctx, const char* label, const double* x, const double* y,
                    const double* err, int n, const ItemStyle& style = {});
+
+// Vertical lines across the plot area at each x (events on a time axis, e.g. alarms), each with
+// its tag beside its top when `tags` is given (tags[i] for x[i]; a tag that would overlap the one
+// before it is left out). They take no part in fitting the ranges nor in the hover readout.
+void PlotVLines(PlotContext& ctx, const char* label, const double* x, int n,
+                const char* const* tags = nullptr, const ItemStyle& style = {});
 
 // Handles the mouse, fits the ranges, and draws the plot and its items.
 void EndPlot(PlotContext& ctx);

@@ -2,6 +2,7 @@
 // window only, and switches to min/max per pixel column when the window holds more samples
 // than the plot has pixel columns.
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 
 #include "ui/widgets/plot_internal.h"
@@ -198,6 +199,31 @@ void DrawErrorBars(PlotContext& ctx, ImDrawList* dl, const Item& item, const Tra
   }
 }
 
+// The lines first, then the tags over them; a tag is drawn only where it clears the one before.
+void DrawVLines(PlotContext& ctx, ImDrawList* dl, const Item& item, const Transform& t) {
+  const IndexWindow w = VisibleWindow(item.x, item.n, t.x.min, t.x.max);
+  const float thickness = item.line_weight * ctx.style.scale;
+  const float pad = 2.0f * ctx.style.scale;
+  for (int i = w.begin; i < w.end; ++i) {
+    if (!Finite(item.x[i])) continue;
+    const float px = std::round(t.XToPixel(item.x[i])) + 0.5f;
+    dl->AddLine(ImVec2(px, t.min.y), ImVec2(px, t.max.y), item.color, thickness);
+  }
+  if (!item.tags) return;
+  float tag_end = -FLT_MAX;
+  for (int i = w.begin; i < w.end; ++i) {
+    if (!Finite(item.x[i]) || !item.tags[i] || !*item.tags[i]) continue;
+    const float px = std::round(t.XToPixel(item.x[i])) + 0.5f;
+    const ImVec2 size = ImGui::CalcTextSize(item.tags[i]);
+    const ImVec2 at(px + thickness + pad, t.min.y + pad);
+    if (at.x < tag_end) continue;
+    dl->AddRectFilled(ImVec2(at.x - pad, at.y), ImVec2(at.x + size.x + pad, at.y + size.y),
+                      IM_COL32(255, 255, 255, 220));
+    dl->AddText(at, item.color, item.tags[i]);
+    tag_end = at.x + size.x + 2.0f * pad;
+  }
+}
+
 }  // namespace
 
 void DrawItem(PlotContext& ctx, ImDrawList* dl, const Item& item, const Transform& t) {
@@ -218,11 +244,14 @@ void DrawItem(PlotContext& ctx, ImDrawList* dl, const Item& item, const Transfor
     case ItemKind::kErrorBars:
       DrawErrorBars(ctx, dl, item, t);
       break;
+    case ItemKind::kVLines:
+      DrawVLines(ctx, dl, item, t);
+      break;
   }
 }
 
 bool ItemXExtent(const Item& item, double* lo, double* hi) {
-  if (item.n <= 0) return false;
+  if (item.n <= 0 || item.kind == ItemKind::kVLines) return false;
   *lo = item.x[0];
   *hi = item.x[item.n - 1];
   return Finite(*lo) && Finite(*hi);
@@ -261,6 +290,8 @@ bool ItemYExtent(const Item& item, Range view, double* lo, double* hi) {
         take(y - e, y + e);
       }
       break;
+    case ItemKind::kVLines:
+      break;  // across whatever y range the other items set
   }
   return any;
 }
@@ -280,6 +311,8 @@ std::string ItemValueText(const Item& item, int i) {
       return FormatValue(item.y[i]) + " \xE2\x80\xA6 " + FormatValue(item.y2[i]);
     case ItemKind::kErrorBars:
       return FormatValue(item.y[i]) + " \xC2\xB1 " + FormatValue(item.y2[i]);
+    case ItemKind::kVLines:
+      return item.tags && item.tags[i] ? item.tags[i] : FormatValue(item.x[i]);
     default:
       return FormatValue(item.y[i]);
   }
@@ -304,6 +337,10 @@ void DrawSwatch(ImDrawList* dl, const Item& item, ImVec2 min, ImVec2 max, float 
     case ItemKind::kErrorBars:
       dl->AddLine(ImVec2(c.x, min.y), ImVec2(c.x, max.y), color, 1.5f * scale);
       dl->AddCircleFilled(c, r, color, 12);
+      break;
+    case ItemKind::kVLines:
+      dl->AddLine(ImVec2(c.x, min.y - 2.0f * scale), ImVec2(c.x, max.y + 2.0f * scale), color,
+                  1.5f * scale);
       break;
   }
 }
