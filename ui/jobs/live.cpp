@@ -467,7 +467,9 @@ void LiveSession::FillStatus(LiveStatus* status) const {
   status->episodes = s.episodes;
   status->sample_time = s.sample_time;
   if (status->design.empty() && s.monitor->design()) status->design = s.monitor->design()->Report();
-  status->parameter_threshold = s.monitor->parameter_threshold();
+  status->parameter_change = 0.0;
+  for (int b : s.monitor->parameter_block())
+    if (b > 0) status->parameter_change = online::MonitorOptions{}.parameter_change;
   if (s.dyno) status->truth = s.dyno->Truth();
   status->faults = s.faults;
 }

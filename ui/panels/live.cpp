@@ -641,11 +641,13 @@ void DrawEvents(AppState& state, ImVec2 size) {
       ++f;
     }
   }
-  if (l.status.parameter_threshold > 0) {
+  if (l.status.parameter_change > 0) {
     ImGui::Spacing();
     ImGui::PushTextWrapPos(0.0f);
-    ImGui::TextDisabled("A parameter alarms %s SD from its reference, a CUSUM test at S/h = 1.",
-                        FormatSig(l.status.parameter_threshold, 3).c_str());
+    ImGui::TextDisabled(
+        "A parameter alarms when its score test finds it moved by %s %% from its reference; every "
+        "test alarms at S/h = 1.",
+        FormatSig(100.0 * l.status.parameter_change, 3).c_str());
     ImGui::PopTextWrapPos();
     if (!l.status.design.empty() && ImGui::IsItemHovered())
       ImGui::SetTooltip("%s", l.status.design.c_str());
