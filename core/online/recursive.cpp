@@ -94,10 +94,9 @@ Reference ReferenceFromSummary(const estimate::EstimateSummary& summary,
 }
 
 RecursiveMl::RecursiveMl(const model::LinearModel& model, const Reference& reference,
-                         const RecursiveOptions& options, bool adapt)
+                         const RecursiveOptions& options)
     : model_(model),
       options_(options),
-      adapt_(adapt),
       source_(reference.source),
       theta_(reference.theta) {}
 
@@ -122,7 +121,7 @@ Result<RecursiveMl> RecursiveMl::Create(const model::LinearModel& model, const R
   if (reference.theta.size() != spec.parameters.size())
     return InputError(fmt::format("the reference has {} parameter values, the model {}",
                                   reference.theta.size(), spec.parameters.size()));
-  RecursiveMl r(model, reference, options, adapt);
+  RecursiveMl r(model, reference, options);
   const int p = model.n_outputs();
   r.delay_ = reference.delay;
   if (r.delay_.empty())

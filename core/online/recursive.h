@@ -136,7 +136,7 @@ class RecursiveMl {
 
  private:
   RecursiveMl(const model::LinearModel& model, const Reference& reference,
-              const RecursiveOptions& options, bool adapt);
+              const RecursiveOptions& options);
   Status Evaluate();          // ss_, dss_ at theta_; discretisations dropped
   Status Refresh(double dt);  // ss_, dss_, disc_, ddisc_ for dt at theta_, when stale
   Status Start(const Sample& first, const Sample* second);
@@ -147,7 +147,6 @@ class RecursiveMl {
 
   model::LinearModel model_;
   RecursiveOptions options_;
-  bool adapt_ = true;
   std::string source_;
   std::vector<double> theta_;
   std::vector<double> theta_model_;    // where ss_, dss_ (and disc_) were evaluated
