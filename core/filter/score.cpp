@@ -43,16 +43,18 @@ std::vector<std::vector<Discrete>> DiscretizeDerivatives(const model::StateSpace
   return out;
 }
 
-// dP0 along every θ_i, for P0 = `P0` (see the header for the three cases).
-std::vector<Eigen::MatrixXd> InitialCovarianceDerivatives(
-    const model::StateSpace& ss, std::span<const model::StateSpace> dss, const data::Series& series,
-    const FilterSettings& settings, const Eigen::MatrixXd& P0,
-    const std::vector<std::vector<Discrete>>& ddisc) {
+}  // namespace
+
+std::vector<Eigen::MatrixXd> InitialCovarianceDerivatives(model::InitialCovariance kind,
+                                                          const model::StateSpace& ss,
+                                                          std::span<const model::StateSpace> dss,
+                                                          const Eigen::MatrixXd& P0,
+                                                          std::span<const Discrete> dfirst) {
   const Eigen::Index n = ss.A.rows();
   std::vector<Eigen::MatrixXd> dP0;
-  switch (settings.initial_covariance) {
+  switch (kind) {
     case model::InitialCovariance::kCtsm:
-      for (const Discrete& d : ddisc[series.intervals.group[0]]) dP0.push_back(d.Q);
+      for (const Discrete& d : dfirst) dP0.push_back(d.Q);
       break;
     case model::InitialCovariance::kStationary: {
       // P0 exists, so A is stable and the operator is invertible.
@@ -72,6 +74,8 @@ std::vector<Eigen::MatrixXd> InitialCovarianceDerivatives(
   }
   return dP0;
 }
+
+namespace {
 
 // ---- 2. the sensitivity loop -----------------------------------------------------------------
 
@@ -300,7 +304,8 @@ Result<Loglik> LogLikelihoodScore(const model::StateSpace& ss,
                 : InitialCovariance(ss, series, settings);
   if (!P0) return P0.error();
   const auto ddisc = DiscretizeDerivatives(ss, dss, series, settings.hold);
-  const auto dP0 = InitialCovarianceDerivatives(ss, dss, series, settings, *P0, ddisc);
+  const auto dP0 = InitialCovarianceDerivatives(settings.initial_covariance, ss, dss, *P0,
+                                                ddisc[series.intervals.group[0]]);
   const Context ctx{ss, dss, series, settings, *disc, ddisc, *P0, dP0, *window};
   return internal::WithStateDimension(ctx.ss.n_states(), [&](auto nx) {
     return ScoreLoop<decltype(nx)::value>(ctx, gradient, J_terms_theta);

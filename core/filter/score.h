@@ -37,6 +37,7 @@
 #include <Eigen/Core>
 
 #include "core/data/dataset.h"
+#include "core/filter/discretize.h"
 #include "core/filter/kalman.h"
 #include "core/model/linear_model.h"
 #include "core/util/result.h"
@@ -52,5 +53,14 @@ Result<Loglik> LogLikelihoodScore(const model::StateSpace& ss,
                                   const data::Series& series, const FilterSettings& settings,
                                   Eigen::VectorXd* gradient,
                                   Eigen::MatrixXd* J_terms_theta = nullptr);
+
+// dP0 along every θ_i (dss[i]) for the initial covariance P0 of `kind` (see above): "ctsm" the
+// derivatives of Q over the first interval (`dfirst`, DiscretizeDerivative's, one per θ_i),
+// "stationary" the solution of the differentiated Lyapunov equation, explicit diag(dP0_diag).
+std::vector<Eigen::MatrixXd> InitialCovarianceDerivatives(model::InitialCovariance kind,
+                                                          const model::StateSpace& ss,
+                                                          std::span<const model::StateSpace> dss,
+                                                          const Eigen::MatrixXd& P0,
+                                                          std::span<const Discrete> dfirst);
 
 }  // namespace gb::filter

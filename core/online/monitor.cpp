@@ -41,31 +41,20 @@ Result<Monitor> Monitor::Create(const model::LinearModel& model, const Reference
   auto ref = RecursiveMl::Create(model, reference, held, /*adapt=*/!held.track.empty());
   if (!ref) return ref.error();
   Monitor m(std::move(*estimator), std::move(*ref), options);
-  for (int i : m.estimator_.tracked()) {
-    m.ref_theta_.push_back(reference.theta[i]);
-    double sd = kNaN;
-    for (std::size_t b = 0; b < reference.free.size(); ++b)
-      if (reference.free[b] == i && static_cast<Eigen::Index>(b) < reference.covariance.rows())
-        sd = std::sqrt(std::max(
-            reference.covariance(static_cast<Eigen::Index>(b), static_cast<Eigen::Index>(b)), 0.0));
-    m.ref_sd_.push_back(sd);
+  // The reference covariance of the tracked parameters (zero where unknown) and their SEs (NaN).
+  const std::vector<int>& tracked = m.estimator_.tracked();
+  m.ref_cov_ = reference.CovarianceOf(tracked);
+  for (std::size_t a = 0; a < tracked.size(); ++a) {
+    const auto i = static_cast<Eigen::Index>(a);
+    m.ref_theta_.push_back(reference.theta[tracked[a]]);
+    m.ref_sd_.push_back(std::sqrt(std::max(m.ref_cov_(i, i), 0.0)));  // NaN stays NaN
   }
+  m.ref_cov_ = m.ref_cov_.unaryExpr([](double v) { return std::isnan(v) ? 0.0 : v; });
   const std::size_t k = m.ref_theta_.size();
   m.delta_.resize(k);
   m.block_.assign(k, 0);
   m.h_par_.assign(k, 0.0);
   m.sum_s_.assign(k * k, 0.0);
-  // The reference covariance of the tracked parameters (zero where unknown).
-  m.ref_cov_ = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k));
-  const std::vector<int>& tracked = m.estimator_.tracked();
-  for (std::size_t a = 0; a < k; ++a)
-    for (std::size_t b = 0; b < k; ++b)
-      for (std::size_t x = 0; x < reference.free.size(); ++x)
-        for (std::size_t y = 0; y < reference.free.size(); ++y)
-          if (reference.free[x] == tracked[a] && reference.free[y] == tracked[b] &&
-              static_cast<Eigen::Index>(x) < reference.covariance.rows())
-            m.ref_cov_(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) =
-                reference.covariance(static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y));
   m.in_block_.assign(k, 0);
   m.up_.assign(k, 0.0);
   m.down_.assign(k, 0.0);
@@ -82,9 +71,6 @@ Result<Monitor> Monitor::Create(const model::LinearModel& model, const Reference
   }
   return m;
 }
-
-std::vector<double> Monitor::reference_values() const { return ref_theta_; }
-std::vector<double> Monitor::reference_sd() const { return ref_sd_; }
 
 Status Monitor::Design(double sample_time) {
   CusumOptions o;
@@ -105,8 +91,8 @@ Status Monitor::Design(double sample_time) {
   // 2k statistics); a block of B rows is one step of its CUSUM.
   for (std::size_t a = 0; a < k; ++a) {
     if (block_[a] == 0) continue;
-    const double per_row = 0.5 * options_.false_alarms_per_hour / (2.0 * static_cast<double>(k));
-    const double arl0_blocks = 3600.0 / (per_row * sample_time * block_[a]);
+    const double per_hour = 0.5 * options_.false_alarms_per_hour / (2.0 * static_cast<double>(k));
+    const double arl0_blocks = 3600.0 / (per_hour * sample_time * block_[a]);
     const double info_block = block_[a] / (ref_sd_[a] * ref_sd_[a] * ref_rows_);
     const CusumChange change{CusumKind::kMeanUp, delta_[a] * std::sqrt(info_block)};
     auto h = ThresholdForArl0(change, arl0_blocks);
@@ -128,7 +114,7 @@ Result<std::vector<MonitorUpdate>> Monitor::Push(const Sample& row) {
   if (!held) return held.error();
   const int p = estimator_.model().n_outputs();
   const std::vector<std::string>& outputs = estimator_.model().spec().outputs;
-  const std::vector<std::string> names = estimator_.tracked_names();
+  const std::vector<std::string>& names = estimator_.tracked_names();
   std::vector<MonitorUpdate> out;
   for (std::size_t u = 0; u < estimates->size(); ++u) {
     MonitorUpdate m;
@@ -221,7 +207,7 @@ Json Monitor::ToJson(const MonitorUpdate& u) const {
   j["index"] = u.estimate.index;
   j["warming_up"] = u.estimate.warming_up;
   Json params = Json::object();
-  const std::vector<std::string> names = estimator_.tracked_names();
+  const std::vector<std::string>& names = estimator_.tracked_names();
   for (std::size_t a = 0; a < names.size(); ++a) {
     params[names[a]] = {
         {"estimate", number(u.estimate.theta[a])},

@@ -90,12 +90,13 @@ class Monitor {
   Json ToJson(const MonitorUpdate& u) const;
 
   const RecursiveMl& estimator() const { return estimator_; }
+  const MonitorOptions& options() const { return options_; }
   const std::optional<CusumDesign>& design() const { return design_; }
   // Per tracked parameter: the block of its score test (rows; 0: no test) and its threshold.
   const std::vector<int>& parameter_block() const { return block_; }
   const std::vector<double>& parameter_h() const { return h_par_; }
-  std::vector<double> reference_values() const;  // tracked parameters
-  std::vector<double> reference_sd() const;      // tracked parameters (NaN: unknown)
+  const std::vector<double>& reference_values() const { return ref_theta_; }  // tracked
+  const std::vector<double>& reference_sd() const { return ref_sd_; }  // tracked (NaN: unknown)
   long long alarm_count() const { return alarm_count_; }
 
  private:

@@ -13,6 +13,7 @@
 #include <set>
 
 #include "core/filter/internal.h"
+#include "core/filter/score.h"
 
 namespace gb::online {
 namespace {
@@ -63,8 +64,7 @@ double Inside(double v, double lo, double hi) {
 
 // ---- 1. set-up -------------------------------------------------------------------------------
 
-std::vector<int> TrackableParameters(const model::LinearModel& model, std::span<const int> free,
-                                     std::span<const double> /*theta*/) {
+std::vector<int> TrackableParameters(const model::LinearModel& model, std::span<const int> free) {
   const int n = model.n_states(), m = model.n_inputs(), p = model.n_outputs();
   // Entries in LinearModel::entries() order: A, B, c, C, D, d, sigma, S, then x0 and P0.
   const auto z = [](int v) { return static_cast<std::size_t>(v); };
@@ -95,14 +95,19 @@ Reference ReferenceFromSummary(const estimate::EstimateSummary& summary,
 
 RecursiveMl::RecursiveMl(const model::LinearModel& model, const Reference& reference,
                          const RecursiveOptions& options)
-    : model_(model),
-      options_(options),
-      source_(reference.source),
-      theta_(reference.theta) {}
+    : model_(model), options_(options), source_(reference.source), theta_(reference.theta) {}
 
-std::vector<std::string> RecursiveMl::tracked_names() const {
-  std::vector<std::string> out;
-  for (int i : tracked_) out.push_back(model_.spec().parameters[i].name);
+Eigen::MatrixXd Reference::CovarianceOf(std::span<const int> params) const {
+  const auto k = static_cast<Eigen::Index>(params.size());
+  std::vector<Eigen::Index> at(params.size(), -1);
+  for (std::size_t a = 0; a < params.size(); ++a)
+    for (std::size_t b = 0; b < free.size(); ++b)
+      if (free[b] == params[a] && static_cast<Eigen::Index>(b) < covariance.rows())
+        at[a] = static_cast<Eigen::Index>(b);
+  Eigen::MatrixXd out = Eigen::MatrixXd::Constant(k, k, kNaN);
+  for (Eigen::Index a = 0; a < k; ++a)
+    for (Eigen::Index b = 0; b < k; ++b)
+      if (at[a] >= 0 && at[b] >= 0) out(a, b) = covariance(at[a], at[b]);
   return out;
 }
 
@@ -133,7 +138,7 @@ Result<RecursiveMl> RecursiveMl::Create(const model::LinearModel& model, const R
     if (d < 0) return InputError(fmt::format("an output delay of {} samples", d));
     r.lag_ = std::max(r.lag_, d);
   }
-  if (adapt) r.tracked_ = TrackableParameters(model, reference.free, reference.theta);
+  if (adapt) r.tracked_ = TrackableParameters(model, reference.free);
   if (adapt && !options.track.empty()) {
     std::vector<int> chosen;
     std::vector<std::string> trackable;
@@ -161,6 +166,7 @@ Result<RecursiveMl> RecursiveMl::Create(const model::LinearModel& model, const R
     r.upper_.push_back(par.upper.value_or(kInf));
     r.theta_[i] = Inside(r.theta_[i], r.lower_.back(), r.upper_.back());
   }
+  for (int i : r.tracked_) r.tracked_names_.push_back(spec.parameters[i].name);
   if (Status s = r.Evaluate(); !s) return s.error();
   r.theta_model_ = r.theta_;
 
@@ -169,20 +175,11 @@ Result<RecursiveMl> RecursiveMl::Create(const model::LinearModel& model, const R
   // the working coordinate (a factor e² in a scale parameter) or a parameter's size.
   r.F_ = Eigen::MatrixXd::Zero(k, k);
   const Eigen::VectorXd slope = r.Slopes();
-  std::vector<int> at(k, -1);
-  for (int a = 0; a < k; ++a)
-    for (std::size_t b = 0; b < reference.free.size(); ++b)
-      if (reference.free[b] == r.tracked_[a]) at[a] = static_cast<int>(b);
-  const bool have_cov =
-      reference.covariance.rows() == static_cast<Eigen::Index>(reference.free.size()) &&
-      std::all_of(at.begin(), at.end(), [](int b) { return b >= 0; }) && reference.n_obs > 0;
+  const Eigen::MatrixXd cov = reference.CovarianceOf(r.tracked_);
   bool prior_set = false;
-  if (have_cov && k > 0) {
-    Eigen::MatrixXd cov(k, k);
-    for (int a = 0; a < k; ++a)
-      for (int b = 0; b < k; ++b) cov(a, b) = reference.covariance(at[a], at[b]);
+  if (k > 0 && cov.allFinite() && reference.n_obs > 0) {
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(cov);
-    if (ldlt.info() == Eigen::Success && ldlt.isPositive() && cov.allFinite() &&
+    if (ldlt.info() == Eigen::Success && ldlt.isPositive() &&
         (ldlt.vectorD().array() > 0.0).all()) {
       const double ref_rows = static_cast<double>(reference.n_obs) / std::max(p, 1);
       double rows = options.prior_rows;
@@ -316,33 +313,22 @@ Status RecursiveMl::Start(const Sample& first, const Sample* second) {
     // As the batch filter: x0, P0 and their derivatives (score.h).
     x_ = ss_.x0;
     for (int i = 0; i < k; ++i) dx_.col(i) = dss_[i].x0;
-    switch (model_.spec().initial_covariance) {
-      case model::InitialCovariance::kCtsm: {
+    const model::InitialCovariance kind = model_.spec().initial_covariance;
+    switch (kind) {
+      case model::InitialCovariance::kCtsm:
         if (Status s = Refresh(second->t - first.t); !s) return s;
         P_ = disc_.Q;
-        for (int i = 0; i < k; ++i) dP_[i] = ddisc_[i].Q;
         break;
-      }
-      case model::InitialCovariance::kStationary: {
+      case model::InitialCovariance::kStationary:
         if (!filter::StationaryCovariance(ss_.A, sigma2, &P, &bad))
           return NumericalError("initial_covariance \"stationary\" needs a stable A");
         P_ = P;
-        const Eigen::PartialPivLU<Eigen::MatrixXd> lu(filter::LyapunovOperator(ss_.A));
-        for (int i = 0; i < k; ++i) {
-          Eigen::MatrixXd rhs = dss_[i].A * P + P * dss_[i].A.transpose();
-          rhs.diagonal() += 2.0 * ss_.sigma.cwiseProduct(dss_[i].sigma);
-          const Eigen::VectorXd v =
-              lu.solve(-Eigen::Map<const Eigen::VectorXd>(rhs.data(), Eigen::Index{n} * n));
-          const Eigen::MatrixXd dP = Eigen::Map<const Eigen::MatrixXd>(v.data(), n, n);
-          dP_[i] = 0.5 * (dP + dP.transpose());
-        }
         break;
-      }
       case model::InitialCovariance::kExplicit:
         P_ = ss_.P0_diag.asDiagonal();
-        for (int i = 0; i < k; ++i) dP_[i] = dss_[i].P0_diag.asDiagonal();
         break;
     }
+    dP_ = filter::InitialCovarianceDerivatives(kind, ss_, dss_, P_, ddisc_);
   } else if (stable && filter::StationaryCovariance(ss_.A, sigma2, &P, &bad)) {
     // The equilibrium for the first input and the stationary covariance.
     const Eigen::Map<const Eigen::VectorXd> u0(first.u.data(),

@@ -64,6 +64,10 @@ struct Reference {
   std::vector<int> free;       // indices of the parameters the covariance covers
   Eigen::MatrixXd covariance;  // free x free
   long n_obs = 0;              // scalar observations behind the reference
+
+  // The covariance of the parameters `params` (indices as in `free`), NaN in the rows and
+  // columns of a parameter the reference has no covariance for.
+  Eigen::MatrixXd CovarianceOf(std::span<const int> params) const;
 };
 
 // The reference of a batch fit: its estimates, delays and the covariance of its free parameters.
@@ -127,7 +131,7 @@ class RecursiveMl {
   Result<std::vector<RecursiveUpdate>> Push(const Sample& row);
 
   const std::vector<int>& tracked() const { return tracked_; }
-  std::vector<std::string> tracked_names() const;
+  const std::vector<std::string>& tracked_names() const { return tracked_names_; }
   const model::LinearModel& model() const { return model_; }
   // All parameters at the current estimate.
   const std::vector<double>& theta() const { return theta_; }
@@ -149,9 +153,10 @@ class RecursiveMl {
   RecursiveOptions options_;
   std::string source_;
   std::vector<double> theta_;
-  std::vector<double> theta_model_;    // where ss_, dss_ (and disc_) were evaluated
-  std::vector<int> tracked_;           // parameter indices
-  std::vector<double> lower_, upper_;  // bounds of the tracked parameters (±inf when none)
+  std::vector<double> theta_model_;  // where ss_, dss_ (and disc_) were evaluated
+  std::vector<int> tracked_;
+  std::vector<std::string> tracked_names_;  // parameter indices
+  std::vector<double> lower_, upper_;       // bounds of the tracked parameters (±inf when none)
   std::vector<int> delay_;
   int lag_ = 0;     // max delay
   int warmup_ = 0;  // rows; -1 until the first interval is known
@@ -186,7 +191,6 @@ class RecursiveMl {
 
 // The free parameters a linear model's dynamics or observations depend on (not only x0 and P0),
 // among `free`.
-std::vector<int> TrackableParameters(const model::LinearModel& model, std::span<const int> free,
-                                     std::span<const double> theta);
+std::vector<int> TrackableParameters(const model::LinearModel& model, std::span<const int> free);
 
 }  // namespace gb::online

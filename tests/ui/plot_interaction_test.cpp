@@ -5,6 +5,7 @@
 #include <cmath>
 #include <vector>
 
+#include "tests/ui/headless_imgui.h"
 #include "ui/widgets/plot.h"
 
 namespace gb::ui::plot {
@@ -13,17 +14,12 @@ namespace {
 constexpr float kWidth = 800.0f;
 constexpr float kHeight = 600.0f;
 
-class PlotInteraction : public ::testing::Test {
+class PlotInteraction : public testing::HeadlessImGuiTest {
  protected:
+  PlotInteraction() : HeadlessImGuiTest(kWidth, kHeight) {}
+
   void SetUp() override {
-    context_ = ImGui::CreateContext();
-    ImGuiIO& io = ImGui::GetIO();
-    io.IniFilename = nullptr;
-    io.DisplaySize = ImVec2(kWidth, kHeight);
-    io.DeltaTime = 1.0f / 60.0f;
-    unsigned char* pixels = nullptr;
-    int w = 0, h = 0;
-    io.Fonts->GetTexDataAsRGBA32(&pixels, &w, &h);
+    HeadlessImGuiTest::SetUp();
     for (int i = 0; i <= 100; ++i) {
       x_.push_back(0.1 * i);  // 0 .. 10
       y_.push_back(std::sin(0.1 * i));
@@ -31,7 +27,6 @@ class PlotInteraction : public ::testing::Test {
       x_late_.push_back(5.0 + 0.15 * i);  // 5 .. 20
     }
   }
-  void TearDown() override { ImGui::DestroyContext(context_); }
 
   // One frame: two stacked plots sharing `linked_`; the first has two items (and a legend).
   void Frame() {
@@ -73,7 +68,6 @@ class PlotInteraction : public ::testing::Test {
     return linked_.range.min + (px - st.last_plot_min.x) / w * linked_.range.Span();
   }
 
-  ImGuiContext* context_ = nullptr;
   PlotContext plots_;
   LinkedRange linked_;
   std::vector<double> x_, y_, y2_, x_late_;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <vector>
 
+#include "tests/ui/headless_imgui.h"
 #include "ui/widgets/plot.h"
 
 namespace gb::ui::plot {
@@ -13,23 +14,17 @@ namespace {
 constexpr float kWidth = 800.0f;
 constexpr float kHeight = 400.0f;
 
-class PlotVLinesTest : public ::testing::Test {
+class PlotVLinesTest : public testing::HeadlessImGuiTest {
  protected:
+  PlotVLinesTest() : HeadlessImGuiTest(kWidth, kHeight) {}
+
   void SetUp() override {
-    context_ = ImGui::CreateContext();
-    ImGuiIO& io = ImGui::GetIO();
-    io.IniFilename = nullptr;
-    io.DisplaySize = ImVec2(kWidth, kHeight);
-    io.DeltaTime = 1.0f / 60.0f;
-    unsigned char* pixels = nullptr;
-    int w = 0, h = 0;
-    io.Fonts->GetTexDataAsRGBA32(&pixels, &w, &h);
+    HeadlessImGuiTest::SetUp();
     for (int i = 0; i <= 100; ++i) {
       x_.push_back(0.1 * i);  // 0 .. 10
       y_.push_back(std::sin(0.1 * i));
     }
   }
-  void TearDown() override { ImGui::DestroyContext(context_); }
 
   void Frame() {
     ImGui::NewFrame();
@@ -57,7 +52,6 @@ class PlotVLinesTest : public ::testing::Test {
     return plots_.plots.at(id);
   }
 
-  ImGuiContext* context_ = nullptr;
   PlotContext plots_;
   LinkedRange linked_;
   std::vector<double> x_, y_;

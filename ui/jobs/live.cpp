@@ -467,9 +467,10 @@ void LiveSession::FillStatus(LiveStatus* status) const {
   status->episodes = s.episodes;
   status->sample_time = s.sample_time;
   if (status->design.empty() && s.monitor->design()) status->design = s.monitor->design()->Report();
-  status->parameter_change = 0.0;
-  for (int b : s.monitor->parameter_block())
-    if (b > 0) status->parameter_change = online::MonitorOptions{}.parameter_change;
+  const std::vector<int>& blocks = s.monitor->parameter_block();
+  status->parameter_change = std::any_of(blocks.begin(), blocks.end(), [](int b) { return b > 0; })
+                                 ? s.monitor->options().parameter_change
+                                 : 0.0;
   if (s.dyno) status->truth = s.dyno->Truth();
   status->faults = s.faults;
 }
