@@ -12,7 +12,6 @@
 #include <thread>
 
 #include "app/cli/cli.h"
-#include "core/model/linear_model.h"
 #include "core/online/follow.h"
 
 namespace gb::cli {
@@ -47,22 +46,14 @@ int RunMonitor(const MonitorArgs& args) {
   if (!(args.idle >= 0)) return Fail(InputError("monitor: --idle must be 0 or more seconds"));
   auto spec = LoadModelWithOverrides(args.model, args.sets);
   if (!spec) return Fail(spec.error());
-  auto model = model::LinearModel::Compile(*spec);
-  if (!model) {
-    Error e = model.error();
-    e.message +=
-        " (the monitor tracks linear models; a nonlinear model's on-line estimation is "
-        "not available yet)";
-    return Fail(e);
-  }
-  auto reference = online::LoadReference(args.reference, model->spec());
+  auto reference = online::LoadReference(args.reference, *spec);
   if (!reference) return Fail(reference.error());
   online::MonitorOptions options;
   options.recursive.forgetting = args.forgetting;
   options.recursive.track = args.track;
   options.parameter_change = args.change;
   options.false_alarms_per_hour = args.false_alarms;
-  auto monitor = online::Monitor::Create(*model, *reference, options);
+  auto monitor = online::Monitor::Create(*spec, *reference, options);
   if (!monitor) return Fail(monitor.error());
 
   std::FILE* out = stdout;
@@ -75,7 +66,7 @@ int RunMonitor(const MonitorArgs& args) {
   std::signal(SIGPIPE, SIG_IGN);  // a reader that goes away ends the run (EPIPE)
   Log log(out);
   const std::string source = from_stdin ? "<stdin>" : args.follow;
-  online::CsvRowReader reader(source, model->spec().inputs, model->spec().outputs);
+  online::CsvRowReader reader(source, spec->inputs, spec->outputs);
   std::optional<online::FileFollower> follower;
   if (!from_stdin) {
     auto f = online::FileFollower::Open(args.follow);
@@ -104,6 +95,10 @@ int RunMonitor(const MonitorArgs& args) {
         reported_design = true;
         std::fprintf(stderr, "greybench-cli: monitor: %s\n", monitor->design()->Report().c_str());
         const std::vector<std::string> names = monitor->estimator().tracked_names();
+        std::string list;
+        for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+        std::fprintf(stderr, "greybench-cli: monitor: %s; tracking %s\n",
+                     monitor->estimator().Method().c_str(), list.empty() ? "nothing" : list.c_str());
         for (std::size_t a = 0; a < names.size(); ++a) {
           if (monitor->parameter_block()[a] == 0) continue;
           std::fprintf(stderr,

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include "core/online/augmented.h"
+#include "core/online/ekf_stream.h"
 #include "core/project/result_file.h"
 
 namespace gb::online {
@@ -40,14 +42,45 @@ Result<Monitor> Monitor::Create(const model::LinearModel& model, const Reference
   held.track = estimator->tracked_names();
   auto ref = RecursiveMl::Create(model, reference, held, /*adapt=*/!held.track.empty());
   if (!ref) return ref.error();
-  Monitor m(std::move(*estimator), std::move(*ref), options);
+  return Build(std::make_unique<RecursiveMl>(std::move(*estimator)),
+               std::make_unique<RecursiveMl>(std::move(*ref)), reference, options);
+}
+
+Result<Monitor> Monitor::Create(std::shared_ptr<const model::NonlinearModel> model,
+                                const Reference& reference, const MonitorOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) return InputError(why);
+  auto estimator = AugmentedEkf::Create(model, reference, options.recursive);
+  if (!estimator) return estimator.error();
+  auto ref = HeldEkf::Create(std::move(model), reference, estimator->tracked(),
+                             options.recursive.start);
+  if (!ref) return ref.error();
+  return Build(std::make_unique<AugmentedEkf>(std::move(*estimator)),
+               std::make_unique<HeldEkf>(std::move(*ref)), reference, options);
+}
+
+Result<Monitor> Monitor::Create(const model::ModelSpec& spec, const Reference& reference,
+                                const MonitorOptions& options) {
+  if (auto linear = model::LinearModel::Compile(spec)) return Create(*linear, reference, options);
+  auto nonlinear = model::NonlinearModel::Compile(spec);
+  if (!nonlinear) return nonlinear.error();
+  return Create(std::make_shared<const model::NonlinearModel>(std::move(*nonlinear)), reference,
+                options);
+}
+
+Result<Monitor> Monitor::Build(std::unique_ptr<OnlineEstimator> estimator,
+                               std::unique_ptr<OnlineEstimator> held, const Reference& reference,
+                               const MonitorOptions& options) {
+  Monitor m(std::move(estimator), std::move(held), options);
   // The reference covariance of the tracked parameters (zero where unknown) and their SEs (NaN).
-  const std::vector<int>& tracked = m.estimator_.tracked();
-  m.ref_cov_ = reference.CovarianceOf(tracked);
+  const std::vector<int>& tracked = m.estimator_->tracked();
+  const Eigen::MatrixXd marginal = reference.CovarianceOf(tracked);
+  m.ref_cov_ = reference.ConditionalCovarianceOf(tracked);
   for (std::size_t a = 0; a < tracked.size(); ++a) {
     const auto i = static_cast<Eigen::Index>(a);
     m.ref_theta_.push_back(reference.theta[tracked[a]]);
-    m.ref_sd_.push_back(std::sqrt(std::max(m.ref_cov_(i, i), 0.0)));  // NaN stays NaN
+    m.ref_sd_.push_back(std::sqrt(std::max(marginal(i, i), 0.0)));  // NaN stays NaN
+    m.test_sd_.push_back(std::sqrt(std::max(m.ref_cov_(i, i), 0.0)));
   }
   m.ref_cov_ = m.ref_cov_.unaryExpr([](double v) { return std::isnan(v) ? 0.0 : v; });
   const std::size_t k = m.ref_theta_.size();
@@ -58,12 +91,13 @@ Result<Monitor> Monitor::Create(const model::LinearModel& model, const Reference
   m.in_block_.assign(k, 0);
   m.up_.assign(k, 0.0);
   m.down_.assign(k, 0.0);
-  const double ref_rows = static_cast<double>(reference.n_obs) / std::max(1, model.n_outputs());
+  const int outputs = static_cast<int>(m.estimator_->spec().outputs.size());
+  const double ref_rows = static_cast<double>(reference.n_obs) / std::max(1, outputs);
   m.ref_rows_ = ref_rows;
   for (std::size_t a = 0; a < k; ++a) {
     m.delta_[a] = options.parameter_change * std::abs(m.ref_theta_[a]);
-    if (std::isnan(m.ref_sd_[a]) || !(ref_rows > 0.0) || !(m.delta_[a] > 0.0)) continue;
-    const double info_per_row = 1.0 / (m.ref_sd_[a] * m.ref_sd_[a] * ref_rows);
+    if (!(m.test_sd_[a] > 0.0) || !(ref_rows > 0.0) || !(m.delta_[a] > 0.0)) continue;
+    const double info_per_row = 1.0 / (m.test_sd_[a] * m.test_sd_[a] * ref_rows);
     const double delta_row = m.delta_[a] * std::sqrt(info_per_row);
     m.block_[a] =
         std::clamp(static_cast<int>(std::ceil(kBlockShift * kBlockShift / (delta_row * delta_row))),
@@ -74,7 +108,7 @@ Result<Monitor> Monitor::Create(const model::LinearModel& model, const Reference
 
 Status Monitor::Design(double sample_time) {
   CusumOptions o;
-  o.outputs = estimator_.model().n_outputs();
+  o.outputs = static_cast<int>(estimator_->spec().outputs.size());
   o.sample_time = sample_time;
   o.false_alarms_per_hour = options_.false_alarms_per_hour;
   o.mean_shift = options_.mean_shift;
@@ -93,7 +127,7 @@ Status Monitor::Design(double sample_time) {
     if (block_[a] == 0) continue;
     const double per_hour = 0.5 * options_.false_alarms_per_hour / (2.0 * static_cast<double>(k));
     const double arl0_blocks = 3600.0 / (per_hour * sample_time * block_[a]);
-    const double info_block = block_[a] / (ref_sd_[a] * ref_sd_[a] * ref_rows_);
+    const double info_block = block_[a] / (test_sd_[a] * test_sd_[a] * ref_rows_);
     const CusumChange change{CusumKind::kMeanUp, delta_[a] * std::sqrt(info_block)};
     auto h = ThresholdForArl0(change, arl0_blocks);
     if (!h) return h.error();
@@ -108,13 +142,13 @@ Result<std::vector<MonitorUpdate>> Monitor::Push(const Sample& row) {
   if (rows_ == 2 && !design_) {
     if (Status s = Design(row.t - first_t_); !s) return s.error();
   }
-  auto estimates = estimator_.Push(row);
+  auto estimates = estimator_->Push(row);
   if (!estimates) return estimates.error();
-  auto held = reference_.Push(row);
+  auto held = reference_->Push(row);
   if (!held) return held.error();
-  const int p = estimator_.model().n_outputs();
-  const std::vector<std::string>& outputs = estimator_.model().spec().outputs;
-  const std::vector<std::string>& names = estimator_.tracked_names();
+  const std::vector<std::string>& outputs = estimator_->spec().outputs;
+  const int p = static_cast<int>(outputs.size());
+  const std::vector<std::string>& names = estimator_->tracked_names();
   std::vector<MonitorUpdate> out;
   for (std::size_t u = 0; u < estimates->size(); ++u) {
     MonitorUpdate m;
@@ -151,15 +185,15 @@ Result<std::vector<MonitorUpdate>> Monitor::Push(const Sample& row) {
       if (!watching || h_par_[a] <= 0.0) continue;
       for (std::size_t b = 0; b < ref_theta_.size(); ++b) sum_s_[a * k + b] += r_held.score[b];
       if (++in_block_[a] < block_[a]) continue;
-      // The efficient score of θ_a over the block (the others free): Δ̂_a = (Ī⁻¹ Σ s)_a / B,
-      // Ī⁻¹ = n Σ_ref, with variance n Σ_ref,aa / B; z = Δ̂_a / SD, and the log-likelihood
+      // The efficient score of θ_a over the block (the other tracked parameters free):
+      // Δ̂_a = (Ī⁻¹ Σ s)_a / B, Ī⁻¹ = n Σ_T, with variance n Σ_T,aa / B; z = Δ̂_a / SD, and the log-likelihood
       // ratios of ±Δ_a are ±δ z - δ²/2 with δ = Δ_a / SD.
       double estimate = 0.0;
       for (std::size_t b = 0; b < k; ++b)
         estimate += ref_cov_(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) *
                     sum_s_[a * k + b];
       estimate *= ref_rows_ / block_[a];
-      const double sd = ref_sd_[a] * std::sqrt(ref_rows_ / block_[a]);
+      const double sd = test_sd_[a] * std::sqrt(ref_rows_ / block_[a]);
       const double z = estimate / sd, delta = delta_[a] / sd;
       const double llr_up = delta * z - 0.5 * delta * delta;
       const double llr_down = -delta * z - 0.5 * delta * delta;
@@ -207,7 +241,7 @@ Json Monitor::ToJson(const MonitorUpdate& u) const {
   j["index"] = u.estimate.index;
   j["warming_up"] = u.estimate.warming_up;
   Json params = Json::object();
-  const std::vector<std::string>& names = estimator_.tracked_names();
+  const std::vector<std::string>& names = estimator_->tracked_names();
   for (std::size_t a = 0; a < names.size(); ++a) {
     params[names[a]] = {
         {"estimate", number(u.estimate.theta[a])},
@@ -219,7 +253,7 @@ Json Monitor::ToJson(const MonitorUpdate& u) const {
   j["parameters"] = params;
   Json innovations = Json::object();
   Json cusum = Json::object();
-  const auto& outputs = estimator_.model().spec().outputs;
+  const auto& outputs = estimator_->spec().outputs;
   for (std::size_t o = 0; o < outputs.size(); ++o) {
     innovations[outputs[o]] = {{"value", number(u.estimate.innovation[o])},
                                {"sd", number(u.estimate.innovation_sd[o])},

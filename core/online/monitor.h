@@ -1,10 +1,13 @@
-// Condition monitoring (the paper's section 6): a linear model watched on-line from a reference
-// (a batch result), one row at a time.
+// Condition monitoring (the paper's section 6): a model watched on-line from a reference (a batch
+// result), one row at a time.
 //
 // Two filters run side by side over the same rows:
-//   - the recursive estimator (recursive.h), from the reference, tracking the parameters with its
-//     forgetting factor: what the parameters are now, with their standard deviations;
-//   - the reference filter, the Kalman filter held at the reference's estimates: its innovations,
+//   - the on-line estimator, from the reference, tracking the parameters with its forgetting
+//     factor: what the parameters are now, with their standard deviations. For a linear model
+//     the recursive maximum-likelihood estimator (recursive.h); for a nonlinear one the augmented
+//     extended Kalman filter (augmented.h), whose random walks have the same memory;
+//   - the reference filter, held at the reference's estimates (the exact Kalman filter, or the
+//     extended Kalman filter of ekf_stream.h for a nonlinear model): its innovations,
 //     standardised, z = ε/√R, are i.i.d. N(0, 1) while the system is the reference's. The CUSUM
 //     tests of cusum.h watch them, per output, for a shift of their mean (up, down) or a rise of
 //     their variance, with thresholds designed for the false-alarm rate the user sets.
@@ -15,12 +18,16 @@
 //     (Basseville & Nikiforov, Detection of Abrupt Changes, 1993, ch. 4; Basseville 1998): the
 //     reference filter also carries the sensitivities of the tracked parameters, so at every row
 //     it gives their exact score s_j = ∂ℓ_j/∂θ at θ_ref. While the system is the reference's,
-//     the scores are martingale differences with variance Ī (the information per row, n Σ_ref⁻¹
-//     from the reference's covariance over its n rows); after θ moves by Δ their mean is Ī Δ. So
-//     over a block of B rows the efficient estimate of the move, Δ̂ = Ī⁻¹ Σ s / B, is N(Δ, Ī⁻¹/B):
-//     for parameter a, z = Δ̂_a / √(n Σ_ref,aa / B) is N(0, 1) before a change and N(δ, 1) after a
-//     change Δ_a, δ = Δ_a / √(n Σ_ref,aa / B), whatever the other parameters do (to first order:
-//     the efficient score projects them out, which isolates the parameter that moved). Two
+//     the scores are martingale differences with variance Ī (the information per row of the
+//     tracked parameters with the others held, as the held filter holds them: Ī⁻¹ = n Σ_T, Σ_T
+//     the reference's covariance of the tracked block conditional on the other free parameters,
+//     Reference::ConditionalCovarianceOf, over its n rows); after θ moves by Δ their mean is Ī Δ.
+//     So over a block of B rows the efficient estimate of the move, Δ̂ = Ī⁻¹ Σ s / B, is
+//     N(Δ, Ī⁻¹/B): for parameter a, z = Δ̂_a / √(n Σ_T,aa / B) is N(0, 1) before a change and
+//     N(δ, 1) after a change Δ_a, δ = Δ_a / √(n Σ_T,aa / B), whatever the other tracked
+//     parameters do (to first order: the efficient score projects them out, which isolates the
+//     parameter that moved; parameters that are nearly interchangeable in the data, or a change
+//     large enough to be nonlinear, can also move a neighbour's test). Two
 //     mean-shift CUSUMs of cusum.h per parameter (up, down) watch z, one step per block. B makes
 //     δ about ½ (the scores of one row are far from normal; a block's sum is close to it); the
 //     thresholds come from the share of the false-alarm rate as for the innovations. This is far
@@ -35,8 +42,12 @@
 #include <string>
 #include <vector>
 
+#include <memory>
+
 #include "core/model/linear_model.h"
+#include "core/model/nonlinear_model.h"
 #include "core/online/cusum.h"
+#include "core/online/estimator.h"
 #include "core/online/recursive.h"
 #include "core/util/json.h"
 #include "core/util/result.h"
@@ -78,6 +89,12 @@ class Monitor {
  public:
   static Result<Monitor> Create(const model::LinearModel& model, const Reference& reference,
                                 const MonitorOptions& options);
+  static Result<Monitor> Create(std::shared_ptr<const model::NonlinearModel> model,
+                                const Reference& reference, const MonitorOptions& options);
+  // The linear monitor when the model compiles as linear (LinearModel::Compile), else the
+  // nonlinear one.
+  static Result<Monitor> Create(const model::ModelSpec& spec, const Reference& reference,
+                                const MonitorOptions& options);
 
   // Feeds one row; the updates of the state indices it completes (recursive.h). The CUSUM tests
   // are designed when the second row gives the sample time.
@@ -89,7 +106,7 @@ class Monitor {
   // output, alarms raised at this row, alarm.
   Json ToJson(const MonitorUpdate& u) const;
 
-  const RecursiveMl& estimator() const { return estimator_; }
+  const OnlineEstimator& estimator() const { return *estimator_; }
   const MonitorOptions& options() const { return options_; }
   const std::optional<CusumDesign>& design() const { return design_; }
   // Per tracked parameter: the block of its score test (rows; 0: no test) and its threshold.
@@ -100,12 +117,17 @@ class Monitor {
   long long alarm_count() const { return alarm_count_; }
 
  private:
-  Monitor(RecursiveMl estimator, RecursiveMl reference, const MonitorOptions& options)
+  Monitor(std::unique_ptr<OnlineEstimator> estimator, std::unique_ptr<OnlineEstimator> reference,
+          const MonitorOptions& options)
       : estimator_(std::move(estimator)), reference_(std::move(reference)), options_(options) {}
+  // The tests' set-up, once both filters are made.
+  static Result<Monitor> Build(std::unique_ptr<OnlineEstimator> estimator,
+                               std::unique_ptr<OnlineEstimator> reference,
+                               const Reference& ref, const MonitorOptions& options);
   Status Design(double sample_time);
 
-  RecursiveMl estimator_;
-  RecursiveMl reference_;
+  std::unique_ptr<OnlineEstimator> estimator_;
+  std::unique_ptr<OnlineEstimator> reference_;
   MonitorOptions options_;
   std::vector<double> ref_theta_, ref_sd_;  // tracked
   std::optional<CusumDesign> design_;
@@ -115,7 +137,11 @@ class Monitor {
   std::vector<int> block_;     // B_a rows (0: no test: no reference SE)
   std::vector<double> h_par_;  // threshold (log-likelihood-ratio units)
   std::vector<double> sum_s_;  // per parameter a: Σ s (k) over its block so far
-  Eigen::MatrixXd ref_cov_;    // the reference covariance, tracked parameters
+  // The reference covariance of the tracked parameters with the others held at the reference
+  // (Reference::ConditionalCovarianceOf, as the held filter holds them; zero where unknown), and
+  // its SDs: what the score tests are standardised by.
+  Eigen::MatrixXd ref_cov_;
+  std::vector<double> test_sd_;
   std::vector<int> in_block_;
   std::vector<double> up_, down_;  // the CUSUM statistics
   double ref_rows_ = 0.0;

@@ -14,55 +14,47 @@
 
 #include "core/filter/internal.h"
 #include "core/filter/score.h"
+#include "core/online/internal.h"
 
 namespace gb::online {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr int kMaxHalvings = 20;
 constexpr double kSameInterval = 1e-10;  // relative: data::Intervals::kIntervalRelTol
-// A parameter on a bound starts this fraction of its range (or of 1 + |bound|) inside it.
-constexpr double kInside = 1e-6;
 // The largest step of one row in the working coordinates (a factor e^1 in a scale parameter).
 constexpr double kMaxWorkingStep = 0.1;
 
-// The working coordinate w of a parameter with bounds [lo, hi]: log((θ-lo)/(hi-θ)) with both,
-// log(θ-lo) or -log(hi-θ) with one, θ itself with none. The steps are taken in w, so that the
-// bounds hold by construction and a variance moves by factors, not by increments.
-double ToWorking(double v, double lo, double hi) {
-  const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
-  if (has_lo && has_hi) return std::log((v - lo) / (hi - v));
-  if (has_lo) return std::log(v - lo);
-  if (has_hi) return -std::log(hi - v);
-  return v;
-}
-double FromWorking(double w, double lo, double hi) {
-  const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
-  if (has_lo && has_hi) return lo + (hi - lo) / (1.0 + std::exp(-w));
-  if (has_lo) return lo + std::exp(w);
-  if (has_hi) return hi - std::exp(-w);
-  return w;
-}
-// dθ/dw at θ = v.
-double WorkingSlope(double v, double lo, double hi) {
-  const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
-  if (has_lo && has_hi) return (v - lo) * (hi - v) / (hi - lo);
-  if (has_lo) return v - lo;
-  if (has_hi) return hi - v;
-  return 1.0;
-}
-double Inside(double v, double lo, double hi) {
-  const double span =
-      std::isfinite(hi - lo) ? hi - lo : 1.0 + std::abs(std::isfinite(lo) ? lo : hi);
-  if (std::isfinite(lo)) v = std::max(v, lo + kInside * span);
-  if (std::isfinite(hi)) v = std::min(v, hi - kInside * span);
-  return v;
-}
+using internal::FromWorking;
+using internal::Inside;
+using internal::kInf;
+using internal::ToWorking;
+using internal::WorkingSlope;
 
 }  // namespace
 
 // ---- 1. set-up -------------------------------------------------------------------------------
+
+Result<std::vector<int>> internal::ChooseTracked(const model::ModelSpec& spec,
+                                                 const std::vector<int>& trackable,
+                                                 std::span<const std::string> names,
+                                                 const char* why) {
+  if (names.empty()) return trackable;
+  std::vector<int> chosen;
+  for (const std::string& name : names) {
+    const int i = spec.ParameterIndex(name);
+    if (std::find(trackable.begin(), trackable.end(), i) == trackable.end()) {
+      std::string list;
+      for (int t : trackable) list += (list.empty() ? "" : ", ") + spec.parameters[t].name;
+      return InputError(fmt::format(
+          "cannot track '{}': {}; the parameters that can be tracked are {}", name,
+          i < 0 ? "the model has no such parameter" : why, list.empty() ? "none" : list));
+    }
+    if (std::find(chosen.begin(), chosen.end(), i) == chosen.end()) chosen.push_back(i);
+  }
+  std::sort(chosen.begin(), chosen.end());
+  return chosen;
+}
 
 std::vector<int> TrackableParameters(const model::LinearModel& model, std::span<const int> free) {
   const int n = model.n_states(), m = model.n_inputs(), p = model.n_outputs();
@@ -111,6 +103,25 @@ Eigen::MatrixXd Reference::CovarianceOf(std::span<const int> params) const {
   return out;
 }
 
+Eigen::MatrixXd Reference::ConditionalCovarianceOf(std::span<const int> params) const {
+  Eigen::MatrixXd out = CovarianceOf(params);
+  std::vector<int> others;
+  for (std::size_t b = 0; b < free.size(); ++b)
+    if (static_cast<Eigen::Index>(b) < covariance.rows() &&
+        std::find(params.begin(), params.end(), free[b]) == params.end())
+      others.push_back(free[b]);
+  if (others.empty() || !out.allFinite()) return out;
+  std::vector<int> all(params.begin(), params.end());
+  all.insert(all.end(), others.begin(), others.end());
+  const Eigen::MatrixXd joint = CovarianceOf(all);
+  const auto k = static_cast<Eigen::Index>(params.size());
+  const auto u = static_cast<Eigen::Index>(others.size());
+  const Eigen::MatrixXd tu = joint.topRightCorner(k, u);
+  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> uu(joint.bottomRightCorner(u, u));
+  out -= tu * uu.solve(tu.transpose());
+  return 0.5 * (out + out.transpose());
+}
+
 Result<RecursiveMl> RecursiveMl::Create(const model::LinearModel& model, const Reference& reference,
                                         const RecursiveOptions& options, bool adapt) {
   if (!(options.forgetting > 0.0 && options.forgetting <= 1.0))
@@ -140,24 +151,11 @@ Result<RecursiveMl> RecursiveMl::Create(const model::LinearModel& model, const R
   }
   if (adapt) r.tracked_ = TrackableParameters(model, reference.free);
   if (adapt && !options.track.empty()) {
-    std::vector<int> chosen;
-    std::vector<std::string> trackable;
-    for (int i : r.tracked_) trackable.push_back(spec.parameters[i].name);
-    for (const std::string& name : options.track) {
-      const int i = spec.ParameterIndex(name);
-      if (std::find(r.tracked_.begin(), r.tracked_.end(), i) == r.tracked_.end()) {
-        std::string list;
-        for (const std::string& t : trackable) list += (list.empty() ? "" : ", ") + t;
-        return InputError(fmt::format(
-            "cannot track '{}': {}; the parameters that can be tracked are {}", name,
-            i < 0 ? "the model has no such parameter"
-                  : "it is fixed, has no reference estimate, or only sets the initial state",
-            list));
-      }
-      if (std::find(chosen.begin(), chosen.end(), i) == chosen.end()) chosen.push_back(i);
-    }
-    std::sort(chosen.begin(), chosen.end());
-    r.tracked_ = chosen;
+    auto chosen = internal::ChooseTracked(
+        spec, r.tracked_, options.track,
+        "it is fixed, has no reference estimate, or only sets the initial state");
+    if (!chosen) return chosen.error();
+    r.tracked_ = std::move(*chosen);
   }
   const int k = static_cast<int>(r.tracked_.size());
   for (int i : r.tracked_) {

@@ -18,70 +18,21 @@
 #include "core/filter/likelihood.h"
 #include "core/model/nonlinear_model.h"
 #include "core/sim/sde.h"
+#include "tests/core/nonlinear_tank.h"
 #include "core/util/sanitizers.h"
 #include "core/util/json.h"
 
 namespace gb::estimate {
 namespace {
 
-// A tank draining through an orifice, a level-dependent diffusion, a sensor with a square term.
-const char* const kTank = R"json({
-  "greybench_model": 1,
-  "states": ["h"], "inputs": ["u"], "outputs": ["y"],
-  "parameters": {
-    "k": {"value": 0.3, "lower": 0.01, "upper": 5},
-    "a": {"value": 0.3, "lower": 0.01, "upper": 5},
-    "s": {"value": 0.05, "lower": 1e-4, "upper": 1},
-    "r": {"value": 0.01, "lower": 1e-6, "upper": 1},
-    "h0": {"value": 1.0, "lower": 0.1, "upper": 10}
-  },
-  "drift": {"h": "k*u - a*sqrt(h)"},
-  "diffusion": {"h": "s*sqrt(h)"},
-  "observation": {"y": "h + 0.1*h^2"},
-  "measurement_variance": {"y": "r"},
-  "initial_state": {"h": "h0"}
-})json";
-
-std::shared_ptr<const model::NonlinearModel> Compile(const Json& j) {
-  auto spec = model::ParseModel(j, "tank.json");
-  EXPECT_TRUE(spec) << spec.error().ToString();
-  auto nm = model::NonlinearModel::Compile(*spec);
-  EXPECT_TRUE(nm) << nm.error().ToString();
-  return std::make_shared<const model::NonlinearModel>(std::move(*nm));
-}
-
-// The truth: k = 0.8, a = 0.5, s = 0.08, r = 0.004, h0 = 2.5 (steady level (k u / a)² ≈ 2.6).
+using testing::CompileTank;
+using testing::kTank;
 std::shared_ptr<const data::Series> Simulate(std::uint64_t seed, double duration = 300.0) {
-  Json truth = Json::parse(kTank);
-  truth["parameters"]["k"]["value"] = 0.8;
-  truth["parameters"]["a"]["value"] = 0.5;
-  truth["parameters"]["s"]["value"] = 0.08;
-  truth["parameters"]["r"]["value"] = 0.004;
-  truth["parameters"]["h0"]["value"] = 2.5;
-  const auto nm = Compile(truth);
-  design::PrbsOptions o;
-  o.order = 6;
-  o.bit_period = 4.0;
-  o.sample_time = 0.5;
-  o.duration = duration;
-  o.low = 0.7;
-  o.high = 1.3;
-  auto u = *design::MakePrbs(o);
-  data::Series s;
-  s.source = "tank.csv";
-  s.time = u.t;
-  s.U = Eigen::Map<const Eigen::MatrixXd>(u.u.data(), 1, static_cast<Eigen::Index>(u.u.size()));
-  s.Y.setZero(1, static_cast<Eigen::Index>(u.t.size()));
-  s.intervals = data::GroupIntervals(s.time);
-  auto path = sim::SamplePath(*nm, nm->spec().Values(), s,
-                              filter::FilterSettings::FromModel(nm->spec()), seed);
-  EXPECT_TRUE(path) << path.error().ToString();
-  s.Y = path->Y;
-  return std::make_shared<const data::Series>(std::move(s));
+  return testing::SimulateTank(seed, duration);
 }
 
 TEST(EkfEstimate, RecoversANonlinearTankFromGenericStarts) {
-  const auto nm = Compile(Json::parse(kTank));
+  const auto nm = CompileTank(Json::parse(kTank));
   auto lik = filter::Likelihood::Create(nm, {Simulate(3)});
   ASSERT_TRUE(lik);
   EstimateOptions options;
@@ -148,7 +99,7 @@ TEST(EkfEstimate, NinetyFivePercentIntervalsCoverTheTruthAtTheNominalRate) {
   const int replicates = kSanitized ? 3 : 100;
   const std::map<std::string, double> truth = {
       {"k", 0.8}, {"a", 0.5}, {"s", 0.08}, {"r", 0.004}, {"h0", 2.5}};
-  const auto nm = Compile(Json::parse(kTank));
+  const auto nm = CompileTank(Json::parse(kTank));
   std::map<std::string, int> covered_by;
   int covered = 0, total = 0;
   for (int rep = 0; rep < replicates; ++rep) {

@@ -308,13 +308,7 @@ LiveSession::~LiveSession() = default;
 
 Result<LiveSession> LiveSession::Create(const LiveInput& input) {
   auto s = std::make_unique<State>();
-  Result<model::LinearModel> model = model::LinearModel::Compile(input.spec);
-  if (!model) {
-    Error e = model.error();
-    e.message += " (the Live view monitors linear models only)";
-    return e;
-  }
-  const model::ModelSpec& spec = model->spec();
+  const model::ModelSpec& spec = input.spec;
   online::Reference reference;
   if (input.reference) {
     reference = *input.reference;
@@ -331,7 +325,7 @@ Result<LiveSession> LiveSession::Create(const LiveInput& input) {
   options.false_alarms_per_hour = input.settings.false_alarms_per_hour;
   std::string why;
   if (!options.IsValid(&why)) return InputError(why);
-  Result<online::Monitor> monitor = online::Monitor::Create(*model, reference, options);
+  Result<online::Monitor> monitor = online::Monitor::Create(spec, reference, options);
   if (!monitor) return monitor.error();
   s->monitor.emplace(std::move(monitor).value());
   s->episode_rows = static_cast<long long>(

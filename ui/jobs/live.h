@@ -1,4 +1,4 @@
-// The Live view's work: on-line identification and condition monitoring of a linear model
+// The Live view's work: on-line identification and condition monitoring of a model
 // (core/online/monitor.h), one row at a time, from the virtual dyno (core/sim/live_dyno.h) or a
 // CSV file another program is writing (core/online/follow.h).
 //
@@ -242,7 +242,7 @@ class LiveFeed {
 // The source and the monitor of one run. Not thread-safe: it belongs to the thread that runs it.
 class LiveSession {
  public:
-  // Compiles the model (a linear one: a nonlinear model is refused, saying so), reads the
+  // Compiles the model (linear or not: monitor.h says which filters run), reads the
   // reference, creates the monitor and opens the source. Errors are sentences for the user.
   static Result<LiveSession> Create(const LiveInput& input);
   LiveSession(LiveSession&&) noexcept;

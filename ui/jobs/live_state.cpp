@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "core/model/linear_model.h"
+#include "core/model/nonlinear_model.h"
 #include "ui/format.h"
 #include "ui/state/app_state.h"
 
@@ -67,8 +68,11 @@ const std::string& LiveModelProblem(AppState& state) {
   l.checked_revision = state.model_revision;
   l.nonlinear.clear();
   if (!state.model) return l.nonlinear;  // the view says the model is not valid
-  Result<model::LinearModel> linear = model::LinearModel::Compile(*state.model);
-  if (!linear) l.nonlinear = linear.error().ToString();
+  // A linear model gets the recursive estimator; any other the augmented EKF (monitor.h). Only a
+  // model that compiles as neither cannot be watched.
+  if (model::LinearModel::Compile(*state.model)) return l.nonlinear;
+  Result<model::NonlinearModel> nonlinear = model::NonlinearModel::Compile(*state.model);
+  if (!nonlinear) l.nonlinear = nonlinear.error().ToString();
   return l.nonlinear;
 }
 
@@ -92,7 +96,7 @@ std::optional<LiveInput> LiveInputNow(const AppState& state, std::string* why) {
   if (!state.project) return refuse("no project is open");
   if (!state.model) return refuse("the model is not valid: " + state.model_error);
   if (!l.nonlinear.empty() && l.checked_revision == state.model_revision)
-    return refuse("the model is not linear: " + l.nonlinear);
+    return refuse("the model cannot be compiled: " + l.nonlinear);
   LiveInput input;
   input.spec = *state.model;
   input.settings = l.settings;

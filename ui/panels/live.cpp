@@ -843,14 +843,8 @@ void DrawLivePanel(AppState& state) {
   if (const std::string& why = LiveModelProblem(state); !why.empty()) {
     const std::string name =
         state.model->name.empty() ? "The model" : "\"" + state.model->name + "\"";
-    DrawNotice(
-        state, "The Live view monitors linear models only",
-        name +
-            " is nonlinear, so it cannot be watched on-line yet: the recursive estimator "
-            "and the condition monitor work with linear models (such as the fuel film or "
-            "the crankshaft). Its batch estimation works as usual in the Estimate view.\n\n" +
-            why,
-        Severity::kWarning);
+    DrawNotice(state, "The model cannot be watched on-line",
+               name + " does not compile for the filters:\n\n" + why, Severity::kWarning);
     return;
   }
   LiveState& l = state.live;

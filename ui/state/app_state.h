@@ -183,7 +183,7 @@ struct LiveState {
   double window_s = 60.0;
   // Whether the model is linear, checked once per model revision.
   int checked_revision = -1;
-  std::string nonlinear;     // why the model is not linear ("" when it is)
+  std::string nonlinear;     // why the model cannot be watched ("" when it can)
   FileBrowserState browser;  // for the CSV file and the result file
   int browsing = 0;          // what the browser is choosing: 1 the CSV file, 2 the result file
 };

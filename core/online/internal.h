@@ -1,0 +1,62 @@
+// What the on-line estimators share (recursive.cpp, augmented.cpp): the working coordinates that
+// keep a parameter inside its bounds, and the choice of the tracked parameters.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/model/model.h"
+#include "core/util/result.h"
+
+namespace gb::online::internal {
+
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+// A parameter on a bound starts this fraction of its range (or of 1 + |bound|) inside it.
+inline constexpr double kInside = 1e-6;
+
+// The working coordinate w of a parameter with bounds [lo, hi]: log((θ-lo)/(hi-θ)) with both,
+// log(θ-lo) or -log(hi-θ) with one, θ itself with none. The estimators move w, so that the
+// bounds hold by construction and a scale parameter moves by factors, not by increments.
+inline double ToWorking(double v, double lo, double hi) {
+  const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
+  if (has_lo && has_hi) return std::log((v - lo) / (hi - v));
+  if (has_lo) return std::log(v - lo);
+  if (has_hi) return -std::log(hi - v);
+  return v;
+}
+inline double FromWorking(double w, double lo, double hi) {
+  const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
+  if (has_lo && has_hi) return lo + (hi - lo) / (1.0 + std::exp(-w));
+  if (has_lo) return lo + std::exp(w);
+  if (has_hi) return hi - std::exp(-w);
+  return w;
+}
+// dθ/dw at θ = v.
+inline double WorkingSlope(double v, double lo, double hi) {
+  const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
+  if (has_lo && has_hi) return (v - lo) * (hi - v) / (hi - lo);
+  if (has_lo) return v - lo;
+  if (has_hi) return hi - v;
+  return 1.0;
+}
+// v moved kInside of the range inside its bounds.
+inline double Inside(double v, double lo, double hi) {
+  const double span =
+      std::isfinite(hi - lo) ? hi - lo : 1.0 + std::abs(std::isfinite(lo) ? lo : hi);
+  if (std::isfinite(lo)) v = std::max(v, lo + kInside * span);
+  if (std::isfinite(hi)) v = std::min(v, hi - kInside * span);
+  return v;
+}
+
+// The parameters to track: all of `trackable` when `names` is empty, else those named (sorted,
+// each once). Errors name a parameter that is not trackable and list those that are; `why` says
+// what makes a parameter trackable for this estimator.
+Result<std::vector<int>> ChooseTracked(const model::ModelSpec& spec,
+                                       const std::vector<int>& trackable,
+                                       std::span<const std::string> names, const char* why);
+
+}  // namespace gb::online::internal
