@@ -122,20 +122,23 @@ int main(int argc, char** argv) {
 
   MonitorArgs monitor;
   auto* c_monitor = app.add_subcommand(
-      "monitor", "watch a linear model on-line: recursive estimates and alarms from a reference");
+      "monitor", "watch a model on-line: recursive estimates and alarms from a reference");
   c_monitor->add_option("model", monitor.model, "model file (JSON)")->required();
   c_monitor->add_option("source", monitor.source, "- to read rows from standard input");
   c_monitor->add_option("--reference", monitor.reference, "batch result file (JSON) to start from")
       ->required();
   c_monitor->add_option("--follow", monitor.follow,
                         "CSV file to follow as it grows (as tail -f does)");
-  c_monitor->add_option("--set", monitor.sets, "NAME=VALUE: override a parameter of the model");
+  // One value per occurrence, so that a source `-` after them is not taken for a value.
+  c_monitor->add_option("--set", monitor.sets, "NAME=VALUE: override a parameter of the model")
+      ->allow_extra_args(false);
   c_monitor->add_option("--forgetting", monitor.forgetting,
                         "forgetting factor in (0, 1] (memory 1/(1-λ) rows; default 0.999)");
   c_monitor
       ->add_option("--track", monitor.track,
                    "parameters to track (default: all free ones in the dynamics and observations)")
-      ->delimiter(',');
+      ->delimiter(',')
+      ->allow_extra_args(false);
   c_monitor->add_option("--false-alarms", monitor.false_alarms,
                         "false alarms per hour, all tests together (default 0.125)");
   c_monitor->add_option("--change", monitor.change,

@@ -30,7 +30,10 @@
 // needs --estimate. --live-fault schedules a fault as `greybench-cli dyno fuel --live --fault`
 // does (repeat it for several; e.g. 60:tau_ff*1.5, 60:X*2/30, 90:clear); --live-point,
 // --live-seed and --live-forgetting set the dyno's operating point (f1), its seed (2) and the
-// estimator's forgetting factor λ (0.999), as the view's controls do.
+// estimator's forgetting factor λ (0.999), as the view's controls do. --live-csv FILE takes the
+// rows of a CSV file instead of the dyno (to the row at T), and --live-reference RESULT.json a
+// result file as the reference instead of the session's estimate, as the view's Source and
+// Reference choices do: how a nonlinear model's view is drawn (the dyno is the fuel film's).
 //
 // --dialog opens one of the shell's dialogs over the view, as its menu item does (the file
 // browser lists a real folder, so its dates make that picture depend on the machine).
@@ -95,6 +98,8 @@ struct Options {
   std::string live_point;                            // "": the view's default
   std::optional<std::uint64_t> live_seed;
   std::optional<double> live_forgetting;
+  std::string live_csv;        // "": the dyno
+  std::string live_reference;  // "": the session's estimate
 };
 
 constexpr const char* kUsage =
@@ -104,7 +109,8 @@ constexpr const char* kUsage =
     "                          [--time T0:T1] [--profile PARAMETER]\n"
     "                          [--overlays ahead,simulation,smoothed]\n"
     "                          [--live-until T [--live-fault TIME:PARAMETER*FACTOR[/RAMP] ...]\n"
-    "                           [--live-point NAME] [--live-seed N] [--live-forgetting L]]\n"
+    "                           [--live-point NAME] [--live-seed N] [--live-forgetting L]\n"
+    "                           [--live-csv FILE] [--live-reference RESULT.json]]\n"
     "VIEW: data diagram equations estimate predictions residuals parameters operating-points\n"
     "      live\n"
     "DIALOG: open-project save-project-as new-project keyboard-shortcuts unsaved-changes\n";
@@ -134,7 +140,8 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
         arg == "--project" || arg == "--view" || arg == "--out" || arg == "--width" ||
         arg == "--height" || arg == "--dialog" || arg == "--time" || arg == "--profile" ||
         arg == "--overlays" || arg == "--live-until" || arg == "--live-fault" ||
-        arg == "--live-point" || arg == "--live-seed" || arg == "--live-forgetting";
+        arg == "--live-point" || arg == "--live-seed" || arg == "--live-forgetting" ||
+        arg == "--live-csv" || arg == "--live-reference";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
@@ -186,6 +193,10 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       gb::Result<gb::sim::TimedFuelFault> f = gb::sim::ParseFuelFault(value, "--live-fault");
       if (!f) return f.error().message;
       o->live_faults.push_back(std::move(f).value());
+    } else if (arg == "--live-csv") {
+      o->live_csv = value;
+    } else if (arg == "--live-reference") {
+      o->live_reference = value;
     } else if (arg == "--live-point") {
       if (!gb::sim::FindFuelPoint(value)) return gb::sim::FindFuelPoint(value).error().message;
       o->live_point = value;
@@ -220,6 +231,10 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
   }
   if (!o->live_faults.empty() && !o->live_until)
     return "--live-fault needs --live-until (the time the run is drawn at)";
+  if ((!o->live_csv.empty() || !o->live_reference.empty()) && !o->live_until)
+    return "--live-csv and --live-reference need --live-until (the time the run is drawn at)";
+  if (!o->live_csv.empty() && !o->live_faults.empty())
+    return "--live-fault injects into the virtual dyno, not into --live-csv's file";
   if (o->project.empty()) return "--project is required";
   if (o->shots.empty() || o->shots.back().out.empty()) return "--out is required";
   return "";
@@ -280,6 +295,14 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
   if (!options.live_point.empty()) state.live.settings.point = options.live_point;
   if (options.live_seed) state.live.settings.seed = *options.live_seed;
   if (options.live_forgetting) state.live.settings.forgetting = *options.live_forgetting;
+  if (!options.live_csv.empty()) {
+    state.live.settings.source = ui::LiveSourceKind::kCsvFile;
+    state.live.settings.csv_path = options.live_csv;
+  }
+  if (!options.live_reference.empty()) {
+    state.live.reference = ui::LiveReferenceKind::kFile;
+    state.live.reference_file = options.live_reference;
+  }
   if (options.live_until && Shows(options, ui::View::kLive)) {
     // The view's run, to the time asked for, without a clock (the Start button's job paces it).
     gb::Result<gb::sim::FuelOperatingPoint> point =

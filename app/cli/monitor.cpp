@@ -101,11 +101,13 @@ int RunMonitor(const MonitorArgs& args) {
                      monitor->estimator().Method().c_str(), list.empty() ? "nothing" : list.c_str());
         for (std::size_t a = 0; a < names.size(); ++a) {
           if (monitor->parameter_block()[a] == 0) continue;
+          const double change = monitor->parameter_change()[a];
+          const double ref = monitor->reference_values()[a];
           std::fprintf(stderr,
-                       "greybench-cli: monitor: %s: score test for a change of %g %%, blocks of "
-                       "%d rows, h = %.3f\n",
-                       names[a].c_str(), 100.0 * args.change, monitor->parameter_block()[a],
-                       monitor->parameter_h()[a]);
+                       "greybench-cli: monitor: %s: score test for a change of %.3g (%.3g %%), "
+                       "blocks of %d rows, h = %.3f\n",
+                       names[a].c_str(), change, 100.0 * change / std::abs(ref),
+                       monitor->parameter_block()[a], monitor->parameter_h()[a]);
         }
       }
       for (const online::MonitorUpdate& u : *ups) {

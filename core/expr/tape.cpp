@@ -3,12 +3,22 @@
 // Each expression's code is emitted by a post-order walk (operands left to right, then the
 // operator) and ends in a store to its output. Operators use the arithmetic of internal.h, the
 // same as EvaluateTree, so the two agree bit for bit.
+//
+// Common subexpressions are computed once per evaluation: every node gets a structural id (equal
+// trees, equal ids, whether or not they share memory), and a node met again after its first
+// evaluation, anywhere in the tape's expressions, is kept in a temporary when first computed
+// (kTee) and pushed from it afterwards (kPushTemp). The derivatives of a model repeat its terms
+// many times (the Jacobian of a drift, the derivatives of a parameter's working-coordinate
+// expression), so this removes most of the work of evaluating them; the values are unchanged
+// (the same operations on the same operands).
 #include <algorithm>
 #include <bit>
 #include <cassert>
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <unordered_map>
+#include <vector>
 
 #include "core/expr/expr.h"
 #include "core/expr/internal.h"
@@ -28,6 +38,44 @@ enum Code : int {
   kCall1,  // arg: Func
   kCall2,  // arg: Func
   kStore,  // arg: output index; pops
+  kTee,       // arg: temporary index; copies the top of the stack there
+  kPushTemp,  // arg: temporary index
+};
+
+// Structural ids: equal trees get equal ids. Ids are dense from 0.
+class Ids {
+ public:
+  int Of(const Node& n) {
+    if (auto it = by_node_.find(&n); it != by_node_.end()) return it->second;
+    std::string key;
+    key.reserve(32);
+    key += static_cast<char>('a' + static_cast<int>(n.op));
+    switch (n.op) {
+      case Op::kConst: {
+        const auto bits = std::bit_cast<std::uint64_t>(n.value);
+        key.append(reinterpret_cast<const char*>(&bits), sizeof bits);
+        break;
+      }
+      case Op::kVar:
+        key += n.name;
+        break;
+      default:
+        if (n.op == Op::kCall) key += static_cast<char>('a' + static_cast<int>(n.func));
+        for (const ExprPtr& a : n.args) {
+          const int child = Of(*a);
+          key.append(reinterpret_cast<const char*>(&child), sizeof child);
+        }
+        break;
+    }
+    const auto [it, inserted] = by_key_.emplace(std::move(key), static_cast<int>(by_key_.size()));
+    by_node_.emplace(&n, it->second);
+    return it->second;
+  }
+  int size() const { return static_cast<int>(by_key_.size()); }
+
+ private:
+  std::unordered_map<const Node*, int> by_node_;
+  std::unordered_map<std::string, int> by_key_;
 };
 
 Code BinaryCode(Op op) {
@@ -54,6 +102,10 @@ Result<Tape> Tape::Compile(std::span<const ExprPtr> exprs,
     std::vector<Instr>* code;
     std::vector<double>* constants;
     const std::function<int(const std::string&)>* slot_of;
+    Ids ids;
+    std::vector<int> uses;  // per id: occurrences evaluated (a node's operands once)
+    std::vector<int> temp;  // per id: its temporary, -1 none
+    int n_temps = 0;
     int max_slot = -1;
     int height = 0;  // stack height at the current point of the program
     int max_height = 0;
@@ -81,7 +133,21 @@ Result<Tape> Tape::Compile(std::span<const ExprPtr> exprs,
       return static_cast<int>(constants->size()) - 1;
     }
 
+    // Counts, per id, the occurrences the code will evaluate: a node's operands only at its first.
+    void Count(const Node& n) {
+      const int id = ids.Of(n);
+      if (id >= static_cast<int>(uses.size())) uses.resize(static_cast<std::size_t>(id) + 1, 0);
+      if (uses[id]++ > 0) return;
+      for (const ExprPtr& a : n.args) Count(*a);
+    }
+
     bool Emit(const Node& n) {
+      const int id = ids.Of(n);
+      if (temp[id] >= 0) {
+        if (!Push(n)) return false;
+        code->push_back({kPushTemp, temp[id]});
+        return true;
+      }
       switch (n.op) {
         case Op::kConst:
           if (!Push(n)) return false;
@@ -118,12 +184,21 @@ Result<Tape> Tape::Compile(std::span<const ExprPtr> exprs,
           code->push_back({BinaryCode(n.op), 0});
           break;
       }
+      if (uses[id] > 1 && n_temps < Tape::kMaxTemps) {
+        temp[id] = n_temps++;
+        code->push_back({kTee, temp[id]});
+      }
       return true;
     }
   };
 
   Tape tape;
-  Compiler c{&tape.code_, &tape.constants_, &slot_of};
+  Compiler c{&tape.code_, &tape.constants_, &slot_of, Ids{}, {}, {}};
+  for (const ExprPtr& e : exprs) {
+    assert(e && "Tape::Compile: null expression");
+    c.Count(*e);
+  }
+  c.temp.assign(c.uses.size(), -1);
   for (std::size_t i = 0; i < exprs.size(); ++i) {
     assert(exprs[i] && "Tape::Compile: null expression");
     if (!c.Emit(*exprs[i])) return *c.error;
@@ -134,6 +209,7 @@ Result<Tape> Tape::Compile(std::span<const ExprPtr> exprs,
   tape.n_outputs_ = exprs.size();
   tape.n_slots_ = static_cast<std::size_t>(c.max_slot) + 1;
   tape.max_stack_ = c.max_height;
+  tape.n_temps_ = c.n_temps;
   return tape;
 }
 
@@ -143,6 +219,7 @@ void Tape::Eval(std::span<const double> slots, std::span<double> out) const {
   // Zeroed so that no path can read an unwritten entry (the compiler checked the tape's
   // height; the analyzer cannot see that). One evaluation per parameter vector: cheap.
   double stack[kMaxStack] = {};
+  double temps[kMaxTemps];  // each written (kTee) before it is read (kPushTemp)
   int sp = 0;  // stack[sp - 1] is the top
   for (const Instr& in : code_) {
     switch (in.code) {
@@ -184,6 +261,12 @@ void Tape::Eval(std::span<const double> slots, std::span<double> out) const {
         break;
       case kStore:
         out[in.arg] = stack[--sp];
+        break;
+      case kTee:
+        temps[in.arg] = stack[sp - 1];
+        break;
+      case kPushTemp:
+        stack[sp++] = temps[in.arg];
         break;
     }
   }

@@ -18,6 +18,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // SDs of a block's standardised score (at most kMaxBlock rows).
 constexpr double kBlockShift = 0.5;
 constexpr int kMaxBlock = 100000;
+constexpr double kMaxRowShift = 3.0;
 
 }  // namespace
 
@@ -98,6 +99,9 @@ Result<Monitor> Monitor::Build(std::unique_ptr<OnlineEstimator> estimator,
     m.delta_[a] = options.parameter_change * std::abs(m.ref_theta_[a]);
     if (!(m.test_sd_[a] > 0.0) || !(ref_rows > 0.0) || !(m.delta_[a] > 0.0)) continue;
     const double info_per_row = 1.0 / (m.test_sd_[a] * m.test_sd_[a] * ref_rows);
+    // A change one row alone shows at more than kMaxRowShift SDs is tested as one of that many
+    // (the test is then more sensitive than asked, and its design stays within reach).
+    m.delta_[a] = std::min(m.delta_[a], kMaxRowShift / std::sqrt(info_per_row));
     const double delta_row = m.delta_[a] * std::sqrt(info_per_row);
     m.block_[a] =
         std::clamp(static_cast<int>(std::ceil(kBlockShift * kBlockShift / (delta_row * delta_row))),
@@ -210,10 +214,11 @@ Result<std::vector<MonitorUpdate>> Monitor::Push(const Sample& row) {
         alarm.kind = MonitorAlarm::Kind::kParameter;
         alarm.what = fmt::format("{}: {}", names[a], side == 0 ? "up" : "down");
         alarm.message = fmt::format(
-            "{} has moved {} from its reference {:.4g} (by {:.0f} % or more, score test; the "
-            "recursive estimate is {:.4g} ± {:.2g}; t = {:g})",
-            names[a], side == 0 ? "up" : "down", ref_theta_[a], 100.0 * options_.parameter_change,
-            m.estimate.theta[a], m.estimate.sd[a], m.estimate.t);
+            "{} has moved {} from its reference {:.4g} (by {:.2g}, {:.3g} %, or more, score test; "
+            "the on-line estimate is {:.4g} ± {:.2g}; t = {:g})",
+            names[a], side == 0 ? "up" : "down", ref_theta_[a], delta_[a],
+            100.0 * delta_[a] / std::abs(ref_theta_[a]), m.estimate.theta[a], m.estimate.sd[a],
+            m.estimate.t);
         m.alarms.push_back(std::move(alarm));
       }
     }

@@ -64,7 +64,10 @@ struct MonitorOptions {
   double false_alarms_per_hour = 0.125;  // r: all tests together (one false alarm per 8 hours)
   double mean_shift = 1.0;               // δ of the innovation tests (SD units)
   double variance_ratio = 2.0;           // ρ of the innovation variance test
-  double parameter_change = 0.25;        // the relative change of a parameter worth an alarm
+  // The relative change of a parameter worth an alarm (a change that a single row shows at more
+  // than 3 SDs is tested as a 3-SD change: a well-determined parameter's test is then more
+  // sensitive than asked).
+  double parameter_change = 0.25;
   bool IsValid(std::string* why) const;
 };
 
@@ -112,6 +115,9 @@ class Monitor {
   // Per tracked parameter: the block of its score test (rows; 0: no test) and its threshold.
   const std::vector<int>& parameter_block() const { return block_; }
   const std::vector<double>& parameter_h() const { return h_par_; }
+  // Per tracked parameter: the change its test is designed for (natural units; see
+  // MonitorOptions::parameter_change).
+  const std::vector<double>& parameter_change() const { return delta_; }
   const std::vector<double>& reference_values() const { return ref_theta_; }  // tracked
   const std::vector<double>& reference_sd() const { return ref_sd_; }  // tracked (NaN: unknown)
   long long alarm_count() const { return alarm_count_; }

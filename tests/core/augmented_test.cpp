@@ -211,6 +211,29 @@ TEST(AugmentedEkf, AfterAStepTheEstimateFollowsAndTheMonitorNamesTheParameter) {
       << last.theta[0] << " ± " << last.sd[0] << " against " << k_after;
 }
 
+// On stationary data the nonlinear monitor's alarms (innovation and score tests together) come at
+// no more than the rate set: hours of the tank at 5 per hour.
+TEST(AugmentedEkf, OnStationaryDataTheMonitorsFalseAlarmRateIsAtMostTheRateSet) {
+  const auto model = CompileTank(Json::parse(kTank));
+  const Reference ref = FitReference(model, {SimulateTank(41, 400.0)});
+  const double hours = kSanitized ? 1.0 : 4.0;
+  const auto record = SimulateTank(42, 3600.0 * hours);
+  MonitorOptions o;
+  o.false_alarms_per_hour = 5.0;
+  auto monitor = Monitor::Create(model->spec(), ref, o);
+  ASSERT_TRUE(monitor) << monitor.error().ToString();
+  long alarms = 0;
+  for (const Sample& r : Rows(*record)) {
+    auto ups = monitor->Push(r);
+    ASSERT_TRUE(ups) << ups.error().ToString();
+    for (const MonitorUpdate& u : *ups) alarms += static_cast<long>(u.alarms.size());
+  }
+  RecordProperty("alarms", static_cast<int>(alarms));
+  // The rate is a bound (Bonferroni over the tests); allow its Poisson error, 3 SD.
+  const double expected = 5.0 * hours;
+  EXPECT_LE(static_cast<double>(alarms), expected + 3.0 * std::sqrt(expected)) << alarms;
+}
+
 TEST(AugmentedEkf, RefusesToTrackAVarianceParameterAndSaysWhichCanBe) {
   const auto model = CompileTank(Json::parse(kTank));
   Reference ref;

@@ -379,7 +379,10 @@ Result<LiveSession> LiveSession::Create(const LiveInput& input) {
 
 const LiveSetup& LiveSession::setup() const { return s_->setup; }
 
-double LiveSession::next_time() const { return s_->dyno ? s_->dyno->Time() : kNaN; }
+double LiveSession::next_time() const {
+  if (s_->dyno) return s_->dyno->Time();
+  return s_->pending.empty() ? kNaN : s_->pending.front().t;
+}
 
 Result<int> LiveSession::Step(int max_rows, std::vector<LivePoint>* out,
                               std::vector<LiveNote>* notes) {
@@ -612,15 +615,21 @@ LiveRunEnd RunLive(const LiveInput& input, LiveFeed& feed, JobControl& control) 
 }
 
 Status RunLiveUntil(const LiveInput& input, double until_s, LiveFeed& feed) {
-  if (input.settings.source != LiveSourceKind::kDyno)
-    return InputError("a run to a given time needs the virtual dyno (a file has no clock)");
   Result<LiveSession> session = LiveSession::Create(input);
   if (!session) return session.error();
   feed.SetSetup(session->setup());
   std::vector<LivePoint> points;
   std::vector<LiveNote> notes;
-  const double ts = session->setup().sample_time;
-  while (session->next_time() <= until_s + 1e-6 * ts) {
+  const bool dyno = input.settings.source == LiveSourceKind::kDyno;
+  const double ts = dyno ? session->setup().sample_time : 0.0;
+  for (;;) {
+    if (!dyno) {
+      // Reads on until a row is parsed or the file ends (a file's rows carry their own time).
+      Result<int> read = session->Step(0, &points, &notes);
+      if (!read) return read.error();
+    }
+    const double next = session->next_time();
+    if (!(next <= until_s + 1e-6 * ts)) break;  // past the time asked for, or the file's end
     Result<int> fed = session->Step(1, &points, &notes);
     if (!fed) return fed.error();
     if (points.size() >= static_cast<std::size_t>(kRowsPerStep)) feed.Push(&points);

@@ -255,7 +255,8 @@ class LiveSession {
   // they complete to `out` and what the user should know (rows skipped, a file replaced) to
   // `notes`. Returns the rows fed (0: a file has nothing new); an error ends the run.
   Result<int> Step(int max_rows, std::vector<LivePoint>* out, std::vector<LiveNote>* notes);
-  // The dyno: the time of the next row. A file: NaN.
+  // The dyno: the time of the next row. A file: that of the next row read but not yet fed (NaN
+  // when none is; Step(0) reads without feeding).
   double next_time() const;
 
   // The dyno, at its next sample (refused with a reason, changing nothing, e.g. X past 1; or for
@@ -281,8 +282,8 @@ struct LiveRunEnd {
 // clock × speed until control.cancel, applying the commands as they come. Never throws.
 LiveRunEnd RunLive(const LiveInput& input, LiveFeed& feed, JobControl& control);
 
-// The same without a clock or a thread (greybench-snapshot): steps the dyno until its next row is
-// later than `until_s`, pushing everything into `feed`. A file source is refused.
+// The same without a clock or a thread (greybench-snapshot): steps the dyno, or reads the file,
+// until the next row is later than `until_s` (or the file ends), pushing everything into `feed`.
 Status RunLiveUntil(const LiveInput& input, double until_s, LiveFeed& feed);
 
 // Memory of the estimator, 1/(1-λ) rows (infinite for λ = 1).
