@@ -342,6 +342,26 @@ TEST(WorkbenchLive, FollowsACsvFileAsAnotherThreadWritesIt) {
   std::filesystem::remove(csv);
 }
 
+// Ticking parameters under Track makes the run track those only; the change is the score tests'.
+TEST(WorkbenchLive, TickedParametersAreTheOnesTracked) {
+  WorkbenchDriver d;
+  OpenWithTruthReference(d, LiveSpeed::kFastest);
+  const std::optional<ImVec2> box = FindButton(d, "tau_ff");
+  ASSERT_TRUE(box);
+  d.Click(*box);
+  EXPECT_EQ(d.state.live.settings.track, std::vector<std::string>{"tau_ff"});
+  d.state.live.settings.parameter_change = 0.5;
+  const std::optional<ImVec2> start = FindButton(d, "Start");
+  ASSERT_TRUE(start);
+  ASSERT_TRUE(StartAndWaitForUpdates(d, *start, 10));
+  ASSERT_TRUE(d.state.live.setup);
+  EXPECT_EQ(d.state.live.setup->parameters, std::vector<std::string>{"tau_ff"});
+  ResetLive(d.state);
+  ASSERT_TRUE(d.FramesUntil([&] { return !d.state.live.job.active(); }, kTimeout));
+  d.Click(*box);  // untick: all again
+  EXPECT_TRUE(d.state.live.settings.track.empty());
+}
+
 // A nonlinear model is watched by the augmented EKF: the Cascaded Tanks from their recorded
 // estimates, following their test record as fast as it goes.
 TEST(WorkbenchLive, ANonlinearModelIsWatchedThroughTheAugmentedEkf) {

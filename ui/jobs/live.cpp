@@ -323,6 +323,8 @@ Result<LiveSession> LiveSession::Create(const LiveInput& input) {
   online::MonitorOptions options;
   options.recursive.forgetting = input.settings.forgetting;
   options.false_alarms_per_hour = input.settings.false_alarms_per_hour;
+  options.recursive.track = input.settings.track;
+  options.parameter_change = input.settings.parameter_change;
   std::string why;
   if (!options.IsValid(&why)) return InputError(why);
   Result<online::Monitor> monitor = online::Monitor::Create(spec, reference, options);

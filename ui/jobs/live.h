@@ -97,6 +97,8 @@ struct LiveSettings {
   double forgetting = 0.999;             // λ of the recursive estimator: memory 1/(1-λ) rows
   double false_alarms_per_hour = 0.125;  // all the monitor's tests together
   LiveSpeed speed = LiveSpeed::kRealTime;
+  std::vector<std::string> track;  // the parameters to track (empty: all that can be)
+  double parameter_change = 0.25;  // the relative change the score tests look for
 };
 
 // Everything a run needs, copied when it starts.

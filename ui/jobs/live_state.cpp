@@ -6,6 +6,8 @@
 
 #include "core/model/linear_model.h"
 #include "core/model/nonlinear_model.h"
+#include "core/online/augmented.h"
+#include "core/online/recursive.h"
 #include "ui/format.h"
 #include "ui/state/app_state.h"
 
@@ -67,13 +69,33 @@ const std::string& LiveModelProblem(AppState& state) {
   if (l.checked_revision == state.model_revision) return l.nonlinear;
   l.checked_revision = state.model_revision;
   l.nonlinear.clear();
+  l.trackable.clear();
   if (!state.model) return l.nonlinear;  // the view says the model is not valid
   // A linear model gets the recursive estimator; any other the augmented EKF (monitor.h). Only a
   // model that compiles as neither cannot be watched.
-  if (model::LinearModel::Compile(*state.model)) return l.nonlinear;
-  Result<model::NonlinearModel> nonlinear = model::NonlinearModel::Compile(*state.model);
-  if (!nonlinear) l.nonlinear = nonlinear.error().ToString();
+  std::vector<int> free;
+  for (int i = 0; i < static_cast<int>(state.model->parameters.size()); ++i)
+    if (!state.model->parameters[i].fixed) free.push_back(i);
+  std::vector<int> trackable;
+  if (Result<model::LinearModel> linear = model::LinearModel::Compile(*state.model)) {
+    trackable = online::TrackableParameters(*linear, free);
+  } else if (Result<model::NonlinearModel> nonlinear =
+                 model::NonlinearModel::Compile(*state.model)) {
+    trackable = online::TrackableParameters(*nonlinear, free);
+  } else {
+    l.nonlinear = nonlinear.error().ToString();
+  }
+  for (int i : trackable) l.trackable.push_back(state.model->parameters[i].name);
+  // A choice the model no longer offers is dropped.
+  std::erase_if(l.settings.track, [&](const std::string& name) {
+    return std::find(l.trackable.begin(), l.trackable.end(), name) == l.trackable.end();
+  });
   return l.nonlinear;
+}
+
+const std::vector<std::string>& LiveTrackable(AppState& state) {
+  LiveModelProblem(state);
+  return state.live.trackable;
 }
 
 std::string LiveReferenceText(const AppState& state) {

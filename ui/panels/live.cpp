@@ -279,6 +279,55 @@ void DrawControls(AppState& state) {
   ImGui::EndDisabled();
 }
 
+// Which parameters the run tracks (none ticked: all it can) and the change the score tests look
+// for; fixed for a run, as the other options of the monitor.
+void DrawTracking(AppState& state) {
+  LiveState& l = state.live;
+  const float s = state.fonts.scale;
+  const std::vector<std::string>& trackable = LiveTrackable(state);
+  ImGui::BeginDisabled(l.job.active());
+  RowLabel(state, "Track");
+  const float right = ImGui::GetWindowContentRegionMax().x;
+  for (const std::string& name : trackable) {
+    const ImGuiStyle& style = ImGui::GetStyle();
+    const float w = ImGui::GetFrameHeight() + style.ItemInnerSpacing.x +
+                    ImGui::CalcTextSize(name.c_str()).x + style.ItemSpacing.x;
+    if (ImGui::GetCursorPosX() + w > right) {  // wrap under the first box
+      ImGui::NewLine();
+      ImGui::SetCursorPosX(kLabelWidth * s);
+    }
+    auto it = std::find(l.settings.track.begin(), l.settings.track.end(), name);
+    bool on = it != l.settings.track.end();
+    if (ImGui::Checkbox(name.c_str(), &on)) {
+      if (on) {
+        l.settings.track.push_back(name);
+      } else {
+        l.settings.track.erase(it);
+      }
+    }
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("Track %s; with none ticked, every parameter that can be", name.c_str());
+    ImGui::SameLine();
+  }
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextDisabled("%s", l.settings.track.empty() ? "(all)" : "");
+  Gap();
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextDisabled("Change");
+  ImGui::SameLine();
+  double percent = 100.0 * l.settings.parameter_change;
+  ImGui::SetNextItemWidth(kSmallNumberWidth * s);
+  if (ImGui::InputDouble("##change", &percent, 0.0, 0.0, "%.3g"))
+    l.settings.parameter_change = std::clamp(percent, 0.1, 1000.0) / 100.0;
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "The relative change of a tracked parameter worth an alarm (its score test's design)");
+  ImGui::SameLine();
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextDisabled("%%");
+  ImGui::EndDisabled();
+}
+
 void DrawFaults(AppState& state) {
   LiveState& l = state.live;
   const float s = state.fonts.scale;
@@ -852,6 +901,7 @@ void DrawLivePanel(AppState& state) {
   DrawSource(state, locked);
   DrawReference(state, locked);
   DrawControls(state);
+  DrawTracking(state);
   if (l.settings.source == LiveSourceKind::kDyno) DrawFaults(state);
   DrawStatus(state);
   DrawAlarmBanner(state);

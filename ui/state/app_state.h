@@ -184,6 +184,9 @@ struct LiveState {
   // Whether the model is linear, checked once per model revision.
   int checked_revision = -1;
   std::string nonlinear;     // why the model cannot be watched ("" when it can)
+  // The parameters the run can track (the free ones in the dynamics or the observations, as the
+  // model says; the reference may know fewer), checked with it.
+  std::vector<std::string> trackable;
   FileBrowserState browser;  // for the CSV file and the result file
   int browsing = 0;          // what the browser is choosing: 1 the CSV file, 2 the result file
 };
@@ -315,6 +318,8 @@ bool AnalysisRunning(const AppState& state);
 // runs).
 // Why the model cannot be watched on-line ("" when it can: a valid, linear model); cached.
 const std::string& LiveModelProblem(AppState& state);
+// The parameters the Live view offers to track (LiveState::trackable, kept current).
+const std::vector<std::string>& LiveTrackable(AppState& state);
 // The run that Start would begin now, or nothing with why (no reference, no CSV file, ...).
 std::optional<LiveInput> LiveInputNow(const AppState& state, std::string* why = nullptr);
 // How the reference Start would use is named, or "" when there is none.
