@@ -116,16 +116,13 @@ double EvaluateTree(const ExprPtr& e, const std::function<double(const std::stri
 //   tape.Eval(slots, out);                                // out[i] = value of exprs[i]
 // `slots` holds variable values by slot index (at least as many as the highest slot used + 1).
 // Compile fails (Error with expr_col = the column of the variable) when slot_of returns -1 for a
-// name used. A subexpression that occurs more than once in the list is evaluated once (tape.cpp).
-// Eval does no allocation: it works on a stack array of kMaxStack values, and Compile
+// name used. Eval does no allocation: it works on a stack array of kMaxStack values, and Compile
 // fails (Error with expr_col = the column of the operand that would overflow it) for an expression
 // that needs more (only pathological nesting does: a-(b-(c-...)) with over 255 operands).
 // Values are bit-for-bit those of EvaluateTree.
 class Tape {
  public:
   static constexpr int kMaxStack = 256;
-  // Common subexpressions kept per evaluation (tape.cpp); beyond, a repeat is recomputed.
-  static constexpr int kMaxTemps = 4096;
 
   Tape() = default;
   static Result<Tape> Compile(std::span<const ExprPtr> exprs,
@@ -143,7 +140,6 @@ class Tape {
   std::size_t n_outputs_ = 0;
   std::size_t n_slots_ = 0;  // highest slot used + 1
   int max_stack_ = 0;
-  int n_temps_ = 0;
 };
 
 }  // namespace gb::expr

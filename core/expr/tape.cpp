@@ -26,6 +26,9 @@
 namespace gb::expr {
 namespace {
 
+// Common subexpressions kept per evaluation; beyond, a repeat is recomputed. On Eval's stack.
+constexpr int kMaxTemps = 4096;
+
 enum Code : int {
   kPushConst,  // arg: index into constants_
   kPushSlot,   // arg: slot index
@@ -35,9 +38,9 @@ enum Code : int {
   kMul,
   kDiv,
   kPow,
-  kCall1,  // arg: Func
-  kCall2,  // arg: Func
-  kStore,  // arg: output index; pops
+  kCall1,     // arg: Func
+  kCall2,     // arg: Func
+  kStore,     // arg: output index; pops
   kTee,       // arg: temporary index; copies the top of the stack there
   kPushTemp,  // arg: temporary index
 };
@@ -184,7 +187,7 @@ Result<Tape> Tape::Compile(std::span<const ExprPtr> exprs,
           code->push_back({BinaryCode(n.op), 0});
           break;
       }
-      if (uses[id] > 1 && n_temps < Tape::kMaxTemps) {
+      if (uses[id] > 1 && n_temps < kMaxTemps) {
         temp[id] = n_temps++;
         code->push_back({kTee, temp[id]});
       }
@@ -209,7 +212,6 @@ Result<Tape> Tape::Compile(std::span<const ExprPtr> exprs,
   tape.n_outputs_ = exprs.size();
   tape.n_slots_ = static_cast<std::size_t>(c.max_slot) + 1;
   tape.max_stack_ = c.max_height;
-  tape.n_temps_ = c.n_temps;
   return tape;
 }
 
@@ -220,7 +222,7 @@ void Tape::Eval(std::span<const double> slots, std::span<double> out) const {
   // height; the analyzer cannot see that). One evaluation per parameter vector: cheap.
   double stack[kMaxStack] = {};
   double temps[kMaxTemps];  // each written (kTee) before it is read (kPushTemp)
-  int sp = 0;  // stack[sp - 1] is the top
+  int sp = 0;               // stack[sp - 1] is the top
   for (const Instr& in : code_) {
     switch (in.code) {
       case kPushConst:

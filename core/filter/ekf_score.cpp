@@ -13,14 +13,12 @@ using internal::kLog2Pi;
 
 Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
                                          const model::NonlinearSensitivity& sensitivity,
-                                         std::span<const double> theta,
-                                         const data::Series& series,
+                                         std::span<const double> theta, const data::Series& series,
                                          const FilterSettings& settings, std::span<const int> free,
                                          Eigen::VectorXd* gradient, Eigen::MatrixXd* J_terms,
                                          OdeCounts* counts) {
   const int n = model.n_states();
   const int p = model.n_outputs();
-  const int np = model.n_parameters();
   const int N = static_cast<int>(series.size());
   const int K = static_cast<int>(free.size());
   assert(model.spec().ekf.iterations == 1 && "the iterated EKF has no exact score here");
@@ -43,17 +41,11 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
   std::vector<double> meas(model.measurement_size());
   std::vector<double> dmeas = sensitivity.measurement().Zeroed();
   auto H_row = [&](int o) {
-    return Eigen::Map<const Eigen::RowVectorXd>(meas.data() + p + static_cast<std::ptrdiff_t>(o) * n, n);
+    return Eigen::Map<const Eigen::RowVectorXd>(
+        meas.data() + p + static_cast<std::ptrdiff_t>(o) * n, n);
   };
   auto S_of = [&](int o) { return meas[p + p * n + o]; };
-  const Eigen::Map<const Eigen::MatrixXd> h_theta(dmeas.data(), p, np);
-  const Eigen::Map<const Eigen::MatrixXd> S_theta(dmeas.data() + sensitivity.MeasStheta(), p, np);
-  auto Hx = [&](int m) {
-    return Eigen::Map<const Eigen::MatrixXd>(dmeas.data() + sensitivity.MeasHx(m), p, n);
-  };
-  auto Htheta = [&](int l) {
-    return Eigen::Map<const Eigen::MatrixXd>(dmeas.data() + sensitivity.MeasHtheta(l), p, n);
-  };
+  const internal::MeasurementDerivatives derivatives{&sensitivity, dmeas, p, n};
 
   const double huber = settings.huber.value_or(0.0);
   const bool robust = settings.huber.has_value();
@@ -61,11 +53,7 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
   double loglik = 0.0;
   long n_obs = 0;
   std::vector<int> observed;
-  Eigen::VectorXd x_prior(n), PHt(n), dk(n);
-  Eigen::MatrixXd dx_prior(n, K);
-  Eigen::RowVectorXd dH(n);
-  Eigen::VectorXd dlogdet(K), dr2(K), dyhat(K), dR(K);
-  Eigen::MatrixXd dks(n, K);
+  internal::ScoreUpdate update;
   for (int j = 0; j <= window->last_j; ++j) {
     if (settings.cancel && settings.cancel->load(std::memory_order_relaxed))
       return NumericalError("cancelled");
@@ -73,44 +61,16 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
     if (!observed.empty()) {
       if (auto s = propagator.Measure(j, x, meas); !s) return s.error();
       if (auto s = propagator.MeasureSensitivities(j, x, dmeas); !s) return s.error();
-      x_prior = x;
-      dx_prior = ds.x;
+      update.Begin(x, ds, K);
       double r2 = 0.0, logdet = 0.0;
-      dlogdet.setZero();
-      dr2.setZero();
       for (const int o : observed) {
         const double y = Y[static_cast<std::size_t>(j + window->delay[o]) * p + o];
-        const auto H = H_row(o);
-        const double yhat = meas[o] + H.dot(x - x_prior);
-        PHt.noalias() = P * H.transpose();
-        const double R = H.dot(PHt) + S_of(o);
-        if (!(R > 0.0))
+        double eps = 0.0, R = 0.0;
+        if (!internal::ScalarUpdateWithScores(o, y, meas[o], H_row(o), S_of(o), derivatives, free,
+                                              false, &x, &P, &ds, &update, &eps, &R))
           return internal::NotPositiveInnovationVariance(series, o, j + window->delay[o], R);
-        const double eps = y - yhat;
-        // The derivatives of this scalar update, from the values before it.
-        for (int q = 0; q < K; ++q) {
-          const int l = free[q];
-          dH = Htheta(l).row(o);
-          for (int m = 0; m < n; ++m) dH.noalias() += dx_prior(m, q) * Hx(m).row(o);
-          const double dh = H.dot(dx_prior.col(q)) + h_theta(o, l);
-          dyhat(q) = dh + dH.dot(x - x_prior) + H.dot(ds.x.col(q) - dx_prior.col(q));
-          dk.noalias() = ds.P[q] * H.transpose();
-          dk.noalias() += P * dH.transpose();
-          dks.col(q) = dk;
-          dR(q) = dH.dot(PHt) + H.dot(dk) + S_theta(o, l);
-        }
-        for (int q = 0; q < K; ++q) {
-          const double deps = -dyhat(q);
-          ds.x.col(q) += dks.col(q) * (eps / R) + PHt * (deps / R) - PHt * (eps * dR(q) / (R * R));
-          ds.P[q].noalias() -= (dks.col(q) * PHt.transpose() + PHt * dks.col(q).transpose()) / R;
-          ds.P[q].noalias() += (dR(q) / (R * R)) * PHt * PHt.transpose();
-          dlogdet(q) += dR(q) / R;
-          dr2(q) += 2.0 * eps * deps / R - eps * eps * dR(q) / (R * R);
-        }
         logdet += std::log(R);
         r2 += eps * eps / R;
-        x.noalias() += PHt * (eps / R);
-        P.noalias() -= (1.0 / R) * PHt * PHt.transpose();
       }
       double drho_dr2 = 0.5;
       const double rho = internal::HuberRho(r2, robust, huber, &drho_dr2);
@@ -118,7 +78,7 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
       loglik += term;
       n_obs += static_cast<long>(observed.size());
       for (int q = 0; q < K; ++q) {
-        const double dterm = -(0.5 * dlogdet(q) + drho_dr2 * dr2(q));
+        const double dterm = -(0.5 * update.dlogdet(q) + drho_dr2 * update.dr2(q));
         (*gradient)(q) += dterm;
         if (J_terms) (*J_terms)(j, q) = dterm;
       }
@@ -133,5 +93,69 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
     return NumericalError("the derivatives of the log-likelihood are not finite");
   return Loglik{loglik, n_obs};
 }
+
+namespace internal {
+
+void ScoreUpdate::Begin(const Eigen::VectorXd& x, const MomentSensitivities& ds, int K) {
+  const auto n = x.size();
+  x_prior = x;
+  dx_prior = ds.x;
+  dlogdet.setZero(K);
+  dr2.setZero(K);
+  information.setZero(K, K);
+  PHt.resize(n);
+  dk.resize(n);
+  dyhat.resize(K);
+  dR.resize(K);
+  dks.resize(n, K);
+  dH.resize(n);
+}
+
+bool ScalarUpdateWithScores(int o, double y, double h_o,
+                            const Eigen::Ref<const Eigen::RowVectorXd>& H, double S_o,
+                            const MeasurementDerivatives& d, std::span<const int> free,
+                            bool information, Eigen::VectorXd* x, Eigen::MatrixXd* P,
+                            MomentSensitivities* ds, ScoreUpdate* u, double* eps, double* R) {
+  const int n = d.n;
+  const int K = static_cast<int>(free.size());
+  const double yhat = h_o + H.dot(*x - u->x_prior);
+  u->PHt.noalias() = *P * H.transpose();
+  *R = H.dot(u->PHt) + S_o;
+  if (!(*R > 0.0)) return false;
+  const double r = *R;
+  const double e = y - yhat;
+  *eps = e;
+  // The derivatives of this scalar update, from the values before it.
+  for (int q = 0; q < K; ++q) {
+    const int l = free[q];
+    u->dH = d.Htheta(l).row(o);
+    for (int m = 0; m < n; ++m) u->dH.noalias() += u->dx_prior(m, q) * d.Hx(m).row(o);
+    const double dh = H.dot(u->dx_prior.col(q)) + d.h_theta(o, l);
+    u->dyhat(q) = dh + u->dH.dot(*x - u->x_prior) + H.dot(ds->x.col(q) - u->dx_prior.col(q));
+    u->dk.noalias() = ds->P[q] * H.transpose();
+    u->dk.noalias() += *P * u->dH.transpose();
+    u->dks.col(q) = u->dk;
+    u->dR(q) = u->dH.dot(u->PHt) + H.dot(u->dk) + d.S_theta(o, l);
+  }
+  for (int q = 0; q < K; ++q) {
+    const double deps = -u->dyhat(q);
+    ds->x.col(q) +=
+        u->dks.col(q) * (e / r) + u->PHt * (deps / r) - u->PHt * (e * u->dR(q) / (r * r));
+    ds->P[q].noalias() -=
+        (u->dks.col(q) * u->PHt.transpose() + u->PHt * u->dks.col(q).transpose()) / r;
+    ds->P[q].noalias() += (u->dR(q) / (r * r)) * u->PHt * u->PHt.transpose();
+    u->dlogdet(q) += u->dR(q) / r;
+    u->dr2(q) += 2.0 * e * deps / r - e * e * u->dR(q) / (r * r);
+  }
+  if (information && K > 0) {
+    u->information.noalias() += u->dyhat * u->dyhat.transpose() / r;
+    u->information.noalias() += 0.5 * u->dR * u->dR.transpose() / (r * r);
+  }
+  x->noalias() += u->PHt * (e / r);
+  P->noalias() -= (1.0 / r) * u->PHt * u->PHt.transpose();
+  return true;
+}
+
+}  // namespace internal
 
 }  // namespace gb::filter

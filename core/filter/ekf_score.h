@@ -17,12 +17,12 @@
 // mean that depends on θ through the update itself (core/filter/likelihood.h then differences).
 #pragma once
 
-#include <span>
-
 #include <Eigen/Core>
+#include <span>
 
 #include "core/data/dataset.h"
 #include "core/filter/kalman.h"
+#include "core/filter/moments.h"
 #include "core/filter/ode.h"
 #include "core/model/nonlinear_model.h"
 #include "core/model/nonlinear_sensitivity.h"
@@ -37,11 +37,60 @@ namespace gb::filter {
 // Asserts that the model's EkfOptions::iterations is 1.
 Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
                                          const model::NonlinearSensitivity& sensitivity,
-                                         std::span<const double> theta,
-                                         const data::Series& series,
+                                         std::span<const double> theta, const data::Series& series,
                                          const FilterSettings& settings, std::span<const int> free,
                                          Eigen::VectorXd* gradient,
                                          Eigen::MatrixXd* J_terms = nullptr,
                                          OdeCounts* counts = nullptr);
+
+namespace internal {
+
+// The measurement program's derivatives at the prior, as MomentPropagator::MeasureSensitivities
+// fills them (the layout of NonlinearSensitivity::measurement()). Read only for the parameters
+// of a ScalarUpdateWithScores (none: `sensitivity` may be null).
+struct MeasurementDerivatives {
+  const model::NonlinearSensitivity* sensitivity = nullptr;
+  std::span<const double> dense;
+  int p = 0, n = 0;
+  double h_theta(int o, int l) const { return dense[At(o, l)]; }
+  double S_theta(int o, int l) const { return dense[sensitivity->MeasStheta() + At(o, l)]; }
+  // Entry (o, l) of a p x np column-major block.
+  std::size_t At(int o, int l) const {
+    return static_cast<std::size_t>(l) * static_cast<std::size_t>(p) + static_cast<std::size_t>(o);
+  }
+  Eigen::Map<const Eigen::MatrixXd> Hx(int m) const {
+    return Eigen::Map<const Eigen::MatrixXd>(dense.data() + sensitivity->MeasHx(m), p, n);
+  }
+  Eigen::Map<const Eigen::MatrixXd> Htheta(int l) const {
+    return Eigen::Map<const Eigen::MatrixXd>(dense.data() + sensitivity->MeasHtheta(l), p, n);
+  }
+};
+
+// The prior of an index's updates and what they add up (per state index: reset, then one
+// ScalarUpdateWithScores per observed output).
+struct ScoreUpdate {
+  Eigen::VectorXd x_prior;       // x̂⁻
+  Eigen::MatrixXd dx_prior;      // ∂x̂⁻/∂θ (n x K)
+  Eigen::VectorXd dlogdet, dr2;  // Σ dR/R, Σ d(ε²/R) over the index's outputs (K)
+  Eigen::MatrixXd information;   // Σ dε dε'/R + ½ dR dR'/R² (K x K), when asked for
+  // Workspace.
+  Eigen::VectorXd PHt, dk, dyhat, dR;
+  Eigen::MatrixXd dks;
+  Eigen::RowVectorXd dH;
+  void Begin(const Eigen::VectorXd& x, const MomentSensitivities& ds, int K);
+};
+
+// One scalar update of output o with observation y (ekf.h), with the forward sensitivities of the
+// parameters `free` (ekf_score.h's formulas), linearised at u.x_prior: h_o, H (row o of ∂h/∂x)
+// and S_o there. Updates x, P and ds, adds to u's sums (and, with `information`, to
+// u.information), and gives ε and R. Returns false, changing nothing, when R = H P H' + S is not
+// positive (*R is what it was).
+bool ScalarUpdateWithScores(int o, double y, double h_o,
+                            const Eigen::Ref<const Eigen::RowVectorXd>& H, double S_o,
+                            const MeasurementDerivatives& d, std::span<const int> free,
+                            bool information, Eigen::VectorXd* x, Eigen::MatrixXd* P,
+                            MomentSensitivities* ds, ScoreUpdate* u, double* eps, double* R);
+
+}  // namespace internal
 
 }  // namespace gb::filter

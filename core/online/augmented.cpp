@@ -72,9 +72,11 @@ model::ModelSpec Augment(const model::ModelSpec& spec, const std::vector<int>& t
     const std::string w = StateName(par.name);
     a.states.push_back(w);
     a.drift.push_back({"0", expr::Constant(0.0), "drift." + w});
-    a.diffusion.push_back({WalkName(par.name), expr::Variable(WalkName(par.name)), "diffusion." + w});
+    a.diffusion.push_back(
+        {WalkName(par.name), expr::Variable(WalkName(par.name)), "diffusion." + w});
     const double w0 = ToWorking(theta[tracked[k]], lower[k], upper[k]);
-    a.initial_state.push_back({fmt::format("{:.17g}", w0), expr::Constant(w0), "initial_state." + w});
+    a.initial_state.push_back(
+        {fmt::format("{:.17g}", w0), expr::Constant(w0), "initial_state." + w});
     if (a.initial_covariance == model::InitialCovariance::kExplicit)
       a.initial_variance.push_back({"0", expr::Constant(0.0), "initial_variance." + w});
     model::Parameter q;
@@ -140,9 +142,9 @@ Result<AugmentedEkf> AugmentedEkf::Create(std::shared_ptr<const model::Nonlinear
   so.delay = delay;
   so.start = options.start;
   so.equilibrium_states = model->n_states();
-  auto stream = EkfStream::Create(
-      std::make_shared<const model::NonlinearModel>(std::move(*augmented)), theta_aug, so,
-      reference.source);
+  auto stream =
+      EkfStream::Create(std::make_shared<const model::NonlinearModel>(std::move(*augmented)),
+                        theta_aug, so, reference.source);
   if (!stream) return stream.error();
 
   AugmentedEkf a(std::move(model), std::move(*stream));
@@ -164,7 +166,8 @@ Result<AugmentedEkf> AugmentedEkf::Create(std::shared_ptr<const model::Nonlinear
   bool prior_set = false;
   if (k > 0 && cov.allFinite() && reference.n_obs > 0) {
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(cov);
-    if (ldlt.info() == Eigen::Success && ldlt.isPositive() && (ldlt.vectorD().array() > 0.0).all()) {
+    if (ldlt.info() == Eigen::Success && ldlt.isPositive() &&
+        (ldlt.vectorD().array() > 0.0).all()) {
       const double ref_rows = static_cast<double>(reference.n_obs) / std::max(p, 1);
       double rows = options.prior_rows;
       if (!(rows > 0.0))

@@ -12,6 +12,7 @@
 #include <optional>
 
 #include "core/filter/discretize.h"
+#include "core/filter/ekf_score.h"
 #include "core/filter/internal.h"
 #include "core/filter/moments.h"
 #include "core/model/nonlinear_sensitivity.h"
@@ -23,6 +24,8 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kNewtonIterations = 100;
 constexpr int kNewtonHalvings = 30;
+
+std::size_t Z(int i) { return static_cast<std::size_t>(i); }
 
 }  // namespace
 
@@ -50,6 +53,7 @@ struct EkfStream::Impl {
   long n_rows = 0;
   int next_index = 0;
   std::vector<double> meas, dmeas;
+  filter::internal::ScoreUpdate update;
 
   int K() const { return static_cast<int>(options.sensitivities.size()); }
   void Rebuild() {
@@ -84,8 +88,8 @@ Result<EkfStream> EkfStream::Create(std::shared_ptr<const model::NonlinearModel>
                                   model->n_parameters()));
   if (options.delay.empty()) options.delay.assign(static_cast<std::size_t>(p), 0);
   if (static_cast<int>(options.delay.size()) != p)
-    return InputError(fmt::format("{} output delays for a model with {} outputs",
-                                  options.delay.size(), p));
+    return InputError(
+        fmt::format("{} output delays for a model with {} outputs", options.delay.size(), p));
   auto impl = std::make_unique<Impl>();
   for (int d : options.delay) {
     if (d < 0) return InputError(fmt::format("an output delay of {} samples", d));
@@ -169,7 +173,7 @@ bool EkfStream::Impl::Equilibrium(const Sample& first) {
   for (int it = 0; it < kNewtonIterations && !converged; ++it) {
     for (int i = 0; i < nd; ++i) {
       f(i) = dyn[i];
-      for (int k = 0; k < nd; ++k) J(i, k) = dyn[static_cast<std::size_t>(n + i * n + k)];
+      for (int k = 0; k < nd; ++k) J(i, k) = dyn[Z(n) + Z(i) * Z(n) + Z(k)];
     }
     const Eigen::FullPivLU<Eigen::MatrixXd> lu(J);
     if (!lu.isInvertible()) return false;
@@ -199,10 +203,10 @@ bool EkfStream::Impl::Equilibrium(const Sample& first) {
   if (!converged || !evaluate(slots, &norm)) return false;
   // Stability and the stationary covariance of the solved block.
   for (int i = 0; i < nd; ++i)
-    for (int k = 0; k < nd; ++k) J(i, k) = dyn[static_cast<std::size_t>(n + i * n + k)];
+    for (int k = 0; k < nd; ++k) J(i, k) = dyn[Z(n) + Z(i) * Z(n) + Z(k)];
   Eigen::VectorXd sigma2(nd);
   for (int i = 0; i < nd; ++i) {
-    const double s = dyn[static_cast<std::size_t>(n + n * n + i)];
+    const double s = dyn[Z(n) + Z(n) * Z(n) + Z(i)];
     sigma2(i) = s * s;
   }
   const Eigen::ComplexEigenSolver<Eigen::MatrixXd> es(J, false);
@@ -248,8 +252,8 @@ Status EkfStream::Impl::Start(const Sample& first, const Sample& second) {
     slots[static_cast<std::size_t>(model->time_slot())] = first.t;
     std::vector<double> dyn(model->dynamics_size());
     model->Dynamics(slots, dyn);
-    const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>> J(
-        dyn.data() + n, n, n, Eigen::OuterStride<>(n));
+    const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>> J(dyn.data() + n, n, n,
+                                                                       Eigen::OuterStride<>(n));
     const Eigen::ComplexEigenSolver<Eigen::MatrixXd> es(J.transpose(), false);
     if (es.info() == Eigen::Success && J.allFinite()) {
       double slow = 0.0;
@@ -295,74 +299,29 @@ Result<EkfStep> EkfStream::Impl::MeasurementUpdate(int j) {
     if (Status s = propagator->MeasureSensitivities(0, x, dmeas); !s)
       return At(s.error(), row_j.line);
   }
-  const int np = m.n_parameters();
   auto H_row = [&](int o) {
-    return Eigen::Map<const Eigen::RowVectorXd>(meas.data() + p + static_cast<std::ptrdiff_t>(o) * n,
-                                                n);
+    return Eigen::Map<const Eigen::RowVectorXd>(
+        meas.data() + p + static_cast<std::ptrdiff_t>(o) * n, n);
   };
-  auto S_of = [&](int o) { return meas[static_cast<std::size_t>(p + p * n + o)]; };
-  // The model's derivatives with respect to θ (empty without sensitivities).
-  const model::NonlinearSensitivity* sens = sensitivity ? &*sensitivity : nullptr;
-  auto h_theta = [&](int o, int l) { return dmeas[static_cast<std::size_t>(l) * p + o]; };
-  auto S_theta = [&](int o, int l) {
-    return dmeas[sens->MeasStheta() + static_cast<std::size_t>(l) * p + o];
-  };
-  auto Hx = [&](int k) {
-    return Eigen::Map<const Eigen::MatrixXd>(dmeas.data() + sens->MeasHx(k), p, n);
-  };
-  auto Htheta = [&](int l) {
-    return Eigen::Map<const Eigen::MatrixXd>(dmeas.data() + sens->MeasHtheta(l), p, n);
-  };
-  (void)np;
-
-  const Eigen::VectorXd x_prior = x;
-  const Eigen::MatrixXd dx_prior = ds.x;
-  Eigen::VectorXd PHt(n), dk(n), dyhat(K), dR(K), dlogdet = Eigen::VectorXd::Zero(K),
-      dr2 = Eigen::VectorXd::Zero(K);
-  Eigen::MatrixXd dks(n, K);
-  Eigen::RowVectorXd dH(n);
+  auto S_of = [&](int o) { return meas[Z(p) + Z(p) * Z(n) + Z(o)]; };
+  const filter::internal::MeasurementDerivatives derivatives{sensitivity ? &*sensitivity : nullptr,
+                                                             dmeas, p, n};
+  update.Begin(x, ds, K);
   double logdet = 0.0, r2 = 0.0;
   for (int o = 0; o < p; ++o) {
     const Sample& row = rows[static_cast<std::size_t>(j + options.delay[o]) % ring];
     const double y = row.y[o];
     if (std::isnan(y)) continue;
-    const auto H = H_row(o);
-    const double yhat = meas[o] + H.dot(x - x_prior);
-    PHt.noalias() = P * H.transpose();
-    const double R = H.dot(PHt) + S_of(o);
-    if (!(R > 0.0))
+    double eps = 0.0, R = 0.0;
+    if (!filter::internal::ScalarUpdateWithScores(o, y, meas[o], H_row(o), S_of(o), derivatives,
+                                                  options.sensitivities, true, &x, &P, &ds, &update,
+                                                  &eps, &R))
       return At(NumericalError(fmt::format(
                     "the innovation variance of output '{}' is {:g}, not positive, at t = {:g}",
                     m.spec().outputs[o], R, row.t)),
                 row.line);
-    const double eps = y - yhat;
-    for (int q = 0; q < K; ++q) {
-      const int l = options.sensitivities[q];
-      dH = Htheta(l).row(o);
-      for (int k = 0; k < n; ++k) dH.noalias() += dx_prior(k, q) * Hx(k).row(o);
-      const double dh = H.dot(dx_prior.col(q)) + h_theta(o, l);
-      dyhat(q) = dh + dH.dot(x - x_prior) + H.dot(ds.x.col(q) - dx_prior.col(q));
-      dk.noalias() = ds.P[q] * H.transpose();
-      dk.noalias() += P * dH.transpose();
-      dks.col(q) = dk;
-      dR(q) = dH.dot(PHt) + H.dot(dk) + S_theta(o, l);
-    }
-    for (int q = 0; q < K; ++q) {
-      const double deps = -dyhat(q);
-      ds.x.col(q) += dks.col(q) * (eps / R) + PHt * (deps / R) - PHt * (eps * dR(q) / (R * R));
-      ds.P[q].noalias() -= (dks.col(q) * PHt.transpose() + PHt * dks.col(q).transpose()) / R;
-      ds.P[q].noalias() += (dR(q) / (R * R)) * PHt * PHt.transpose();
-      dlogdet(q) += dR(q) / R;
-      dr2(q) += 2.0 * eps * deps / R - eps * eps * dR(q) / (R * R);
-    }
-    if (K > 0) {
-      step.information.noalias() += dyhat * dyhat.transpose() / R;
-      step.information.noalias() += 0.5 * dR * dR.transpose() / (R * R);
-    }
     logdet += std::log(R);
     r2 += eps * eps / R;
-    x.noalias() += PHt * (eps / R);
-    P.noalias() -= (1.0 / R) * PHt * PHt.transpose();
     step.innovation[o] = eps;
     step.innovation_sd[o] = std::sqrt(R);
     ++step.observed;
@@ -372,10 +331,13 @@ Result<EkfStep> EkfStream::Impl::MeasurementUpdate(int j) {
   double drho = 0.5;
   const double rho = filter::internal::HuberRho(r2, huber.has_value(), huber.value_or(0.0), &drho);
   step.loglik_term = -(0.5 * (logdet + step.observed * filter::internal::kLog2Pi) + rho);
-  if (K > 0) step.score = -(0.5 * dlogdet + drho * dr2);
+  if (K > 0) {
+    step.score = -(0.5 * update.dlogdet + drho * update.dr2);
+    step.information = update.information;
+  }
   if (!std::isfinite(step.loglik_term) || !step.score.allFinite())
-    return At(NumericalError(fmt::format("the filter's log-likelihood term is not finite at t = {:g}",
-                                         row_j.t)),
+    return At(NumericalError(fmt::format(
+                  "the filter's log-likelihood term is not finite at t = {:g}", row_j.t)),
               row_j.line);
   return step;
 }
@@ -436,8 +398,10 @@ Result<HeldEkf> HeldEkf::Create(std::shared_ptr<const model::NonlinearModel> mod
   o.sensitivities = tracked;
   o.start = start;
   std::vector<std::string> names;
+  names.reserve(tracked.size());
   for (int i : tracked) names.push_back(model->spec().parameters[i].name);
-  auto stream = EkfStream::Create(std::move(model), reference.theta, std::move(o), reference.source);
+  auto stream =
+      EkfStream::Create(std::move(model), reference.theta, std::move(o), reference.source);
   if (!stream) return stream.error();
   return HeldEkf(std::move(*stream), std::move(tracked), std::move(names));
 }

@@ -26,12 +26,11 @@
 //           sensitivities, as the batch filter starts.
 #pragma once
 
+#include <Eigen/Core>
 #include <memory>
 #include <span>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "core/filter/ode.h"
 #include "core/model/nonlinear_model.h"
@@ -45,7 +44,7 @@ struct EkfStreamOptions {
   std::vector<int> delay;          // per output, whole samples
   std::vector<int> sensitivities;  // parameter indices whose scores and information are wanted
   RecursiveOptions::Start start = RecursiveOptions::Start::kLive;
-  int equilibrium_states = -1;     // kLive: the leading states solved for (-1: all)
+  int equilibrium_states = -1;  // kLive: the leading states solved for (-1: all)
 };
 
 // What one state index gave.
@@ -55,9 +54,9 @@ struct EkfStep {
   int line = 0;
   // Per output (NaN where not observed at this index): ε = y - h(x̂⁻) and √R.
   std::vector<double> innovation, innovation_sd;
-  int observed = 0;            // scalar observations used
-  double loglik_term = 0.0;    // ℓ_j
-  Eigen::VectorXd score;       // ∂ℓ_j/∂θ (the `sensitivities` parameters)
+  int observed = 0;             // scalar observations used
+  double loglik_term = 0.0;     // ℓ_j
+  Eigen::VectorXd score;        // ∂ℓ_j/∂θ (the `sensitivities` parameters)
   Eigen::MatrixXd information;  // Fisher information of index j (same order)
 };
 

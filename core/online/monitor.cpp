@@ -190,8 +190,8 @@ Result<std::vector<MonitorUpdate>> Monitor::Push(const Sample& row) {
       for (std::size_t b = 0; b < ref_theta_.size(); ++b) sum_s_[a * k + b] += r_held.score[b];
       if (++in_block_[a] < block_[a]) continue;
       // The efficient score of θ_a over the block (the other tracked parameters free):
-      // Δ̂_a = (Ī⁻¹ Σ s)_a / B, Ī⁻¹ = n Σ_T, with variance n Σ_T,aa / B; z = Δ̂_a / SD, and the log-likelihood
-      // ratios of ±Δ_a are ±δ z - δ²/2 with δ = Δ_a / SD.
+      // Δ̂_a = (Ī⁻¹ Σ s)_a / B, Ī⁻¹ = n Σ_T, with variance n Σ_T,aa / B; z = Δ̂_a / SD, and the
+      // log-likelihood ratios of ±Δ_a are ±δ z - δ²/2 with δ = Δ_a / SD.
       double estimate = 0.0;
       for (std::size_t b = 0; b < k; ++b)
         estimate += ref_cov_(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) *

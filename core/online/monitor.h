@@ -128,8 +128,8 @@ class Monitor {
       : estimator_(std::move(estimator)), reference_(std::move(reference)), options_(options) {}
   // The tests' set-up, once both filters are made.
   static Result<Monitor> Build(std::unique_ptr<OnlineEstimator> estimator,
-                               std::unique_ptr<OnlineEstimator> reference,
-                               const Reference& ref, const MonitorOptions& options);
+                               std::unique_ptr<OnlineEstimator> held, const Reference& reference,
+                               const MonitorOptions& options);
   Status Design(double sample_time);
 
   std::unique_ptr<OnlineEstimator> estimator_;

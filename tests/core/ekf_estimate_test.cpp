@@ -37,7 +37,9 @@ TEST(EkfEstimate, RecoversANonlinearTankFromGenericStarts) {
   ASSERT_TRUE(lik);
   EstimateOptions options;
   options.threads = 1;
-  options.profile_intervals = true;
+  // Under the sanitizers without the profile intervals (a dozen fits per parameter through the
+  // same Likelihood; ProfileIntervals.* covers their code).
+  options.profile_intervals = !kSanitized;
   auto fit = Estimate(*lik, options);
   ASSERT_TRUE(fit) << fit.error().ToString();
   ASSERT_TRUE(fit->converged) << fit->message;
@@ -50,6 +52,7 @@ TEST(EkfEstimate, RecoversANonlinearTankFromGenericStarts) {
     ASSERT_TRUE(p.std_error.has_value());
     EXPECT_LT(std::abs(p.estimate - truth.at(p.name)), 3.0 * *p.std_error)
         << p.estimate << " ± " << *p.std_error;
+    if (kSanitized) continue;
     // The likelihood-ratio interval brackets the estimate and is near the Wald interval.
     ASSERT_TRUE(p.profile && p.profile->lower && p.profile->upper);
     EXPECT_LT(*p.profile->lower, p.estimate);

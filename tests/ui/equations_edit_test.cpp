@@ -83,6 +83,29 @@ TEST(FormulaEdit, APathThatIsNoFormulaIsRefused) {
   EXPECT_FALSE(ApplyFormulaEdit(FuelFilm(), {"observation", "0"}).ok());
 }
 
+TEST(FormulaEdit, TheEkfOptionsAreTakenAndCheckedAsTheModelFileWould) {
+  auto bdf = ApplyFormulaEdit(FuelFilm(), {"ekf.ode", "bdf"});
+  ASSERT_TRUE(bdf.ok()) << bdf.error().ToString();
+  EXPECT_EQ(bdf->ekf.method, model::OdeMethod::kBdf);
+  auto rtol = ApplyFormulaEdit(FuelFilm(), {"ekf.rtol", " 1e-6 "});
+  ASSERT_TRUE(rtol.ok()) << rtol.error().ToString();
+  EXPECT_EQ(rtol->ekf.rtol, 1e-6);
+  auto passes = ApplyFormulaEdit(FuelFilm(), {"ekf.iterations", "3"});
+  ASSERT_TRUE(passes.ok()) << passes.error().ToString();
+  EXPECT_EQ(passes->ekf.iterations, 3);
+  auto text = ApplyFormulaEdit(FuelFilm(), {"ekf.rtol", "1e-6x"});
+  ASSERT_FALSE(text.ok());
+  EXPECT_EQ(text.error().path, "ekf.rtol");
+  EXPECT_NE(text.error().message.find("not a number"), std::string::npos);
+  auto half = ApplyFormulaEdit(FuelFilm(), {"ekf.iterations", "2.5"});
+  ASSERT_FALSE(half.ok());
+  EXPECT_NE(half.error().message.find("not a whole number"), std::string::npos);
+  auto method = ApplyFormulaEdit(FuelFilm(), {"ekf.ode", "rk4"});
+  ASSERT_FALSE(method.ok());
+  EXPECT_EQ(method.error().path, "ekf.ode");  // the parser's own reason
+  EXPECT_FALSE(ApplyFormulaEdit(FuelFilm(), {"ekf.nonexistent", "1"}).ok());
+}
+
 // The id of the formula field at `path` in the Equations view's child window.
 ImGuiID FormulaFieldId(ImGuiWindow* window, const std::string& path) {
   return ImHashStr("##formula", 0, ImHashStr(path.c_str(), 0, window->ID));
@@ -149,6 +172,37 @@ TEST(EquationsView, AValidFormulaReplacesTheModelsFormula) {
   EXPECT_TRUE(d.state.equations_view.drafts.empty());
   // The project's copy of the model (what the view shows and a save writes) follows.
   EXPECT_EQ(d.state.project->model_json["observation"]["ilambda"], "Kb*(mfv + mff) * 2");
+}
+
+// A nonlinear model's Equations view has the EKF's options: a typed number is checked and, when
+// the field is left, applied to the model and the project's copy (as a number).
+TEST(EquationsView, ANonlinearModelsEkfOptionsAreEditedInTheView) {
+  testing::WorkbenchDriver d;
+  d.Open(kSource + "/assets/projects/cascaded_tanks.json");
+  ASSERT_TRUE(d.state.model) << d.state.model_error;
+  d.state.view = View::kEquations;
+  d.Frame();
+  EXPECT_NE(d.Text().find("Extended Kalman filter"), std::string::npos);
+  // The section is at the view's end: scrolled into sight as the user would.
+  ImGuiWindow* view = testing::WorkbenchDriver::FindWindow("##workbench/##view_", "##equations_");
+  ASSERT_NE(view, nullptr);
+  d.MouseTo(view->Rect().GetCenter());
+  for (int i = 0; i < 20 && view->Scroll.y < view->ScrollMax.y; ++i) {
+    ImGui::GetIO().MouseWheel = -5.0f;  // the wheel, down
+    d.Frame();
+  }
+  ASSERT_EQ(view->Scroll.y, view->ScrollMax.y);
+  ASSERT_TRUE(ClickIntoFormula(d, "ekf.iterations"));
+  d.Type("x");
+  ASSERT_TRUE(d.state.equations_view.drafts.at("ekf.iterations").error);
+  d.PressEnter();
+  EXPECT_EQ(d.state.model->ekf.iterations, 1);
+  d.state.equations_view.drafts.clear();  // the refused draft dropped (the driver has no Backspace)
+  ASSERT_TRUE(ClickIntoFormula(d, "ekf.iterations"));
+  d.Type("2");  // "1" -> "12"
+  d.PressEnter();
+  EXPECT_EQ(d.state.model->ekf.iterations, 12);
+  EXPECT_EQ(d.state.project->model_json["ekf"]["iterations"], 12);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "ui/edits/model_edit.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -92,12 +93,17 @@ Result<model::ModelSpec> ApplyFormulaEdit(const model::ModelSpec& spec, const Fo
   const std::string name = dot == std::string::npos ? "" : edit.path.substr(dot + 1);
   const bool of_state = section == "drift" || section == "diffusion" || section == "initial_state";
   const bool of_output = section == "observation" || section == "measurement_variance";
+  const bool option = section == "ekf" && (name == "ode" || name == "rtol" || name == "atol" ||
+                                           name == "iterations");
   const std::vector<std::string>& names = of_state ? spec.states : spec.outputs;
-  if ((!of_state && !of_output) || std::find(names.begin(), names.end(), name) == names.end()) {
+  if (!option &&
+      ((!of_state && !of_output) || std::find(names.begin(), names.end(), name) == names.end())) {
     return InputError("'" + edit.path + "' is not a formula of the model");
   }
+  Result<Json> value = FormulaEditValue(edit);
+  if (!value) return value.error();
   Json j = model::ToJson(spec);
-  j[section][name] = edit.text;
+  j[section][name] = *value;
   // The parser's Error as it is: its path and expression column point into edit.text.
   Result<model::ModelSpec> parsed = model::ParseModel(j, spec.source);
   if (!parsed) return parsed;
@@ -107,6 +113,28 @@ Result<model::ModelSpec> ApplyFormulaEdit(const model::ModelSpec& spec, const Fo
   Result<model::NonlinearModel> nonlinear = model::NonlinearModel::Compile(*parsed);
   if (!nonlinear) return nonlinear.error();
   return parsed;
+}
+
+Result<Json> FormulaEditValue(const FormulaEdit& edit) {
+  if (edit.path != "ekf.rtol" && edit.path != "ekf.atol" && edit.path != "ekf.iterations")
+    return Json(edit.text);
+  std::string t = edit.text;
+  while (!t.empty() && std::isspace(static_cast<unsigned char>(t.back()))) t.pop_back();
+  while (!t.empty() && std::isspace(static_cast<unsigned char>(t.front()))) t.erase(t.begin());
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(t.c_str(), &end);
+  Error bad = InputError("'" + edit.text + "' is not a number");
+  bad.path = edit.path;
+  if (t.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v)) return bad;
+  if (edit.path == "ekf.iterations") {
+    if (v != std::floor(v) || std::abs(v) > 1e9) {
+      bad.message = "'" + edit.text + "' is not a whole number";
+      return bad;
+    }
+    return Json(static_cast<long>(v));
+  }
+  return Json(v);
 }
 
 Result<model::ModelSpec> UseEstimatesAsStart(const model::ModelSpec& spec,

@@ -38,7 +38,9 @@ Result<model::ModelSpec> ApplyParameterEdit(const model::ModelSpec& spec,
 
 // An edit of one formula of the model, as the Equations view emits it. `path` is the formula's
 // JSON path in the model file: "drift.S", "diffusion.S", "initial_state.S" for a state S,
-// "observation.O", "measurement_variance.O" for an output O.
+// "observation.O", "measurement_variance.O" for an output O; or one of the EKF's options,
+// "ekf.ode" (auto, explicit, bdf), "ekf.rtol", "ekf.atol" (numbers), "ekf.iterations" (a whole
+// number), with the text as the user typed it.
 struct FormulaEdit {
   std::string path;
   std::string text;  // the new expression
@@ -48,6 +50,10 @@ struct FormulaEdit {
 // be; refused with the parser's Error otherwise (Error::path names the formula and
 // Error::expr_col the 1-based column in edit.text where the expression is wrong).
 Result<model::ModelSpec> ApplyFormulaEdit(const model::ModelSpec& spec, const FormulaEdit& edit);
+
+// The JSON value the edit writes at its path (a string for a formula and for ekf.ode, a number
+// for the other options); refused when an option's text is not a number.
+Result<Json> FormulaEditValue(const FormulaEdit& edit);
 
 // The model with every free parameter's start value set to its estimate in `summary` (matched
 // by name; fixed parameters and names the fit does not know are left alone).

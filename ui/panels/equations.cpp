@@ -7,12 +7,14 @@
 // a mistake is easier to spot here than in the raw file. A model that does not compile, or one
 // drawn as a block diagram (edited in the Diagram view), is shown read-only.
 #include <imgui.h>
+#include <fmt/format.h>
 #include <imgui_stdlib.h>
 
 #include <algorithm>
 #include <string>
 #include <vector>
 
+#include "core/model/linear_model.h"
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
 
@@ -301,6 +303,58 @@ void DrawParameters(AppState& state, const ModelJson& model) {
   ImGui::EndTable();
 }
 
+// Whether the model goes through the extended Kalman filter (checked once per revision).
+bool IsNonlinear(AppState& state) {
+  EquationsViewState& v = state.equations_view;
+  if (v.checked_revision != state.model_revision) {
+    v.checked_revision = state.model_revision;
+    v.nonlinear = !model::LinearModel::Compile(*state.model);
+  }
+  return v.nonlinear;
+}
+
+// The EKF's options (the model file's "ekf" object, user guide 1a): the ODE solver, its
+// tolerances and the iterated update. Edits go through ApplyFormulaEdit as formulas do.
+void DrawEkfOptions(AppState& state, bool editable) {
+  const float s = state.fonts.scale;
+  const model::EkfOptions& o = state.model->ekf;
+  SectionHeading(state, "Extended Kalman filter");
+  // Label, then the control at a common indent (no table: the fields keep the IDs the formula
+  // fields have, by their JSON path under the view).
+  const float indent = 140.0f * s;
+  auto label = [&](const char* text, const char* tip) {
+    ImGui::AlignTextToFramePadding();
+    ImGui::TextDisabled("%s", text);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", tip);
+    ImGui::SameLine(indent);
+  };
+  label("ODE solver",
+        "How the moment equations are integrated between samples: auto (explicit, BDF where an "
+        "interval is stiff), explicit (Dormand-Prince 5(4)) or bdf (SUNDIALS CVODE)");
+  ImGui::BeginDisabled(!editable);
+  ImGui::SetNextItemWidth(160.0f * s);
+  if (ImGui::BeginCombo("##ode", model::OdeMethodName(o.method))) {
+    for (const model::OdeMethod m :
+         {model::OdeMethod::kAuto, model::OdeMethod::kExplicit, model::OdeMethod::kBdf}) {
+      if (ImGui::Selectable(model::OdeMethodName(m), m == o.method) && m != o.method)
+        state.equations_view.pending.push_back({"ekf.ode", model::OdeMethodName(m)});
+    }
+    ImGui::EndCombo();
+  }
+  ImGui::EndDisabled();
+  label("Relative tolerance", "rtol of the moment equations (default 1e-8)");
+  FormulaField(state, editable, "ekf.rtol", fmt::format("{:g}", o.rtol), 160.0f * s);
+  DrawDraftError(state, "ekf.rtol", 0.0f);
+  label("Absolute tolerance",
+        "atol of the moment equations, in the states' units and their squares (default 1e-10)");
+  FormulaField(state, editable, "ekf.atol", fmt::format("{:g}", o.atol), 160.0f * s);
+  DrawDraftError(state, "ekf.atol", 0.0f);
+  label("Update passes",
+        "1: the EKF; k > 1: the iterated EKF, the measurement update re-linearised k times");
+  FormulaField(state, editable, "ekf.iterations", std::to_string(o.iterations), 160.0f * s);
+  DrawDraftError(state, "ekf.iterations", 0.0f);
+}
+
 void DrawOptions(AppState& state, const ModelJson& model, bool editable) {
   SectionHeading(state, "Initial conditions and options");
   const std::vector<std::string> states = Names(model, "states");
@@ -324,6 +378,7 @@ void DrawOptions(AppState& state, const ModelJson& model, bool editable) {
   row("Input hold", MemberText(model, "input_hold", "zoh (default)"));
   row("Robust (Huber c)", MemberText(model, "robust_huber", "off (Gaussian)"));
   ImGui::EndTable();
+  if (state.model && IsNonlinear(state)) DrawEkfOptions(state, editable);
 }
 
 }  // namespace

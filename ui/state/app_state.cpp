@@ -363,7 +363,8 @@ void ApplyFormulaEdits(AppState& state) {
     // Keep the project's copy of the model in step (the view shows it; a save writes it).
     if (state.project && state.project->model_json.is_object()) {
       const std::size_t dot = edit.path.find('.');
-      state.project->model_json[edit.path.substr(0, dot)][edit.path.substr(dot + 1)] = edit.text;
+      state.project->model_json[edit.path.substr(0, dot)][edit.path.substr(dot + 1)] =
+          FormulaEditValue(edit).value();  // ApplyFormulaEdit accepted it
     }
   }
 }

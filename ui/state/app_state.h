@@ -221,6 +221,8 @@ struct FormulaDraft {
 struct EquationsViewState {
   std::map<std::string, FormulaDraft> drafts;  // by JSON path ("drift.mff")
   std::vector<FormulaEdit> pending;            // emitted while drawing, applied after the view
+  int checked_revision = -1;  // model_revision the linearity below was checked at
+  bool nonlinear = false;     // the model goes through the extended Kalman filter
 };
 
 struct AppState {
