@@ -38,14 +38,7 @@ const Case& Load(const std::string& model, const std::string& data) {
   auto lik = project::MakeLikelihood(*problem);
   auto fit = estimate::Estimate(*lik, estimate::EstimateOptions{});
   Case c{*problem, online::ReferenceFromSummary(*fit, problem->spec()), {}};
-  const data::Series& s = *problem->series[0];
-  for (std::size_t j = 0; j < s.size(); ++j) {
-    online::Sample r;
-    r.t = s.time[j];
-    r.u.assign(s.U.col(j).data(), s.U.col(j).data() + s.U.rows());
-    r.y.assign(s.Y.col(j).data(), s.Y.col(j).data() + s.Y.rows());
-    c.rows.push_back(std::move(r));
-  }
+  c.rows = online::SamplesOf(*problem->series[0]);
   cache.emplace_back(model, std::move(c));
   return cache.back().second;
 }
@@ -103,17 +96,6 @@ struct NonlinearCase {
   std::vector<online::Sample> rows;
 };
 
-std::vector<online::Sample> RowsOf(const data::Series& s) {
-  std::vector<online::Sample> rows;
-  for (std::size_t j = 0; j < s.size(); ++j) {
-    online::Sample r;
-    r.t = s.time[j];
-    r.u.assign(s.U.col(j).data(), s.U.col(j).data() + s.U.rows());
-    r.y.assign(s.Y.col(j).data(), s.Y.col(j).data() + s.Y.rows());
-    rows.push_back(std::move(r));
-  }
-  return rows;
-}
 
 // "tanks": the bundled model at its recorded estimates; "bioreactor": fitted here.
 const NonlinearCase& LoadNonlinear(const std::string& which) {
@@ -128,7 +110,7 @@ const NonlinearCase& LoadNonlinear(const std::string& which) {
   auto dataset = data::ReadCsvFile(tanks ? root + "/assets/data/tanks_estimation.csv"
                                          : root + "/tests/data/bioreactor/fedbatch.csv");
   auto series = *data::Bind(**dataset, spec->inputs, spec->outputs);
-  NonlinearCase c{model, {}, RowsOf(*series)};
+  NonlinearCase c{model, {}, online::SamplesOf(*series)};
   if (tanks) {
     c.reference = *online::LoadReference(root + "/tests/data/tanks/estimates.json", *spec);
   } else {

@@ -161,30 +161,8 @@ Result<AugmentedEkf> AugmentedEkf::Create(std::shared_ptr<const model::Nonlinear
   Eigen::VectorXd slope(k);
   for (int b = 0; b < k; ++b)
     slope(b) = WorkingSlope(a.theta_[a.tracked_[b]], a.lower_[b], a.upper_[b]);
-  const Eigen::MatrixXd cov = reference.CovarianceOf(a.tracked_);
-  a.prior_ = Eigen::MatrixXd::Zero(k, k);
-  bool prior_set = false;
-  if (k > 0 && cov.allFinite() && reference.n_obs > 0) {
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(cov);
-    if (ldlt.info() == Eigen::Success && ldlt.isPositive() &&
-        (ldlt.vectorD().array() > 0.0).all()) {
-      const double ref_rows = static_cast<double>(reference.n_obs) / std::max(p, 1);
-      double rows = options.prior_rows;
-      if (!(rows > 0.0))
-        rows = options.forgetting < 1.0 ? 1.0 / (1.0 - options.forgetting) : ref_rows;
-      const Eigen::VectorXd inv = slope.cwiseInverse();
-      a.prior_ = inv.asDiagonal() * cov * inv.asDiagonal() * (ref_rows / rows);
-      prior_set = a.prior_.allFinite();
-    }
-  }
-  if (!prior_set) {
-    a.prior_.setZero();
-    for (int b = 0; b < k; ++b) {
-      const bool bounded = std::isfinite(a.lower_[b]) || std::isfinite(a.upper_[b]);
-      const double sd = bounded ? 2.0 : std::max(std::abs(a.theta_[a.tracked_[b]]), 1.0);
-      a.prior_(b, b) = sd * sd;
-    }
-  }
+  a.prior_ = internal::PriorCovariance(reference, a.tracked_, slope, a.lower_, a.upper_, a.theta_,
+                                       options, p);
   return a;
 }
 

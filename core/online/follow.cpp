@@ -339,4 +339,19 @@ Result<std::string> ReadSome(int fd, const std::string& source) {
   }
 }
 
+std::vector<Sample> SamplesOf(const data::Series& series) {
+  std::vector<Sample> rows;
+  rows.reserve(series.size());
+  for (std::size_t j = 0; j < series.size(); ++j) {
+    const auto c = static_cast<Eigen::Index>(j);
+    Sample r;
+    r.t = series.time[j];
+    r.u.assign(series.U.col(c).data(), series.U.col(c).data() + series.U.rows());
+    r.y.assign(series.Y.col(c).data(), series.Y.col(c).data() + series.Y.rows());
+    r.line = j < series.row_line.size() ? series.row_line[j] : 0;
+    rows.push_back(std::move(r));
+  }
+  return rows;
+}
+
 }  // namespace gb::online

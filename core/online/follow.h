@@ -70,6 +70,10 @@ struct Sample {
                  // longer than INT_MAX lines says INT_MAX from there on
 };
 
+// The rows of a whole series as samples (a record replayed through an on-line estimator; the
+// line from the series' row_line where it has one, else 0).
+std::vector<Sample> SamplesOf(const data::Series& series);
+
 // Incremental CSV parser for data that arrives in pieces (rules above).
 class CsvRowReader {
  public:

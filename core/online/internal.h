@@ -9,7 +9,10 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "core/model/model.h"
+#include "core/online/estimator.h"
 #include "core/util/result.h"
 
 namespace gb::online::internal {
@@ -58,5 +61,16 @@ inline double Inside(double v, double lo, double hi) {
 Result<std::vector<int>> ChooseTracked(const model::ModelSpec& spec,
                                        const std::vector<int>& trackable,
                                        std::span<const std::string> names, const char* why);
+
+// The prior covariance of the tracked parameters in working coordinates (slope: dθ/dw at the
+// start): the reference's covariance D⁻¹ Σ D⁻¹ (D = diag slope), scaled to `prior_rows` rows of
+// data (<= 0: the memory 1/(1-λ), or the reference's own rows for λ = 1) from the reference's
+// rows (n_obs / outputs); without a usable covariance, a weak prior of 2 units of the working
+// coordinate for a bounded parameter (a factor e² in a scale parameter), or the parameter's size
+// (at least 1) for an unbounded one.
+Eigen::MatrixXd PriorCovariance(const Reference& reference, std::span<const int> tracked,
+                                const Eigen::VectorXd& slope, std::span<const double> lower,
+                                std::span<const double> upper, std::span<const double> theta,
+                                const RecursiveOptions& options, int outputs);
 
 }  // namespace gb::online::internal

@@ -103,6 +103,37 @@ Eigen::MatrixXd Reference::CovarianceOf(std::span<const int> params) const {
   return out;
 }
 
+Eigen::MatrixXd internal::PriorCovariance(const Reference& reference, std::span<const int> tracked,
+                                          const Eigen::VectorXd& slope,
+                                          std::span<const double> lower,
+                                          std::span<const double> upper,
+                                          std::span<const double> theta,
+                                          const RecursiveOptions& options, int outputs) {
+  const auto k = static_cast<Eigen::Index>(tracked.size());
+  const Eigen::MatrixXd cov = reference.CovarianceOf(tracked);
+  if (k > 0 && cov.allFinite() && reference.n_obs > 0) {
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(cov);
+    if (ldlt.info() == Eigen::Success && ldlt.isPositive() &&
+        (ldlt.vectorD().array() > 0.0).all()) {
+      const double ref_rows = static_cast<double>(reference.n_obs) / std::max(outputs, 1);
+      double rows = options.prior_rows;
+      if (!(rows > 0.0))
+        rows = options.forgetting < 1.0 ? 1.0 / (1.0 - options.forgetting) : ref_rows;
+      const Eigen::VectorXd inv = slope.cwiseInverse();
+      Eigen::MatrixXd prior = inv.asDiagonal() * cov * inv.asDiagonal() * (ref_rows / rows);
+      prior = 0.5 * (prior + prior.transpose()).eval();
+      if (prior.allFinite()) return prior;
+    }
+  }
+  Eigen::MatrixXd prior = Eigen::MatrixXd::Zero(k, k);
+  for (Eigen::Index a = 0; a < k; ++a) {
+    const bool bounded = std::isfinite(lower[a]) || std::isfinite(upper[a]);
+    const double sd = bounded ? 2.0 : std::max(std::abs(theta[tracked[a]]), 1.0);
+    prior(a, a) = sd * sd;
+  }
+  return prior;
+}
+
 Eigen::MatrixXd Reference::ConditionalCovarianceOf(std::span<const int> params) const {
   Eigen::MatrixXd out = CovarianceOf(params);
   std::vector<int> others;
@@ -168,35 +199,11 @@ Result<RecursiveMl> RecursiveMl::Create(const model::LinearModel& model, const R
   if (Status s = r.Evaluate(); !s) return s.error();
   r.theta_model_ = r.theta_;
 
-  // The prior information (working coordinates): the reference's, restricted to the tracked
-  // parameters and scaled to prior_rows rows; without a covariance, a weak prior of two units of
-  // the working coordinate (a factor e² in a scale parameter) or a parameter's size.
-  r.F_ = Eigen::MatrixXd::Zero(k, k);
-  const Eigen::VectorXd slope = r.Slopes();
-  const Eigen::MatrixXd cov = reference.CovarianceOf(r.tracked_);
-  bool prior_set = false;
-  if (k > 0 && cov.allFinite() && reference.n_obs > 0) {
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(cov);
-    if (ldlt.info() == Eigen::Success && ldlt.isPositive() &&
-        (ldlt.vectorD().array() > 0.0).all()) {
-      const double ref_rows = static_cast<double>(reference.n_obs) / std::max(p, 1);
-      double rows = options.prior_rows;
-      if (!(rows > 0.0))
-        rows = options.forgetting < 1.0 ? 1.0 / (1.0 - options.forgetting) : ref_rows;
-      r.F_ = slope.asDiagonal() * ldlt.solve(Eigen::MatrixXd::Identity(k, k)) * slope.asDiagonal() *
-             (rows / ref_rows);
-      r.F_ = 0.5 * (r.F_ + r.F_.transpose()).eval();
-      prior_set = r.F_.allFinite();
-    }
-  }
-  if (!prior_set) {
-    r.F_.setZero();
-    for (int a = 0; a < k; ++a) {
-      const bool bounded = std::isfinite(r.lower_[a]) || std::isfinite(r.upper_[a]);
-      const double sd = bounded ? 2.0 : std::max(std::abs(r.theta_[r.tracked_[a]]), 1.0);
-      r.F_(a, a) = 1.0 / (sd * sd);
-    }
-  }
+  // The prior information (working coordinates): the inverse of the prior covariance.
+  const Eigen::MatrixXd prior = internal::PriorCovariance(reference, r.tracked_, r.Slopes(),
+                                                          r.lower_, r.upper_, r.theta_, options, p);
+  r.F_ = Eigen::LDLT<Eigen::MatrixXd>(prior).solve(Eigen::MatrixXd::Identity(k, k));
+  r.F_ = 0.5 * (r.F_ + r.F_.transpose()).eval();
   r.G_ = r.F_;
   r.sd_w_.assign(static_cast<std::size_t>(k), 0.0);
   r.Finv_ = Eigen::LDLT<Eigen::MatrixXd>(r.F_).solve(Eigen::MatrixXd::Identity(k, k));

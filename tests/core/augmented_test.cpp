@@ -28,18 +28,6 @@ using testing::kTank;
 using testing::SimulateTank;
 using testing::TankTruth;
 
-std::vector<Sample> Rows(const data::Series& s) {
-  std::vector<Sample> rows;
-  for (std::size_t j = 0; j < s.size(); ++j) {
-    Sample r;
-    r.t = s.time[j];
-    r.u.assign(s.U.col(j).data(), s.U.col(j).data() + s.U.rows());
-    r.y.assign(s.Y.col(j).data(), s.Y.col(j).data() + s.Y.rows());
-    r.line = static_cast<int>(j) + 2;
-    rows.push_back(std::move(r));
-  }
-  return rows;
-}
 
 // The batch fit of the tank on `series` as a monitor's reference.
 Reference FitReference(const std::shared_ptr<const model::NonlinearModel>& model,
@@ -76,7 +64,7 @@ TEST(EkfStream, HeldAtThetaItsTermsAndScoresSumToTheBatchLikelihoodAndGradient) 
     double loglik = 0.0;
     Eigen::VectorXd score = Eigen::VectorXd::Zero(5);
     int steps = 0;
-    for (const Sample& r : Rows(*series)) {
+    for (const Sample& r : SamplesOf(*series)) {
       auto s = stream->Push(r);
       ASSERT_TRUE(s) << s.error().ToString();
       for (const EkfStep& step : *s) {
@@ -135,7 +123,7 @@ TEST(AugmentedEkf, OnStationaryDataItEndsWithinTwoStandardErrorsOfTheJointBatchF
   ASSERT_EQ(ekf->tracked_names(), (std::vector<std::string>{"k", "a"}))
       << "s and r are variances: not tracked; h0 only sets the start";
   RecursiveUpdate last;
-  for (const Sample& r : Rows(*second)) {
+  for (const Sample& r : SamplesOf(*second)) {
     auto ups = ekf->Push(r);
     ASSERT_TRUE(ups) << ups.error().ToString();
     if (!ups->empty()) last = ups->back();
@@ -184,7 +172,7 @@ TEST(AugmentedEkf, AfterAStepTheEstimateFollowsAndTheMonitorNamesTheParameter) {
   double first_alarm = -1.0, parameter_alarm = -1.0;
   std::string what;  // the first parameter alarm
   RecursiveUpdate last;
-  for (const Sample& r : Rows(*record)) {
+  for (const Sample& r : SamplesOf(*record)) {
     auto ups = monitor->Push(r);
     ASSERT_TRUE(ups) << ups.error().ToString();
     for (const MonitorUpdate& u : *ups) {
@@ -223,7 +211,7 @@ TEST(AugmentedEkf, OnStationaryDataTheMonitorsFalseAlarmRateIsAtMostTheRateSet) 
   auto monitor = Monitor::Create(model->spec(), ref, o);
   ASSERT_TRUE(monitor) << monitor.error().ToString();
   long alarms = 0;
-  for (const Sample& r : Rows(*record)) {
+  for (const Sample& r : SamplesOf(*record)) {
     auto ups = monitor->Push(r);
     ASSERT_TRUE(ups) << ups.error().ToString();
     for (const MonitorUpdate& u : *ups) alarms += static_cast<long>(u.alarms.size());

@@ -20,18 +20,6 @@ namespace {
 
 const std::string kAssets = std::string(GREYBENCH_SOURCE_DIR) + "/assets/";
 
-std::vector<Sample> Rows(const data::Series& s) {
-  std::vector<Sample> rows;
-  for (std::size_t j = 0; j < s.size(); ++j) {
-    Sample r;
-    r.t = s.time[j];
-    r.u.assign(s.U.col(j).data(), s.U.col(j).data() + s.U.rows());
-    r.y.assign(s.Y.col(j).data(), s.Y.col(j).data() + s.Y.rows());
-    r.line = static_cast<int>(j) + 2;
-    rows.push_back(std::move(r));
-  }
-  return rows;
-}
 
 struct Fitted {
   project::Problem problem;
@@ -64,7 +52,7 @@ TEST(Recursive, HeldAtThetaItsTermsAndScoresSumToTheBatchLikelihoodAndGradient) 
     const std::vector<int> tracked = rml->tracked();
     double loglik = 0.0;
     Eigen::VectorXd score = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(tracked.size()));
-    for (const Sample& r : Rows(series)) {
+    for (const Sample& r : SamplesOf(series)) {
       auto up = rml->Push(r);
       ASSERT_TRUE(up) << up.error().ToString();
       for (const RecursiveUpdate& u : *up) {
@@ -136,7 +124,7 @@ void EndsWithinTwoBatchStandardErrors(const std::string& model_file,
   auto rml = RecursiveMl::Create(model, ref, o);
   ASSERT_TRUE(rml) << rml.error().ToString();
   std::optional<RecursiveUpdate> last;
-  for (const Sample& r : Rows(*problem->series[0])) {
+  for (const Sample& r : SamplesOf(*problem->series[0])) {
     auto up = rml->Push(r);
     ASSERT_TRUE(up) << up.error().ToString();
     if (!up->empty()) last = up->back();
