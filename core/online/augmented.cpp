@@ -205,9 +205,10 @@ Result<std::vector<RecursiveUpdate>> AugmentedEkf::Push(const Sample& row) {
   std::vector<RecursiveUpdate> out;
   out.reserve(steps->size());
   for (const EkfStep& s : *steps) {
-    if (warmup_ < 0 && rows_ >= 2) {
-      // The rows of five slowest time constants at the first interval.
-      const double dt = row.t - first_t_;
+    // The mean sample interval so far (the stream completes no index before the second row).
+    const double dt = (row.t - first_t_) / static_cast<double>(rows_ - 1);
+    if (warmup_ < 0) {
+      // The rows of five slowest time constants.
       const double slow = stream_.slowest_time_constant();
       warmup_ = std::isfinite(slow) ? static_cast<int>(std::ceil(5.0 * slow / dt)) : kDefaultWarmup;
     }
@@ -217,7 +218,7 @@ Result<std::vector<RecursiveUpdate>> AugmentedEkf::Push(const Sample& row) {
     u.warming_up = s.index < warmup_;
     if (!u.warming_up && !open_ && k > 0) {
       // Open after this index's update: the next interval carries the random walk.
-      Open(rows_ >= 2 ? (row.t - first_t_) / static_cast<double>(rows_ - 1) : 1.0);
+      Open(dt);
     }
     const Eigen::VectorXd& x = stream_.x();
     for (std::size_t a = 0; a < k; ++a) {

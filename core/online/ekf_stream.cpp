@@ -27,6 +27,20 @@ constexpr int kNewtonHalvings = 30;
 
 std::size_t Z(int i) { return static_cast<std::size_t>(i); }
 
+// The slowest time constant of dx/dt = J x, max -1/Re λ; +inf when J has an eigenvalue whose real
+// part is not negative (or its eigenvalues cannot be found).
+double SlowestTimeConstant(const Eigen::MatrixXd& J) {
+  const Eigen::ComplexEigenSolver<Eigen::MatrixXd> es(J, false);
+  if (es.info() != Eigen::Success || !J.allFinite()) return kInf;
+  double slow = 0.0;
+  for (Eigen::Index i = 0; i < es.eigenvalues().size(); ++i) {
+    const double re = es.eigenvalues()(i).real();
+    if (!(re < 0.0)) return kInf;
+    slow = std::max(slow, -1.0 / re);
+  }
+  return slow;
+}
+
 }  // namespace
 
 // ---- 1. set-up and the start -----------------------------------------------------------------
@@ -72,6 +86,16 @@ struct EkfStream::Impl {
     if (e.file.empty()) e.file = source;
     if (e.line == 0) e.line = line;
     return e;
+  }
+  // The model's slots [x | u | θ | t] at `row`, the states from x (size n) or zero.
+  std::vector<double> SlotsAt(const Sample& row, const double* x_or_null) const {
+    const model::NonlinearModel& m = *model;
+    std::vector<double> slots(Z(m.n_slots()), 0.0);
+    if (x_or_null) std::copy(x_or_null, x_or_null + m.n_states(), slots.begin());
+    std::copy(row.u.begin(), row.u.end(), slots.begin() + m.input_slot());
+    std::copy(theta.begin(), theta.end(), slots.begin() + m.parameter_slot());
+    slots[Z(m.time_slot())] = row.t;
+    return slots;
   }
   Status Start(const Sample& first, const Sample& second);
   bool Equilibrium(const Sample& first);
@@ -148,10 +172,7 @@ bool EkfStream::Impl::Equilibrium(const Sample& first) {
   const model::NonlinearModel& m = *model;
   const int n = m.n_states();
   const int nd = options.equilibrium_states < 0 ? n : std::min(options.equilibrium_states, n);
-  std::vector<double> slots(static_cast<std::size_t>(m.n_slots()), 0.0);
-  std::copy(theta.begin(), theta.end(), slots.begin() + m.parameter_slot());
-  std::copy(first.u.begin(), first.u.end(), slots.begin() + m.input_slot());
-  slots[static_cast<std::size_t>(m.time_slot())] = first.t;
+  std::vector<double> slots = SlotsAt(first, nullptr);
   std::vector<double> init(m.initial_size());
   m.Initial(slots, init);
   for (int i = 0; i < n; ++i) slots[i] = init[i];
@@ -209,14 +230,8 @@ bool EkfStream::Impl::Equilibrium(const Sample& first) {
     const double s = dyn[Z(n) + Z(n) * Z(n) + Z(i)];
     sigma2(i) = s * s;
   }
-  const Eigen::ComplexEigenSolver<Eigen::MatrixXd> es(J, false);
-  if (es.info() != Eigen::Success) return false;
-  double slow = 0.0;
-  for (Eigen::Index i = 0; i < es.eigenvalues().size(); ++i) {
-    const double re = es.eigenvalues()(i).real();
-    if (!(re < 0.0)) return false;
-    slow = std::max(slow, -1.0 / re);
-  }
+  const double slow = SlowestTimeConstant(J);
+  if (!std::isfinite(slow)) return false;
   Eigen::MatrixXd Pd;
   std::complex<double> bad;
   if (!filter::StationaryCovariance(J, sigma2, &Pd, &bad) || !Pd.allFinite()) return false;
@@ -245,24 +260,12 @@ Status EkfStream::Impl::Start(const Sample& first, const Sample& second) {
   if (K == 0) ds.x.resize(n, 0);
   if (options.start == RecursiveOptions::Start::kModel) {
     // The slowest time constant at x0, for the warm-up of the filters that use this one.
-    std::vector<double> slots(static_cast<std::size_t>(model->n_slots()), 0.0);
-    std::copy(x.data(), x.data() + n, slots.begin());
-    std::copy(first.u.begin(), first.u.end(), slots.begin() + model->input_slot());
-    std::copy(theta.begin(), theta.end(), slots.begin() + model->parameter_slot());
-    slots[static_cast<std::size_t>(model->time_slot())] = first.t;
+    const std::vector<double> slots = SlotsAt(first, x.data());
     std::vector<double> dyn(model->dynamics_size());
     model->Dynamics(slots, dyn);
-    const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>> J(dyn.data() + n, n, n,
-                                                                       Eigen::OuterStride<>(n));
-    const Eigen::ComplexEigenSolver<Eigen::MatrixXd> es(J.transpose(), false);
-    if (es.info() == Eigen::Success && J.allFinite()) {
-      double slow = 0.0;
-      for (Eigen::Index i = 0; i < es.eigenvalues().size(); ++i) {
-        const double re = es.eigenvalues()(i).real();
-        slow = re < 0.0 ? std::max(slow, -1.0 / re) : kInf;
-      }
-      slowest = slow;
-    }
+    slowest = SlowestTimeConstant(
+        Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+            dyn.data() + n, n, n));
   }
   return Ok{};
 }
