@@ -151,10 +151,17 @@ int main(int argc, char** argv) {
 
   DynoArgs dyno;
   auto* c_dyno = app.add_subcommand("dyno", "run an experiment on the virtual dyno (simulated data)");
-  c_dyno->add_option("experiment", dyno.experiment, "fuel, crankshaft or square-wave")
+  c_dyno->add_option("experiment", dyno.experiment, "fuel, crankshaft, square-wave or engine")
       ->required()
-      ->check(CLI::IsMember({"fuel", "crankshaft", "square-wave"}));
-  c_dyno->add_option("--point", dyno.point, "fuel: operating point of Table 2 (f1 f2 f3 f4 f7 f8)");
+      ->check(CLI::IsMember({"fuel", "crankshaft", "square-wave", "engine"}));
+  c_dyno->add_option("--point", dyno.point,
+                     "fuel, engine: operating point of Table 2 (f1 f2 f3 f4 f7 f8); engine also "
+                     "n=RPM,alpha=DEG");
+  c_dyno->add_option("--path", dyno.path,
+                     "engine: a slow sweep through these points (f3,f1,f7 or "
+                     "'n=2600,alpha=25;n=3600,alpha=35')");
+  c_dyno->add_option("--hold", dyno.hold, "engine sweep: seconds at each point (default 20)");
+  c_dyno->add_option("--ramp", dyno.ramp, "engine sweep: seconds between points (default 40)");
   c_dyno->add_option("--duration", dyno.duration, "seconds (default: fuel 125, crankshaft 600)");
   c_dyno->add_option("--seed", dyno.seed, "random seed (default 1)");
   c_dyno->add_option("--order", dyno.order, "PRBS order (default: fuel 6, crankshaft 7)");
@@ -181,6 +188,22 @@ int main(int argc, char** argv) {
                  "with --live: also columns true_tau_ff, true_X, true_delay, true_Kb")
       ->needs(live);
   c_dyno->callback([&] { run = [&] { return RunDyno(dyno); }; });
+
+  LineariseArgs linearise;
+  auto* c_lin = app.add_subcommand(
+      "linearise", "the linearised model (A, B, C, D) of a fitted model at an operating point");
+  c_lin->add_option("result", linearise.result, "result file of the fit (JSON)")->required();
+  c_lin->add_option("--point", linearise.point,
+                    "NAME=VALUE,...: states, inputs or outputs that fix the steady state")
+      ->required();
+  c_lin->add_option("--model", linearise.model,
+                    "model file (default: the result file's model_file)");
+  c_lin->add_option("--quantity", linearise.quantities,
+                    "NAME=EXPRESSION of A_x_x, B_x_u, C_y_x, D_y_u, states, inputs, outputs and "
+                    "parameters (repeatable)")
+      ->allow_extra_args(false);
+  c_lin->add_option("--out", linearise.out, "write the linearisation as JSON");
+  c_lin->callback([&] { run = [&] { return RunLinearise(linearise); }; });
 
   SweepArgs sweep;
   auto* c_sweep = app.add_subcommand("sweep", "estimate one model on many operating points");

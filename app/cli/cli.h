@@ -102,8 +102,12 @@ struct CompareArgs {
 int RunCompare(const CompareArgs& args);
 
 struct DynoArgs {
-  std::string experiment;  // fuel, crankshaft, square-wave
-  std::string point = "f1";
+  std::string experiment;  // fuel, crankshaft, square-wave, engine
+  std::string point = "f1";  // engine: also n=RPM,alpha=DEG
+  // engine: a sweep along these points (comma-separated names, or n=..,alpha=.. joined by ';'),
+  // `hold` s at each and `ramp` s between; empty: the PRBS experiment at `point`.
+  std::string path;
+  double hold = 20, ramp = 40;
   double duration = 0;  // 0: the experiment's default; with --live, without end
   std::uint64_t seed = 1;
   int order = 0;           // 0: default
@@ -120,6 +124,17 @@ struct DynoArgs {
   bool truth = false;  // also the true values of the faulted parameters, as columns
 };
 int RunDyno(const DynoArgs& args);
+
+// linearise RESULT.json --point NAME=VALUE,...: the linearised model (A, B, C, D) of a fitted
+// model at a steady state, with standard errors by the delta method (core/model/linearise.h).
+struct LineariseArgs {
+  std::string result;
+  std::string model;  // empty: the result file's "model_file"
+  std::string point;
+  std::vector<std::string> quantities;  // NAME=EXPRESSION
+  std::string out;                      // JSON; empty: none
+};
+int RunLinearise(const LineariseArgs& args);
 
 // monitor MODEL --reference RESULT.json (--follow FILE | -): the condition monitor of
 // core/online/monitor.h over rows that arrive; one JSON line per update to --out or stdout, and

@@ -13,6 +13,7 @@
 #include "app/cli/cli.h"
 #include "core/data/write_csv.h"
 #include "core/sim/dyno.h"
+#include "core/sim/engine.h"
 #include "core/sim/fault_schedule.h"
 #include "core/sim/live_dyno.h"
 
@@ -158,6 +159,34 @@ int RunDyno(const DynoArgs& args) {
     e.perturb_load = !args.constant_load;
     if (args.no_filter) e.recording.filter_hz = 0;
     record = sim::RunCrankshaftExperiment(e);
+  } else if (args.experiment == "engine") {
+    sim::EngineExperiment e;
+    if (args.path.empty()) {
+      auto point = sim::ParseEnginePoint(args.point);
+      if (!point) return Fail(point.error());
+      e.path = {*point};
+    } else {
+      // Names separated by commas, or n=..,alpha=.. points separated by semicolons.
+      const char sep = args.path.find(';') != std::string::npos || args.path.find('=') != std::string::npos ? ';' : ',';
+      std::size_t start = 0;
+      while (start <= args.path.size()) {
+        const std::size_t end = std::min(args.path.find(sep, start), args.path.size());
+        auto point = sim::ParseEnginePoint(args.path.substr(start, end - start));
+        if (!point) return Fail(InputError("--path: " + point.error().message));
+        e.path.push_back(*point);
+        start = end + 1;
+      }
+      e.hold_s = args.hold;
+      e.ramp_s = args.ramp;
+      e.duration = static_cast<double>(e.path.size()) * e.hold_s +
+                   static_cast<double>(e.path.size() - 1) * e.ramp_s;
+    }
+    if (args.duration > 0) e.duration = args.duration;
+    if (args.order > 0) e.fuel_order = args.order;
+    if (args.bit_period > 0) e.fuel_bit = args.bit_period;
+    e.seed = args.seed;
+    if (args.no_filter) e.recording.filter_hz = 0;
+    record = sim::RunEngineExperiment(e);
   } else {
     sim::SquareWaveTest e;
     if (args.duration > 0) e.duration = args.duration;
@@ -170,10 +199,20 @@ int RunDyno(const DynoArgs& args) {
   for (std::size_t i = 0; i < record->names.size(); ++i)
     cols.push_back({record->names[i], record->columns[i]});
   std::vector<std::string> comments = record->comments;
+  std::string where;
+  if (args.experiment == "fuel")
+    where = " --point " + args.point;
+  else if (args.experiment == "engine" && args.path.empty())
+    where = " --point '" + args.point + "'";
+  else if (args.experiment == "engine")
+    where = fmt::format(" --path '{}' --hold {} --ramp {}", args.path, args.hold, args.ramp);
+  if (args.duration > 0) where += fmt::format(" --duration {}", args.duration);
+  if (args.order > 0) where += fmt::format(" --order {}", args.order);
+  if (args.bit_period > 0) where += fmt::format(" --bit-period {}", args.bit_period);
+  if (args.no_filter) where += " --no-filter";
   comments.push_back(fmt::format("regenerate: greybench-cli dyno {}{} --seed {}{} --out FILE",
-                                 args.experiment,
-                                 args.experiment == "fuel" ? " --point " + args.point : "",
-                                 args.seed, args.constant_load ? " --constant-load" : ""));
+                                 args.experiment, where, args.seed,
+                                 args.constant_load ? " --constant-load" : ""));
   if (auto st = data::WriteCsvFile(args.out, cols, comments); !st) return Fail(st.error());
   return 0;
 }

@@ -1,4 +1,5 @@
 #include <cstdio>
+#include <filesystem>
 
 #include <fmt/format.h>
 
@@ -34,7 +35,14 @@ int RunEstimate(const EstimateArgs& args) {
   if (!summary) return Fail(summary.error());
   std::printf("%s", summary->Report().c_str());
   if (!args.out.empty()) {
-    if (auto st = project::WriteFileAtomic(args.out, summary->ToJson().dump(1) + "\n"); !st)
+    // The model file, relative to the result's folder, so that `linearise` finds it.
+    Json j = summary->ToJson();
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::path dir = fs::absolute(fs::path(args.out), ec).parent_path();
+    const fs::path rel = fs::absolute(fs::path(args.model), ec).lexically_relative(dir);
+    j["model_file"] = rel.empty() ? args.model : rel.generic_string();
+    if (auto st = project::WriteFileAtomic(args.out, j.dump(1) + "\n"); !st)
       return Fail(st.error());
   }
   return summary->converged ? 0 : 1;

@@ -1,0 +1,303 @@
+// The nonlinear virtual dyno (core/sim/engine.h), the bundled mean-value engine model that
+// describes it (assets/models/engine_mvem.json) and the linearisation (core/model/linearise.h),
+// against closed forms and central differences.
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/model/linearise.h"
+#include "core/model/nonlinear_model.h"
+#include "core/sim/engine.h"
+
+namespace gb {
+namespace {
+
+const std::string kSource = GREYBENCH_SOURCE_DIR;
+
+// The bundled model with every parameter at the dyno's true value.
+model::NonlinearModel TrueModel(const sim::EngineTruth& truth = {}) {
+  auto spec = model::LoadModelFile(kSource + "/assets/models/engine_mvem.json");
+  EXPECT_TRUE(spec.ok()) << spec.error().ToString();
+  for (const auto& [name, value] : truth.Named()) {
+    const int i = spec->ParameterIndex(name);
+    EXPECT_GE(i, 0) << name;
+    spec->parameters[static_cast<std::size_t>(i)].value = value;
+  }
+  auto m = model::NonlinearModel::Compile(*spec);
+  EXPECT_TRUE(m.ok());
+  return std::move(*m);
+}
+
+std::vector<double> Slots(const model::NonlinearModel& m, const std::vector<double>& x,
+                          const std::vector<double>& u) {
+  std::vector<double> s(static_cast<std::size_t>(m.n_slots()), 0.0);
+  std::copy(x.begin(), x.end(), s.begin());
+  std::copy(u.begin(), u.end(), s.begin() + m.input_slot());
+  const auto theta = m.spec().Values();
+  std::copy(theta.begin(), theta.end(), s.begin() + m.parameter_slot());
+  return s;
+}
+
+TEST(Engine, SteadyStateBalancesEveryEquationWithLambdaOne) {
+  const sim::EngineTruth truth;
+  for (const auto& point : sim::PaperEnginePoints()) {
+    auto s = sim::EngineSteadyState(truth, point.speed_rpm, point.throttle_deg);
+    ASSERT_TRUE(s.ok()) << point.name << ": " << s.error().ToString();
+    const sim::EngineState d = sim::EngineDrift(truth, s->x, s->u);
+    EXPECT_NEAR(d.p, 0, 1e-9) << point.name;
+    EXPECT_NEAR(d.n, 0, 1e-9) << point.name;
+    EXPECT_NEAR(d.mfv, 0, 1e-12) << point.name;
+    EXPECT_NEAR(d.mff, 0, 1e-12) << point.name;
+    EXPECT_NEAR(sim::PortInverseLambda(truth, s->x), 1.0, 1e-12) << point.name;
+    EXPECT_GT(s->u.Tl, 0) << point.name;
+  }
+}
+
+TEST(Engine, AirFlowAtTheTable2PointsGivesTheirSensorGain) {
+  // K_b = L_th / m_ap: the chosen throttle and volumetric efficiency reproduce Table 2's K_b
+  // within 4 % at all six points (docs/case-study-mvem.md).
+  const sim::EngineTruth truth;
+  for (const auto& f : sim::PaperFuelPoints()) {
+    auto s = sim::EngineSteadyState(truth, f.speed_rpm, f.throttle_deg);
+    ASSERT_TRUE(s.ok());
+    const double kb = sim::EngineConstants::kStoichiometric /
+                      sim::PortAirFlow(truth, s->x.p, s->x.n);
+    EXPECT_NEAR(kb / f.Kb, 1.0, 0.04) << f.name;
+  }
+}
+
+TEST(Engine, NoiseFreeRecordWithoutPerturbationsStaysAtTheSteadyState) {
+  sim::EngineExperiment e;
+  e.truth.sp = e.truth.sn = e.truth.sfv = e.truth.sff = 0;
+  e.truth.rp = e.truth.rn = e.truth.rl = 0;
+  e.fuel_amplitude = 0;
+  e.throttle_amplitude = 0;
+  e.path = {*sim::ParseEnginePoint("f4")};
+  e.duration = 2;
+  auto rec = sim::RunEngineExperiment(e);
+  ASSERT_TRUE(rec.ok()) << rec.error().ToString();
+  auto s = sim::EngineSteadyState(e.truth, 3275, 29.2);
+  ASSERT_TRUE(s.ok());
+  ASSERT_EQ(rec->names, (std::vector<std::string>{"t", "alpha", "mfi", "Tl", "N", "Pman", "ilambda"}));
+  ASSERT_EQ(rec->columns[0].size(), 160u);
+  for (std::size_t k = 0; k < 160; k += 37) {
+    EXPECT_NEAR(rec->columns[4][k], 3275, 1e-6);
+    EXPECT_NEAR(rec->columns[5][k], s->x.p, 1e-8);
+    EXPECT_NEAR(rec->columns[6][k], 1.0, 1e-10);
+    EXPECT_NEAR(rec->columns[3][k], s->u.Tl, 1e-10);
+  }
+}
+
+TEST(Engine, SensorSeesTheFuelStepAfterTheSpeedsTransportDelay) {
+  // Without noise and filters and with the throttle held, the first sample of 1/λ to move after
+  // the first fuel switch is the first one at or after the switch + c_d / n.
+  sim::EngineExperiment e;
+  e.truth.sp = e.truth.sn = e.truth.sfv = e.truth.sff = 0;
+  e.truth.rp = e.truth.rn = e.truth.rl = 0;
+  e.throttle_amplitude = 0;
+  e.recording.filter_hz = 0;
+  e.path = {*sim::ParseEnginePoint("n=3340,alpha=31")};
+  e.duration = 1;
+  auto rec = sim::RunEngineExperiment(e);
+  ASSERT_TRUE(rec.ok()) << rec.error().ToString();
+  const auto& t = rec->columns[0];
+  const auto& y = rec->columns[6];
+  std::size_t moved = 0;
+  while (moved < y.size() && std::abs(y[moved] - y[0]) < 1e-12) ++moved;
+  ASSERT_LT(moved, y.size());
+  const double delay = e.truth.cd / 3340;  // 0.05 s: 4 samples
+  EXPECT_GE(t[moved], delay - 1e-9);
+  EXPECT_LT(t[moved - 1], delay + 0.0125);
+}
+
+TEST(Engine, BundledModelIsTheDynosPhysics) {
+  // The model file's drift and 1/λ at the true values equal the dyno's functions at random
+  // states and inputs over the operating range.
+  const sim::EngineTruth truth;
+  const model::NonlinearModel m = TrueModel(truth);
+  ASSERT_EQ(m.n_states(), 6);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> U(0, 1);
+  std::vector<double> out(m.dynamics_size()), meas(m.measurement_size());
+  for (int trial = 0; trial < 50; ++trial) {
+    const sim::EngineState x{35 + 60 * U(rng), 1500 + 3000 * U(rng), 0.5 + U(rng), 0.1 + 0.3 * U(rng)};
+    const sim::EngineInput u{15 + 30 * U(rng), 0.5 + U(rng), 50 * U(rng)};
+    // z1 = 1/λ at the port and z2 = 0: the Padé approximant at rest shows the port's value.
+    const double v = sim::PortInverseLambda(truth, x);
+    const auto s = Slots(m, {x.p, x.n, x.mfv, x.mff, v, 0.0}, {u.alpha, u.mfi, u.Tl});
+    m.Dynamics(s, out);
+    m.Measurement(s, meas);
+    const sim::EngineState d = sim::EngineDrift(truth, x, u);
+    EXPECT_NEAR(out[0], d.p, 1e-9 * (1 + std::abs(d.p)));
+    EXPECT_NEAR(out[1], d.n, 1e-9 * (1 + std::abs(d.n)));
+    EXPECT_NEAR(out[2], d.mfv, 1e-12 * (1 + std::abs(d.mfv)));
+    EXPECT_NEAR(out[3], d.mff, 1e-12 * (1 + std::abs(d.mff)));
+    EXPECT_NEAR(out[5], 0, 1e-9);  // at rest
+    EXPECT_EQ(meas[0], x.n);
+    EXPECT_EQ(meas[1], x.p);
+    EXPECT_NEAR(meas[2], v, 1e-13);
+  }
+}
+
+TEST(Engine, PadeApproximantDelaysAsTheTransportDelayAtLowFrequency) {
+  // The z1, z2 block with n held: from the port's 1/λ to the sensor, (1 - sD/2 + s²D²/12) /
+  // (1 + sD/2 + s²D²/12); its phase at ω equals -ωD to O((ωD)^5).
+  const model::NonlinearModel m = TrueModel();
+  auto lin = model::Linearise(m, m.spec().Values(), {{"N", 2931}, {"alpha", 29.5}, {"ilambda", 1}});
+  ASSERT_TRUE(lin.ok()) << lin.error().ToString();
+  const double D = 167.0 / 2931;
+  EXPECT_NEAR(lin->A(5, 4), -12 / (D * D), 1e-6 * 12 / (D * D));
+  EXPECT_NEAR(lin->A(5, 5), -6 / D, 1e-9 * 6 / D);
+  EXPECT_NEAR(lin->C(2, 5), -D, 1e-15);
+}
+
+TEST(Linearise, EqualsCentralDifferencesOfTheDriftAndObservation) {
+  const model::NonlinearModel m = TrueModel();
+  const auto theta = m.spec().Values();
+  for (const auto& f : sim::PaperFuelPoints()) {
+    auto lin = model::Linearise(
+        m, theta, {{"N", f.speed_rpm}, {"alpha", f.throttle_deg}, {"ilambda", 1}});
+    ASSERT_TRUE(lin.ok()) << f.name << ": " << lin.error().ToString();
+    std::vector<double> x(lin->x.data(), lin->x.data() + lin->x.size());
+    std::vector<double> u(lin->u.data(), lin->u.data() + lin->u.size());
+    std::vector<double> dyn(m.dynamics_size()), mea(m.measurement_size());
+    auto f_h = [&](const std::vector<double>& xs, const std::vector<double>& us) {
+      const auto s = Slots(m, xs, us);
+      m.Dynamics(s, dyn);
+      m.Measurement(s, mea);
+      std::vector<double> v(dyn.begin(), dyn.begin() + m.n_states());
+      v.insert(v.end(), mea.begin(), mea.begin() + m.n_outputs());
+      return v;
+    };
+    // The steady state: f = 0 and the outputs given.
+    const auto at = f_h(x, u);
+    for (int i = 0; i < 6; ++i) EXPECT_NEAR(at[static_cast<std::size_t>(i)], 0, 1e-8) << f.name;
+    EXPECT_NEAR(at[6], f.speed_rpm, 1e-9);
+    EXPECT_NEAR(at[8], 1.0, 1e-12);
+    auto check = [&](bool input, int j) {
+      std::vector<double> xp = x, xm = x, up = u, um = u;
+      double& vp = input ? up[static_cast<std::size_t>(j)] : xp[static_cast<std::size_t>(j)];
+      double& vm = input ? um[static_cast<std::size_t>(j)] : xm[static_cast<std::size_t>(j)];
+      const double h = 1e-6 * std::max(1.0, std::abs(vp));
+      vp += h;
+      vm -= h;
+      const auto fp = f_h(xp, up), fm = f_h(xm, um);
+      for (int r = 0; r < 9; ++r) {
+        const double diff = (fp[static_cast<std::size_t>(r)] - fm[static_cast<std::size_t>(r)]) / (2 * h);
+        const double exact = r < 6 ? (input ? lin->B(r, j) : lin->A(r, j))
+                                   : (input ? lin->D(r - 6, j) : lin->C(r - 6, j));
+        EXPECT_NEAR(exact, diff, 1e-6 * (1 + std::abs(exact)))
+            << f.name << " row " << r << (input ? " input " : " state ") << j;
+      }
+    };
+    for (int j = 0; j < 6; ++j) check(false, j);
+    for (int j = 0; j < 3; ++j) check(true, j);
+  }
+}
+
+TEST(Linearise, QuantitiesAreTheFuelFilmsParametersAtThePoint) {
+  const sim::EngineTruth truth;
+  const model::NonlinearModel m = TrueModel(truth);
+  model::LinearisationOptions o;
+  for (const char* q : {"tau_fv=-1/A_mfv_mfv", "tau_ff=-1/A_mff_mff", "X=-B_mff_mfi/A_mff_mff",
+                        "Kb=C_ilambda_mfv", "delay=cd/n"})
+    o.quantities.push_back(*model::ParseQuantity(q));
+  auto lin = model::Linearise(m, m.spec().Values(), {{"N", 2931}, {"alpha", 29.5}, {"ilambda", 1}}, o);
+  ASSERT_TRUE(lin.ok()) << lin.error().ToString();
+  auto s = sim::EngineSteadyState(truth, 2931, 29.5);
+  ASSERT_TRUE(s.ok());
+  EXPECT_NEAR(lin->quantities[0], truth.tau_fv, 1e-14);
+  EXPECT_NEAR(lin->quantities[1], truth.tau_ff, 1e-14);
+  EXPECT_NEAR(lin->quantities[2], truth.X60 + truth.dX * (s->x.p - 60) / 10, 1e-10);
+  EXPECT_NEAR(lin->quantities[3], 14.67 / sim::PortAirFlow(truth, s->x.p, 2931), 1e-10);
+  EXPECT_NEAR(lin->quantities[4], 167.0 / 2931, 1e-15);
+  EXPECT_NEAR(lin->x(0), s->x.p, 1e-9);
+  EXPECT_NEAR(lin->u(1), s->u.mfi, 1e-11);
+  EXPECT_NEAR(lin->u(2), s->u.Tl, 1e-8);
+  EXPECT_TRUE(std::isnan(lin->se_quantities[0]));  // no covariance given
+}
+
+TEST(Linearise, DeltaMethodPropagatesTheCovariance) {
+  // τ_ff's quantity is the parameter itself: its SE is the parameter's. Kb = L_th / m_ap is
+  // checked against ∇g' Σ ∇g with ∇g from finite differences of whole linearisations.
+  const model::NonlinearModel m = TrueModel();
+  const auto& spec = m.spec();
+  model::LinearisationOptions o;
+  o.quantities = {*model::ParseQuantity("tau_ff=-1/A_mff_mff"), *model::ParseQuantity("Kb=C_ilambda_mfv")};
+  o.free = {spec.ParameterIndex("tau_ff"), spec.ParameterIndex("ev"), spec.ParameterIndex("Cth")};
+  o.covariance = Eigen::MatrixXd(3, 3);
+  o.covariance << 1e-4, 0, 0,  //
+      0, 4e-4, 1e-3,           //
+      0, 1e-3, 9.0;
+  const std::vector<std::pair<std::string, double>> point = {{"N", 3201}, {"alpha", 36.5}, {"ilambda", 1}};
+  auto lin = model::Linearise(m, spec.Values(), point, o);
+  ASSERT_TRUE(lin.ok()) << lin.error().ToString();
+  EXPECT_NEAR(lin->se_quantities[0], 0.01, 1e-9);
+  Eigen::Vector3d grad;
+  for (int j = 0; j < 3; ++j) {
+    auto th = spec.Values();
+    const auto idx = static_cast<std::size_t>(o.free[static_cast<std::size_t>(j)]);
+    const double h = 1e-5 * th[idx];
+    double side[2];
+    for (int sgn = 0; sgn < 2; ++sgn) {
+      auto t2 = th;
+      t2[idx] += sgn ? h : -h;
+      model::LinearisationOptions q;
+      q.quantities = {o.quantities[1]};
+      auto l = model::Linearise(m, t2, point, q);
+      ASSERT_TRUE(l.ok());
+      side[sgn] = l->quantities[0];
+    }
+    grad(j) = (side[1] - side[0]) / (2 * h);
+  }
+  const double se = std::sqrt(grad.dot(o.covariance * grad));
+  EXPECT_NEAR(lin->se_quantities[1], se, 1e-5 * se);
+  EXPECT_GT(se, 0);
+}
+
+TEST(Linearise, SaysWhatIsWrongWithThePoint) {
+  const model::NonlinearModel m = TrueModel();
+  const auto theta = m.spec().Values();
+  auto few = model::Linearise(m, theta, {{"N", 2931}, {"alpha", 29.5}});
+  ASSERT_FALSE(few.ok());
+  EXPECT_NE(few.error().message.find("give 1 more value"), std::string::npos) << few.error().message;
+  auto bad = model::ParseOperatingPoint("N=2931,alpa=30", m.spec());
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("did you mean 'alpha'"), std::string::npos);
+  EXPECT_FALSE(model::ParseOperatingPoint("N=fast", m.spec()).ok());
+  EXPECT_FALSE(model::ParseOperatingPoint("N=1,N=2", m.spec()).ok());
+  model::LinearisationOptions o;
+  o.quantities = {*model::ParseQuantity("tau=-1/A_mff_mf")};
+  auto q = model::Linearise(m, theta, {{"N", 2931}, {"alpha", 29.5}, {"ilambda", 1}}, o);
+  ASSERT_FALSE(q.ok());
+  EXPECT_NE(q.error().message.find("did you mean 'A_mff_mff'"), std::string::npos) << q.error().message;
+  // A throttle that cannot hold 2931 rpm at λ = 1 with a positive load: no steady state with
+  // the speed given and the load solved is still found (a negative load), but an impossible
+  // output is refused with how close it came.
+  auto none = model::Linearise(m, theta, {{"N", 2931}, {"alpha", 29.5}, {"Pman", 150}});
+  EXPECT_FALSE(none.ok());
+}
+
+TEST(Engine, PointsParseAndRefuse) {
+  auto f3 = sim::ParseEnginePoint("f3");
+  ASSERT_TRUE(f3.ok());
+  EXPECT_EQ(f3->speed_rpm, 2655);
+  auto any = sim::ParseEnginePoint("n=3000,alpha=27");
+  ASSERT_TRUE(any.ok());
+  EXPECT_EQ(any->throttle_deg, 27);
+  EXPECT_FALSE(sim::ParseEnginePoint("n=3000").ok());
+  EXPECT_FALSE(sim::ParseEnginePoint("f5").ok());
+  EXPECT_FALSE(sim::ParseEnginePoint("n=3000,alpha=x").ok());
+  sim::EngineExperiment e;
+  e.path = {*sim::ParseEnginePoint("n=1000,alpha=2")};  // too little air to turn the engine
+  std::string why;
+  EXPECT_FALSE(e.IsValid(&why));
+  EXPECT_NE(why.find("operating point n1000_a2"), std::string::npos) << why;
+}
+
+}  // namespace
+}  // namespace gb
