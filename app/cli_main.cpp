@@ -67,6 +67,9 @@ int main(int argc, char** argv) {
                     "without --multistart: extra starts where the fit ends with a parameter on a "
                     "bound (default 8; 0: never)")
       ->check(CLI::NonNegativeNumber);
+  c_est->add_flag("--progress", est.progress,
+                  "print the stage, iteration, evaluations and best log L to stderr after every "
+                  "iteration (for long fits)");
   c_est->add_flag("--score-differences", est.score_differences,
                   "scores from central differences of log L instead of the exact ones (for "
                   "comparison; standard errors then from second differences)");
@@ -162,6 +165,15 @@ int main(int argc, char** argv) {
                      "'n=2600,alpha=25;n=3600,alpha=35')");
   c_dyno->add_option("--hold", dyno.hold, "engine sweep: seconds at each point (default 20)");
   c_dyno->add_option("--ramp", dyno.ramp, "engine sweep: seconds between points (default 40)");
+  c_dyno->add_option("--sample-time", dyno.sample_time,
+                     "engine: seconds between samples (default 0.0125; the anti-alias filters cut "
+                     "off at a quarter of the rate)");
+  c_dyno->add_flag("--hold-speed", dyno.hold_speed,
+                   "engine: the dyno holds the speed (a PI controller on the load), as for the "
+                   "paper's fuel experiments; default: it holds the load");
+  c_dyno->add_option("--throttle-amplitude", dyno.throttle_amplitude,
+                     "engine: +/- degrees of the throttle's PRBS (default 1; 0: the fuel's only, "
+                     "the paper's experiment)");
   c_dyno->add_option("--duration", dyno.duration, "seconds (default: fuel 125, crankshaft 600)");
   c_dyno->add_option("--seed", dyno.seed, "random seed (default 1)");
   c_dyno->add_option("--order", dyno.order, "PRBS order (default: fuel 6, crankshaft 7)");

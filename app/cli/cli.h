@@ -92,6 +92,7 @@ struct EstimateArgs {
   double ftol = 1e-12;
   bool profile_intervals = false;
   double profile_level = 0.95;
+  bool progress = false;  // one line per iteration on stderr
 };
 int RunEstimate(const EstimateArgs& args);
 
@@ -108,6 +109,9 @@ struct DynoArgs {
   // `hold` s at each and `ramp` s between; empty: the PRBS experiment at `point`.
   std::string path;
   double hold = 20, ramp = 40;
+  double sample_time = 0;  // engine: 0: 0.0125 s (80 Hz); the anti-alias filter at a quarter of the rate
+  bool hold_speed = false;         // engine: the dyno holds the speed (else the load)
+  double throttle_amplitude = -1;  // engine: ± deg of the throttle's PRBS (< 0: the default, 1)
   double duration = 0;  // 0: the experiment's default; with --live, without end
   std::uint64_t seed = 1;
   int order = 0;           // 0: default

@@ -182,6 +182,12 @@ int RunDyno(const DynoArgs& args) {
                    static_cast<double>(e.path.size() - 1) * e.ramp_s;
     }
     if (args.duration > 0) e.duration = args.duration;
+    if (args.throttle_amplitude >= 0) e.throttle_amplitude = args.throttle_amplitude;
+    e.hold_speed = args.hold_speed;
+    if (args.sample_time > 0) {
+      e.recording.sample_time = args.sample_time;
+      e.recording.filter_hz = 0.25 / args.sample_time;
+    }
     if (args.order > 0) e.fuel_order = args.order;
     if (args.bit_period > 0) e.fuel_bit = args.bit_period;
     e.seed = args.seed;
@@ -209,6 +215,10 @@ int RunDyno(const DynoArgs& args) {
   if (args.duration > 0) where += fmt::format(" --duration {}", args.duration);
   if (args.order > 0) where += fmt::format(" --order {}", args.order);
   if (args.bit_period > 0) where += fmt::format(" --bit-period {}", args.bit_period);
+  if (args.hold_speed) where += " --hold-speed";
+  if (args.sample_time > 0) where += fmt::format(" --sample-time {}", args.sample_time);
+  if (args.throttle_amplitude >= 0)
+    where += fmt::format(" --throttle-amplitude {}", args.throttle_amplitude);
   if (args.no_filter) where += " --no-filter";
   comments.push_back(fmt::format("regenerate: greybench-cli dyno {}{} --seed {}{} --out FILE",
                                  args.experiment, where, args.seed,

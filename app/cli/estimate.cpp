@@ -1,3 +1,4 @@
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 
@@ -25,6 +26,14 @@ int RunEstimate(const EstimateArgs& args) {
   options.ftol_rel = args.ftol;
   options.profile_intervals = args.profile_intervals;
   options.profile_level = args.profile_level;
+  if (args.progress) {
+    const auto start = std::chrono::steady_clock::now();
+    options.progress = [start](const estimate::Progress& p) {
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      std::fprintf(stderr, "[%7.1f s] %s: iteration %d, %d evaluations, log L %.10g\n", s,
+                   p.stage.c_str(), p.iteration, p.evaluations, p.loglik);
+    };
+  }
   if (args.algorithm == "auto") options.algorithm = estimate::Algorithm::kAuto;
   else if (args.algorithm == "bhhh") options.algorithm = estimate::Algorithm::kBhhh;
   else if (args.algorithm == "lbfgs") options.algorithm = estimate::Algorithm::kLbfgs;

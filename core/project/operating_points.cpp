@@ -41,7 +41,8 @@ class Reader {
   const Project& project_;
 };
 
-constexpr const char* kMembers[] = {"datasets", "speed_tag", "trend", "mean_of", "tags"};
+constexpr const char* kMembers[] = {"datasets", "model",      "delay_parameter", "speed_tag",
+                                   "trend",    "mean_of",    "tags",            "linearised"};
 
 }  // namespace
 
@@ -64,7 +65,8 @@ Result<std::optional<OperatingPointsSpec>> ReadOperatingPoints(const Project& pr
     for (const char* m : kMembers) known = known || it.key() == m;
     if (!known)
       return r.Fail(root + "." + it.key(),
-                    "unknown member (expected datasets, speed_tag, trend, mean_of or tags)");
+                    "unknown member (expected datasets, model, delay_parameter, speed_tag, trend, "
+                    "mean_of, tags or linearised)");
   }
 
   OperatingPointsSpec spec;
@@ -75,6 +77,57 @@ Result<std::optional<OperatingPointsSpec>> ReadOperatingPoints(const Project& pr
   } else {
     spec.datasets = project.datasets;
     spec.datasets_from_project = true;
+  }
+  if (j.contains("model")) {
+    std::string file;
+    if (auto e = r.String(j["model"], root + ".model", "a model file name", &file)) return *e;
+    spec.model = ResolvePath(project.base_dir, file);
+  }
+  if (j.contains("delay_parameter")) {
+    if (auto e = r.String(j["delay_parameter"], root + ".delay_parameter", "a parameter name",
+                          &spec.delay_parameter))
+      return *e;
+  }
+  if (j.contains("linearised")) {
+    const Json& l = j["linearised"];
+    const std::string path = root + ".linearised";
+    if (!l.is_object())
+      return r.Fail(path, "expected {\"result\": FILE, \"point\": {...}, \"quantities\": {...}}");
+    LinearisedSpec lin;
+    for (auto it = l.begin(); it != l.end(); ++it) {
+      const std::string at = path + "." + it.key();
+      if (it.key() == "result" || it.key() == "model") {
+        std::string file;
+        if (auto e = r.String(it.value(), at, "a file name", &file)) return *e;
+        (it.key() == "result" ? lin.result : lin.model) = ResolvePath(project.base_dir, file);
+      } else if (it.key() == "point") {
+        if (!it.value().is_object() || it.value().empty())
+          return r.Fail(at, "expected an object such as {\"N\": \"n_rpm\", \"ilambda\": 1}");
+        for (auto v = it.value().begin(); v != it.value().end(); ++v) {
+          LinearisedSpec::Value value;
+          if (v.value().is_string() && !v.value().get<std::string>().empty())
+            value.tag = v.value().get<std::string>();
+          else if (v.value().is_number())
+            value.number = v.value().get<double>();
+          else
+            return r.Fail(at + "." + v.key(), "expected a tag name (a string) or a number");
+          lin.point.emplace_back(v.key(), std::move(value));
+        }
+      } else if (it.key() == "quantities") {
+        if (!it.value().is_object() || it.value().empty())
+          return r.Fail(at, "expected an object such as {\"tau_ff\": \"-1/A_mff_mff\"}");
+        for (auto q = it.value().begin(); q != it.value().end(); ++q) {
+          std::string text;
+          if (auto e = r.String(q.value(), at + "." + q.key(), "an expression", &text)) return *e;
+          lin.quantities.emplace_back(q.key(), std::move(text));
+        }
+      } else {
+        return r.Fail(at, "unknown member (expected result, model, point or quantities)");
+      }
+    }
+    if (lin.result.empty()) return r.Fail(path, "name the nonlinear fit's result file in \"result\"");
+    if (lin.point.empty()) return r.Fail(path, "give the operating point in \"point\"");
+    spec.linearised = std::move(lin);
   }
   if (j.contains("speed_tag")) {
     if (auto e = r.String(j["speed_tag"], root + ".speed_tag", "a tag name", &spec.speed_tag))

@@ -20,6 +20,11 @@ using C = EngineConstants;
 
 constexpr double kDegree = std::numbers::pi / 180;
 
+// The speed controller of EngineExperiment::hold_speed: N m per rpm, and per rpm s. With J_e =
+// 0.08 N m s/rpm the closed loop's poles are near -10 and -2.5 rad/s.
+constexpr double kSpeedP = 1.0;
+constexpr double kSpeedI = 2.0;
+
 // ψ(r) = sqrt(r^(2/κ) - r^((κ+1)/κ)) at max(r, r_c).
 double Psi(double r) {
   const double rc = std::pow(2 / (C::kKappa + 1), C::kKappa / (C::kKappa - 1));
@@ -217,9 +222,12 @@ std::vector<std::string> EngineComments(const EngineExperiment& e) {
                              : ""),
       "truth: " + truth,
       fmt::format("inputs: throttle +/- {} deg PRBS of order {}, bit period {} s; fuel of lambda "
-                  "= 1 +/- {} % PRBS of order {}, bit period {} s; load holding the speed; seed {}",
+                  "= 1 +/- {} % PRBS of order {}, bit period {} s; {}; seed {}",
                   e.throttle_amplitude, e.throttle_order, e.throttle_bit, 100 * e.fuel_amplitude,
-                  e.fuel_order, e.fuel_bit, e.seed),
+                  e.fuel_order, e.fuel_bit,
+                  e.hold_speed ? "the dyno holds the speed (PI on the load)"
+                               : "the dyno holds the load of the steady state",
+                  e.seed),
       "recording: " + internal::RecordingText(e.recording)};
   if (e.path.size() == 1)
     c.push_back(fmt::format("greybench: {{\"operating_point\": {{\"name\": \"{}\", \"n_rpm\": {}, "
@@ -288,10 +296,17 @@ Result<Record> RunEngineExperiment(const EngineExperiment& e) {
   const double noise_sd[3] = {std::sqrt(truth.rn), std::sqrt(truth.rp), std::sqrt(truth.rl)};
 
   EngineSteady now = start;
+  double speed_integral = 0;  // ∫ (n - n_target) dt, for hold_speed
   for (std::int64_t i = 0; i < n_fine; ++i) {
     const double t = internal::FineTime(i, warmup_samples, r);
     if (i % r.oversample == 0 && t > 0) now = target(t);  // the target moves at the sample rate
     EngineInput u = now.u;
+    if (e.hold_speed) {
+      // PI on the speed error: the load rises when the engine runs fast.
+      const double error = x.n - now.x.n;
+      u.Tl += kSpeedP * error + kSpeedI * speed_integral;
+      speed_integral += error * h;
+    }
     if (t >= 0) {
       u.alpha += e.throttle_amplitude * throttle_prbs.At(t);
       u.mfi *= 1 + e.fuel_amplitude * fuel_prbs.At(t);

@@ -25,8 +25,8 @@
 // filter (RecordingOptions) and sampled; the outputs get the converter's white noise.
 //
 // Experiments run along a path of operating points (n, α): at each the dyno holds the load that
-// keeps the engine at speed n and injects the fuel of λ = 1 there (EngineSteadyState); between
-// points it ramps both. PRBS perturbations ride on the fuel (±10 % like the paper's) and on the
+// keeps the engine at speed n (or holds the speed itself: EngineExperiment::hold_speed) and
+// injects the fuel of λ = 1 there (EngineSteadyState); between points it ramps both. PRBS perturbations ride on the fuel (±10 % like the paper's) and on the
 // throttle (± 1°). One point: the paper's experiment at that point. Several: a slow sweep.
 //
 // The continuous world is simulated by Euler-Maruyama on the fine grid h = T_s / oversample; the
@@ -120,6 +120,12 @@ struct EngineExperiment {
   double throttle_amplitude = 1.0;  // ± deg
   int throttle_order = 7;
   double throttle_bit = 1.0;  // s
+  // The dyno's load: false holds the torque of the steady state (the speed then answers the
+  // throttle and the fuel, through the crankshaft's dynamics); true makes the dyno hold the speed
+  // (a PI controller on the true speed, closed-loop bandwidth about 10 rad/s), as for the paper's
+  // fuel experiments, so that the air flow stays at the operating point. Either way the load
+  // applied is recorded as T_l.
+  bool hold_speed = false;
   double duration = 125.0;    // s
   std::uint64_t seed = 1;
   RecordingOptions recording;

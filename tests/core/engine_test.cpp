@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "core/model/linearise.h"
+#include "core/project/linearised.h"
 #include "core/model/nonlinear_model.h"
 #include "core/sim/engine.h"
 
@@ -119,16 +120,16 @@ TEST(Engine, BundledModelIsTheDynosPhysics) {
   // states and inputs over the operating range.
   const sim::EngineTruth truth;
   const model::NonlinearModel m = TrueModel(truth);
-  ASSERT_EQ(m.n_states(), 6);
+  ASSERT_EQ(m.n_states(), 7);
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> U(0, 1);
   std::vector<double> out(m.dynamics_size()), meas(m.measurement_size());
   for (int trial = 0; trial < 50; ++trial) {
     const sim::EngineState x{35 + 60 * U(rng), 1500 + 3000 * U(rng), 0.5 + U(rng), 0.1 + 0.3 * U(rng)};
     const sim::EngineInput u{15 + 30 * U(rng), 0.5 + U(rng), 50 * U(rng)};
-    // z1 = 1/λ at the port and z2 = 0: the Padé approximant at rest shows the port's value.
+    // z1 = 1/λ at the port, z2 = z3 = 0: the Padé approximant at rest shows the port's value.
     const double v = sim::PortInverseLambda(truth, x);
-    const auto s = Slots(m, {x.p, x.n, x.mfv, x.mff, v, 0.0}, {u.alpha, u.mfi, u.Tl});
+    const auto s = Slots(m, {x.p, x.n, x.mfv, x.mff, v, 0.0, 0.0}, {u.alpha, u.mfi, u.Tl});
     m.Dynamics(s, out);
     m.Measurement(s, meas);
     const sim::EngineState d = sim::EngineDrift(truth, x, u);
@@ -136,23 +137,30 @@ TEST(Engine, BundledModelIsTheDynosPhysics) {
     EXPECT_NEAR(out[1], d.n, 1e-9 * (1 + std::abs(d.n)));
     EXPECT_NEAR(out[2], d.mfv, 1e-12 * (1 + std::abs(d.mfv)));
     EXPECT_NEAR(out[3], d.mff, 1e-12 * (1 + std::abs(d.mff)));
-    EXPECT_NEAR(out[5], 0, 1e-9);  // at rest
+    // At rest, to the rounding of v times the approximant's gain 120 (n / c_d)³.
+    EXPECT_NEAR(out[6], 0, 1e-13 * 120 * std::pow(x.n / truth.cd, 3));
     EXPECT_EQ(meas[0], x.n);
     EXPECT_EQ(meas[1], x.p);
     EXPECT_NEAR(meas[2], v, 1e-13);
   }
 }
 
-TEST(Engine, PadeApproximantDelaysAsTheTransportDelayAtLowFrequency) {
-  // The z1, z2 block with n held: from the port's 1/λ to the sensor, (1 - sD/2 + s²D²/12) /
-  // (1 + sD/2 + s²D²/12); its phase at ω equals -ωD to O((ωD)^5).
+TEST(Engine, PadeApproximantIsTheThirdOrderOneOfTheSpeedsDelay) {
+  // The z1, z2, z3 block with n held: from the port's 1/λ (v) to the sensor,
+  //   (1 - sD/2 + (sD)²/10 - (sD)³/120) / (1 + sD/2 + (sD)²/10 + (sD)³/120),  D = c_d / n,
+  // realised as z1 = v / den, z2 = s z1, z3 = s² z1 and y = 2 z1 - v + D²/5 z3.
   const model::NonlinearModel m = TrueModel();
   auto lin = model::Linearise(m, m.spec().Values(), {{"N", 2931}, {"alpha", 29.5}, {"ilambda", 1}});
   ASSERT_TRUE(lin.ok()) << lin.error().ToString();
   const double D = 167.0 / 2931;
-  EXPECT_NEAR(lin->A(5, 4), -12 / (D * D), 1e-6 * 12 / (D * D));
-  EXPECT_NEAR(lin->A(5, 5), -6 / D, 1e-9 * 6 / D);
-  EXPECT_NEAR(lin->C(2, 5), -D, 1e-15);
+  const double c = 120 / (D * D * D);
+  EXPECT_NEAR(lin->A(6, 4), -c, 1e-9 * c);
+  EXPECT_NEAR(lin->A(6, 5), -c * D / 2, 1e-9 * c * D);
+  EXPECT_NEAR(lin->A(6, 6), -c * D * D / 10, 1e-9 * c * D * D);
+  EXPECT_NEAR(lin->C(2, 4), 2, 1e-15);
+  EXPECT_NEAR(lin->C(2, 6), D * D / 5, 1e-15);
+  // The port's sensitivity enters z3 with gain c and the output with gain -1.
+  EXPECT_NEAR(lin->A(6, 2) / c, -lin->C(2, 2), 1e-12);
 }
 
 TEST(Linearise, EqualsCentralDifferencesOfTheDriftAndObservation) {
@@ -175,9 +183,9 @@ TEST(Linearise, EqualsCentralDifferencesOfTheDriftAndObservation) {
     };
     // The steady state: f = 0 and the outputs given.
     const auto at = f_h(x, u);
-    for (int i = 0; i < 6; ++i) EXPECT_NEAR(at[static_cast<std::size_t>(i)], 0, 1e-8) << f.name;
-    EXPECT_NEAR(at[6], f.speed_rpm, 1e-9);
-    EXPECT_NEAR(at[8], 1.0, 1e-12);
+    for (int i = 0; i < 7; ++i) EXPECT_NEAR(at[static_cast<std::size_t>(i)], 0, 1e-7) << f.name;
+    EXPECT_NEAR(at[7], f.speed_rpm, 1e-9);
+    EXPECT_NEAR(at[9], 1.0, 1e-12);
     auto check = [&](bool input, int j) {
       std::vector<double> xp = x, xm = x, up = u, um = u;
       double& vp = input ? up[static_cast<std::size_t>(j)] : xp[static_cast<std::size_t>(j)];
@@ -186,15 +194,18 @@ TEST(Linearise, EqualsCentralDifferencesOfTheDriftAndObservation) {
       vp += h;
       vm -= h;
       const auto fp = f_h(xp, up), fm = f_h(xm, um);
-      for (int r = 0; r < 9; ++r) {
+      for (int r = 0; r < 10; ++r) {
         const double diff = (fp[static_cast<std::size_t>(r)] - fm[static_cast<std::size_t>(r)]) / (2 * h);
-        const double exact = r < 6 ? (input ? lin->B(r, j) : lin->A(r, j))
-                                   : (input ? lin->D(r - 6, j) : lin->C(r - 6, j));
-        EXPECT_NEAR(exact, diff, 1e-6 * (1 + std::abs(exact)))
+        const double exact = r < 7 ? (input ? lin->B(r, j) : lin->A(r, j))
+                                   : (input ? lin->D(r - 7, j) : lin->C(r - 7, j));
+        // Rounding in the differences: about ε |f| / h.
+        const double rounding = 1e-14 * std::max(std::abs(fp[static_cast<std::size_t>(r)]),
+                                                 std::abs(fm[static_cast<std::size_t>(r)])) / h;
+        EXPECT_NEAR(exact, diff, 1e-6 * (1 + std::abs(exact)) + rounding)
             << f.name << " row " << r << (input ? " input " : " state ") << j;
       }
     };
-    for (int j = 0; j < 6; ++j) check(false, j);
+    for (int j = 0; j < 7; ++j) check(false, j);
     for (int j = 0; j < 3; ++j) check(true, j);
   }
 }
@@ -204,7 +215,7 @@ TEST(Linearise, QuantitiesAreTheFuelFilmsParametersAtThePoint) {
   const model::NonlinearModel m = TrueModel(truth);
   model::LinearisationOptions o;
   for (const char* q : {"tau_fv=-1/A_mfv_mfv", "tau_ff=-1/A_mff_mff", "X=-B_mff_mfi/A_mff_mff",
-                        "Kb=C_ilambda_mfv", "delay=cd/n"})
+                        "Kb=-C_ilambda_mfv", "delay=cd/n"})
     o.quantities.push_back(*model::ParseQuantity(q));
   auto lin = model::Linearise(m, m.spec().Values(), {{"N", 2931}, {"alpha", 29.5}, {"ilambda", 1}}, o);
   ASSERT_TRUE(lin.ok()) << lin.error().ToString();
@@ -227,7 +238,7 @@ TEST(Linearise, DeltaMethodPropagatesTheCovariance) {
   const model::NonlinearModel m = TrueModel();
   const auto& spec = m.spec();
   model::LinearisationOptions o;
-  o.quantities = {*model::ParseQuantity("tau_ff=-1/A_mff_mff"), *model::ParseQuantity("Kb=C_ilambda_mfv")};
+  o.quantities = {*model::ParseQuantity("tau_ff=-1/A_mff_mff"), *model::ParseQuantity("Kb=-C_ilambda_mfv")};
   o.free = {spec.ParameterIndex("tau_ff"), spec.ParameterIndex("ev"), spec.ParameterIndex("Cth")};
   o.covariance = Eigen::MatrixXd(3, 3);
   o.covariance << 1e-4, 0, 0,  //
@@ -280,6 +291,40 @@ TEST(Linearise, SaysWhatIsWrongWithThePoint) {
   // output is refused with how close it came.
   auto none = model::Linearise(m, theta, {{"N", 2931}, {"alpha", 29.5}, {"Pman", 150}});
   EXPECT_FALSE(none.ok());
+}
+
+TEST(Linearise, AtEveryTaggedPointOfASweep) {
+  // The points as the sweep reads them from the data files' tags; one lacks the speed tag.
+  const sim::EngineTruth truth;
+  const model::NonlinearModel m = TrueModel(truth);
+  std::vector<estimate::OperatingPoint> points;
+  for (const auto& f : sim::PaperFuelPoints())
+    points.push_back({f.name, {{"n_rpm", f.speed_rpm}, {"alpha_deg", f.throttle_deg}}});
+  points.push_back({"untagged", {{"alpha_deg", 30}}});
+  project::LinearisedSpec spec;
+  spec.result = "fit.json";
+  spec.point = {{"N", {"n_rpm", 0}}, {"alpha", {"alpha_deg", 0}}, {"ilambda", {"", 1.0}}};
+  spec.quantities = {{"X", "-B_mff_mfi/A_mff_mff"}, {"delay", "cd/n"}};
+  const project::NonlinearFit fit{m.spec().Values(), {}, {}};
+  auto sweep = project::LineariseAtPoints(m, fit, spec, points);
+  ASSERT_TRUE(sweep.ok()) << sweep.error().ToString();
+  ASSERT_EQ(sweep->points.size(), 7u);
+  for (std::size_t i = 0; i < 6; ++i) {
+    const auto& f = sim::PaperFuelPoints()[i];
+    auto s = sim::EngineSteadyState(truth, f.speed_rpm, f.throttle_deg);
+    ASSERT_TRUE(s.ok());
+    EXPECT_TRUE(sweep->points[i].error.empty()) << sweep->points[i].error;
+    EXPECT_NEAR(sweep->At(i, "X").first, truth.X60 + truth.dX * (s->x.p - 60) / 10, 1e-10);
+    EXPECT_NEAR(sweep->At(i, "delay").first, truth.cd / f.speed_rpm, 1e-15);
+    EXPECT_TRUE(std::isnan(sweep->At(i, "delay").second));  // no covariance
+  }
+  EXPECT_NE(sweep->points[6].error.find("no tag 'n_rpm'"), std::string::npos);
+  EXPECT_TRUE(std::isnan(sweep->At(6, "X").first));
+  EXPECT_TRUE(std::isnan(sweep->At(0, "tau").first));
+  spec.quantities = {{"X", "-B_mff_mfi/A_mff_mf"}};
+  auto bad = project::LineariseAtPoints(m, fit, spec, points);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("quantity X"), std::string::npos);
 }
 
 TEST(Engine, PointsParseAndRefuse) {

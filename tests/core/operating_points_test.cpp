@@ -82,6 +82,29 @@ TEST(OperatingPoints, AnEmptyObjectSweepsTheProjectsDatasetsWithTheDefaults) {
   EXPECT_EQ((*spec)->trend_tag, "alpha_deg");
 }
 
+TEST(OperatingPoints, ReadsTheLinearisationOfANonlinearFit) {
+  const ProjectFile file(R"({"model": "fuel.json", "delay_parameter": "delay",
+      "linearised": {"result": "fit.json", "point": {"N": "n_rpm", "ilambda": 1},
+                     "quantities": {"tau_ff": "-1/A_mff_mff", "Kb": "-C_ilambda_mfv"}}})");
+  auto spec = Read(file);
+  ASSERT_TRUE(spec.ok()) << spec.error().ToString();
+  ASSERT_TRUE(spec->has_value());
+  const OperatingPointsSpec& s = **spec;
+  EXPECT_EQ(s.model, (fs::path(file.dir()) / "fuel.json").string());
+  EXPECT_EQ(s.delay_parameter, "delay");
+  ASSERT_TRUE(s.linearised.has_value());
+  EXPECT_EQ(s.linearised->result, (fs::path(file.dir()) / "fit.json").string());
+  EXPECT_TRUE(s.linearised->model.empty());
+  ASSERT_EQ(s.linearised->point.size(), 2u);
+  EXPECT_EQ(s.linearised->point[0].first, "N");
+  EXPECT_EQ(s.linearised->point[0].second.tag, "n_rpm");
+  EXPECT_EQ(s.linearised->point[1].second.tag, "");
+  EXPECT_EQ(s.linearised->point[1].second.number, 1.0);
+  ASSERT_EQ(s.linearised->quantities.size(), 2u);
+  EXPECT_EQ(s.linearised->quantities[0].first, "tau_ff");  // the file's order
+  EXPECT_EQ(s.linearised->quantities[1].second, "-C_ilambda_mfv");
+}
+
 TEST(OperatingPoints, ErrorsNameTheProjectFileAndTheJsonPath) {
   struct Case {
     const char* json;
@@ -101,6 +124,17 @@ TEST(OperatingPoints, ErrorsNameTheProjectFileAndTheJsonPath) {
       {R"({"tags": {"n": "rpm"}})", "operating_points.tags.n", "label"},
       {R"({"tags": {"n": {"units": "rpm"}}})", "operating_points.tags.n.units", "unknown"},
       {R"({"dataset": ["a.csv"]})", "operating_points.dataset", "unknown member"},
+      {R"({"model": 1})", "operating_points.model", "model file name"},
+      {R"({"delay_parameter": ""})", "operating_points.delay_parameter", "empty"},
+      {R"({"linearised": 1})", "operating_points.linearised", "expected {"},
+      {R"({"linearised": {"point": {"N": "n"}}})", "operating_points.linearised", "\"result\""},
+      {R"({"linearised": {"result": "r.json"}})", "operating_points.linearised", "\"point\""},
+      {R"({"linearised": {"result": "r.json", "point": {"N": true}}})",
+       "operating_points.linearised.point.N", "tag name"},
+      {R"({"linearised": {"result": "r.json", "point": {"N": "n"}, "quantities": {"X": 2}}})",
+       "operating_points.linearised.quantities.X", "expression"},
+      {R"({"linearised": {"result": "r.json", "point": {"N": "n"}, "at": 1}})",
+       "operating_points.linearised.at", "unknown member"},
   };
   for (const Case& c : cases) {
     const ProjectFile file(c.json);
