@@ -70,6 +70,9 @@ int main(int argc, char** argv) {
   c_est->add_flag("--progress", est.progress,
                   "print the stage, iteration, evaluations and best log L to stderr after every "
                   "iteration (for long fits)");
+  c_est->add_option("--checkpoint", est.checkpoint,
+                    "after every iteration, write the best estimates so far to this file (a "
+                    "partial result that --start resumes from)");
   c_est->add_flag("--score-differences", est.score_differences,
                   "scores from central differences of log L instead of the exact ones (for "
                   "comparison; standard errors then from second differences)");
@@ -226,6 +229,9 @@ int main(int argc, char** argv) {
   c_sweep->add_option("--out-csv", sweep.out_csv, "table of estimates (CSV)");
   c_sweep->add_option("--out-md", sweep.out_md, "table of estimates (Markdown)");
   c_sweep->add_option("--trend", sweep.trend, "PARAMETER:TAG fitted linearly (default X:alpha_deg)");
+  c_sweep->add_option("--delay-parameter", sweep.delay_parameter,
+                      "a parameter that is the delay in seconds (a continuous delay): the delay "
+                      "relation fits its estimates");
   c_sweep->add_option("--parallel", sweep.parallel, "datasets fitted at once (default: all cores)");
   c_sweep->callback([&] { run = [&] { return RunSweep(sweep); }; });
 

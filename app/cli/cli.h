@@ -93,6 +93,9 @@ struct EstimateArgs {
   bool profile_intervals = false;
   double profile_level = 0.95;
   bool progress = false;  // one line per iteration on stderr
+  // After every iteration, the best estimates so far as a result file that `--start` reads
+  // ("partial": true), so that a long fit that is stopped can be resumed.
+  std::string checkpoint;
 };
 int RunEstimate(const EstimateArgs& args);
 
@@ -166,6 +169,7 @@ struct SweepArgs {
   std::string out_csv;
   std::string out_md;
   std::string trend = "X:alpha_deg";  // PARAMETER:TAG
+  std::string delay_parameter;        // a parameter that is the delay in seconds
   int parallel = 0;
 };
 int RunSweep(const SweepArgs& args);

@@ -26,12 +26,39 @@ int RunEstimate(const EstimateArgs& args) {
   options.ftol_rel = args.ftol;
   options.profile_intervals = args.profile_intervals;
   options.profile_level = args.profile_level;
-  if (args.progress) {
+  if (!args.checkpoint.empty())
+    if (auto st = project::CheckWritable(args.checkpoint); !st) return Fail(st.error());
+  if (args.progress || !args.checkpoint.empty()) {
     const auto start = std::chrono::steady_clock::now();
-    options.progress = [start](const estimate::Progress& p) {
-      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      std::fprintf(stderr, "[%7.1f s] %s: iteration %d, %d evaluations, log L %.10g\n", s,
-                   p.stage.c_str(), p.iteration, p.evaluations, p.loglik);
+    const model::ModelSpec& spec = lik->spec();
+    options.progress = [start, &args, &spec](const estimate::Progress& p) {
+      if (args.progress) {
+        const double s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        std::fprintf(stderr, "[%7.1f s] %s: iteration %d, %d evaluations, log L %.10g\n", s,
+                     p.stage.c_str(), p.iteration, p.evaluations, p.loglik);
+      }
+      if (args.checkpoint.empty() || p.theta.size() != spec.parameters.size()) return;
+      // The best point so far as a result file --start reads (estimates only).
+      Json j;
+      j["greybench_result"] = 1;
+      j["model"] = spec.name;
+      j["partial"] = true;
+      j["stage"] = p.stage;
+      j["iteration"] = p.iteration;
+      j["loglik"] = p.loglik;
+      Json params = Json::object();
+      for (std::size_t i = 0; i < spec.parameters.size(); ++i)
+        if (!spec.parameters[i].fixed) params[spec.parameters[i].name] = {{"estimate", p.theta[i]}};
+      j["parameters"] = params;
+      if (!p.delay.empty()) {
+        Json delays = Json::object();
+        for (std::size_t o = 0; o < p.delay.size() && o < spec.outputs.size(); ++o)
+          delays[spec.outputs[o]] = {{"estimate", p.delay[o]}};
+        j["output_delay"] = delays;
+      }
+      // A checkpoint that cannot be written is not worth stopping the fit for.
+      (void)project::WriteFileAtomic(args.checkpoint, j.dump(1) + "\n");
     };
   }
   if (args.algorithm == "auto") options.algorithm = estimate::Algorithm::kAuto;

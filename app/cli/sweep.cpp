@@ -16,6 +16,7 @@ int RunSweep(const SweepArgs& args) {
     return Fail(InputError("--trend: expected PARAMETER:TAG, e.g. X:alpha_deg"));
   options.trend_parameter = args.trend.substr(0, colon);
   options.trend_tag = args.trend.substr(colon + 1);
+  options.delay_parameter = args.delay_parameter;
   // A sweep may take minutes: output files that cannot be written are reported before it.
   for (const std::string* out : {&args.out_md, &args.out_csv})
     if (!out->empty())

@@ -161,13 +161,21 @@ Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<std::s
     result.means[name] = {mean,
                           v.size() > 1 ? std::sqrt(ss / static_cast<double>(v.size() - 1)) : 0.0};
   }
-  // Δt = c / n, the delay in seconds (estimated samples times the data's sample interval).
+  // Δt = c / n, the delay in seconds (estimated samples times the data's sample interval, or
+  // the delay parameter's estimate).
   {
     std::vector<double> inv_n, delay_s;
     for (const auto& r : result.rows) {
       auto it = r.point.values.find(options.speed_tag);
-      if (it == r.point.values.end() || r.summary.delays.empty() || !r.summary.delays[0].scanned)
+      if (it == r.point.values.end()) continue;
+      if (!options.delay_parameter.empty()) {
+        const auto* p = FindParameter(r.summary, options.delay_parameter);
+        if (!p) continue;
+        inv_n.push_back(1.0 / it->second);
+        delay_s.push_back(p->estimate);
         continue;
+      }
+      if (r.summary.delays.empty() || !r.summary.delays[0].scanned) continue;
       inv_n.push_back(1.0 / it->second);
       delay_s.push_back(r.summary.delays[0].estimate * r.sample_interval);
     }

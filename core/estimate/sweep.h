@@ -7,7 +7,9 @@
 // (the virtual dyno writes it). Any numeric fields are kept; `name` labels the row.
 //
 // Relations fitted across the points (ordinary least squares, with standard errors):
-//   delay:  Δt = c / n            (Fig. 3: the exhaust transport delay falls with speed)
+//   delay:  Δt = c / n            (Fig. 3: the exhaust transport delay falls with speed; Δt the
+//                                  scanned delay in samples times the sample interval, or a
+//                                  delay parameter in seconds: SweepOptions::delay_parameter)
 //   trend:  θ = a + b · tag        for a chosen parameter and tag (Fig. 4: X against α)
 #pragma once
 
@@ -70,6 +72,9 @@ struct SweepOptions {
   EstimateOptions estimate;
   std::vector<std::string> mean_of = {"tau_fv", "tau_ff"};  // parameters to average
   std::string speed_tag = "n_rpm";
+  // A parameter that is the delay in seconds (a continuous delay, e.g. a Padé approximant's):
+  // the delay relation then fits its estimates. Empty: the first output's scanned delay.
+  std::string delay_parameter;
   std::string trend_parameter = "X";
   std::string trend_tag = "alpha_deg";
   int parallel = 0;  // datasets fitted at once (0 = all cores; each fit then uses one thread)

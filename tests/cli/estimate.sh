@@ -162,5 +162,14 @@ PY
 check "--start with a parameter the model lacks is bad input" test $? -eq 2
 check "... named by the result file and its JSON path" grep -q "tank_alien.json.*parameters.zeta.*no parameter 'zeta'" "$tmp/alien.txt"
 
+# --progress and --checkpoint: a line per iteration on stderr; the checkpoint is a partial result
+# that --start resumes from; the result file names its model file for `linearise`.
+"$cli" estimate "$data/cli/fuel.json" "$tmp/d.csv" --progress --checkpoint "$tmp/ck.json" \
+  >/dev/null 2>"$tmp/progress.txt"
+check "--progress prints the iterations" grep -Eq '^\[ *[0-9.]+ s\] fitting: iteration 1, ' "$tmp/progress.txt"
+check "the checkpoint is partial" grep -q '"partial": true' "$tmp/ck.json"
+check "--start resumes from it" "$cli" estimate "$data/cli/fuel.json" "$tmp/d.csv" --start "$tmp/ck.json" --max-evaluations 3
+check "the result names its model file" grep -q '"model_file": ".*fuel.json"' "$tmp/full.json"
+
 echo "$passes passed, $failures failed"
 [ "$failures" -eq 0 ]

@@ -66,6 +66,7 @@ estimate::SweepOptions MakeSweepOptions(const SweepInput& input) {
   options.speed_tag = input.points.speed_tag;
   options.trend_parameter = input.points.trend_parameter;
   options.trend_tag = input.points.trend_tag;
+  options.delay_parameter = input.points.delay_parameter;
   return options;
 }
 

@@ -22,8 +22,8 @@ bool HasParameter(const model::ModelSpec& spec, const std::string& name) {
 
 // The sweep's parameter names must be the model's: a typo would otherwise leave a relation out
 // without a word.
-std::string CheckNames(const AppState& state, const project::OperatingPointsSpec& spec) {
-  const model::ModelSpec& m = *state.model;
+std::string CheckNames(const AppState& state, const project::OperatingPointsSpec& spec,
+                       const model::ModelSpec& m) {
   const std::string where =
       (state.project ? state.project->path + ": " : std::string()) + project::kOperatingPointsKey;
   if (!HasParameter(m, spec.trend_parameter))
@@ -33,6 +33,8 @@ std::string CheckNames(const AppState& state, const project::OperatingPointsSpec
       return where + ".mean_of[" + std::to_string(i) + "]: the model has no parameter '" +
              spec.mean_of[i] + "'";
   }
+  if (!spec.delay_parameter.empty() && !HasParameter(m, spec.delay_parameter))
+    return where + ".delay_parameter: the model has no parameter '" + spec.delay_parameter + "'";
   return "";
 }
 
@@ -128,11 +130,20 @@ bool StartSweep(AppState& state, std::string* why) {
   if (!s.spec)
     return refuse("the project names no operating points (the key \"operating_points\")");
   if (s.spec->datasets.empty()) return refuse("the sweep has no datasets");
-  if (!state.model) return refuse("the model is not valid: " + state.model_error);
-  if (std::string bad = CheckNames(state, *s.spec); !bad.empty()) return refuse(bad);
+  // The per-point model: the sweep's own (operating_points.model), else the project's.
+  model::ModelSpec per_point;
+  if (!s.spec->model.empty()) {
+    auto loaded = model::LoadModelFile(s.spec->model);
+    if (!loaded) return refuse(loaded.error().ToString());
+    per_point = std::move(*loaded);
+  } else {
+    if (!state.model) return refuse("the model is not valid: " + state.model_error);
+    per_point = *state.model;
+  }
+  if (std::string bad = CheckNames(state, *s.spec, per_point); !bad.empty()) return refuse(bad);
 
   SweepInput input;
-  input.spec = *state.model;
+  input.spec = std::move(per_point);
   input.points = *s.spec;
   s.status = std::make_shared<SweepStatus>(static_cast<int>(input.points.datasets.size()));
   s.running_datasets = input.points.datasets;

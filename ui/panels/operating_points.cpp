@@ -66,12 +66,15 @@ void DrawToolbar(AppState& state) {
   const float s = state.fonts.scale;
   SweepState& w = state.sweep;
   const bool running = SweepRunning(state);
-  const bool can_run = !running && w.spec && state.model && !state.load_job.active();
+  const bool own_model = w.spec && !w.spec->model.empty();  // operating_points.model
+  const bool can_run =
+      !running && w.spec && (state.model || own_model) && !state.load_job.active();
   ImGui::BeginDisabled(!can_run);
   const bool run = PrimaryButton("Run", ImVec2(80.0f * s, 0));
   ImGui::EndDisabled();
   if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) {
-    ImGui::SetTooltip("%s", !state.model ? "The model is not valid (see the Equations view)"
+    ImGui::SetTooltip("%s", !state.model && !own_model
+                                ? "The model is not valid (see the Equations view)"
                             : !w.spec    ? "The project names no operating points"
                                          : "Fit the model to every operating point");
   }
