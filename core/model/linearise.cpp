@@ -125,7 +125,8 @@ class Point {
   }
   void SetState(const Eigen::VectorXd& x, const Eigen::VectorXd& u) {
     for (int i = 0; i < n_; ++i) slots_[static_cast<std::size_t>(i)] = x(i);
-    for (int j = 0; j < m_; ++j) slots_[static_cast<std::size_t>(model_.input_slot() + j)] = u(j);
+    for (int j = 0; j < m_; ++j)
+      slots_[static_cast<std::size_t>(model_.input_slot()) + static_cast<std::size_t>(j)] = u(j);
   }
   Evaluated Evaluate() {
     model_.Dynamics(slots_, dyn_);
@@ -285,6 +286,7 @@ Result<std::vector<double>> EvaluateQuantities(const std::vector<expr::ExprPtr>&
     for (const auto& u : used) {
       if (names.count(u)) continue;
       std::vector<std::string> all;
+      all.reserve(names.size());
       for (const auto& [name, _] : names) all.push_back(name);
       std::string msg = fmt::format(
           "quantity {}: unknown name '{}' (a quantity names A_<state>_<state>, B_<state>_<input>, "

@@ -13,7 +13,7 @@ std::pair<double, double> LinearisedSweep::At(std::size_t i, const std::string& 
   const double nan = std::numeric_limits<double>::quiet_NaN();
   if (i >= points.size() || !points[i].error.empty()) return {nan, nan};
   for (std::size_t k = 0; k < quantities.size(); ++k)
-    if (quantities[k] == name && k < points[i].lin.quantities.size())
+    if (k < points[i].lin.quantities.size() && quantities[k] == name)
       return {points[i].lin.quantities[k], points[i].lin.se_quantities[k]};
   return {nan, nan};
 }
