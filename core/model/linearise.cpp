@@ -242,7 +242,7 @@ Result<Steady> SolveSteady(Point& point, const Unknowns& k, Eigen::VectorXd x, E
       }
     }
     const bool small = (t * 2 * step).norm() <= 1e-13 * (1 + z.norm());
-    if (m <= 1e-26 || (!accepted && small) || (accepted && small)) return Steady{x, u, e};
+    if (m <= 1e-26 || small) return Steady{x, u, e};
     if (!accepted) break;
   }
   if (std::sqrt(m) <= 1e-9) return Steady{x, u, e};
