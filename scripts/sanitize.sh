@@ -9,9 +9,9 @@
 # libFuzzer's usual level, and line tables are all a stack trace needs (full -g made the build
 # three times as long). Assertions stay on (no NDEBUG).
 # Tests whose point under the sanitizers is the code path run on smaller data here
-# (core/util/sanitizers.h: kSanitized); each says so. Tests labelled not_sanitized (a golden
-# whose code other tests run under the sanitizers; tests/ui/CMakeLists.txt says which) are left
-# out.
+# (core/util/sanitizers.h: kSanitized); each says so, and the few skipped there say why. Tests
+# labelled not_sanitized (goldens that estimate or run, whose code other tests run under the
+# sanitizers; tests/ui/CMakeLists.txt says which) are left out.
 # Reports are written to build-asan/sanitizer-logs/ (one file per reporting process) as well as
 # to stderr, so a report from a process whose exit status a test expects to be non-zero (the
 # command-line error tests) still fails the run. Leaks inside Mesa/GLFW/X11 (system libraries the

@@ -283,11 +283,12 @@ TEST(Estimate, NinetyFivePercentIntervalsCoverTheTruthAtTheNominalRate) {
 // ---- the CTSM-R conformance case ---------------------------------------------------------------
 
 TEST(Conformance, Building3EstimateFromNeutralStartReachesCtsmRsOptimum) {
-  // Under the sanitizers the fit starts at CTSM-R's estimates (model.json): the same estimator
-  // code on the same 19-parameter model and data, in a fraction of the iterations. The release
-  // suite fits from the neutral start, which is the point of the test.
-  auto spec = model::LoadModelFile(kData + (kSanitized ? "/building3/model.json"
-                                                       : "/building3/model_start.json"));
+  // Not under the sanitizers: even from CTSM-R's estimates this fit took 192 s there, the most
+  // of any test, and its code (the linear estimator with a 19-parameter model, its standard
+  // errors) runs under them in the fuel film's and the bioreactor's estimates. The point of the
+  // test, the optimum from the neutral start, is the release suite's.
+  if (kSanitized) GTEST_SKIP() << "the release suite's: see the comment";
+  auto spec = model::LoadModelFile(kData + "/building3/model_start.json");
   ASSERT_TRUE(spec.ok());
   auto problem = project::LoadProblem(std::move(*spec), {kData + "/building3/data.csv"});
   ASSERT_TRUE(problem.ok());
