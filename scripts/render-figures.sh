@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Regenerates every figure of docs/case-study.md into docs/figures/, each rendered by the
-# workbench itself (greybench-snapshot, offscreen) from the bundled case-study project.
+# Regenerates every figure of docs/case-study.md and docs/case-study-mvem.md into docs/figures/,
+# each rendered by the workbench itself (greybench-snapshot, offscreen) from a bundled project.
 #   scripts/render-figures.sh [BUILD_DIR]      (default: build; needs greybench-snapshot built)
 # Deterministic: the same build and inputs give the same PNG bytes.
 set -euo pipefail
@@ -30,3 +30,8 @@ render operating-points operating-points 1600 900 --estimate
 render fig5-predictions-fuel predictions 1280 720 --estimate --time 20:30
 project="$root/assets/projects/crankshaft.json"
 render fig6-predictions-crankshaft predictions 1280 900 --estimate --time 40:70
+
+# The engine over its operating range (docs/case-study-mvem.md): the per-point linear fits of
+# the six fuel records beside the bundled nonlinear fit linearised at each point.
+project="$root/assets/projects/engine_mvem.json"
+render engine-operating-points operating-points 1600 1200 --estimate

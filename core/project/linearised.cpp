@@ -70,9 +70,15 @@ Result<LinearisedSweep> LineariseAtPoints(const LinearisedSpec& spec,
   const std::string model_path = spec.model.empty() ? project_model : spec.model;
   auto model_spec = model::LoadModelFile(model_path);
   if (!model_spec) return model_spec.error();
-  auto reference = online::LoadReference(spec.result, *model_spec);
+  return LineariseAtPoints(spec, *model_spec, datasets);
+}
+
+Result<LinearisedSweep> LineariseAtPoints(const LinearisedSpec& spec,
+                                          const model::ModelSpec& model_spec,
+                                          const std::vector<std::string>& datasets) {
+  auto reference = online::LoadReference(spec.result, model_spec);
   if (!reference) return reference.error();
-  auto compiled = model::NonlinearModel::Compile(*model_spec);
+  auto compiled = model::NonlinearModel::Compile(model_spec);
   if (!compiled) return compiled.error();
   std::vector<estimate::OperatingPoint> points;
   for (const auto& d : datasets) {

@@ -12,6 +12,7 @@
 
 #include "core/estimate/sweep.h"
 #include "core/model/linearise.h"
+#include "core/model/model.h"
 #include "core/model/nonlinear_model.h"
 #include "core/project/operating_points.h"
 #include "core/util/result.h"
@@ -51,6 +52,12 @@ Result<LinearisedSweep> LineariseAtPoints(const model::NonlinearModel& model,
 // estimates and covariance, and the tags of every data file.
 Result<LinearisedSweep> LineariseAtPoints(const LinearisedSpec& spec,
                                           const std::string& project_model,
+                                          const std::vector<std::string>& datasets);
+
+// The same with the model given (the workbench's, which may hold unsaved edits); `spec.model`
+// is not read.
+Result<LinearisedSweep> LineariseAtPoints(const LinearisedSpec& spec,
+                                          const model::ModelSpec& model_spec,
                                           const std::vector<std::string>& datasets);
 
 }  // namespace gb::project

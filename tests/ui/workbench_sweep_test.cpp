@@ -6,12 +6,17 @@
 // with options written out here (the GUI must add nothing and lose nothing on the way).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <string>
 #include <vector>
 
 #include "core/estimate/sweep.h"
 #include "core/model/model.h"
+#include "core/online/estimator.h"
+#include "core/online/monitor.h"
+#include "core/project/linearised.h"
 #include "tests/ui/workbench_driver.h"
 #include "ui/format.h"
 
@@ -140,7 +145,7 @@ TEST(WorkbenchSweep, ClickingRunInstallsTheSweepCoreComputesAndTheViewShowsTable
     const estimate::SweepRow& r = direct.rows[k == 0 ? 1 : k == 1 ? 0 : 2];
     EXPECT_EQ(f.speed[k], r.point.values.at("n_rpm"));
     EXPECT_DOUBLE_EQ(f.delay[k], r.summary.delays[0].estimate * r.sample_interval);
-    EXPECT_DOUBLE_EQ(f.delay_half_sample[k], 0.5 * r.sample_interval);
+    EXPECT_DOUBLE_EQ(f.delay_bar[k], 0.5 * r.sample_interval);
   }
   ASSERT_FALSE(f.curve_speed.empty());
   EXPECT_EQ(f.curve_speed.front(), f.speed.front());
@@ -317,6 +322,130 @@ TEST(WorkbenchSweep, ANameTheModelLacksIsRefusedWithTheJsonPath) {
                      "parameter 'Y'"),
             std::string::npos)
       << why;
+}
+
+// ---- a nonlinear fit linearised beside the per-point fits (operating_points.linearised) ---------
+
+const std::string kEngineData = kSource + "/tests/data/ui/engine_sweep/";
+
+TEST(WorkbenchSweep, ALinearisedNonlinearFitIsShownBesideThePerPointFits) {
+  WorkbenchDriver d;
+  d.Open(kEngineData + "project.json");
+  ASSERT_TRUE(d.state.model) << d.state.model_error;
+  ASSERT_TRUE(d.state.sweep.spec && d.state.sweep.spec->linearised) << d.state.sweep.spec_error;
+  d.state.view = View::kOperatingPoints;
+  d.Frame();
+  // Before the sweep the view says what Run will do, naming both models' files.
+  EXPECT_NE(d.Text().find("fuel_film_pade.json"), std::string::npos) << d.Text();
+  EXPECT_NE(d.Text().find("engine_mvem.json"), std::string::npos) << d.Text();
+  const std::optional<ImVec2> run = FindButton(d, "Run");
+  ASSERT_TRUE(run);
+  d.Click(*run);
+  ASSERT_TRUE(d.FramesUntil([&] { return !SweepRunning(d.state); }, kSweepTimeout));
+  d.Frame();
+  ASSERT_TRUE(d.state.sweep.result) << d.state.sweep.last_failure;
+  const SweepFigures& f = *d.state.sweep.result;
+  ASSERT_TRUE(f.linearised) << f.linearised_error;
+  ASSERT_EQ(f.result.rows.size(), 3u);
+
+  // The same linearisation from the files, by core alone.
+  const std::vector<std::string> files = {kEngineData + "f1.csv", kEngineData + "f3.csv",
+                                          kEngineData + "f7.csv"};
+  auto direct = project::LineariseAtPoints(*d.state.sweep.spec->linearised,
+                                           kSource + "/assets/models/engine_mvem.json", files);
+  ASSERT_TRUE(direct.ok()) << direct.error().ToString();
+  ASSERT_EQ(direct->quantities, f.linearised->quantities);
+
+  // Beneath each per-point parameter of a quantity's name, a row of the linearised values with
+  // their standard errors, and per cell the difference in combined standard errors.
+  int rows_seen = 0;
+  for (std::size_t r = 1; r < f.table.size(); ++r) {
+    if (!f.table[r].linearised) continue;
+    ++rows_seen;
+    const std::string parameter = f.table[r - 1].label.substr(0, f.table[r - 1].label.find(' '));
+    ASSERT_FALSE(f.table[r - 1].linearised);
+    for (std::size_t i = 0; i < 3; ++i) {
+      const auto [value, se] = direct->At(i, parameter);
+      ASSERT_TRUE(std::isfinite(value) && std::isfinite(se)) << parameter;
+      EXPECT_EQ(f.table[r].cells[i], FormatSig(value, 4) + " (" + FormatSig(se, 2) + ")")
+          << parameter << " at " << f.columns[i];
+      const estimate::ParameterEstimate* p = nullptr;
+      for (const auto& q : f.result.rows[i].summary.parameters)
+        if (q.name == parameter) p = &q;
+      ASSERT_TRUE(p);
+      if (!p->std_error) {
+        EXPECT_TRUE(std::isnan(f.table[r].z[i]));
+        continue;
+      }
+      EXPECT_NEAR(f.table[r].z[i],
+                  (value - p->estimate) / std::hypot(se, *p->std_error), 1e-12)
+          << parameter << " at " << f.columns[i];
+    }
+  }
+  EXPECT_EQ(rows_seen, 5);  // tau_fv, tau_ff, X, Kb, delay
+  const std::string log = d.Text();
+  EXPECT_NE(log.find("linearised"), std::string::npos) << log;
+  EXPECT_EQ(log.find("nan"), std::string::npos) << log;
+
+  // Fig. 3: the delay parameter ± 1 SE per point, and the linearised delay c_d / n, which at a
+  // steady state of the given speed is the fit's c_d over the point's speed, exactly.
+  auto spec = model::LoadModelFile(kSource + "/assets/models/engine_mvem.json");
+  ASSERT_TRUE(spec.ok());
+  auto fit = online::LoadReference(kSource + "/assets/results/engine_mvem.json", *spec);
+  ASSERT_TRUE(fit.ok()) << fit.error().ToString();
+  double cd = 0;
+  for (std::size_t k = 0; k < spec->parameters.size(); ++k)
+    if (spec->parameters[k].name == "cd") cd = fit->theta[k];
+  ASSERT_GT(cd, 0);
+  EXPECT_TRUE(f.delay_bar_is_se);
+  ASSERT_EQ(f.speed.size(), 3u);
+  ASSERT_EQ(f.lin_speed.size(), 3u);
+  EXPECT_TRUE(std::is_sorted(f.lin_speed.begin(), f.lin_speed.end()));
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(f.lin_speed[k], f.speed[k]);
+    EXPECT_NEAR(f.lin_delay[k], cd / f.lin_speed[k], 1e-12 * f.lin_delay[k]);
+    EXPECT_GT(f.lin_delay_se[k], 0);
+    EXPECT_GT(f.delay_bar[k], 0);  // the per-point delay's SE
+    EXPECT_NEAR(f.lin_speed_drawn[k] - f.lin_speed[k], 0.012 * (f.speed[2] - f.speed[0]), 1e-9);
+  }
+
+  // The trend plot: X's linearised values at the same throttle angles.
+  const TrendPlot& t = d.state.sweep.trend;
+  ASSERT_EQ(t.parameter, "X");
+  ASSERT_EQ(t.lin_x.size(), 3u);
+  EXPECT_EQ(t.lin_x, t.x);
+  for (std::size_t k = 0; k < 3; ++k) {
+    std::size_t i = 0;
+    while (f.result.rows[i].point.values.at("alpha_deg") != t.lin_x[k]) ++i;
+    EXPECT_EQ(t.lin_y[k], direct->At(i, "X").first);
+  }
+}
+
+TEST(WorkbenchSweep, ALinearisationThatFailsIsNamedAndTheSweepIsKept) {
+  WorkbenchDriver d;
+  d.Open(kSweepProject);
+  ASSERT_TRUE(d.state.sweep.spec) << d.state.sweep.spec_error;
+  project::LinearisedSpec lin;
+  lin.result = kData + "no_such_result.json";
+  lin.model = kSource + "/assets/models/engine_mvem.json";
+  lin.quantities = {{"X", "-B_mff_mfi/A_mff_mff"}};
+  d.state.sweep.spec->linearised = lin;
+  ASSERT_TRUE(StartSweep(d.state));
+  WaitForJobs(d.state);
+  d.state.view = View::kOperatingPoints;
+  d.Frame();
+  ASSERT_TRUE(d.state.sweep.result) << d.state.sweep.last_failure;
+  const SweepFigures& f = *d.state.sweep.result;
+  EXPECT_EQ(f.result.rows.size(), 3u);
+  EXPECT_FALSE(f.linearised);
+  EXPECT_NE(f.linearised_error.find("no_such_result.json"), std::string::npos)
+      << f.linearised_error;
+  for (const SweepTableRow& row : f.table) EXPECT_FALSE(row.linearised) << row.label;
+  EXPECT_NE(d.Text().find("could not be linearised"), std::string::npos) << d.Text();
+  const bool told = std::any_of(d.state.messages.begin(), d.state.messages.end(), [](const auto& m) {
+    return m.severity == Severity::kError && m.text.find("no_such_result.json") != std::string::npos;
+  });
+  EXPECT_TRUE(told);
 }
 
 }  // namespace

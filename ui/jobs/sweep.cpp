@@ -14,6 +14,7 @@ namespace {
 
 constexpr int kCurvePoints = 96;        // samples of the c / n curve over the speeds' range
 constexpr const char* kTimeUnit = "s";  // core's sweep gives delays in seconds
+constexpr double kDodge = 0.012;        // Dodged: the fraction of the x range
 
 const estimate::ParameterEstimate* FindParameter(const estimate::EstimateSummary& s,
                                                  const std::string& name) {
@@ -47,6 +48,32 @@ std::string EstimateCell(const estimate::ParameterEstimate& p) {
   if (p.std_error) return cell + " (" + FormatSig(*p.std_error, 2) + ")";
   if (p.at_bound) return cell + " (at bound)";
   return cell + " (" + kDash + ")";
+}
+
+// The linearised nonlinear fit at the points `run` fitted (in its rows' order).
+void Linearise(const SweepInput& input, SweepRun* run) {
+  const project::LinearisedSpec& spec = *input.points.linearised;
+  std::vector<std::string> datasets;
+  for (const estimate::SweepRow& r : run->result->rows) datasets.push_back(r.dataset);
+  Result<project::LinearisedSweep> lin = InputError("no model to linearise");
+  if (!spec.model.empty()) {
+    lin = project::LineariseAtPoints(spec, "", datasets);
+  } else if (input.project_model) {
+    lin = project::LineariseAtPoints(spec, *input.project_model, datasets);
+  } else {
+    lin = InputError("the project's model is not valid (see the Equations view)");
+  }
+  if (lin) {
+    run->linearised = std::move(lin).value();
+  } else {
+    run->linearised_error = lin.error().ToString();
+  }
+}
+
+// (b − a) / √(SE_a² + SE_b²), NaN when a standard error is missing or both are zero.
+double CombinedZ(double a, double se_a, double b, double se_b) {
+  const double s = std::sqrt(se_a * se_a + se_b * se_b);
+  return std::isfinite(s) && s > 0 ? (b - a) / s : std::nan("");
 }
 
 }  // namespace
@@ -103,8 +130,10 @@ SweepRun RunSweep(const SweepInput& input, SweepStatus& status, JobControl& cont
       return run;
     }
     run.result = std::move(result).value();
+    if (input.points.linearised && !run.result->cancelled) Linearise(input, &run);
   } catch (const std::exception& e) {  // e.g. out of memory; never into the UI loop
     run.result.reset();
+    run.linearised.reset();
     run.error = std::string("the sweep stopped: ") + e.what();
   }
   control.progress = 1.0f;
@@ -112,14 +141,26 @@ SweepRun RunSweep(const SweepInput& input, SweepStatus& status, JobControl& cont
 }
 
 SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPointsSpec points,
-                              int model_revision) {
+                              int model_revision,
+                              std::optional<project::LinearisedSweep> linearised,
+                              std::string linearised_error) {
   SweepFigures f;
   f.model_revision = model_revision;
+  f.linearised = std::move(linearised);
+  f.linearised_error = std::move(linearised_error);
+  const project::LinearisedSweep* lin = f.linearised ? &*f.linearised : nullptr;
+  auto has_quantity = [&](const std::string& name) {
+    return lin && std::find(lin->quantities.begin(), lin->quantities.end(), name) !=
+                      lin->quantities.end();
+  };
   const std::vector<estimate::SweepRow>& rows = result.rows;
   for (const estimate::SweepRow& r : rows) f.columns.push_back(r.point.name);
   // Rows are referred to by index: adding one may move the others.
   auto add_row = [&](std::string label) {
-    f.table.push_back({std::move(label), std::vector<std::string>(rows.size(), kDash), ""});
+    SweepTableRow row;
+    row.label = std::move(label);
+    row.cells.assign(rows.size(), kDash);
+    f.table.push_back(std::move(row));
     return f.table.size() - 1;
   };
 
@@ -172,6 +213,37 @@ SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPo
       if (mean != result.means.end())
         f.table[row].mean =
             FormatSig(mean->second.first, 4) + " (" + FormatSig(mean->second.second, 2) + ")";
+      if (!has_quantity(p.name)) continue;
+      // Beneath it, the nonlinear fit linearised at the same points.
+      const std::size_t lrow = add_row("  linearised");
+      SweepTableRow& l = f.table[lrow];
+      l.linearised = true;
+      l.z.assign(rows.size(), std::nan(""));
+      for (std::size_t i = 0; i < rows.size(); ++i) {
+        const auto [value, se] = lin->At(i, p.name);
+        if (!std::isfinite(value)) continue;
+        l.cells[i] = FormatSig(value, 4) + " (" + (std::isfinite(se) ? FormatSig(se, 2) : kDash) +
+                     ")";
+        if (const estimate::ParameterEstimate* q = FindParameter(rows[i].summary, p.name);
+            q && q->std_error)
+          l.z[i] = CombinedZ(q->estimate, *q->std_error, value, se);
+      }
+    }
+    // Quantities without a parameter of their name: rows of their own.
+    if (lin) {
+      for (const std::string& name : lin->quantities) {
+        if (std::find(f.parameters.begin(), f.parameters.end(), name) != f.parameters.end())
+          continue;
+        const std::size_t lrow = add_row(name + ", linearised");
+        f.table[lrow].linearised = true;
+        f.table[lrow].z.assign(rows.size(), std::nan(""));
+        for (std::size_t i = 0; i < rows.size(); ++i) {
+          const auto [value, se] = lin->At(i, name);
+          if (std::isfinite(value))
+            f.table[lrow].cells[i] = FormatSig(value, 4) + " (" +
+                                     (std::isfinite(se) ? FormatSig(se, 2) : kDash) + ")";
+        }
+      }
     }
     const std::size_t loglik = add_row("log L");
     for (std::size_t i = 0; i < rows.size(); ++i)
@@ -185,16 +257,39 @@ SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPo
     }
   }
 
-  // Fig. 3.
+  // Fig. 3: the delay in whole samples, or the delay parameter with its standard error.
+  f.delay_bar_is_se = !points.delay_parameter.empty();
   for (const estimate::SweepRow& r : rows) {
     auto it = r.point.values.find(points.speed_tag);
-    if (it == r.point.values.end() || r.summary.delays.empty() || !r.summary.delays[0].scanned)
+    if (it == r.point.values.end()) continue;
+    if (f.delay_bar_is_se) {
+      const estimate::ParameterEstimate* p = FindParameter(r.summary, points.delay_parameter);
+      if (!p) continue;
+      f.speed.push_back(it->second);
+      f.delay.push_back(p->estimate);
+      f.delay_bar.push_back(p->std_error.value_or(0.0));
       continue;
+    }
+    if (r.summary.delays.empty() || !r.summary.delays[0].scanned) continue;
     f.speed.push_back(it->second);
     f.delay.push_back(r.summary.delays[0].estimate * r.sample_interval);
-    f.delay_half_sample.push_back(0.5 * r.sample_interval);
+    f.delay_bar.push_back(0.5 * r.sample_interval);
   }
-  SortByX(&f.speed, {&f.delay, &f.delay_half_sample});
+  SortByX(&f.speed, {&f.delay, &f.delay_bar});
+  const std::string delay_quantity =
+      points.delay_parameter.empty() ? std::string("delay") : points.delay_parameter;
+  if (has_quantity(delay_quantity)) {
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      auto it = rows[i].point.values.find(points.speed_tag);
+      const auto [value, se] = lin->At(i, delay_quantity);
+      if (it == rows[i].point.values.end() || !std::isfinite(value)) continue;
+      f.lin_speed.push_back(it->second);
+      f.lin_delay.push_back(value);
+      f.lin_delay_se.push_back(std::isfinite(se) ? se : 0.0);
+    }
+    SortByX(&f.lin_speed, {&f.lin_delay, &f.lin_delay_se});
+    f.lin_speed_drawn = Dodged(f.lin_speed, f.speed);
+  }
   if (result.delay_vs_speed && !f.speed.empty() && f.speed.front() > 0) {
     const double lo = f.speed.front(), hi = f.speed.back();
     for (int k = 0; k < kCurvePoints; ++k) {
@@ -208,8 +303,23 @@ SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPo
   return f;
 }
 
-TrendPlot MakeTrendPlot(const estimate::SweepResult& result, const std::string& parameter,
+std::vector<double> Dodged(const std::vector<double>& x, const std::vector<double>& others) {
+  double lo = INFINITY, hi = -INFINITY;
+  for (const std::vector<double>* v : {&x, &others}) {
+    for (double e : *v) {
+      lo = std::min(lo, e);
+      hi = std::max(hi, e);
+    }
+  }
+  const double shift = hi > lo ? kDodge * (hi - lo) : 0.0;
+  std::vector<double> out(x);
+  for (double& e : out) e += shift;
+  return out;
+}
+
+TrendPlot MakeTrendPlot(const SweepFigures& figures, const std::string& parameter,
                         const std::string& tag) {
+  const estimate::SweepResult& result = figures.result;
   TrendPlot t;
   t.parameter = parameter;
   t.tag = tag;
@@ -230,6 +340,18 @@ TrendPlot MakeTrendPlot(const estimate::SweepResult& result, const std::string& 
     t.line_x = {t.x.front(), t.x.back()};
     t.line_y = {fit.a + fit.b * t.x.front(), fit.a + fit.b * t.x.back()};
     t.fit = fit;
+  }
+  if (const project::LinearisedSweep* lin = figures.linearised ? &*figures.linearised : nullptr) {
+    for (std::size_t i = 0; i < result.rows.size(); ++i) {
+      auto it = result.rows[i].point.values.find(tag);
+      const auto [value, se] = lin->At(i, parameter);
+      if (it == result.rows[i].point.values.end() || !std::isfinite(value)) continue;
+      t.lin_x.push_back(it->second);
+      t.lin_y.push_back(value);
+      t.lin_se.push_back(std::isfinite(se) ? se : 0.0);
+    }
+    SortByX(&t.lin_x, {&t.lin_y, &t.lin_se});
+    t.lin_x_drawn = Dodged(t.lin_x, t.x);
   }
   return t;
 }

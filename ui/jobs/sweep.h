@@ -22,6 +22,7 @@
 
 #include "core/estimate/sweep.h"
 #include "core/model/model.h"
+#include "core/project/linearised.h"
 #include "core/project/operating_points.h"
 #include "ui/jobs/job.h"
 #include "ui/widgets/plot.h"
@@ -33,6 +34,9 @@ struct SweepInput {
   model::ModelSpec spec;
   project::OperatingPointsSpec points;
   int parallel = 0;  // datasets fitted at once; 0: all cores
+  // The nonlinear model linearised at the points (operating_points.linearised) when the key
+  // names no model file: the project's model as the workbench holds it.
+  std::optional<model::ModelSpec> project_model;
 };
 
 // The options RunSweep hands to core's Sweep: the points' relations, one thread per fit (so
@@ -60,6 +64,10 @@ struct SweepRun {
   // result with `cancelled` set.
   std::optional<estimate::SweepResult> result;
   std::string error;  // why `result` is absent
+  // With operating_points.linearised, after a sweep that finished: the nonlinear fit linearised
+  // at each fitted point (in the order of `result->rows`), or why it could not be.
+  std::optional<project::LinearisedSweep> linearised;
+  std::string linearised_error;
 };
 
 // The job's work. Never throws.
@@ -70,6 +78,11 @@ struct SweepTableRow {
   std::string label;  // "tau_fv [s]", "α [°]"
   std::vector<std::string> cells;
   std::string mean;  // "mean (SD)" over the points, for the parameters averaged; else ""
+  // A row of the linearised nonlinear fit (beneath the parameter of its name): per cell, the
+  // difference from the per-point estimate in combined standard errors, (lin − est) /
+  // √(SE_lin² + SE_est²); NaN where either is missing.
+  bool linearised = false;
+  std::vector<double> z;
 };
 
 // A finished sweep, installed in AppState and drawn by the Operating points view.
@@ -82,15 +95,27 @@ struct SweepFigures {
   std::vector<std::string> parameters;  // the free parameters, for the trend plot's choice
   std::vector<std::string> tags;        // the numeric tags every point has
 
-  // Fig. 3: Δt against the speed tag, sorted by speed; bars ± half a sample interval (the delay
-  // is estimated in whole samples), and the fitted Δt = c / n over the speeds' range.
-  std::vector<double> speed, delay, delay_half_sample;
+  // Fig. 3: Δt against the speed tag, sorted by speed; bars ± half a sample interval when the
+  // delay is estimated in whole samples, ± 1 SE when it is a parameter (delay_parameter); and
+  // the fitted Δt = c / n over the speeds' range.
+  std::vector<double> speed, delay, delay_bar;
+  bool delay_bar_is_se = false;
   std::vector<double> curve_speed, curve_delay;
+
+  // The linearised nonlinear fit (operating_points.linearised), when the project asks for it:
+  // its table rows sit beneath the per-point estimates of the same name, and Fig. 3 shows its
+  // delay (the quantity named like delay_parameter, or "delay") ± 1 SE at each point.
+  std::optional<project::LinearisedSweep> linearised;
+  std::string linearised_error;  // why it is absent although asked for
+  std::vector<double> lin_speed, lin_delay, lin_delay_se;
+  std::vector<double> lin_speed_drawn;  // lin_speed moved right a little (Dodged)
 };
 
-// Prepares a sweep for drawing.
+// Prepares a sweep for drawing (`linearised` and its error from the same run).
 SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPointsSpec points,
-                              int model_revision);
+                              int model_revision,
+                              std::optional<project::LinearisedSweep> linearised = std::nullopt,
+                              std::string linearised_error = "");
 
 // A parameter against a tag (Fig. 4: X against α): the estimates ± 1 SE sorted by the tag, and
 // the least-squares line θ = a + b · tag over the tag's range (absent with fewer than 3 points).
@@ -100,8 +125,16 @@ struct TrendPlot {
   int without_se = 0;            // points drawn without a bar
   std::optional<estimate::LinearFit> fit;
   std::vector<double> line_x, line_y;
+  // The linearised nonlinear fit's quantity of the parameter's name at the same points ± 1 SE
+  // (empty without one).
+  std::vector<double> lin_x, lin_y, lin_se;
+  std::vector<double> lin_x_drawn;  // lin_x moved right a little (Dodged)
 };
-TrendPlot MakeTrendPlot(const estimate::SweepResult& result, const std::string& parameter,
+
+// Where markers drawn beside others at the same x go: `x` moved right by 1.2 % of the range of
+// `x` and `others` together, so that neither hides the other.
+std::vector<double> Dodged(const std::vector<double>& x, const std::vector<double>& others);
+TrendPlot MakeTrendPlot(const SweepFigures& figures, const std::string& parameter,
                         const std::string& tag);
 
 // The sweep: what the project names, the job under way, and the last finished sweep.

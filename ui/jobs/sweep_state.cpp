@@ -75,12 +75,17 @@ void InstallSweep(AppState& state, SweepRun run) {
   // The trend keeps the user's choice when the new sweep has it, else the project's.
   std::string parameter = s.trend.parameter.empty() ? points.trend_parameter : s.trend.parameter;
   std::string tag = s.trend.tag.empty() ? points.trend_tag : s.trend.tag;
-  s.result = MakeSweepFigures(std::move(run.result).value(), std::move(points), s.started_revision);
+  if (!run.linearised_error.empty()) {
+    AddMessage(state, Severity::kError,
+               "The nonlinear fit could not be linearised at the points: " + run.linearised_error);
+  }
+  s.result = MakeSweepFigures(std::move(run.result).value(), std::move(points), s.started_revision,
+                              std::move(run.linearised), std::move(run.linearised_error));
   const SweepFigures& f = *s.result;
   if (std::find(f.parameters.begin(), f.parameters.end(), parameter) == f.parameters.end())
     parameter = f.points.trend_parameter;
   if (std::find(f.tags.begin(), f.tags.end(), tag) == f.tags.end()) tag = f.points.trend_tag;
-  s.trend = MakeTrendPlot(f.result, parameter, tag);
+  s.trend = MakeTrendPlot(f, parameter, tag);
   s.delay_x.RequestFit();
   s.trend_x.RequestFit();
 }
@@ -145,6 +150,7 @@ bool StartSweep(AppState& state, std::string* why) {
   SweepInput input;
   input.spec = std::move(per_point);
   input.points = *s.spec;
+  if (input.points.linearised && state.model) input.project_model = *state.model;
   s.status = std::make_shared<SweepStatus>(static_cast<int>(input.points.datasets.size()));
   s.running_datasets = input.points.datasets;
   s.started = std::chrono::steady_clock::now();
@@ -166,7 +172,7 @@ void PollSweep(AppState& state) {
 void SelectTrend(AppState& state, const std::string& parameter, const std::string& tag) {
   SweepState& s = state.sweep;
   if (!s.result || (parameter == s.trend.parameter && tag == s.trend.tag)) return;
-  s.trend = MakeTrendPlot(s.result->result, parameter, tag);
+  s.trend = MakeTrendPlot(*s.result, parameter, tag);
   s.trend_x.RequestFit();
 }
 

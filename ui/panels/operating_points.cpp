@@ -4,7 +4,9 @@
 // has finished, the paper's Table 2 layout (one column per point: tags, delay, estimates with
 // standard errors, the means over the points) and two plots: the delay against speed with the
 // fitted Δt = c / n (Fig. 3), and any parameter against any tag with a fitted line (Fig. 4: X
-// against the throttle angle α).
+// against the throttle angle α). A project that names a fitted nonlinear model
+// (operating_points.linearised) gets that model linearised at every point beside the per-point
+// fits: rows beneath the estimates of the same name, and markers of their own in both plots.
 //
 // The sweep runs in AppState::sweep.job (StartSweep); this panel only reads the status record
 // and the installed result, and never waits for the job.
@@ -34,6 +36,8 @@ constexpr float kComboWidth = 130.0f;
 constexpr double kPointsXPadding = 0.06;  // the end points do not sit on the frame
 constexpr ImU32 kPointColor = IM_COL32(31, 119, 180, 255);
 constexpr ImU32 kFitColor = IM_COL32(214, 39, 40, 255);
+constexpr ImU32 kLinearisedColor = IM_COL32(255, 127, 14, 255);
+constexpr double kDisagreeZ = 3;  // combined SEs beyond which a linearised cell is marked
 constexpr const char* kMiddleDot = "  \xC2\xB7  ";
 constexpr const char* kPlusMinus = " \xC2\xB1 ";
 
@@ -185,11 +189,32 @@ void DrawTable(AppState& state, const SweepFigures& f) {
     ImGui::TableNextRow();
     ImGui::TableNextColumn();
     ImGui::PushFont(state.fonts.mono);
-    ImGui::TextUnformatted(row.label.c_str());
+    if (row.linearised) {
+      ImGui::TextColored(ImGui::ColorConvertU32ToFloat4(kLinearisedColor), "%s", row.label.c_str());
+      if (ImGui::IsItemHovered() && f.linearised) {
+        ImGui::SetTooltip("%s linearised at each point, with delta-method standard errors\n(%s)",
+                          f.linearised->model_name.c_str(),
+                          FileName(f.linearised->result).c_str());
+      }
+    } else {
+      ImGui::TextUnformatted(row.label.c_str());
+    }
     ImGui::PopFont();
-    for (const std::string& cell : row.cells) {
+    for (std::size_t c = 0; c < row.cells.size(); ++c) {
+      const std::string& cell = row.cells[c];
       ImGui::TableNextColumn();
-      if (cell == kDash) {
+      const double z = c < row.z.size() ? row.z[c] : NAN;
+      if (row.linearised && std::isfinite(z)) {
+        if (std::abs(z) > kDisagreeZ) {
+          ImGui::TextColored(SeverityColor(Severity::kWarning), "%s", cell.c_str());
+        } else {
+          ImGui::TextUnformatted(cell.c_str());
+        }
+        if (ImGui::IsItemHovered()) {
+          ImGui::SetTooltip("%s the per-point estimate by %s combined standard errors",
+                            z >= 0 ? "Above" : "Below", FormatFixed(std::abs(z), 1).c_str());
+        }
+      } else if (cell == kDash) {
         ImGui::TextDisabled("%s", cell.c_str());
       } else if (cell == "NO") {
         ImGui::TextColored(SeverityColor(Severity::kWarning), "%s", cell.c_str());
@@ -206,6 +231,16 @@ void DrawTable(AppState& state, const SweepFigures& f) {
   ImGui::TextDisabled(
       "Estimates with standard errors in brackets; the mean over the points with "
       "the standard deviation across them.");
+  if (f.linearised) {
+    ImGui::PushTextWrapPos(0.0f);
+    const std::string text =
+        "Linearised (orange): " + FileName(f.linearised->result) +
+        ", the nonlinear model fitted once, linearised at each point's steady state; amber where "
+        "it differs from the per-point estimate by more than " +
+        FormatFixed(kDisagreeZ, 0) + " combined standard errors.";
+    ImGui::TextDisabled("%s", text.c_str());
+    ImGui::PopTextWrapPos();
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -240,9 +275,22 @@ void DrawDelayPlot(AppState& state, const SweepFigures& f, ImVec2 size) {
   plot::ItemStyle points;
   points.color = kPointColor;
   points.marker_radius = 3.5f;
-  plot::PlotErrorBars(state.plots, "estimate \xC2\xB1 half a sample", f.speed.data(),
-                      f.delay.data(), f.delay_half_sample.data(), n, points);
+  plot::PlotErrorBars(state.plots,
+                      f.delay_bar_is_se ? "per-point estimate \xC2\xB1 1 SE"
+                                        : "estimate \xC2\xB1 half a sample",
+                      f.speed.data(), f.delay.data(), f.delay_bar.data(), n, points);
   plot::PlotMarkers(state.plots, "##estimates", f.speed.data(), f.delay.data(), n, points);
+  if (!f.lin_speed.empty()) {
+    const std::vector<double>& x = f.lin_speed_drawn;
+    plot::ItemStyle lin;
+    lin.color = kLinearisedColor;
+    lin.marker_radius = 3.5f;
+    plot::PlotErrorBars(state.plots, "linearised nonlinear fit \xC2\xB1 1 SE", x.data(),
+                        f.lin_delay.data(), f.lin_delay_se.data(), static_cast<int>(x.size()),
+                        lin);
+    plot::PlotMarkers(state.plots, "##linearised", x.data(), f.lin_delay.data(),
+                      static_cast<int>(x.size()), lin);
+  }
   plot::EndPlot(state.plots);
 }
 
@@ -313,9 +361,20 @@ void DrawTrendPlot(AppState& state, const SweepFigures& f, ImVec2 size) {
   plot::ItemStyle points;
   points.color = kPointColor;
   points.marker_radius = 3.5f;
-  plot::PlotErrorBars(state.plots, "estimate \xC2\xB1 1 SE", t.x.data(), t.y.data(), t.se.data(), n,
-                      points);
+  plot::PlotErrorBars(state.plots,
+                      t.lin_x.empty() ? "estimate \xC2\xB1 1 SE" : "per-point estimate \xC2\xB1 1 SE",
+                      t.x.data(), t.y.data(), t.se.data(), n, points);
   plot::PlotMarkers(state.plots, "##estimates", t.x.data(), t.y.data(), n, points);
+  if (!t.lin_x.empty()) {
+    const std::vector<double>& x = t.lin_x_drawn;
+    plot::ItemStyle lin;
+    lin.color = kLinearisedColor;
+    lin.marker_radius = 3.5f;
+    plot::PlotErrorBars(state.plots, "linearised nonlinear fit \xC2\xB1 1 SE", x.data(),
+                        t.lin_y.data(), t.lin_se.data(), static_cast<int>(x.size()), lin);
+    plot::PlotMarkers(state.plots, "##linearised", x.data(), t.lin_y.data(),
+                      static_cast<int>(x.size()), lin);
+  }
   plot::EndPlot(state.plots);
 }
 
@@ -335,8 +394,9 @@ void DrawPlots(AppState& state, const SweepFigures& f) {
     } else {
       ImGui::PushTextWrapPos(0.0f);
       ImGui::TextDisabled(
-          "No delay plot: the points need a \"%s\" tag and a scanned output delay "
-          "(output_delay with min and max in the model).",
+          "No delay plot: the points need a \"%s\" tag, and the model a scanned output delay "
+          "(output_delay with min and max) or a delay parameter (operating_points."
+          "delay_parameter).",
           f.points.speed_tag.c_str());
       ImGui::PopTextWrapPos();
     }
@@ -381,12 +441,19 @@ void DrawNoSweep(AppState& state) {
 
 void DrawNothingYet(AppState& state) {
   const project::OperatingPointsSpec& p = *state.sweep.spec;
-  std::string text = "Run fits the model to each of the " + std::to_string(p.datasets.size()) +
-                     " datasets (" + FileList(p.datasets, 3) +
-                     ") with the start values and bounds of the Parameters view, then relates "
-                     "the estimates to the operating points: the delay against " +
+  const std::string fitted =
+      p.model.empty() ? "the model, with the start values and bounds of the Parameters view,"
+                      : FileName(p.model) + " (operating_points.model), with its start values "
+                                            "and bounds,";
+  std::string text = "Run fits " + fitted + " to each of the " +
+                     std::to_string(p.datasets.size()) + " datasets (" + FileList(p.datasets, 3) +
+                     "), then relates the estimates to the operating points: the delay against " +
                      p.Label(p.speed_tag).label + " (\xCE\x94t = c / n) and " + p.trend_parameter +
                      " against " + p.Label(p.trend_tag).label + ".";
+  if (p.linearised) {
+    text += " Beside each point it shows " + FileName(p.linearised->result) +
+            ", the nonlinear model fitted once, linearised at that point.";
+  }
   DrawNotice(state, "No sweep yet", text);
 }
 
@@ -440,6 +507,14 @@ void DrawOperatingPointsPanel(AppState& state) {
   if (!result) {
     if (!running && w.last_failure.empty()) DrawNothingYet(state);
     return;
+  }
+  if (!result->linearised_error.empty()) {
+    ImGui::PushTextWrapPos(0.0f);
+    ImGui::TextColored(SeverityColor(Severity::kError), "%s",
+                       ("The nonlinear fit could not be linearised at the points: " +
+                        result->linearised_error)
+                           .c_str());
+    ImGui::PopTextWrapPos();
   }
   ImGui::Spacing();
   DrawTable(state, *result);
