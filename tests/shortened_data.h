@@ -13,10 +13,9 @@
 
 namespace gb::testing {
 
-// `file` itself, or under the sanitizers a copy of its comment lines (the operating-point tags),
-// its header and its first `rows` data rows, written to a temporary folder of this process.
-inline std::string ShortenedUnderSanitizers(const std::string& file, int rows) {
-  if (!kSanitized) return file;
+// A copy of `file`'s comment lines (the operating-point tags), its header and its first `rows`
+// data rows, written to a temporary folder of this process.
+inline std::string ShortenedCopy(const std::string& file, int rows) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() /
                                     ("greybench-shortened-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
@@ -32,6 +31,11 @@ inline std::string ShortenedUnderSanitizers(const std::string& file, int rows) {
     header = true;
   }
   return copy.string();
+}
+
+// `file` itself, or under the sanitizers its ShortenedCopy.
+inline std::string ShortenedUnderSanitizers(const std::string& file, int rows) {
+  return kSanitized ? ShortenedCopy(file, rows) : file;
 }
 
 }  // namespace gb::testing

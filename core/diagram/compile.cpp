@@ -496,10 +496,10 @@ CompileResult Compile(const BlockDiagram& d, const std::string& source) {
   j["measurement_variance"] = variance;
   if (!delays.empty()) j["output_delay"] = delays;
   j["initial_state"] = initial;
-  j["initial_covariance"] =
-      d.initial_covariance == model::InitialCovariance::kStationary ? "stationary" : "ctsm";
+  j["initial_covariance"] = internal::InitialCovarianceJson(d);
   j["input_hold"] = d.input_hold == model::InputHold::kFoh ? "foh" : "zoh";
   if (d.robust_huber) j["robust_huber"] = *d.robust_huber;
+  if (!d.ekf.is_null()) j["ekf"] = d.ekf;
 
   auto spec = model::ParseModel(j, source);
   if (!spec) {
@@ -527,12 +527,6 @@ CompileResult Compile(const BlockDiagram& d, const std::string& source) {
 // ---- 4. FromModel ----------------------------------------------------------------------------
 
 Result<BlockDiagram> FromModel(const model::ModelSpec& m) {
-  if (m.initial_covariance == model::InitialCovariance::kExplicit) {
-    Error e = InputError("a diagram cannot hold an explicit initial covariance yet");
-    e.file = m.source;
-    e.path = "initial_covariance";
-    return e;
-  }
   constexpr double kColumn = 220.0;
   constexpr double kRow = 120.0;
   BlockDiagram d;
@@ -540,7 +534,12 @@ Result<BlockDiagram> FromModel(const model::ModelSpec& m) {
   d.parameters = m.parameters;
   d.input_hold = m.input_hold;
   d.initial_covariance = m.initial_covariance;
+  if (m.initial_covariance == model::InitialCovariance::kExplicit) {
+    for (std::size_t i = 0; i < m.states.size() && i < m.initial_variance.size(); ++i)
+      d.initial_variance[m.states[i]] = m.initial_variance[i].text;
+  }
   d.robust_huber = m.robust_huber;
+  if (m.ekf != model::EkfOptions{}) d.ekf = model::ToJson(m)["ekf"];
 
   // What reads what: the states and inputs (in model order) an expression uses, except `self`.
   auto reads = [&](const model::Formula& f, const std::string& self) {

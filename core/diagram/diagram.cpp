@@ -311,6 +311,19 @@ bool ClosesAlgebraicLoop(const BlockDiagram& d, int from_block, int to_block) {
   return false;
 }
 
+Json InitialCovarianceJson(const BlockDiagram& d) {
+  switch (d.initial_covariance) {
+    case model::InitialCovariance::kStationary: return "stationary";
+    case model::InitialCovariance::kExplicit: {
+      Json j = Json::object();
+      for (const auto& [state, variance] : d.initial_variance) j[state] = variance;
+      return j;
+    }
+    case model::InitialCovariance::kCtsm: break;
+  }
+  return "ctsm";
+}
+
 }  // namespace internal
 
 // ---- 3. edits --------------------------------------------------------------------------------
@@ -411,6 +424,7 @@ Status RemoveBlock(BlockDiagram* d, int block) {
   auto it = std::find_if(d->blocks.begin(), d->blocks.end(),
                          [&](const Block& b) { return b.id == block; });
   if (it == d->blocks.end()) return NoSuchBlock(block);
+  if (HoldsState(it->kind)) d->initial_variance.erase(it->name);
   d->blocks.erase(it);
   std::erase_if(d->links,
                 [&](const Link& l) { return l.from.block == block || l.to.block == block; });
@@ -498,6 +512,12 @@ Status RenameBlock(BlockDiagram* d, int block, const std::string& name) {
   if (b->kind == BlockKind::kState) {  // f reads the state by name
     if (auto s = CheckBlock(*d, renamed, b->id); !s)
       return Refuse(s.error().path, s.error().message + " (rename the state in f as well)");
+  }
+  if (HoldsState(b->kind)) {  // the state's initial variance goes with its name
+    if (auto v = d->initial_variance.extract(b->name)) {
+      v.key() = name;
+      d->initial_variance.insert(std::move(v));
+    }
   }
   b->name = name;
   return Ok{};

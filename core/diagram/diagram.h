@@ -155,8 +155,15 @@ struct BlockDiagram {
   std::vector<Block> blocks;                 // in order of creation
   std::vector<Link> links;
   model::InputHold input_hold = model::InputHold::kZoh;
-  model::InitialCovariance initial_covariance = model::InitialCovariance::kCtsm;  // not kExplicit
+  // kCtsm, kStationary, or kExplicit with the initial variance of each state as an expression,
+  // by state name (a model file's "initial_covariance" object; a state without one starts at 0).
+  // Renaming or removing a state block renames or drops its entry.
+  model::InitialCovariance initial_covariance = model::InitialCovariance::kCtsm;
+  std::map<std::string, std::string> initial_variance;
   std::optional<double> robust_huber;
+  // A model file's "ekf" object (how the extended Kalman filter integrates the model), handed to
+  // the compiled model as it is; null when absent. Compile reports what is wrong in it.
+  Json ekf;
   int next_id = 1;  // ids of blocks and links come from one counter
   Layout layout;
 
@@ -228,13 +235,14 @@ CompileResult Compile(const BlockDiagram& d, const std::string& source = "");
 // An equations-only model as a diagram: one input block per input, one general state block per
 // state (in-ports: the other states and inputs its drift reads), a noise block per state with a
 // nonzero diffusion, one output block per output (in-ports: the states and inputs its
-// observation reads); laid out in columns: inputs, noise, states, outputs. Refuses a model with
-// an explicit initial covariance (a diagram cannot hold one yet).
+// observation reads); laid out in columns: inputs, noise, states, outputs. The initial covariance
+// and the "ekf" options are carried over.
 Result<BlockDiagram> FromModel(const model::ModelSpec& m);
 
 // ---- JSON ------------------------------------------------------------------------------------
 //   {"greybench_diagram": 1, "name": ..., "input_hold": "foh", "initial_covariance": "ctsm",
-//    "robust_huber": 3, "parameters": {as in a model file},
+//    "robust_huber": 3, "ekf": {as in a model file}, "parameters": {as in a model file},
+//    (initial_covariance: "ctsm", "stationary" or {state: variance expression, ...})
 //    "blocks": [{"id": 3, "kind": "lag", "name": "mfv", "K": "1", "tau": "tau_fv", "x0": "0"},
 //               {"id": 5, "kind": "sum", "signs": "++"}, {"id": 9, "kind": "delay",
 //               "delay": {"min": 0, "max": 10}}, {"id": 10, "kind": "output", "name": "y",

@@ -28,9 +28,9 @@ Json ToJson(const BlockDiagram& d) {
   j["greybench_diagram"] = 1;
   if (!d.name.empty()) j["name"] = d.name;
   j["input_hold"] = d.input_hold == model::InputHold::kFoh ? "foh" : "zoh";
-  j["initial_covariance"] =
-      d.initial_covariance == model::InitialCovariance::kStationary ? "stationary" : "ctsm";
+  j["initial_covariance"] = internal::InitialCovarianceJson(d);
   if (d.robust_huber) j["robust_huber"] = *d.robust_huber;
+  if (!d.ekf.is_null()) j["ekf"] = d.ekf;
   // The parameter table in the model file's form.
   model::ModelSpec m;
   m.parameters = d.parameters;
@@ -177,6 +177,7 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
                                               "input_hold",
                                               "initial_covariance",
                                               "robust_huber",
+                                              "ekf",
                                               "parameters",
                                               "blocks",
                                               "links",
@@ -213,8 +214,27 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
       d.initial_covariance = model::InitialCovariance::kCtsm;
     else if (v == "stationary")
       d.initial_covariance = model::InitialCovariance::kStationary;
-    else
-      return r.Fail("initial_covariance", "expected \"ctsm\" or \"stationary\"");
+    else if (!v.is_object())
+      return r.Fail("initial_covariance",
+                    "expected \"ctsm\", \"stationary\" or an object of variances by state");
+    for (auto it = v.begin(); v.is_object() && it != v.end(); ++it) {
+      const std::string path = "initial_covariance." + it.key();
+      if (it->is_number()) {
+        d.initial_variance[it.key()] = fmt::format("{}", it->get<double>());
+      } else if (it->is_string()) {
+        d.initial_variance[it.key()] = it->get<std::string>();
+      } else {
+        return r.Fail(path, "expected a variance (a number or an expression), found " +
+                                TypeName(*it));
+      }
+    }
+    if (v.is_object()) d.initial_covariance = model::InitialCovariance::kExplicit;
+  }
+  if (j.contains("ekf")) {
+    if (!j["ekf"].is_object())
+      return r.Fail("ekf", "expected an object such as {\"rtol\": 1e-6}, found " +
+                               TypeName(j["ekf"]));
+    d.ekf = j["ekf"];
   }
   if (j.contains("robust_huber")) {
     const auto& v = j["robust_huber"];

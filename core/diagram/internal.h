@@ -32,4 +32,8 @@ Result<expr::ExprPtr> ParseField(const BlockDiagram& d, const Block& b, const st
 // Whether a link from `from` to `to` closes a cycle through blocks without a state.
 bool ClosesAlgebraicLoop(const BlockDiagram& d, int from_block, int to_block);
 
+// The diagram's initial covariance as a model file writes it: "ctsm", "stationary" or the
+// object of variances by state.
+Json InitialCovarianceJson(const BlockDiagram& d);
+
 }  // namespace gb::diagram::internal

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "core/diagnose/residuals.h"
+#include "core/diagram/diagram.h"
 #include "core/filter/ekf.h"
 #include "core/filter/kalman.h"
 #include "core/filter/predict.h"
@@ -481,6 +482,90 @@ TEST(EngineCase, PredictsAPointNoFitSawWhereTheNearestPerPointModelCannot) {
   EXPECT_GT(linear.simulation_rms[0], 4 * nonlinear.simulation_rms[2]);
   RecordProperty("linear_ljung_box_p", std::to_string(linear.ljung_box_p[0]));
   RecordProperty("linear_simulation_rms", std::to_string(linear.simulation_rms[0]));
+}
+
+TEST(EngineCase, TheBlockDiagramCompilesToTheBundledModel) {
+  // assets/diagrams/engine_mvem.json draws the model: the throttle and port air flows, the film
+  // fraction and the 1/λ at the port as function blocks, the film as a product, a sum and two
+  // lags, the manifold, the crankshaft and the Padé block as state blocks, four noise blocks.
+  // Compiled, it is the model file: the same names, parameters and options, the same drift,
+  // diffusion, observation and variances at random points and parameter values, the same
+  // log-likelihood.
+  auto project = project::LoadProject(kSource + "/assets/projects/engine_mvem_diagram.json");
+  ASSERT_TRUE(project.ok()) << project.error().ToString();
+  auto diagram = diagram::LoadProjectDiagram(*project);
+  ASSERT_TRUE(diagram.ok()) << diagram.error().ToString();
+  const diagram::CompileResult compiled = diagram::Compile(*diagram);
+  ASSERT_TRUE(compiled.ok()) << compiled.Message();
+  const model::ModelSpec& drawn = *compiled.model;
+  auto file = model::LoadModelFile(kSource + "/assets/models/engine_mvem.json");
+  ASSERT_TRUE(file.ok());
+  EXPECT_EQ(drawn.states, file->states);
+  EXPECT_EQ(drawn.inputs, file->inputs);
+  EXPECT_EQ(drawn.outputs, file->outputs);
+  ASSERT_EQ(drawn.parameters.size(), file->parameters.size());
+  for (std::size_t i = 0; i < drawn.parameters.size(); ++i) {
+    const model::Parameter &a = drawn.parameters[i], &b = file->parameters[i];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.value, b.value) << a.name;
+    EXPECT_EQ(a.lower, b.lower) << a.name;
+    EXPECT_EQ(a.upper, b.upper) << a.name;
+  }
+  EXPECT_EQ(drawn.input_hold, file->input_hold);
+  EXPECT_EQ(drawn.ekf, file->ekf);
+  ASSERT_EQ(drawn.initial_covariance, model::InitialCovariance::kExplicit);
+  for (std::size_t i = 0; i < drawn.states.size(); ++i) {
+    EXPECT_EQ(drawn.initial_variance[i].text, file->initial_variance[i].text) << drawn.states[i];
+    EXPECT_EQ(drawn.initial_state[i].text, file->initial_state[i].text) << drawn.states[i];
+  }
+
+  auto a = model::NonlinearModel::Compile(drawn);
+  auto b = model::NonlinearModel::Compile(*file);
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(a->dynamics_size(), b->dynamics_size());
+  ASSERT_EQ(a->measurement_size(), b->measurement_size());
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> U(0, 1);
+  std::vector<double> fa(a->dynamics_size()), fb(fa.size());
+  std::vector<double> ha(a->measurement_size()), hb(ha.size());
+  for (int trial = 0; trial < 50; ++trial) {
+    const std::vector<double> x = {35 + 60 * U(rng), 1500 + 3000 * U(rng), 0.5 + U(rng),
+                                   0.1 + 0.3 * U(rng), 0.5 + U(rng), U(rng) - 0.5,
+                                   20 * (U(rng) - 0.5)};
+    const std::vector<double> u = {15 + 30 * U(rng), 0.5 + U(rng), 50 * U(rng)};
+    std::vector<double> s = Slots(*a, x, u);
+    for (std::size_t k = 0; k < file->parameters.size(); ++k) {  // anywhere within the bounds
+      const model::Parameter& q = file->parameters[k];
+      ASSERT_TRUE(q.lower && q.upper) << q.name;
+      s[static_cast<std::size_t>(a->parameter_slot()) + k] =
+          *q.lower + (*q.upper - *q.lower) * U(rng);
+    }
+    a->Dynamics(s, fa);
+    b->Dynamics(s, fb);
+    a->Measurement(s, ha);
+    b->Measurement(s, hb);
+    for (std::size_t k = 0; k < fa.size(); ++k)
+      EXPECT_NEAR(fa[k], fb[k], 1e-12 * (1 + std::abs(fb[k]))) << "dynamics entry " << k;
+    for (std::size_t k = 0; k < ha.size(); ++k)
+      EXPECT_NEAR(ha[k], hb[k], 1e-12 * (1 + std::abs(hb[k]))) << "measurement entry " << k;
+  }
+
+  // The log-likelihood at the bundled fit on the first 400 rows of a record.
+  const std::string data = testing::ShortenedCopy(kSource + "/assets/data/engine_points.csv", 400);
+  auto loglik = [&](model::ModelSpec spec) {
+    auto delays = project::ApplyResultFile(kSource + "/assets/results/engine_mvem.json", {}, &spec);
+    EXPECT_TRUE(delays.ok());
+    const std::vector<double> theta = spec.Values();
+    auto problem = project::LoadProblem(std::move(spec), {data});
+    EXPECT_TRUE(problem.ok());
+    auto lik = project::MakeLikelihood(*problem);
+    EXPECT_TRUE(lik.ok());
+    auto l = lik->Evaluate(theta);
+    EXPECT_TRUE(l.ok());
+    return l->loglik;
+  };
+  const double la = loglik(drawn), lb = loglik(*file);
+  EXPECT_NEAR(la, lb, 1e-10 * std::abs(lb));
 }
 
 TEST(Engine, PointsParseAndRefuse) {
