@@ -639,6 +639,61 @@ TEST(DiagramJson, RoundTripKeepsEverything) {
   EXPECT_EQ(ToJson(*back), ToJson(*from_model));
 }
 
+TEST(DiagramJson, HoldsAnExplicitInitialCovarianceAndTheEkfOptions) {
+  // The engine's diagram: both options round-trip and reach the compiled model.
+  const BlockDiagram d = LoadDiagram("engine_mvem.json");
+  EXPECT_EQ(d.initial_covariance, model::InitialCovariance::kExplicit);
+  EXPECT_EQ(d.initial_variance.at("n"), "250000");
+  EXPECT_EQ(d.ekf["rtol"], 1e-6);
+  const Json j = ToJson(d);
+  auto back = FromJson(j);
+  ASSERT_TRUE(back.ok()) << back.error().ToString();
+  EXPECT_EQ(ToJson(*back), j);
+  const model::ModelSpec m = CompileOrDie(d);
+  EXPECT_EQ(m.ekf.rtol, 1e-6);
+  EXPECT_EQ(m.ekf.atol, 1e-8);
+  ASSERT_EQ(m.initial_variance.size(), 7u);
+  EXPECT_EQ(m.initial_variance[static_cast<std::size_t>(m.StateIndex("z3"))].text, "100");
+
+  // Renaming a state block takes its variance along; deleting it drops it.
+  BlockDiagram e = d;
+  int mff = 0;
+  for (const Block& b : e.blocks)
+    if (b.name == "mff") mff = b.id;
+  ASSERT_TRUE(RenameBlock(&e, mff, "m_ff"));
+  EXPECT_EQ(e.initial_variance.count("mff"), 0u);
+  EXPECT_EQ(e.initial_variance.at("m_ff"), "0.1");
+  ASSERT_TRUE(RemoveBlock(&e, mff));
+  EXPECT_EQ(e.initial_variance.count("m_ff"), 0u);
+
+  // A model with an explicit initial covariance and EKF options becomes a diagram that keeps
+  // them (it was refused before).
+  auto from_model = FromModel(LoadModel("engine_mvem.json"));
+  ASSERT_TRUE(from_model.ok()) << from_model.error().ToString();
+  const model::ModelSpec again = CompileOrDie(*from_model);
+  EXPECT_EQ(again.ekf, LoadModel("engine_mvem.json").ekf);
+  EXPECT_EQ(again.initial_covariance, model::InitialCovariance::kExplicit);
+
+  // Wrong options are named by their JSON path: when read, or, inside "ekf", when compiled.
+  Json bad = j;
+  bad["initial_covariance"]["p"] = Json::array();
+  auto r = FromJson(bad, "d.json");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().path, "initial_covariance.p");
+  bad = j;
+  bad["ekf"] = 3;
+  r = FromJson(bad, "d.json");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().path, "ekf");
+  bad = j;
+  bad["ekf"]["rtol"] = -1;
+  r = FromJson(bad, "d.json");
+  ASSERT_TRUE(r.ok());
+  const CompileResult c = Compile(*r);
+  ASSERT_FALSE(c.ok());
+  EXPECT_NE(c.Message().find("ekf.rtol"), std::string::npos) << c.Message();
+}
+
 TEST(DiagramJson, ErrorsNameTheJsonPath) {
   Json j = ToJson(LoadDiagram("fuel_film.json"));
   j["blocks"][2]["kind"] = "lagg";
