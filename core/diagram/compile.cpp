@@ -95,6 +95,10 @@ class Compiler {
     std::map<std::string, const Block*> output_names;
     std::set<std::string> params;
     for (const auto& p : d_.parameters) params.insert(p.name);
+    // Links into each in-port (block, index), counted once: a scan per port was O(ports × links).
+    std::map<std::pair<int, int>, int> into;
+    for (const auto& l : d_.links)
+      if (l.to.side == PortSide::kIn) ++into[{l.to.block, l.to.index}];
     for (const auto& b : d_.blocks) {
       const bool named =
           b.kind == BlockKind::kInput || b.kind == BlockKind::kOutput || HoldsState(b.kind);
@@ -122,9 +126,8 @@ class Compiler {
         Report(b, "a sum needs one '+' or '-' per input", -1, "signs");
       const auto ins = InPorts(b);
       for (std::size_t i = 0; i < ins.size(); ++i) {
-        const PortRef ref = In(b.id, static_cast<int>(i));
-        const int n = static_cast<int>(std::count_if(d_.links.begin(), d_.links.end(),
-                                                     [&](const Link& l) { return l.to == ref; }));
+        const auto counted = into.find({b.id, static_cast<int>(i)});
+        const int n = counted == into.end() ? 0 : counted->second;
         if (n == 0 && !ins[i].optional)
           Report(b, fmt::format("in-port '{}' is not connected", ins[i].name), static_cast<int>(i));
         if (n > 1)

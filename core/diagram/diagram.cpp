@@ -192,22 +192,68 @@ std::vector<PortInfo> OutPorts(const Block& b) {
   }
 }
 
-const Block* BlockDiagram::FindBlock(int id) const {
-  for (const auto& b : blocks)
-    if (b.id == id) return &b;
+namespace {
+
+std::uint64_t PortKey(const PortRef& p) {
+  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(p.block)) << 32) |
+         (static_cast<std::uint64_t>(p.side == PortSide::kIn) << 31) |
+         (static_cast<std::uint32_t>(p.index) & 0x7fffffffu);
+}
+
+// The element `map` puts at `key` when `ok` says it is the one asked for; else, when the index
+// is stale (`fresh` false), the first element `ok` accepts, by a scan; else nullptr.
+template <class T, class Key, class Ok>
+const T* Look(const std::vector<T>& v, const std::unordered_map<Key, std::size_t>& map, Key key,
+              bool fresh, Ok ok) {
+  if (auto it = map.find(key); it != map.end() && it->second < v.size() && ok(v[it->second]))
+    return &v[it->second];
+  if (fresh) return nullptr;
+  for (const T& e : v)
+    if (ok(e)) return &e;
   return nullptr;
+}
+
+}  // namespace
+
+const Block* BlockDiagram::FindBlock(int id) const {
+  return Look(blocks, index.block, id, index.blocks == blocks.size(),
+              [id](const Block& b) { return b.id == id; });
 }
 
 const Link* BlockDiagram::FindLink(int id) const {
-  for (const auto& l : links)
-    if (l.id == id) return &l;
-  return nullptr;
+  return Look(links, index.link, id, index.links == links.size(),
+              [id](const Link& l) { return l.id == id; });
 }
 
 const Link* BlockDiagram::LinkInto(const PortRef& in) const {
-  for (const auto& l : links)
-    if (l.to == in) return &l;
-  return nullptr;
+  return Look(links, index.into, PortKey(in), index.links == links.size(),
+              [&in](const Link& l) { return l.to == in; });
+}
+
+void BlockDiagram::AppendedBlock() {
+  if (index.blocks + 1 != blocks.size()) return Reindex();
+  index.block.emplace(blocks.back().id, blocks.size() - 1);
+  index.blocks = blocks.size();
+}
+
+void BlockDiagram::AppendedLink() {
+  if (index.links + 1 != links.size()) return Reindex();
+  index.link.emplace(links.back().id, links.size() - 1);
+  index.into.emplace(PortKey(links.back().to), links.size() - 1);
+  index.links = links.size();
+}
+
+void BlockDiagram::Reindex() {
+  index.block.clear();
+  index.link.clear();
+  index.into.clear();
+  for (std::size_t i = 0; i < blocks.size(); ++i) index.block.emplace(blocks[i].id, i);
+  for (std::size_t i = 0; i < links.size(); ++i) {
+    index.link.emplace(links[i].id, i);
+    index.into.emplace(PortKey(links[i].to), i);  // the first, as a scan finds it
+  }
+  index.blocks = blocks.size();
+  index.links = links.size();
 }
 
 // ---- 2. shared helpers -----------------------------------------------------------------------
@@ -339,9 +385,7 @@ Error Refuse(const std::string& path, std::string message) {
 }
 
 Block* FindMutable(BlockDiagram* d, int id) {
-  for (auto& b : d->blocks)
-    if (b.id == id) return &b;
-  return nullptr;
+  return const_cast<Block*>(d->FindBlock(id));  // NOLINT: d is not const
 }
 
 Error NoSuchBlock(int id) { return Refuse("", fmt::format("there is no block {}", id)); }
@@ -417,6 +461,7 @@ Result<int> AddBlock(BlockDiagram* d, Block block, std::array<double, 2> positio
   ++d->next_id;
   d->layout.positions[block.id] = position;
   d->blocks.push_back(std::move(block));
+  d->AppendedBlock();
   return d->blocks.back().id;
 }
 
@@ -429,6 +474,7 @@ Status RemoveBlock(BlockDiagram* d, int block) {
   std::erase_if(d->links,
                 [&](const Link& l) { return l.from.block == block || l.to.block == block; });
   d->layout.positions.erase(block);
+  d->Reindex();
   return Ok{};
 }
 
@@ -477,12 +523,14 @@ Result<int> Connect(BlockDiagram* d, PortRef from, PortRef to) {
   l.from = from;
   l.to = to;
   d->links.push_back(l);
+  d->AppendedLink();
   return l.id;
 }
 
 Status Disconnect(BlockDiagram* d, int link) {
   const auto n = std::erase_if(d->links, [&](const Link& l) { return l.id == link; });
   if (n == 0) return Refuse("", fmt::format("there is no link {}", link));
+  d->Reindex();
   return Ok{};
 }
 
@@ -557,6 +605,7 @@ Status SetPortNames(BlockDiagram* d, int block, const std::vector<std::string>& 
     for (auto& l : d->links)
       if (l.to.block == block && l.to.index == old_count) l.to.index = new_count;
   b->ports = ports;
+  d->Reindex();
   return Ok{};
 }
 
@@ -570,6 +619,7 @@ Status SetSumSigns(BlockDiagram* d, int block, const std::string& signs) {
   b->signs = signs;
   const int n = static_cast<int>(signs.size());
   std::erase_if(d->links, [&](const Link& l) { return l.to.block == block && l.to.index >= n; });
+  d->Reindex();
   return Ok{};
 }
 

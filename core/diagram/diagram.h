@@ -66,9 +66,11 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "core/model/model.h"
@@ -167,9 +169,21 @@ struct BlockDiagram {
   int next_id = 1;  // ids of blocks and links come from one counter
   Layout layout;
 
+  // Look-ups in O(1) (a diagram of 20 000 blocks opened in seconds with linear ones). They read
+  // `index`, which the edits below and FromJson keep; code that changes `blocks` or `links` by
+  // hand calls Reindex. A look-up never returns a wrong element (each hit is checked), and scans
+  // the vectors when their sizes show that the index is stale.
   const Block* FindBlock(int id) const;  // nullptr if absent
   const Link* FindLink(int id) const;
   const Link* LinkInto(const PortRef& in) const;  // the link holding an in-port, or nullptr
+  void Reindex();
+  void AppendedBlock();  // after blocks.push_back: indexes it (Reindex when the index is stale)
+  void AppendedLink();   // after links.push_back
+  struct Index {
+    std::unordered_map<int, std::size_t> block, link;  // id -> position
+    std::unordered_map<std::uint64_t, std::size_t> into;  // in-port -> its (first) link
+    std::size_t blocks = 0, links = 0;                   // the sizes it was made for
+  } index;
 };
 
 // ---- edits: each applies entirely or refuses with a reason ----------------------------------

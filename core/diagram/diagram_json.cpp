@@ -322,6 +322,7 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
       if (*kind == BlockKind::kOutput && !jb.contains("h"))
         b.fields["h"] = b.ports.size() == 1 ? b.ports[0] : "";
       d.blocks.push_back(std::move(b));
+      d.AppendedBlock();
     }
   }
 
@@ -354,6 +355,7 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
         return r.Fail(path + ".to[1]",
                       fmt::format("{} has no in-port {}", internal::BlockLabel(*b), l.to.index));
       d.links.push_back(l);
+      d.AppendedLink();
     }
   }
 

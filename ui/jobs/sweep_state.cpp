@@ -10,9 +10,10 @@
 namespace gb::ui {
 namespace {
 
-std::string Seconds(const AppState& state, double seconds) {
-  if (state.deterministic) return kElapsedPlaceholder;
-  return FormatFixed(seconds, 1) + " s";
+// `prefix` and the duration, or nothing in a snapshot (deterministic): see app_state.cpp.
+std::string Seconds(const AppState& state, const char* prefix, double seconds) {
+  if (state.deterministic) return "";
+  return prefix + FormatFixed(seconds, 1) + " s";
 }
 
 bool HasParameter(const model::ModelSpec& spec, const std::string& name) {
@@ -54,7 +55,7 @@ void InstallSweep(AppState& state, SweepRun run) {
     return;
   }
   if (run.result->cancelled) {
-    s.last_failure = "The sweep was cancelled after " + Seconds(state, elapsed) + " (" +
+    s.last_failure = "The sweep was cancelled" + Seconds(state, " after ", elapsed) + " (" +
                      std::to_string(run.result->rows.size()) + " of " + std::to_string(n) +
                      " points fitted)";
     s.last_failure_is_error = false;
@@ -68,8 +69,8 @@ void InstallSweep(AppState& state, SweepRun run) {
   const bool all = converged == static_cast<long>(rows.size());
   AddMessage(state, all ? Severity::kInfo : Severity::kWarning,
              "Sweep finished: " + std::to_string(rows.size()) + " operating points, " +
-                 (all ? "all converged" : std::to_string(converged) + " converged") + ", " +
-                 Seconds(state, elapsed));
+                 (all ? "all converged" : std::to_string(converged) + " converged") +
+                 Seconds(state, ", ", elapsed));
   s.last_failure.clear();
   project::OperatingPointsSpec points = s.spec ? *s.spec : project::OperatingPointsSpec{};
   // The trend keeps the user's choice when the new sweep has it, else the project's.

@@ -79,11 +79,13 @@ std::string FileName(const std::string& path) {
   return std::filesystem::path(path).filename().string();
 }
 
-std::string Seconds(const AppState& state, double seconds) {
-  if (state.deterministic) return kElapsedPlaceholder;
+// " after 1.2 s", ", 1.2 s": `prefix` and the duration, or nothing in a snapshot (deterministic),
+// whose messages must not depend on the machine and have no use for a placeholder.
+std::string Seconds(const AppState& state, const char* prefix, double seconds) {
+  if (state.deterministic) return "";
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.1f s", seconds);
-  return buf;
+  return prefix + std::string(buf);
 }
 
 void InstallProject(AppState& state, ProjectLoad load) {
@@ -142,7 +144,8 @@ void InstallEstimation(AppState& state, EstimationRun run) {
     return;
   }
   if (run.summary->cancelled) {
-    e.last_failure = "The estimation was cancelled after " + Seconds(state, run.summary->elapsed_s);
+    e.last_failure =
+        "The estimation was cancelled" + Seconds(state, " after ", run.summary->elapsed_s);
     e.last_failure_severity = Severity::kWarning;
     AddMessage(state, Severity::kWarning,
                e.last_failure + (e.result ? "; the previous results are kept" : ""));
@@ -153,7 +156,7 @@ void InstallEstimation(AppState& state, EstimationRun run) {
   std::string text =
       std::string(s.converged ? "Estimation converged" : "Estimation did NOT converge") +
       ": log L = " + FormatSig(s.loglik, 6) + ", " + std::to_string(s.iterations) +
-      " iterations, " + Seconds(state, s.elapsed_s);
+      " iterations" + Seconds(state, ", ", s.elapsed_s);
   if (!s.warnings.empty()) {
     text += " (" + std::to_string(s.warnings.size()) +
             (s.warnings.size() == 1 ? " warning)" : " warnings)");

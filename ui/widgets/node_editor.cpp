@@ -13,6 +13,8 @@
 #include <cfloat>
 #include <cmath>
 #include <cstdio>
+#include <unordered_map>
+#include <unordered_set>
 
 namespace gb::ui::node_editor {
 
@@ -198,12 +200,14 @@ LinkShape LinkCurve(ImVec2 from, ImVec2 to) {
 
 std::vector<LinkShape> LayoutLinks(const diagram::BlockDiagram& d,
                                    const std::vector<BlockShape>& blocks) {
+  std::unordered_map<int, const BlockShape*> by_id;  // a scan per link was O(links × blocks)
+  by_id.reserve(blocks.size());
+  for (const BlockShape& b : blocks) by_id.emplace(b.id, &b);
   auto find_port = [&](const PortRef& ref) -> const PortShape* {
-    for (const BlockShape& b : blocks) {
-      if (b.id != ref.block) continue;
-      for (const PortShape& p : b.ports)
-        if (p.ref == ref) return &p;
-    }
+    auto it = by_id.find(ref.block);
+    if (it == by_id.end()) return nullptr;
+    for (const PortShape& p : it->second->ports)
+      if (p.ref == ref) return &p;
     return nullptr;
   };
   std::vector<LinkShape> links;
@@ -413,7 +417,16 @@ struct Frame {
   ImDrawList* dl = nullptr;
   Colours colours;
   bool hovered = false;
+  // The selection as sets (NoteSelection), for the per-block and per-link tests of a frame.
+  std::unordered_set<int> selected_blocks{}, selected_links{};
 };
+
+void NoteSelection(Frame& f) {
+  f.selected_blocks = {f.ctx.selected_blocks.begin(), f.ctx.selected_blocks.end()};
+  f.selected_links = {f.ctx.selected_links.begin(), f.ctx.selected_links.end()};
+}
+
+bool Selected(const Frame& f, int block) { return f.selected_blocks.count(block) > 0; }
 
 ImVec2 MoveOffset(const Frame& f) {
   if (f.ctx.drag != EditorContext::Drag::kMove) return ImVec2(0, 0);
@@ -426,6 +439,7 @@ void SaveTransform(Frame& f) {
 }
 
 void DeleteSelection(Frame& f) {
+  NoteSelection(f);
   for (int id : f.ctx.selected_blocks) {
     DiagramEdit e;
     e.kind = DiagramEditKind::kRemoveBlock;
@@ -434,7 +448,7 @@ void DeleteSelection(Frame& f) {
   }
   for (int id : f.ctx.selected_links) {
     const diagram::Link* l = f.d.FindLink(id);
-    if (!l || f.ctx.IsSelected(l->from.block) || f.ctx.IsSelected(l->to.block)) continue;
+    if (!l || Selected(f, l->from.block) || Selected(f, l->to.block)) continue;
     DiagramEdit e;
     e.kind = DiagramEditKind::kDisconnect;
     e.id = id;
@@ -670,7 +684,7 @@ void DrawBlock(const Frame& f, const BlockShape& s, ImVec2 offset) {
   const ImVec2 min = f.t.ToScreen(Add(s.min, offset));
   const ImVec2 max = f.t.ToScreen(Add(s.max, offset));
   const float rounding = 4.0f * z;
-  const bool selected = f.ctx.IsSelected(s.id);
+  const bool selected = Selected(f, s.id);
   const bool problem = BlockHasProblem(f, s.id);
   f.dl->AddRectFilled(Add(min, ImVec2(2 * z, 2 * z)), Add(max, ImVec2(2 * z, 2 * z)),
                       IM_COL32(0, 0, 0, 18), rounding);
@@ -754,6 +768,7 @@ void DrawTooltip(const Frame& f) {
 }
 
 void Draw(Frame& f) {
+  NoteSelection(f);
   DrawGrid(f);
   const ImVec2 offset = MoveOffset(f);
   const bool moving = f.ctx.drag == EditorContext::Drag::kMove;
@@ -761,21 +776,20 @@ void Draw(Frame& f) {
     LinkShape shown = l;
     if (moving) {  // links follow the blocks being dragged
       const diagram::Link* link = f.d.FindLink(l.id);
-      if (link && f.ctx.IsSelected(link->from.block)) shown.p0 = Add(shown.p0, offset);
-      if (link && f.ctx.IsSelected(link->to.block)) shown.p3 = Add(shown.p3, offset);
+      if (link && Selected(f, link->from.block)) shown.p0 = Add(shown.p0, offset);
+      if (link && Selected(f, link->to.block)) shown.p3 = Add(shown.p3, offset);
       const LinkShape curve = LinkCurve(shown.p0, shown.p3);
       shown.p1 = curve.p1;
       shown.p2 = curve.p2;
     }
-    const bool selected = std::find(f.ctx.selected_links.begin(), f.ctx.selected_links.end(),
-                                    l.id) != f.ctx.selected_links.end();
+    const bool selected = f.selected_links.count(l.id) > 0;
     const ImU32 colour = selected                     ? f.colours.selected
                          : l.type == PortType::kNoise ? f.colours.noise_link
                                                       : f.colours.link;
     DrawCurve(f, shown, colour, (selected ? 3.0f : 1.6f) * std::sqrt(f.t.zoom), true);
   }
   for (const BlockShape& s : f.blocks)
-    DrawBlock(f, s, moving && f.ctx.IsSelected(s.id) ? offset : ImVec2(0, 0));
+    DrawBlock(f, s, moving && Selected(f, s.id) ? offset : ImVec2(0, 0));
 
   const ImVec2 mouse = ImGui::GetIO().MousePos;
   if (f.ctx.drag == EditorContext::Drag::kLink) {
