@@ -258,6 +258,9 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
   state.analysis.show_ahead = options.ahead;
   state.analysis.show_simulation = options.simulation;
   state.analysis.show_smoothed = options.smoothed;
+  state.analysis.enabled = Shows(options, ui::View::kData) ||
+                           Shows(options, ui::View::kPredictions) ||
+                           Shows(options, ui::View::kResiduals);
   ui::OpenProject(state, options.project);
   ui::WaitForJobs(state);
   if (!state.project) return Fail(kExitBadInput, state.open_error);

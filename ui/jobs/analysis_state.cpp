@@ -109,7 +109,8 @@ std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state, std::st
 void PollAnalysis(AppState& state) {
   AnalysisState& a = state.analysis;
   if (std::optional<AnalysisRun> run = a.job.TakeIfReady()) InstallAnalysis(state, std::move(*run));
-  const std::optional<AnalysisRequest> want = AnalysisRequestNow(state);
+  std::optional<AnalysisRequest> want = AnalysisRequestNow(state);
+  if (!a.enabled) want.reset();
   if (a.job.active()) {
     if (!want || !a.running || *want != *a.running) a.job.RequestCancel();
     return;

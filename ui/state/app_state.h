@@ -124,6 +124,10 @@ struct EstimationState {
 // changes (PollJobs); and what the Predictions and Residuals views let the user choose.
 struct AnalysisState {
   Job<AnalysisRun> job;
+  // Whether PollJobs computes it. The workbench always does (in the background); a snapshot
+  // only when it draws a view that shows it (data, predictions, residuals), so that it does not
+  // wait for filtering and smoothing every record to draw the equations or the diagram.
+  bool enabled = true;
   std::optional<AnalysisRequest> running;    // the request of the job under way
   std::optional<AnalysisRequest> attempted;  // the last request started, whatever its outcome
   bool cancel_requested = false;             // by the user (not superseded by a newer request)
