@@ -381,5 +381,48 @@ TEST_F(MissingOutputs, NothingCrashesAndTheUnusableDatasetSaysWhy) {
   }
 }
 
+TEST(WorkbenchAnalysis, PredictionsOpenWhereSamplesCanBeToldApartAndADoubleClickShowsAll) {
+  // A 10 000-sample PRBS record drawn whole is a solid band: the time axis of the Predictions
+  // and Residuals views opens on its first kInitialTimeWindow samples (3 s of the case study,
+  // some 4 pixels a sample), says so, and a double-click on a time plot shows the whole record.
+  WorkbenchDriver d;
+  d.Open(kCaseStudy);
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.analysis.result) << d.state.analysis.last_failure;
+  d.state.view = View::kPredictions;
+  for (int i = 0; i < 3; ++i) d.Frame();
+  const DatasetAnalysis& ds = d.state.analysis.result->datasets[0];
+  ASSERT_GT(ds.time.size(), 5u * static_cast<std::size_t>(kInitialTimeWindow));
+  const plot::Range& x = d.state.analysis.time_x.range;
+  EXPECT_EQ(x.min, ds.time.front());
+  EXPECT_EQ(x.max, ds.time[static_cast<std::size_t>(kInitialTimeWindow) - 1]);
+  const std::string hint = "double-click a time plot for the whole record";
+  EXPECT_NE(d.Text().find(hint), std::string::npos) << d.Text();
+
+  // Double-click in the plot: press, release, press, release in place.
+  ImGuiWindow* view = WorkbenchDriver::ViewWindow();
+  ASSERT_NE(view, nullptr);
+  const ImRect r = view->Rect();
+  d.MouseTo(ImVec2(0.5f * (r.Min.x + r.Max.x), r.Min.y + 0.6f * r.GetHeight()));
+  d.Press();
+  d.Release();
+  d.Press();
+  d.Release();
+  d.Frame();
+  EXPECT_LE(x.min, ds.time.front());
+  EXPECT_GE(x.max, ds.time.back());
+  EXPECT_EQ(d.Text().find(hint), std::string::npos);
+
+  // The Residuals view shares the axis; choosing a dataset (the selector calls OpenTimeWindow)
+  // opens on its first samples again.
+  d.state.view = View::kResiduals;
+  d.Frame();
+  EXPECT_GE(x.max, ds.time.back());
+  OpenTimeWindow(d.state.analysis);
+  d.Frame();
+  EXPECT_EQ(x.max, ds.time[static_cast<std::size_t>(kInitialTimeWindow) - 1]);
+  EXPECT_NE(d.Text().find(hint), std::string::npos);
+}
+
 }  // namespace
 }  // namespace gb::ui

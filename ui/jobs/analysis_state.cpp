@@ -60,6 +60,7 @@ void InstallAnalysis(AppState& state, AnalysisRun run) {
       a.qq_x.RequestFit();
     } else {
       a.RequestFit();
+      OpenTimeWindow(a);
     }
     return;
   }
@@ -78,6 +79,19 @@ void InstallAnalysis(AppState& state, AnalysisRun run) {
 }
 
 }  // namespace
+
+void OpenTimeWindow(AnalysisState& a) {
+  const Analysis* r = a.result ? &*a.result : nullptr;
+  const auto k = static_cast<std::size_t>(a.dataset);
+  if (!r || k >= r->datasets.size() ||
+      r->datasets[k].time.size() <= static_cast<std::size_t>(kInitialTimeWindow)) {
+    a.time_x.RequestFit();
+    return;
+  }
+  const std::vector<double>& t = r->datasets[k].time;
+  a.time_x.fit_request_frame = plot::LinkedRange::kNoFit;
+  a.time_x.range = {t.front(), t[static_cast<std::size_t>(kInitialTimeWindow) - 1]};
+}
 
 std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state, std::string* why) {
   auto refuse = [why](std::string reason) -> std::optional<AnalysisRequest> {

@@ -51,6 +51,7 @@ void DrawDatasetSelector(AppState& state, const Analysis* r) {
       if (ImGui::Selectable(label.c_str(), i == a.dataset) && i != a.dataset) {
         a.dataset = i;
         a.RequestFit();
+        OpenTimeWindow(a);
       }
     }
     ImGui::EndCombo();
@@ -59,6 +60,26 @@ void DrawDatasetSelector(AppState& state, const Analysis* r) {
 }
 
 // The toggle between the fit's estimates and the model's values, and the job's state.
+// "Showing t = 0 … 2.99 of 0 … 125: double-click ...", while the time axis shows part of the
+// record (OpenTimeWindow opens it so).
+void DrawWindowHint(const AppState& state, const Analysis& r) {
+  const AnalysisState& a = state.analysis;
+  const auto k = static_cast<std::size_t>(a.dataset);
+  if (k >= r.datasets.size() || r.datasets[k].time.size() < 2) return;
+  const DatasetAnalysis& d = r.datasets[k];
+  const plot::Range& x = a.time_x.range;
+  const double lo = d.time.front(), hi = d.time.back();
+  if (x.min <= lo && x.max >= hi) return;
+  const std::string text = "Showing " + d.time_name + " = " + FormatSig(std::max(x.min, lo), 4) +
+                           " \xE2\x80\xA6 " + FormatSig(std::min(x.max, hi), 4) + " of " +
+                           FormatSig(lo, 4) + " \xE2\x80\xA6 " + FormatSig(hi, 4) +
+                           ": double-click a time plot for the whole record (wheel: zoom, "
+                           "drag: pan).";
+  ImGui::PushTextWrapPos(0.0f);
+  ImGui::TextDisabled("%s", text.c_str());
+  ImGui::PopTextWrapPos();
+}
+
 void DrawControls(AppState& state) {
   AnalysisState& a = state.analysis;
   const bool has_fit = state.estimation.result.has_value();
@@ -108,6 +129,7 @@ const DatasetAnalysis* DrawAnalysisHeader(AppState& state, bool (*view_controls)
     ImGui::PushTextWrapPos(0.0f);
     ImGui::TextDisabled("%s", SourceText(state, *r).c_str());
     ImGui::PopTextWrapPos();
+    DrawWindowHint(state, *r);
   }
   if (!running && !a.last_failure.empty()) {
     std::string text = a.last_failure;

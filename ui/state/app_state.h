@@ -315,6 +315,12 @@ void SelectTrend(AppState& state, const std::string& parameter, const std::strin
 std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state,
                                                   std::string* why = nullptr);
 void PollAnalysis(AppState& state);
+// The predictions' and residuals' time axis opens on the first kInitialTimeWindow samples of the
+// dataset shown, where single samples can be told apart (as in the paper's Fig. 6; a whole PRBS
+// record reads as a solid band); a double-click on a time plot fits the whole record. Records
+// that short are shown whole.
+inline constexpr int kInitialTimeWindow = 240;
+void OpenTimeWindow(AnalysisState& a);
 void CancelAnalysis(AppState& state);
 void RecomputeAnalysis(AppState& state);
 bool AnalysisRunning(const AppState& state);
