@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "core/diagram/diagram.h"
 #include "core/model/model.h"
 #include "core/project/project.h"
 #include "tests/ui/workbench_driver.h"
@@ -388,6 +389,62 @@ TEST_F(ShellTest, AddDatasetAndReplaceModelAreSavedWithTheProject) {
   ASSERT_TRUE(raw.ok());
   EXPECT_EQ((*raw)["model"], "other_model.json");
   EXPECT_EQ((*raw)["datasets"], Json::array({"f1.csv", "f1_copy.csv"}));
+}
+
+TEST_F(ShellTest, AProjectKeepsItsDiagramFileWhenSavedUnlessTheUserChoosesInline) {
+  // A project naming its diagram by a file: an edit, then Save writes the diagram to that file and
+  // the project keeps the path (it used to write the diagram inline and drop the path); Save As
+  // into another folder keeps it relative to the new place; unticked, the diagram goes inline.
+  fs::create_directories(dir() / "work/diagrams");
+  fs::copy_file(fs::path(GREYBENCH_SOURCE_DIR) / "assets/diagrams/fuel_film.json",
+                dir() / "work/diagrams/film.json");
+  auto raw = project::ReadJsonFile(project());
+  ASSERT_TRUE(raw.ok());
+  (*raw)["diagram"] = "diagrams/film.json";
+  ASSERT_TRUE(project::WriteFileAtomic(project(), raw->dump(1)).ok());
+
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  ASSERT_TRUE(d.state.diagram_view.diagram) << d.state.diagram_view.error;
+  EXPECT_EQ(d.state.diagram_view.file, (dir() / "work/diagrams/film.json").string());
+  d.state.view = View::kDiagram;
+  d.Frame();
+  const int block = d.state.diagram_view.diagram->blocks.front().id;
+  DiagramEdit move;
+  move.kind = DiagramEditKind::kMove;
+  move.id = block;
+  move.position = {1234.0, 567.0};
+  d.state.diagram_view.pending.push_back(move);
+  d.Frame();
+  ASSERT_TRUE(HasUnsavedChanges(d.state));
+  ASSERT_TRUE(SaveCurrentProject(d.state).ok());
+  raw = project::ReadJsonFile(project());
+  ASSERT_TRUE(raw.ok());
+  EXPECT_EQ((*raw)["diagram"], "diagrams/film.json");
+  auto file = diagram::LoadDiagramFile((dir() / "work/diagrams/film.json").string());
+  ASSERT_TRUE(file.ok()) << file.error().ToString();
+  EXPECT_EQ(file->layout.positions.at(block), (std::array<double, 2>{1234.0, 567.0}));
+
+  // Save As elsewhere: the same file, named from the new folder.
+  fs::create_directories(dir() / "other");
+  ASSERT_TRUE(SaveProjectAs(d.state, (dir() / "other/copy.json").string()).ok());
+  raw = project::ReadJsonFile((dir() / "other/copy.json").string());
+  ASSERT_TRUE(raw.ok());
+  EXPECT_EQ((*raw)["diagram"], "../work/diagrams/film.json");
+
+  // Unticked: inline, and the file is left as it was.
+  d.state.diagram_view.keep_file = false;
+  move.position = {1.0, 2.0};
+  d.state.diagram_view.pending.push_back(move);
+  d.Frame();
+  ASSERT_TRUE(SaveCurrentProject(d.state).ok());
+  raw = project::ReadJsonFile((dir() / "other/copy.json").string());
+  ASSERT_TRUE(raw.ok());
+  ASSERT_TRUE((*raw)["diagram"].is_object());
+  EXPECT_EQ((*raw)["diagram"]["layout"][std::to_string(block)], Json::array({1.0, 2.0}));
+  file = diagram::LoadDiagramFile((dir() / "work/diagrams/film.json").string());
+  ASSERT_TRUE(file.ok());
+  EXPECT_EQ(file->layout.positions.at(block), (std::array<double, 2>{1234.0, 567.0}));
 }
 
 TEST_F(ShellTest, NewProjectWritesTheProjectFileAndOpensIt) {

@@ -1,5 +1,6 @@
 #include "ui/edits/diagram_view.h"
 
+#include <filesystem>
 #include <utility>
 
 #include "ui/state/app_state.h"
@@ -50,6 +51,12 @@ void InstallDiagram(AppState& state) {
   v.synced_revision = state.model_revision;
   if (!state.project) return;
   if (HasDiagramKey(*state.project)) {
+    if (const Json& key = state.project->extra["diagram"]; key.is_string()) {
+      v.file = std::filesystem::path(
+                   project::ResolvePath(state.project->base_dir, key.get<std::string>()))
+                   .lexically_normal()
+                   .string();
+    }
     Result<diagram::BlockDiagram> d = diagram::LoadProjectDiagram(*state.project);
     if (!d) {
       v.error = d.error().ToString();

@@ -40,6 +40,11 @@ struct DiagramViewState {
   std::optional<diagram::BlockDiagram> diagram;
   bool from_model = false;
   bool model_from_diagram = false;         // state.model is the diagram's compiled model
+  // The diagram file the project names ("diagram": "PATH"), absolute; "" for an inline diagram
+  // or FromModel's picture. Saving the project writes the diagram to it and keeps the path,
+  // unless the user unticked `keep_file` (then the diagram is written into the project file).
+  std::string file;
+  bool keep_file = true;
   std::string error;                       // why there is no diagram
   std::vector<diagram::Problem> problems;  // of the last compile
   std::vector<diagram::BlockDiagram> undo, redo;

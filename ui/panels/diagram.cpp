@@ -248,6 +248,24 @@ void DrawToolbar(AppState& state) {
   } else {
     ImGui::TextColored(SeverityColor(severity), "%s", status.c_str());
   }
+  // Where saving puts the diagram: its own file (the project keeps the path), or the project.
+  if (!v.file.empty() && !v.from_model) {
+    ImGui::SameLine(0, 16.0f * state.fonts.scale);
+    bool keep = v.keep_file;
+    const std::string label = "Save in " + FileName(v.file);
+    if (ImGui::Checkbox(label.c_str(), &keep)) {
+      v.keep_file = keep;
+      ++state.layout_revision;  // an unsaved change: where the diagram goes
+    }
+    if (ImGui::IsItemHovered()) {
+      ImGui::SetTooltip("%s", (keep ? "Saving the project writes the diagram to " + v.file +
+                                          " and keeps its path in the project file; untick to "
+                                          "write the diagram into the project file instead"
+                                    : "Saving the project writes the diagram into the project "
+                                      "file; tick to keep it in " + v.file)
+                                  .c_str());
+    }
+  }
   // Refusals of canvas edits (links, deletes) have no field to sit next to.
   if (v.refusal && v.refusal->field.empty()) {
     ImGui::TextColored(SeverityColor(Severity::kError), "Refused: %s", v.refusal->reason.c_str());

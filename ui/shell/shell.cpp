@@ -672,10 +672,29 @@ std::string WindowTitle(const AppState& state) {
          (HasUnsavedChanges(state) ? " *" : "");
 }
 
+// A diagram the project names by its file stays in that file: the diagram as it is now is written
+// there (when it changed) and the project keeps the path, relative to `target`'s folder.
+Status KeepDiagramFile(const AppState& state, const std::string& target, project::Project* p) {
+  const DiagramViewState& v = state.diagram_view;
+  if (v.file.empty() || !v.keep_file || !v.diagram || !p->extra.is_object() ||
+      !p->extra.contains("diagram"))
+    return Ok{};
+  const std::string text = diagram::ToJson(*v.diagram).dump(1) + "\n";
+  Result<Json> on_disk = project::ReadJsonFile(v.file);
+  if (!on_disk || on_disk->dump(1) + "\n" != text) {
+    if (Status st = project::WriteFileAtomic(v.file, text); !st) return st;
+  }
+  std::error_code ec;
+  const fs::path relative = fs::relative(v.file, fs::path(target).parent_path(), ec);
+  p->extra["diagram"] = ec || relative.empty() ? v.file : relative.generic_string();
+  return Ok{};
+}
+
 Status SaveProjectAs(AppState& state, const std::string& path) {
   if (!state.project) return InputError("no project is open");
   const std::string target = Absolute(path);
   project::Project p = ProjectToSave(state);
+  if (Status st = KeepDiagramFile(state, target, &p); !st) return st;
   if (Status st = project::SaveProject(p, target); !st) return st;
   const std::string old_path = state.project->path;
   p.path = target;
