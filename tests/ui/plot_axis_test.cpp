@@ -30,8 +30,8 @@ TEST(NiceTicks, TicksAreInsideTheRangeEquallySpacedAndAtMostAsMany) {
   const Range r{-3.7, 12.2};
   for (int max_ticks = 2; max_ticks < 15; ++max_ticks) {
     const Ticks t = NiceTicks(r, max_ticks);
-    ASSERT_GE(t.values.size(), 1u);
-    EXPECT_LE(static_cast<int>(t.values.size()), max_ticks);
+    ASSERT_GE(t.values.size(), 3u);
+    EXPECT_LE(static_cast<int>(t.values.size()), std::max(max_ticks, kMinTicks));
     for (std::size_t i = 0; i < t.values.size(); ++i) {
       EXPECT_TRUE(r.Contains(t.values[i]));
       if (i > 0) {
@@ -57,8 +57,9 @@ std::vector<std::pair<double, int>> AllStepsAndCounts(Range r) {
   return out;
 }
 
-TEST(NiceTicks, NeverASingleTickAndNoMoreThanAskedUnlessNoStepGivesTwoToThatMany) {
-  // Found in the QQ and residual plots: a short axis with room for two labels got one.
+TEST(NiceTicks, NeverFewerThanThreeAndNoMoreThanAskedUnlessNoStepGivesThreeToThatMany) {
+  // Found in the QQ and residual plots: a short axis with room for two labels got one; every
+  // axis now shows at least three.
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> centre(-5.0, 5.0), log_span(-6.0, 6.0);
   for (int trial = 0; trial < 2000; ++trial) {
@@ -67,18 +68,18 @@ TEST(NiceTicks, NeverASingleTickAndNoMoreThanAskedUnlessNoStepGivesTwoToThatMany
     const Range r{lo, lo + span};
     for (int max_ticks = 2; max_ticks <= 6; ++max_ticks) {
       const Ticks t = NiceTicks(r, max_ticks);
-      ASSERT_GE(t.values.size(), 2u) << r.min << " " << r.max << " max " << max_ticks;
+      ASSERT_GE(t.values.size(), 3u) << r.min << " " << r.max << " max " << max_ticks;
       bool some_step_fits = false;
       for (const auto& [step, n] : AllStepsAndCounts(r))
-        if (n >= 2 && n <= max_ticks) some_step_fits = true;
+        if (n >= 3 && n <= max_ticks) some_step_fits = true;
       if (some_step_fits) {
         EXPECT_LE(static_cast<int>(t.values.size()), max_ticks) << r.min << " " << r.max;
       }
-      // Over the limit only when no larger step gives two ticks.
-      if (static_cast<int>(t.values.size()) > max_ticks) {
+      // Over the limit only when no larger step gives three ticks.
+      if (static_cast<int>(t.values.size()) > std::max(max_ticks, 3)) {
         for (const auto& [step, n] : AllStepsAndCounts(r)) {
           if (step > t.step * (1 + 1e-9)) {
-            EXPECT_LT(n, 2) << "step " << step << " gives " << n;
+            EXPECT_LT(n, 3) << "step " << step << " gives " << n;
           }
         }
       }

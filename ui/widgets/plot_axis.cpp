@@ -56,15 +56,16 @@ Ticks NiceTicks(Range range, int max_ticks) {
   Ticks ticks;
   const double span = range.Span();
   if (!std::isfinite(range.min) || !std::isfinite(range.max) || !(span > 0.0)) return ticks;
-  max_ticks = std::max(2, max_ticks);
+  max_ticks = std::max(kMinTicks, max_ticks);
 
   ticks.step = NiceStep(span, max_ticks);
   ticks.values = Multiples(range, ticks.step);
-  // One label alone shows no scale. A short axis, 0.13 to 0.71 with room for two labels, gets
-  // the step 1 and no tick at all; smaller steps are taken until two ticks fit. NiceStep's step
-  // is at most 2.5 times the span and each step down divides it by 2 or 2.5, so three steps
-  // down reach half the span, where two ticks always fit.
-  for (int i = 0; i < 4 && ticks.values.size() < 2; ++i) {
+  // One or two labels show little of the scale (a short QQ or residual plot ended with one).
+  // A short axis, 0.13 to 0.71 with room for two labels, gets the step 1 and no tick at all;
+  // smaller steps are taken until kMinTicks fit. NiceStep's step is at most 2.5 times the span
+  // and each step down divides it by 2 or 2.5, so five steps down reach a third of the span,
+  // where three ticks always fit.
+  for (int i = 0; i < 6 && ticks.values.size() < static_cast<std::size_t>(kMinTicks); ++i) {
     ticks.step = SmallerStep(ticks.step);
     ticks.values = Multiples(range, ticks.step);
   }

@@ -29,9 +29,11 @@ struct Ticks {
 };
 
 // Ticks at multiples of a 1-2-5 step inside `range`: the largest step that gives at most
-// `max_ticks` of them (at least 2 are asked for), except that a single tick shows no scale, so
-// when that step gives fewer than two the step shrinks until two fit (a short axis may then get
-// more than max_ticks). A range that is empty, inverted or not finite gives no ticks.
+// `max_ticks` of them (at least kMinTicks are asked for), except that every axis shows at least
+// kMinTicks labels, so when that step gives fewer the step shrinks until kMinTicks fit (a short
+// axis may then get more than max_ticks). A range that is empty, inverted or not finite gives no
+// ticks.
+inline constexpr int kMinTicks = 3;
 Ticks NiceTicks(Range range, int max_ticks);
 
 // The label of one tick value ("0.25", "-3", "1.5").
