@@ -132,9 +132,14 @@ bool WriteScreenshot(GLFWwindow* window, const std::string& path) {
 
 int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
   namespace ui = gb::ui;
-  float xscale = 1.0f, yscale = 1.0f;
-  glfwGetWindowContentScale(window, &xscale, &yscale);
-  const float scale = std::clamp(std::max(xscale, yscale), 1.0f, 4.0f);
+  // The monitor's content scale (its DPI over 96), within limits; read again every frame, so a
+  // window moved to a monitor of another DPI gets its fonts and style rebuilt for it.
+  auto content_scale = [window] {
+    float xscale = 1.0f, yscale = 1.0f;
+    glfwGetWindowContentScale(window, &xscale, &yscale);
+    return std::clamp(std::max(xscale, yscale), 1.0f, 4.0f);
+  };
+  float scale = content_scale();
 
   ui::AppState state;
   ui::SetUpWorkbench(state, scale);
@@ -180,8 +185,10 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
       if (glfwGetTime() - t0 < 0.9 * kIdleWaitSeconds) busy_frames = kFramesAfterInput;
     }
 
-    if (state.shell.zoom != zoom) {  // View > Zoom: fonts and style rebuilt at the new scale
+    // View > Zoom, or another monitor's DPI: fonts and style rebuilt at the new scale.
+    if (const float now = content_scale(); state.shell.zoom != zoom || now != scale) {
       zoom = state.shell.zoom;
+      scale = now;
       ImGui::GetIO().Fonts->Clear();
       ui::SetUpWorkbench(state, scale * zoom);
       ImGui_ImplOpenGL3_DestroyFontsTexture();
