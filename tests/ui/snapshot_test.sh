@@ -156,15 +156,17 @@ case "$case_name" in
     # line and the dark measurement markers; residuals, the verdict's stripe and word, red
     # ("not white") at the start values and green ("white and normal") at the estimates.
     # Under the sanitizers (GREYBENCH_SANITIZED=1, set by tests/ui/CMakeLists.txt) the test
-    # project only: the estimated case study's views are drawn there by ui.golden.render-estimated,
-    # and its verdict (a statistical outcome) is the release suite's to check.
+    # project only, with and without a fit (the same code): the estimated case study's views are
+    # the release suite's goldens, and its verdict (a statistical outcome) its check.
     source_dir="$7"
     projects=("$project")
     [[ ${GREYBENCH_SANITIZED:-0} == 1 ]] || projects+=("$source_dir/assets/projects/case_study.json")
     for p in "${projects[@]}"; do
       name="$case_name-$(basename "$p" .json)"
       if [[ $case_name == predictions ]]; then
-        no_fit=(--colour 1f77b4:1000 --colour 3c4048:200); fit=("${no_fit[@]}")
+        # The one-step prediction's exact blue: some 1000 pixels over the view's opening
+        # window of 240 samples (a smooth line; the whole record's zigzag drew more).
+        no_fit=(--colour 1f77b4:500 --colour 3c4048:200); fit=("${no_fit[@]}")
       else
         no_fit=(--colour c72929:200); fit=(--colour 228b22:200)
       fi
