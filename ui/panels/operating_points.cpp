@@ -246,6 +246,20 @@ void DrawTable(AppState& state, const SweepFigures& f) {
 // ---------------------------------------------------------------------------------------------
 // 3. Plots
 
+// The linearised nonlinear fit's markers ± 1 SE at `x` (drawn beside the per-point ones: the
+// arrays live in the figures until EndPlot draws them). Nothing when there are none.
+void PlotLinearised(AppState& state, const std::vector<double>& x, const std::vector<double>& y,
+                    const std::vector<double>& se) {
+  if (x.empty()) return;
+  plot::ItemStyle lin;
+  lin.color = kLinearisedColor;
+  lin.marker_radius = 3.5f;
+  const int n = static_cast<int>(x.size());
+  plot::PlotErrorBars(state.plots, "linearised nonlinear fit \xC2\xB1 1 SE", x.data(), y.data(),
+                      se.data(), n, lin);
+  plot::PlotMarkers(state.plots, "##linearised", x.data(), y.data(), n, lin);
+}
+
 void DrawDelayPlot(AppState& state, const SweepFigures& f, ImVec2 size) {
   const project::OperatingPointsSpec& p = f.points;
   const project::TagLabel speed = p.Label(p.speed_tag);
@@ -280,17 +294,7 @@ void DrawDelayPlot(AppState& state, const SweepFigures& f, ImVec2 size) {
                                         : "estimate \xC2\xB1 half a sample",
                       f.speed.data(), f.delay.data(), f.delay_bar.data(), n, points);
   plot::PlotMarkers(state.plots, "##estimates", f.speed.data(), f.delay.data(), n, points);
-  if (!f.lin_speed.empty()) {
-    const std::vector<double>& x = f.lin_speed_drawn;
-    plot::ItemStyle lin;
-    lin.color = kLinearisedColor;
-    lin.marker_radius = 3.5f;
-    plot::PlotErrorBars(state.plots, "linearised nonlinear fit \xC2\xB1 1 SE", x.data(),
-                        f.lin_delay.data(), f.lin_delay_se.data(), static_cast<int>(x.size()),
-                        lin);
-    plot::PlotMarkers(state.plots, "##linearised", x.data(), f.lin_delay.data(),
-                      static_cast<int>(x.size()), lin);
-  }
+  PlotLinearised(state, f.lin_speed_drawn, f.lin_delay, f.lin_delay_se);
   plot::EndPlot(state.plots);
 }
 
@@ -365,16 +369,7 @@ void DrawTrendPlot(AppState& state, const SweepFigures& f, ImVec2 size) {
                       t.lin_x.empty() ? "estimate \xC2\xB1 1 SE" : "per-point estimate \xC2\xB1 1 SE",
                       t.x.data(), t.y.data(), t.se.data(), n, points);
   plot::PlotMarkers(state.plots, "##estimates", t.x.data(), t.y.data(), n, points);
-  if (!t.lin_x.empty()) {
-    const std::vector<double>& x = t.lin_x_drawn;
-    plot::ItemStyle lin;
-    lin.color = kLinearisedColor;
-    lin.marker_radius = 3.5f;
-    plot::PlotErrorBars(state.plots, "linearised nonlinear fit \xC2\xB1 1 SE", x.data(),
-                        t.lin_y.data(), t.lin_se.data(), static_cast<int>(x.size()), lin);
-    plot::PlotMarkers(state.plots, "##linearised", x.data(), t.lin_y.data(),
-                      static_cast<int>(x.size()), lin);
-  }
+  PlotLinearised(state, t.lin_x_drawn, t.lin_y, t.lin_se);
   plot::EndPlot(state.plots);
 }
 
