@@ -151,6 +151,10 @@ struct Layout {
   std::map<int, std::array<double, 2>> positions;
 };
 
+// clang-tidy's bugprone-exception-escape reports the implicit move constructor, as for
+// project::Project: `ekf` is an nlohmann::ordered_json, whose storage is not declared
+// noexcept-movable; such a move can only throw std::bad_alloc.
+// NOLINTNEXTLINE(bugprone-exception-escape)
 struct BlockDiagram {
   std::string name;
   std::vector<model::Parameter> parameters;  // the parameter table, in order (θ order)
