@@ -186,7 +186,10 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
     }
 
     // View > Zoom, or another monitor's DPI: fonts and style rebuilt at the new scale.
-    if (const float now = content_scale(); state.shell.zoom != zoom || now != scale) {
+    // And the node editor's zoom: its text gets a font baked for it (within limits).
+    if (const float now = content_scale();
+        state.shell.zoom != zoom || now != scale ||
+        state.fonts.wanted_canvas_zoom != state.fonts.canvas_zoom) {
       zoom = state.shell.zoom;
       scale = now;
       ImGui::GetIO().Fonts->Clear();

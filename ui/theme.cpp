@@ -1,5 +1,6 @@
 #include "ui/theme.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -26,6 +27,15 @@ ImFont* AddFont(const char* file, float size, std::string* missing) {
   return ImGui::GetIO().Fonts->AddFontFromFileTTF(path.c_str(), size, &config, kGlyphRanges);
 }
 
+}  // namespace
+
+float CanvasZoomFor(float editor_zoom) {
+  if (!(editor_zoom > 1.0f)) return 1.0f;
+  return std::min(kMaxCanvasZoom, std::ceil(editor_zoom * 2.0f) / 2.0f);
+}
+
+namespace {
+
 void LoadFonts(AppState& state, float scale) {
   ImGuiIO& io = ImGui::GetIO();
   const float size = std::round(kBaseFontSize * scale);
@@ -36,6 +46,12 @@ void LoadFonts(AppState& state, float scale) {
   f.bold = AddFont("DejaVuSans-Bold.ttf", size, &missing);
   f.heading = AddFont("DejaVuSans-Bold.ttf", std::round(size * 1.27f), &missing);
   f.mono = AddFont("DejaVuSansMono.ttf", size, &missing);
+  f.canvas = nullptr;
+  f.canvas_zoom = 1.0f;
+  if (f.wanted_canvas_zoom > 1.0f) {
+    f.canvas_zoom = std::min(f.wanted_canvas_zoom, kMaxCanvasZoom);
+    f.canvas = AddFont("DejaVuSans.ttf", std::round(size * f.canvas_zoom), &missing);
+  }
   if (!f.regular) {
     ImFontConfig config;
     config.SizePixels = std::round(13.0f * scale);

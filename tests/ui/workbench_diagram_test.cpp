@@ -524,5 +524,48 @@ TEST(WorkbenchDiagram, AnUnreadableDiagramIsNamedAndTheModelFileIsUsed) {
   EXPECT_NE(log.find("spilt"), std::string::npos) << log;
 }
 
+TEST(WorkbenchDiagram, AtAHighZoomTheCanvasTextGetsAFontBakedForTheZoom) {
+  // The regular font scaled up blurs; the view asks for a font baked at the zoom (rounded up to
+  // a half, at most 3x) once the zoom has settled for 0.3 s, and the window rebuilds the atlas
+  // with it (here as the window does, without a renderer); back at zoom 1 it goes.
+  WorkbenchDriver d;
+  d.Open(kDiagramProject);
+  ASSERT_TRUE(d.state.diagram_view.diagram);
+  d.state.view = View::kDiagram;
+  d.Frame();
+  auto rebuild = [&d] {
+    ImGuiIO& io = ImGui::GetIO();
+    io.Fonts->Clear();
+    SetUpWorkbench(d.state, 1.0f);
+    unsigned char* pixels = nullptr;
+    int w = 0, h = 0;
+    io.Fonts->GetTexDataAsRGBA32(&pixels, &w, &h);
+  };
+  auto settle = [&d] {
+    for (int i = 0; i < 30; ++i) d.Frame();  // half a second at 60 frames a second
+  };
+  d.state.diagram_view.editor.zoom = 2.2f;
+  d.Frame();
+  EXPECT_EQ(d.state.fonts.wanted_canvas_zoom, 1.0f);  // not while the zoom may still move
+  settle();
+  EXPECT_EQ(d.state.fonts.wanted_canvas_zoom, 2.5f);
+  rebuild();
+  ASSERT_NE(d.state.fonts.canvas, nullptr);
+  EXPECT_EQ(d.state.fonts.canvas_zoom, 2.5f);
+  EXPECT_NEAR(d.state.fonts.canvas->FontSize, 2.5f * d.state.fonts.regular->FontSize, 1.0f);
+  settle();  // draws with it
+  EXPECT_EQ(d.state.fonts.wanted_canvas_zoom, 2.5f);
+
+  d.state.diagram_view.editor.zoom = 9.0f;  // beyond the limit
+  settle();
+  EXPECT_EQ(d.state.fonts.wanted_canvas_zoom, kMaxCanvasZoom);
+  d.state.diagram_view.editor.zoom = 0.8f;
+  settle();
+  EXPECT_EQ(d.state.fonts.wanted_canvas_zoom, 1.0f);
+  rebuild();
+  EXPECT_EQ(d.state.fonts.canvas, nullptr);
+  EXPECT_EQ(d.state.fonts.canvas_zoom, 1.0f);
+}
+
 }  // namespace
 }  // namespace gb::ui

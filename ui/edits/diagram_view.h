@@ -45,6 +45,9 @@ struct DiagramViewState {
   // unless the user unticked `keep_file` (then the diagram is written into the project file).
   std::string file;
   bool keep_file = true;
+  // The canvas font the zoom asks for, and since when (AskForCanvasFont, ui/panels/diagram.cpp).
+  float canvas_zoom_seen = 1.0f;
+  double canvas_zoom_since = 0.0;
   std::string error;                       // why there is no diagram
   std::vector<diagram::Problem> problems;  // of the last compile
   std::vector<diagram::BlockDiagram> undo, redo;

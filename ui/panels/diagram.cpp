@@ -212,6 +212,21 @@ std::string CompileStatus(const AppState& state, Severity* severity) {
   return "Compiles";
 }
 
+// Asks for the canvas font of the editor's zoom once the zoom has stayed for kSettleSeconds, so
+// that a wheel zoom rebuilds the font atlas once, not at every notch.
+void AskForCanvasFont(AppState& state) {
+  constexpr double kSettleSeconds = 0.3;
+  DiagramViewState& v = state.diagram_view;
+  const float wanted = CanvasZoomFor(v.editor.zoom);
+  const double now = ImGui::GetTime();
+  if (wanted != v.canvas_zoom_seen) {
+    v.canvas_zoom_seen = wanted;
+    v.canvas_zoom_since = now;
+  }
+  if (wanted != state.fonts.wanted_canvas_zoom && now - v.canvas_zoom_since >= kSettleSeconds)
+    state.fonts.wanted_canvas_zoom = wanted;
+}
+
 void DrawToolbar(AppState& state) {
   DiagramViewState& v = state.diagram_view;
   ImGui::BeginDisabled(v.undo.empty());
@@ -599,8 +614,10 @@ void DrawDiagramPanel(AppState& state) {
   options.problems = &v.problems;
   options.scale = s;
   options.font = state.fonts.regular;
+  options.draw_font = state.fonts.canvas;
   node_editor::NodeEditor(v.editor, "##canvas", ImVec2(0, canvas_h), *v.diagram, options,
                           &v.pending);
+  AskForCanvasFont(state);
 
   ImGui::BeginChild("##inspector", ImVec2(0, 0), false);
   if (ImGui::BeginTable("##inspector_columns", 2, ImGuiTableFlags_BordersInnerV)) {

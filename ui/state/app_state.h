@@ -71,7 +71,19 @@ struct Fonts {
   ImFont* heading = nullptr;  // view titles
   ImFont* mono = nullptr;     // equations, JSON
   float scale = 1.0f;         // DPI scale the sizes were built for
+  // The node editor's text at its zoom: the regular font scaled up blurs, so the atlas gets a
+  // font baked at `canvas_zoom` times the regular size (null at 1). The Diagram view asks for
+  // `wanted_canvas_zoom` once a zoom has settled (CanvasZoomFor); the window rebuilds the atlas
+  // when it differs from `canvas_zoom`, as it does for View › Zoom.
+  ImFont* canvas = nullptr;
+  float canvas_zoom = 1.0f;
+  float wanted_canvas_zoom = 1.0f;
 };
+
+// The canvas font's zoom for an editor zoom: rounded up to a half, from 1 to kMaxCanvasZoom
+// (text drawn at a smaller size than its font is sharp; larger, it blurs).
+inline constexpr float kMaxCanvasZoom = 3.0f;
+float CanvasZoomFor(float editor_zoom);
 
 // One dataset file of the project, as read by the loading job.
 struct LoadedDataset {

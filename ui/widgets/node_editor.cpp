@@ -671,7 +671,9 @@ bool FieldHasProblem(const Frame& f, int id, const std::string& field) {
 void DrawText(const Frame& f, ImVec2 canvas, ImU32 colour, const std::string& text, float clip_x) {
   const float size = f.options.metrics.text_size * f.t.zoom;
   if (size < 4.0f) return;  // unreadable: leave the boxes
-  ImFont* font = f.options.font ? f.options.font : ImGui::GetFont();
+  ImFont* font = f.options.draw_font ? f.options.draw_font
+                 : f.options.font    ? f.options.font
+                                     : ImGui::GetFont();
   const ImVec2 at = f.t.ToScreen(canvas);
   const ImVec4 clip(at.x, at.y - size, clip_x, at.y + 2 * size);
   f.dl->AddText(font, size, at, colour, text.c_str(), nullptr, 0.0f, &clip);

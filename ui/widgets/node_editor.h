@@ -170,6 +170,9 @@ struct Options {
   const std::vector<diagram::Problem>* problems = nullptr;  // marked on blocks and ports
   float scale = 1.0f;                                       // DPI scale
   ImFont* font = nullptr;                                   // nullptr: the current font
+  // The font text is drawn with (nullptr: `font`), baked larger for a high zoom; `font` alone
+  // measures the layout, so blocks keep their sizes whichever draws.
+  ImFont* draw_font = nullptr;
   Metrics metrics;
 };
 
