@@ -284,8 +284,8 @@ TEST(Estimate, NinetyFivePercentIntervalsCoverTheTruthAtTheNominalRate) {
 
 TEST(Conformance, Building3EstimateFromNeutralStartReachesCtsmRsOptimum) {
   // Not under the sanitizers: even from CTSM-R's estimates this fit took 192 s there, the most
-  // of any test, and its code (the linear estimator with a 19-parameter model, its standard
-  // errors) runs under them in the fuel film's and the bioreactor's estimates. The point of the
+  // of any test, and its code (the linear estimator, the exact filter and scores, the standard
+  // errors) runs under them in the fuel film's estimates (Estimate.*, Sweep.*). The point of the
   // test, the optimum from the neutral start, is the release suite's.
   if (kSanitized) GTEST_SKIP() << "the release suite's: see the comment";
   auto spec = model::LoadModelFile(kData + "/building3/model_start.json");
