@@ -10,12 +10,6 @@
 namespace gb::ui {
 namespace {
 
-// `prefix` and the duration, or nothing in a snapshot (deterministic): see app_state.cpp.
-std::string Seconds(const AppState& state, const char* prefix, double seconds) {
-  if (state.deterministic) return "";
-  return prefix + FormatFixed(seconds, 1) + " s";
-}
-
 bool HasParameter(const model::ModelSpec& spec, const std::string& name) {
   return std::any_of(spec.parameters.begin(), spec.parameters.end(),
                      [&](const model::Parameter& p) { return p.name == name; });
@@ -55,7 +49,7 @@ void InstallSweep(AppState& state, SweepRun run) {
     return;
   }
   if (run.result->cancelled) {
-    s.last_failure = "The sweep was cancelled" + Seconds(state, " after ", elapsed) + " (" +
+    s.last_failure = "The sweep was cancelled" + ElapsedClause(state, " after ", elapsed) + " (" +
                      std::to_string(run.result->rows.size()) + " of " + std::to_string(n) +
                      " points fitted)";
     s.last_failure_is_error = false;
@@ -70,7 +64,7 @@ void InstallSweep(AppState& state, SweepRun run) {
   AddMessage(state, all ? Severity::kInfo : Severity::kWarning,
              "Sweep finished: " + std::to_string(rows.size()) + " operating points, " +
                  (all ? "all converged" : std::to_string(converged) + " converged") +
-                 Seconds(state, ", ", elapsed));
+                 ElapsedClause(state, ", ", elapsed));
   s.last_failure.clear();
   project::OperatingPointsSpec points = s.spec ? *s.spec : project::OperatingPointsSpec{};
   // The trend keeps the user's choice when the new sweep has it, else the project's.

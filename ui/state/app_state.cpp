@@ -79,14 +79,16 @@ std::string FileName(const std::string& path) {
   return std::filesystem::path(path).filename().string();
 }
 
-// " after 1.2 s", ", 1.2 s": `prefix` and the duration, or nothing in a snapshot (deterministic),
-// whose messages must not depend on the machine and have no use for a placeholder.
-std::string Seconds(const AppState& state, const char* prefix, double seconds) {
+}  // namespace
+
+std::string ElapsedClause(const AppState& state, const char* prefix, double seconds) {
   if (state.deterministic) return "";
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.1f s", seconds);
   return prefix + std::string(buf);
 }
+
+namespace {
 
 void InstallProject(AppState& state, ProjectLoad load) {
   state.project = std::move(load.project);
@@ -145,7 +147,7 @@ void InstallEstimation(AppState& state, EstimationRun run) {
   }
   if (run.summary->cancelled) {
     e.last_failure =
-        "The estimation was cancelled" + Seconds(state, " after ", run.summary->elapsed_s);
+        "The estimation was cancelled" + ElapsedClause(state, " after ", run.summary->elapsed_s);
     e.last_failure_severity = Severity::kWarning;
     AddMessage(state, Severity::kWarning,
                e.last_failure + (e.result ? "; the previous results are kept" : ""));
@@ -156,7 +158,7 @@ void InstallEstimation(AppState& state, EstimationRun run) {
   std::string text =
       std::string(s.converged ? "Estimation converged" : "Estimation did NOT converge") +
       ": log L = " + FormatSig(s.loglik, 6) + ", " + std::to_string(s.iterations) +
-      " iterations" + Seconds(state, ", ", s.elapsed_s);
+      " iterations" + ElapsedClause(state, ", ", s.elapsed_s);
   if (!s.warnings.empty()) {
     text += " (" + std::to_string(s.warnings.size()) +
             (s.warnings.size() == 1 ? " warning)" : " warnings)");

@@ -293,6 +293,10 @@ void PollJobs(AppState& state);
 // Blocks until every job has finished (but the live run, which has no end), then polls. For the
 // snapshot renderer and tests only.
 void WaitForJobs(AppState& state);
+
+// " after 1.2 s", ", 1.2 s" for the messages of the jobs: `prefix` and the duration, or nothing
+// in a snapshot (deterministic), whose messages must not depend on the machine.
+std::string ElapsedClause(const AppState& state, const char* prefix, double seconds);
 bool AnyJobActive(const AppState& state);
 
 // Starts estimating the model on the project's data with state.estimation.settings. Returns
