@@ -70,6 +70,23 @@ void Linearise(const SweepInput& input, SweepRun* run) {
   }
 }
 
+// The linearised `quantity` at every point (rows' order) that has `tag`, sorted by the tag: the
+// tag, the value and its SE (0 where it has none).
+void LinearisedAgainst(const project::LinearisedSweep& lin,
+                       const std::vector<estimate::SweepRow>& rows, const std::string& tag,
+                       const std::string& quantity, std::vector<double>* x,
+                       std::vector<double>* value, std::vector<double>* se) {
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    auto it = rows[i].point.values.find(tag);
+    const auto [v, s] = lin.At(i, quantity);
+    if (it == rows[i].point.values.end() || !std::isfinite(v)) continue;
+    x->push_back(it->second);
+    value->push_back(v);
+    se->push_back(std::isfinite(s) ? s : 0.0);
+  }
+  SortByX(x, {value, se});
+}
+
 // (b − a) / √(SE_a² + SE_b²), NaN when a standard error is missing or both are zero.
 double CombinedZ(double a, double se_a, double b, double se_b) {
   const double s = std::sqrt(se_a * se_a + se_b * se_b);
@@ -279,15 +296,8 @@ SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPo
   const std::string delay_quantity =
       points.delay_parameter.empty() ? std::string("delay") : points.delay_parameter;
   if (has_quantity(delay_quantity)) {
-    for (std::size_t i = 0; i < rows.size(); ++i) {
-      auto it = rows[i].point.values.find(points.speed_tag);
-      const auto [value, se] = lin->At(i, delay_quantity);
-      if (it == rows[i].point.values.end() || !std::isfinite(value)) continue;
-      f.lin_speed.push_back(it->second);
-      f.lin_delay.push_back(value);
-      f.lin_delay_se.push_back(std::isfinite(se) ? se : 0.0);
-    }
-    SortByX(&f.lin_speed, {&f.lin_delay, &f.lin_delay_se});
+    LinearisedAgainst(*lin, rows, points.speed_tag, delay_quantity, &f.lin_speed, &f.lin_delay,
+                      &f.lin_delay_se);
     f.lin_speed_drawn = Dodged(f.lin_speed, f.speed);
   }
   if (result.delay_vs_speed && !f.speed.empty() && f.speed.front() > 0) {
@@ -341,16 +351,9 @@ TrendPlot MakeTrendPlot(const SweepFigures& figures, const std::string& paramete
     t.line_y = {fit.a + fit.b * t.x.front(), fit.a + fit.b * t.x.back()};
     t.fit = fit;
   }
-  if (const project::LinearisedSweep* lin = figures.linearised ? &*figures.linearised : nullptr) {
-    for (std::size_t i = 0; i < result.rows.size(); ++i) {
-      auto it = result.rows[i].point.values.find(tag);
-      const auto [value, se] = lin->At(i, parameter);
-      if (it == result.rows[i].point.values.end() || !std::isfinite(value)) continue;
-      t.lin_x.push_back(it->second);
-      t.lin_y.push_back(value);
-      t.lin_se.push_back(std::isfinite(se) ? se : 0.0);
-    }
-    SortByX(&t.lin_x, {&t.lin_y, &t.lin_se});
+  if (figures.linearised) {
+    LinearisedAgainst(*figures.linearised, result.rows, tag, parameter, &t.lin_x, &t.lin_y,
+                      &t.lin_se);
     t.lin_x_drawn = Dodged(t.lin_x, t.x);
   }
   return t;
