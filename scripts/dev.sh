@@ -28,8 +28,11 @@ install_missing() {
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
+# A fresh build compiles the tests, ui/ and the CLI in unity batches (GREYBENCH_UNITY, about a
+# quarter less compile time); GREYBENCH_CMAKE_ARGS=-DGREYBENCH_UNITY=OFF builds file by file.
 build() {
-  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release ${GREYBENCH_CMAKE_ARGS:-}
+  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DGREYBENCH_UNITY=ON \
+    ${GREYBENCH_CMAKE_ARGS:-}
   cmake --build build -j "$(nproc)"
 }
 

@@ -23,7 +23,7 @@ namespace {
 // Two tanks with orifice outflow whose exponents are parameters, a level-dependent diffusion,
 // a sensor with a parameter in its curve, an input-dependent measurement variance, and a
 // parameter in the initial state: every program of the model depends on θ.
-const char* const kTanks = R"json({
+const char* const kTanksThetaEverywhere = R"json({
   "greybench_model": 1,
   "states": ["h1", "h2"], "inputs": ["u"], "outputs": ["y1", "y2"],
   "parameters": {"k": 0.6, "a1": 0.5, "e1": 0.5, "a2": 0.4, "s1": 0.05, "s2": 0.03, "c": 0.1,
@@ -97,7 +97,7 @@ TEST(EkfScore, EqualsDifferencesOfTheLikelihoodAndOfItsTerms) {
       {model::InitialCovariance::kStationary, model::InputHold::kZoh, {0, 1}, 1.0},
   };
   for (const Case& c : cases) {
-    const model::ModelSpec spec = Spec(kTanks, c.kind);
+    const model::ModelSpec spec = Spec(kTanksThetaEverywhere, c.kind);
     SCOPED_TRACE(fmt::format("P0 {}, {}, delays {} {}, Huber {}", static_cast<int>(c.kind),
                              c.hold == model::InputHold::kFoh ? "foh" : "zoh", c.delay[0],
                              c.delay[1], c.huber.value_or(0.0)));
@@ -179,7 +179,7 @@ TEST(EkfScore, OfALinearModelEqualsTheLinearFiltersExactScore) {
 }
 
 TEST(EkfScore, TheLikelihoodGivesExactScoresExceptForTheIteratedFilter) {
-  const model::ModelSpec spec = Spec(kTanks, model::InitialCovariance::kCtsm);
+  const model::ModelSpec spec = Spec(kTanksThetaEverywhere, model::InitialCovariance::kCtsm);
   auto nm = std::make_shared<const model::NonlinearModel>(*model::NonlinearModel::Compile(spec));
   auto series = std::make_shared<const data::Series>(Simulate(*nm));
   auto lik = Likelihood::Create(nm, {series, series});

@@ -13,8 +13,8 @@
 namespace gb::ui {
 namespace {
 
-const std::string kSource = GREYBENCH_SOURCE_DIR;
-const std::string kTestProject = kSource + "/tests/data/ui/project.json";
+using testing::kSource;
+using testing::kTestProject;
 
 model::ModelSpec FuelFilm() {
   auto spec = model::LoadModelFile(kSource + "/tests/data/ui/fuel_film.json");

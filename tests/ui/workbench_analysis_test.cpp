@@ -32,12 +32,12 @@ namespace gb::ui {
 namespace {
 
 using testing::WorkbenchDriver;
+using testing::kSource;
+using testing::kTestProject;
+using testing::kCaseStudy;
 
-const std::string kSource = GREYBENCH_SOURCE_DIR;
-const std::string kTestProject = kSource + "/tests/data/ui/project.json";
 const std::string kTestModel = kSource + "/tests/data/ui/fuel_film.json";
 const std::string kTestData = kSource + "/tests/data/ui/f1.csv";
-const std::string kCaseStudy = kSource + "/assets/projects/case_study.json";
 
 // Equal, or both missing.
 bool Same(double a, double b) { return (std::isnan(a) && std::isnan(b)) || a == b; }

@@ -30,8 +30,8 @@ namespace gb::ui {
 namespace {
 
 using testing::WorkbenchDriver;
+using testing::kSource;
 
-const std::string kSource = GREYBENCH_SOURCE_DIR;
 const std::string kEquationsProject = kSource + "/assets/projects/fuel_f1.json";
 const std::string kDiagramProject = kSource + "/assets/projects/fuel_film_diagram.json";
 const std::string kHandWritten = kSource + "/assets/models/fuel_film.json";

@@ -27,6 +27,13 @@
 
 namespace gb::ui::testing {
 
+// Paths the workbench tests share (GREYBENCH_SOURCE_DIR: the source tree, set by CMake).
+inline const std::string kSource = GREYBENCH_SOURCE_DIR;
+inline const std::string kTestProject = kSource + "/tests/data/ui/project.json";
+inline const std::string kCaseStudy = kSource + "/assets/projects/case_study.json";
+// How soon Cancel must stop a job that is fitting.
+inline constexpr std::chrono::milliseconds kCancelDeadline{100};
+
 class WorkbenchDriver {
  public:
   static constexpr float kWidth = 1280.0f;
@@ -171,5 +178,12 @@ class WorkbenchDriver {
  private:
   ImGuiContext* context_ = nullptr;
 };
+
+// The button (or other item) labelled `label` in the view's window, optionally on the row at
+// height `row`; nullopt when it is not drawn.
+inline std::optional<ImVec2> FindButton(WorkbenchDriver& d, const char* label,
+                                        std::optional<float> row = {}) {
+  return d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId(label), row);
+}
 
 }  // namespace gb::ui::testing

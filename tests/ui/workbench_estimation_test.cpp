@@ -28,14 +28,14 @@ namespace {
 
 using std::chrono::milliseconds;
 using testing::WorkbenchDriver;
+using testing::kSource;
+using testing::kTestProject;
+using testing::kCaseStudy;
+using testing::kCancelDeadline;
 
-const std::string kSource = GREYBENCH_SOURCE_DIR;
-const std::string kTestProject = kSource + "/tests/data/ui/project.json";
-const std::string kCaseStudy = kSource + "/assets/projects/case_study.json";
 // Under the sanitizers a fit of the case study takes a minute or more; the deadline only
 // catches a fit that never ends.
 constexpr milliseconds kFitTimeout{kSanitized ? 600000 : 60000};
-constexpr milliseconds kCancelDeadline{100};
 
 // The cells of the table row whose first cell is `name`, from ImGui's log of a table
 // ("| tau_fv | s | { 0.08 } | ... |"); empty when there is no such row.

@@ -30,15 +30,16 @@ namespace gb::ui {
 namespace {
 
 using std::chrono::milliseconds;
+using testing::FindButton;
 using testing::WorkbenchDriver;
+using testing::kSource;
+using testing::kTestProject;
 
-const std::string kSource = GREYBENCH_SOURCE_DIR;
-const std::string kTestProject = kSource + "/tests/data/ui/project.json";
 const std::string kFuelF1 = kSource + "/assets/projects/fuel_f1.json";
 const std::string kTanks = kSource + "/assets/projects/cascaded_tanks.json";
 // The deadlines only catch a run that never produces; under the sanitizers everything is ~10×
 // slower.
-constexpr milliseconds kTimeout{kSanitized ? 60000 : 10000};
+constexpr milliseconds kUpdateTimeout{kSanitized ? 60000 : 10000};
 // The longest a frame may take while the job runs flat out: drawing the plots costs a few ms;
 // waiting on the job would cost its whole step. Under the sanitizers drawing alone is slower.
 constexpr milliseconds kMaxFrame{kSanitized ? 500 : 50};
@@ -82,11 +83,6 @@ void OpenWithTruthReference(WorkbenchDriver& d, LiveSpeed speed) {
   d.Frame();
 }
 
-std::optional<ImVec2> FindButton(WorkbenchDriver& d, const char* label,
-                                 std::optional<float> row = {}) {
-  return d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId(label), row);
-}
-
 // The same, row by row from `top` down (each probe draws a frame: the rows above are known).
 std::optional<ImVec2> FindButtonBelow(WorkbenchDriver& d, const char* label, float top) {
   ImGuiWindow* view = WorkbenchDriver::ViewWindow();
@@ -102,7 +98,7 @@ std::optional<ImVec2> FindButtonBelow(WorkbenchDriver& d, const char* label, flo
   d.Click(start);
   if (!d.state.live.job.active())
     return ::testing::AssertionFailure() << "Start started no job: " << d.state.live.last_failure;
-  if (!d.FramesUntil([&] { return d.state.live.series.size() >= updates; }, kTimeout))
+  if (!d.FramesUntil([&] { return d.state.live.series.size() >= updates; }, kUpdateTimeout))
     return ::testing::AssertionFailure() << "no updates: " << d.state.live.last_failure;
   return ::testing::AssertionSuccess();
 }
@@ -158,7 +154,7 @@ TEST(WorkbenchLive, StartRunsTheJobFromTheSessionsEstimateAndUpdatesArrive) {
   }
   // The updates keep coming, at about ten times real time.
   const double t0 = series.t.back();
-  ASSERT_TRUE(d.FramesUntil([&] { return series.t.back() > t0 + 2.0; }, kTimeout));
+  ASSERT_TRUE(d.FramesUntil([&] { return series.t.back() > t0 + 2.0; }, kUpdateTimeout));
   EXPECT_EQ(d.Text().find("nan"), std::string::npos);
 }
 
@@ -173,7 +169,7 @@ TEST(WorkbenchLive, PauseStopsTheUpdatesAndResumeGoesOn) {
 
   d.Click(*pause);
   EXPECT_TRUE(d.state.live.paused);
-  ASSERT_TRUE(d.FramesUntil([&] { return d.state.live.status.paused; }, kTimeout))
+  ASSERT_TRUE(d.FramesUntil([&] { return d.state.live.status.paused; }, kUpdateTimeout))
       << "the job did not confirm the pause";
   d.Frame();
   const int paused_at = d.state.live.series.size();
@@ -184,7 +180,7 @@ TEST(WorkbenchLive, PauseStopsTheUpdatesAndResumeGoesOn) {
 
   d.Click(*pause);  // now Resume
   EXPECT_FALSE(d.state.live.paused);
-  ASSERT_TRUE(d.FramesUntil([&] { return d.state.live.series.size() > paused_at + 10; }, kTimeout));
+  ASSERT_TRUE(d.FramesUntil([&] { return d.state.live.series.size() > paused_at + 10; }, kUpdateTimeout));
 }
 
 TEST(WorkbenchLive, InjectWhileRunningReachesTheDynoAndTheTruthLineMoves) {
@@ -209,7 +205,7 @@ TEST(WorkbenchLive, InjectWhileRunningReachesTheDynoAndTheTruthLineMoves) {
   d.Click(*inject);
   ASSERT_TRUE(d.FramesUntil(
       [&] { return d.state.live.series.parameters[tau_ff].truth.back() == 1.5 * f1.tau_ff; },
-      kTimeout))
+      kUpdateTimeout))
       << "the truth line did not move";
   // It moved at one sample, after the click, and stays.
   const LiveSeries& s = d.state.live.series;
@@ -231,7 +227,7 @@ TEST(WorkbenchLive, InjectWhileRunningReachesTheDynoAndTheTruthLineMoves) {
   ASSERT_TRUE(clear);
   d.Click(*clear);
   ASSERT_TRUE(d.FramesUntil(
-      [&] { return d.state.live.series.parameters[tau_ff].truth.back() == f1.tau_ff; }, kTimeout));
+      [&] { return d.state.live.series.parameters[tau_ff].truth.back() == f1.tau_ff; }, kUpdateTimeout));
 }
 
 TEST(WorkbenchLive, AnAlarmShowsRedUntilAcknowledgedAndIsListedWithItsTime) {
@@ -245,10 +241,10 @@ TEST(WorkbenchLive, AnAlarmShowsRedUntilAcknowledgedAndIsListedWithItsTime) {
   const std::optional<ImVec2> inject = FindButtonBelow(d, "Inject", start->y);
   ASSERT_TRUE(inject);
   d.Click(*inject);
-  ASSERT_TRUE(d.FramesUntil([&] { return !d.state.live.series.alarms.empty(); }, kTimeout))
+  ASSERT_TRUE(d.FramesUntil([&] { return !d.state.live.series.alarms.empty(); }, kUpdateTimeout))
       << "no alarm after the gain fault";
   PauseLive(d.state, true);  // so the alarms stop coming while the banner is looked at
-  d.FramesUntil([&] { return d.state.live.status.paused; }, kTimeout);
+  d.FramesUntil([&] { return d.state.live.status.paused; }, kUpdateTimeout);
   d.Frame();
   const LiveAlarm& latest = d.state.live.series.alarms.back();
   std::string log = d.Text();
@@ -276,7 +272,7 @@ TEST(WorkbenchLive, ResetStopsTheRunAndClearsTheView) {
   EXPECT_EQ(d.state.live.series.size(), 0);
   EXPECT_FALSE(d.state.live.setup);
   EXPECT_FALSE(LiveRunning(d.state));
-  ASSERT_TRUE(d.FramesUntil([&] { return !d.state.live.job.active(); }, kTimeout))
+  ASSERT_TRUE(d.FramesUntil([&] { return !d.state.live.job.active(); }, kUpdateTimeout))
       << "the job did not end";
   for (int i = 0; i < 5; ++i) d.Frame();
   EXPECT_EQ(d.state.live.series.size(), 0) << "updates of the reset run arrived";
@@ -336,7 +332,7 @@ TEST(WorkbenchLive, FollowsACsvFileAsAnotherThreadWritesIt) {
   ASSERT_TRUE(StartAndWaitForUpdates(d, *start, 150));
   { std::ofstream(csv, std::ios::app) << tail; }
   // 399 data rows (the header is one of the 400 lines); the updates lag by the delay (5).
-  ASSERT_TRUE(d.FramesUntil([&] { return d.state.live.series.size() == 399 - 5; }, kTimeout))
+  ASSERT_TRUE(d.FramesUntil([&] { return d.state.live.series.size() == 399 - 5; }, kUpdateTimeout))
       << d.state.live.series.size();
   EXPECT_FALSE(d.state.live.setup->truth);
   EXPECT_TRUE(std::isnan(d.state.live.series.parameters[0].truth.back()));
@@ -359,7 +355,7 @@ TEST(WorkbenchLive, TickedParametersAreTheOnesTracked) {
   ASSERT_TRUE(d.state.live.setup);
   EXPECT_EQ(d.state.live.setup->parameters, std::vector<std::string>{"tau_ff"});
   ResetLive(d.state);
-  ASSERT_TRUE(d.FramesUntil([&] { return !d.state.live.job.active(); }, kTimeout));
+  ASSERT_TRUE(d.FramesUntil([&] { return !d.state.live.job.active(); }, kUpdateTimeout));
   d.Click(*box);  // untick: all again
   EXPECT_TRUE(d.state.live.settings.track.empty());
 }

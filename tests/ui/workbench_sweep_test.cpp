@@ -29,15 +29,16 @@ namespace gb::ui {
 namespace {
 
 using std::chrono::milliseconds;
+using testing::FindButton;
 using testing::WorkbenchDriver;
+using testing::kSource;
+using testing::kCancelDeadline;
 
-const std::string kSource = GREYBENCH_SOURCE_DIR;
 const std::string kData = kSource + "/tests/data/ui/sweep/";
 const std::string kSweepProject = kData + "project.json";
 const std::string kBadProject = kData + "bad_project.json";
 const std::string kNoSweepProject = kSource + "/tests/data/ui/project.json";
 constexpr milliseconds kSweepTimeout{120000};
-constexpr milliseconds kCancelDeadline{100};
 
 // The first cell `name` and the `n` cells after it of a table row, from ImGui's log of a table
 // ("| tau_fv [s] | 0.07555 (0.0051) | ... |"; a row ending in an empty cell runs on into the
@@ -68,10 +69,6 @@ estimate::SweepResult SweepDirectly() {
       estimate::Sweep(*spec, {kData + "p1.csv", kData + "p2.csv", kData + "p3.csv"}, options);
   EXPECT_TRUE(result.ok()) << result.error().ToString();
   return *result;
-}
-
-std::optional<ImVec2> FindButton(WorkbenchDriver& d, const char* label) {
-  return d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId(label));
 }
 
 TEST(WorkbenchSweep, ClickingRunInstallsTheSweepCoreComputesAndTheViewShowsTable2) {
