@@ -61,6 +61,13 @@ int main(int argc, char** argv) {
   c_est->add_option("--out", est.out, "result file (JSON, CONTRACT section 5)");
   c_est->add_option("--start", est.start,
                     "start the free parameters at a result file's estimates (--set overrides)");
+  c_est->add_flag("--steady-start", est.steady_start,
+                  "first move the parameters the model's steady states depend on so that they "
+                  "match the records' levels (means over windows; for nonlinear models far from "
+                  "their optimum)");
+  c_est->add_option("--steady-window", est.steady_window,
+                    "the windows' length for --steady-start, in the records' time unit (default 5)")
+      ->check(CLI::PositiveNumber);
   c_est->add_option("--threads", est.threads, "threads for the score and the Hessian (default: all cores)");
   c_est->add_option("--multistart", est.multistart, "extra starts spread over the bounds");
   c_est->add_option("--starts-on-bound", est.starts_on_bound,

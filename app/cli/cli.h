@@ -78,6 +78,8 @@ struct PrbsArgs {
 int RunPrbs(const PrbsArgs& args);
 
 struct EstimateArgs {
+  bool steady_start = false;  // EstimateOptions::steady_start
+  double steady_window = 5.0;
   std::string model;
   std::vector<std::string> data;
   std::vector<std::string> sets;

@@ -26,6 +26,8 @@ int RunEstimate(const EstimateArgs& args) {
   options.ftol_rel = args.ftol;
   options.profile_intervals = args.profile_intervals;
   options.profile_level = args.profile_level;
+  options.steady_start = args.steady_start;
+  options.steady_window = args.steady_window;
   if (!args.checkpoint.empty())
     if (auto st = project::CheckWritable(args.checkpoint); !st) return Fail(st.error());
   if (args.progress || !args.checkpoint.empty()) {

@@ -40,6 +40,8 @@ bool EstimateOptions::IsValid(std::string* why) const {
   if (multistart < 0) return fail("multistart must be >= 0");
   if (starts_on_bound < 0) return fail("starts_on_bound must be >= 0");
   if (threads < 0) return fail("threads must be >= 0 (0 = all cores)");
+  if (steady_start && !(steady_window > 0 && std::isfinite(steady_window)))
+    return fail("the steady-state start's window must be longer than 0");
   return true;
 }
 
@@ -588,12 +590,24 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   lik.set_cancel(options.cancel);
   const auto start_time = Clock::now();
   const model::ModelSpec& spec = lik.spec();
-  Fitter fitter(lik, options);
+  // The start: the model's values, or those with the steady states' parameters moved to the
+  // records' levels.
+  std::optional<SteadyStartResult> steady;
+  if (options.steady_start) {
+    SteadyStartOptions steady_options;
+    steady_options.window_seconds = options.steady_window;
+    auto moved = SteadyStart(lik, spec.Values(), steady_options);
+    if (!moved) return moved.error();
+    steady = std::move(moved).value();
+  }
+  const std::vector<double> theta_start = steady ? steady->theta : spec.Values();
+  Fitter fitter(lik, options, theta_start);
   const int threads = options.threads > 0 ? options.threads : HardwareThreads();
 
   EstimateSummary s;
   s.model_name = spec.name;
   for (const auto& series : lik.series()) s.datasets.push_back(series->source);
+  s.steady_start = std::move(steady);
 
   // Cancellation can arrive in any stage; each stage ends by looking at the flag.
   s.extended = lik.nonlinear() != nullptr;
@@ -624,7 +638,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   std::vector<int> delay, second_delay;
   double second_loglik = -HUGE_VAL;
   {
-    auto profile = lik.Profile(spec.Values());
+    auto profile = lik.Profile(theta_start);
     if (fitter.Cancelled()) return cancelled_summary();
     if (!profile) {
       Error e = profile.error();  // the model cannot be evaluated at θ0: say that it is the start

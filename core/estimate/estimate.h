@@ -58,6 +58,7 @@
 
 #include <Eigen/Core>
 
+#include "core/estimate/steady_start.h"
 #include "core/filter/likelihood.h"
 #include "core/util/json.h"
 #include "core/util/result.h"
@@ -110,6 +111,13 @@ struct EstimateOptions {
   // differences of log L).
   bool score_differences = false;
   double profile_level = 0.95;
+  // Before fitting, move the free parameters that the model's steady states depend on until
+  // those steady states match the records' levels, and fit from there (SteadyStart, core/
+  // estimate/steady_start.h): for nonlinear models whose start values are far off, where the
+  // filter would explain a wrong level with noise. The windows' length is steady_window (the
+  // records' time unit).
+  bool steady_start = false;
+  double steady_window = 5.0;
   // Called from the estimating thread after every iteration (keep it short).
   std::function<void(const Progress&)> progress;
   // Set to true from any thread to stop; Estimate returns within about one evaluation.
@@ -198,6 +206,8 @@ struct EstimateSummary {
   Eigen::MatrixXd covariance;                  // of the parameters in correlation_names
   std::vector<DelayEstimate> delays;           // one per output
   std::vector<std::string> warnings;
+  // With EstimateOptions::steady_start: how the start values were moved (printed after the data).
+  std::optional<SteadyStartResult> steady_start;
 
   std::string Report() const;  // readable, in the spirit of CTSM's summary
   Json ToJson() const;         // CONTRACT section 5

@@ -32,6 +32,7 @@ std::string EstimateSummary::Report() const {
   std::string data;
   for (std::size_t i = 0; i < datasets.size(); ++i) data += (i ? ", " : "") + datasets[i];
   line(fmt::format("Data: {} ({} observations)", data, n_obs));
+  if (steady_start) line(steady_start->Report());
   line(fmt::format("{}: {}", converged ? "Converged" : (cancelled ? "Cancelled" : "NOT converged"),
                    message));
   line(fmt::format("{} iterations, {} log-likelihood evaluations, {:.2f} s", iterations,
@@ -183,6 +184,7 @@ Json EstimateSummary::ToJson() const {
   j["filter"]["scores"] = exact_scores ? "exact" : "differences";
   if (log_posterior) j["log_posterior"] = *log_posterior;
   j["starts"] = {{"total", starts}, {"at_best", starts_at_best}, {"on_bound", starts_for_bound}};
+  if (steady_start) j["steady_start"] = steady_start->ToJson();
   Json params = Json::object();
   for (const auto& p : parameters) {
     Json e;

@@ -437,4 +437,46 @@ Result<Linearisation> Linearise(const NonlinearModel& model, std::span<const dou
   return lin;
 }
 
+// ---- 5. steady states for many points ---------------------------------------------------------
+
+struct SteadyStateSolver::Impl {
+  Impl(const NonlinearModel& m, expr::Tape t) : model(m), tape(std::move(t)), point(model, tape) {
+    for (int i = 0; i < model.n_states(); ++i) all_states.states.push_back(i);
+  }
+  const NonlinearModel& model;
+  expr::Tape tape;
+  Point point;
+  Unknowns all_states;
+};
+
+Result<SteadyStateSolver> SteadyStateSolver::Make(const NonlinearModel& model) {
+  auto tape = InputDerivatives(model);
+  if (!tape) return tape.error();
+  return SteadyStateSolver(std::make_unique<Impl>(model, std::move(*tape)));
+}
+
+SteadyStateSolver::SteadyStateSolver(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+SteadyStateSolver::SteadyStateSolver(SteadyStateSolver&&) noexcept = default;
+SteadyStateSolver& SteadyStateSolver::operator=(SteadyStateSolver&&) noexcept = default;
+SteadyStateSolver::~SteadyStateSolver() = default;
+
+Eigen::VectorXd SteadyStateSolver::InitialState(std::span<const double> theta) const {
+  const NonlinearModel& model = impl_->model;
+  std::vector<double> slots(static_cast<std::size_t>(model.n_slots()), 0.0);
+  std::copy(theta.begin(), theta.end(), slots.begin() + model.parameter_slot());
+  std::vector<double> init(model.initial_size());
+  model.Initial(slots, init);
+  return Eigen::Map<const Eigen::VectorXd>(init.data(), model.n_states());
+}
+
+Result<Eigen::VectorXd> SteadyStateSolver::Solve(std::span<const double> theta,
+                                                 const Eigen::VectorXd& u,
+                                                 const Eigen::VectorXd& guess, Eigen::VectorXd* y) {
+  impl_->point.SetTheta(theta);
+  auto st = SolveSteady(impl_->point, impl_->all_states, guess, u);
+  if (!st) return st.error();
+  if (y) *y = st->at.h;
+  return st->x;
+}
+
 }  // namespace gb::model

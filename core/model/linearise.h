@@ -19,6 +19,7 @@
 // whole chain (steady state, derivatives, quantity) in each free parameter.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -68,5 +69,29 @@ struct LinearisationOptions {
 Result<Linearisation> Linearise(const NonlinearModel& model, std::span<const double> theta,
                                 const std::vector<std::pair<std::string, double>>& point,
                                 const LinearisationOptions& options = {});
+
+// Steady states f(x, u, θ) = 0 with every input given, for many inputs and parameter values:
+// the derivatives are compiled once, and each solve is Linearise's damped Newton from a guess
+// (the last solution at a nearby point is a good one).
+class SteadyStateSolver {
+ public:
+  static Result<SteadyStateSolver> Make(const NonlinearModel& model);
+  SteadyStateSolver(SteadyStateSolver&&) noexcept;
+  SteadyStateSolver& operator=(SteadyStateSolver&&) noexcept;
+  ~SteadyStateSolver();
+
+  // The model's initial state at θ: a first guess.
+  Eigen::VectorXd InitialState(std::span<const double> theta) const;
+  // The steady state from `guess` at inputs u and parameters θ (all, natural scale), and with
+  // `y` the outputs h(x, u, θ) there. Fails when Newton finds none (the message says how close
+  // it came) or the equations are singular there.
+  Result<Eigen::VectorXd> Solve(std::span<const double> theta, const Eigen::VectorXd& u,
+                                const Eigen::VectorXd& guess, Eigen::VectorXd* y = nullptr);
+
+ private:
+  struct Impl;
+  explicit SteadyStateSolver(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace gb::model

@@ -142,6 +142,25 @@ Result<Project> LoadProject(const std::string& path) {
       p.datasets.push_back(ResolvePath(p.base_dir, d[i].get<std::string>()));
     }
   }
+  if (j.contains(kEstimationKey)) {
+    const Json& e = j[kEstimationKey];
+    const std::string root = kEstimationKey;
+    if (!e.is_object())
+      return FileError(path, "expected an object such as {\"steady_start\": true}", root);
+    for (auto it = e.begin(); it != e.end(); ++it) {
+      if (it.key() == "steady_start") {
+        if (!it.value().is_boolean())
+          return FileError(path, "expected true or false", root + ".steady_start");
+      } else if (it.key() == "steady_window") {
+        if (!it.value().is_number() || !(it.value().get<double>() > 0))
+          return FileError(path, "expected a number of time units greater than 0",
+                           root + ".steady_window");
+      } else {
+        return FileError(path, "unknown member (expected steady_start or steady_window)",
+                         root + "." + it.key());
+      }
+    }
+  }
   if (p.name.empty()) p.name = fs::path(path).stem().string();
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (it.key() != "greybench_project" && it.key() != "name" && it.key() != "model" &&
@@ -149,6 +168,18 @@ Result<Project> LoadProject(const std::string& path) {
       p.extra[it.key()] = it.value();
   }
   return p;
+}
+
+EstimationDefaults ReadEstimationDefaults(const Project& project) {
+  EstimationDefaults d;
+  if (!project.extra.is_object() || !project.extra.contains(kEstimationKey)) return d;
+  const Json& e = project.extra[kEstimationKey];
+  if (!e.is_object()) return d;
+  if (auto it = e.find("steady_start"); it != e.end() && it->is_boolean())
+    d.steady_start = it->get<bool>();
+  if (auto it = e.find("steady_window"); it != e.end() && it->is_number() && it->get<double>() > 0)
+    d.steady_window = it->get<double>();
+  return d;
 }
 
 Json ProjectToJson(const Project& p, const std::string& path, bool relative_paths) {

@@ -7,6 +7,7 @@
 //    ... other keys are kept untouched in `extra` (views, layout, diagram) }
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,18 @@ struct Project {
   std::vector<std::string> datasets;  // resolved paths
   Json extra;                         // every other top-level key, preserved on save
 };
+
+// The project's "estimation" object: options of the Estimate view kept with the project
+// (docs/user-guide.md, section 7). An absent member leaves the view's default.
+//   "estimation": {"steady_start": true, "steady_window": 5}
+struct EstimationDefaults {
+  std::optional<bool> steady_start;     // EstimateOptions::steady_start
+  std::optional<double> steady_window;  // EstimateOptions::steady_window (> 0)
+};
+inline constexpr const char* kEstimationKey = "estimation";
+// LoadProject checks the object (errors name the file and JSON path, e.g. `engine.json:
+// estimation.steady_start: expected true or false`); this reads what it holds.
+EstimationDefaults ReadEstimationDefaults(const Project& project);
 
 // Reads a project file and the model file it names (the model is only read as JSON here;
 // core/model validates it). Errors name the file and JSON path, e.g.

@@ -131,3 +131,51 @@ TEST(SaveProject, ReportsAnUnwritableDirectoryByFileName) {
 
 }  // namespace
 }  // namespace gb::project
+
+namespace gb::project {
+namespace {
+
+// The "estimation" key: read as the Estimate view's options, kept on save, and refused with its
+// JSON path when it is not what it should be.
+TEST(LoadProject, ReadsTheEstimationKeyAndNamesWhatIsWrongInIt) {
+  TempDir dir;
+  auto write = [&](const std::string& estimation) {
+    const std::string path = dir / "p.json";
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    std::fprintf(f,
+                 "{\"greybench_project\": 1, \"model\": \"%s/fuel_film.json\", \"estimation\": "
+                 "%s}\n",
+                 kUiData.c_str(), estimation.c_str());
+    std::fclose(f);
+    return path;
+  };
+  auto ok = LoadProject(write(R"({"steady_start": true, "steady_window": 2.5})"));
+  ASSERT_TRUE(ok.ok()) << ok.error().ToString();
+  const EstimationDefaults d = ReadEstimationDefaults(*ok);
+  EXPECT_EQ(d.steady_start, true);
+  EXPECT_EQ(d.steady_window, 2.5);
+  ASSERT_TRUE(SaveProject(*ok, dir / "saved.json").ok());
+  auto saved = LoadProject(dir / "saved.json");
+  ASSERT_TRUE(saved.ok()) << saved.error().ToString();
+  EXPECT_EQ(ReadEstimationDefaults(*saved).steady_start, true);
+
+  auto none = LoadProject(kUiData + "/project.json");
+  ASSERT_TRUE(none.ok());
+  EXPECT_FALSE(ReadEstimationDefaults(*none).steady_start.has_value());
+
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {R"({"steady_start": "yes"})", "estimation.steady_start: expected true or false"},
+      {R"({"steady_window": 0})", "estimation.steady_window: expected a number of time units"},
+      {R"({"steady": true})", "estimation.steady: unknown member"},
+      {R"(true)", "estimation: expected an object"},
+  };
+  for (const auto& [text, message] : bad) {
+    auto r = LoadProject(write(text));
+    ASSERT_FALSE(r.ok()) << text;
+    EXPECT_NE(r.error().ToString().find("p.json"), std::string::npos) << r.error().ToString();
+    EXPECT_NE(r.error().ToString().find(message), std::string::npos) << r.error().ToString();
+  }
+}
+
+}  // namespace
+}  // namespace gb::project

@@ -111,6 +111,8 @@ EstimationRun RunEstimation(const EstimationInput& input, EstimationProgress& pr
     options.multistart = input.settings.multistart;
     options.threads = input.settings.threads;
     options.profile_intervals = input.settings.profile_intervals;
+    options.steady_start = input.settings.steady_start;
+    options.steady_window = input.settings.steady_window;
     options.cancel = &control.cancel;
     options.progress = [&progress](const estimate::Progress& p) { progress.Record(p); };
     Result<estimate::EstimateSummary> summary = estimate::Estimate(*likelihood, options);

@@ -33,6 +33,8 @@ struct EstimationSettings {
   int multistart = 0;  // extra starts spread over the bounds
   int threads = 0;     // 0: all cores
   bool profile_intervals = false;  // likelihood-ratio intervals of every free parameter (95 %)
+  bool steady_start = false;       // EstimateOptions::steady_start
+  double steady_window = 5.0;      // ... its windows' length (the project's "estimation" key)
 };
 inline constexpr int kMaxMultistart = 1000;
 inline constexpr int kMaxThreads = 256;

@@ -108,6 +108,24 @@ void DrawToolbar(AppState& state) {
     ImGui::SetTooltip("Likelihood-ratio (profile) 95 %% intervals for every free parameter, "
                       "shown in the Parameters view beside the Wald intervals (costs about a "
                       "dozen fits per parameter)");
+  // On this line where it fits, else at the start of the next (narrow windows).
+  constexpr const char* kSteadyLabel = "Steady-state start";
+  const float steady_width = ImGui::GetFrameHeight() + ImGui::GetStyle().ItemInnerSpacing.x +
+                             ImGui::CalcTextSize(kSteadyLabel).x;
+  if (ImGui::GetItemRectMax().x + gap + steady_width <=
+      ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x)
+    ImGui::SameLine(0, gap);
+  if (ImGui::Checkbox(kSteadyLabel, &e.settings.steady_start) && state.project) {
+    // Kept with the project (its "estimation" key), like a model edit: saved with it.
+    state.project->extra[project::kEstimationKey]["steady_start"] = e.settings.steady_start;
+    ++state.layout_revision;
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("Before fitting, move the parameters the model's steady states depend on "
+                      "until those match the records' levels (means over %g-unit windows); for "
+                      "nonlinear models whose start values are far off. The report says what "
+                      "moved. Saved with the project.",
+                      e.settings.steady_window);
   ImGui::EndDisabled();
 }
 

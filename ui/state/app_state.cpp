@@ -106,6 +106,12 @@ void InstallProject(AppState& state, ProjectLoad load) {
   state.estimation.live_trace.Clear();
   state.estimation.trace_x.RequestFit();
   state.parameters_view = ParametersViewState{};
+  // The project's own estimation options (LoadProject checked them); the others are the view's.
+  if (state.project) {
+    const project::EstimationDefaults d = project::ReadEstimationDefaults(*state.project);
+    state.estimation.settings.steady_start = d.steady_start.value_or(false);
+    state.estimation.settings.steady_window = d.steady_window.value_or(5.0);
+  }
   ResetSweep(state);
   InstallDiagram(state);  // a project's diagram that compiles supplies the model
   // So was the analysis; PollAnalysis starts the new project's (a run under way is superseded).
