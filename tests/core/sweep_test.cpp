@@ -21,17 +21,17 @@ const std::string kRoot = GREYBENCH_SOURCE_DIR;
 TEST(Sweep, RecoversEveryOperatingPointOfTable2FromTheBundledDynoData) {
   auto spec = model::LoadModelFile(kRoot + "/assets/models/fuel_film.json");
   ASSERT_TRUE(spec.ok()) << spec.error().ToString();
-  // Under the sanitizers every second point (f1, f3, f7) is fitted, and the delay profile is
-  // evaluated at θ̂ instead of re-optimised at every delay: the point there is the sweep's code
-  // path (fits, the delay search, the relations of Fig. 3-4), not the whole of Table 2, which the
-  // release suite checks. Each row is checked as in the release suite.
+  // Not under the sanitizers: three whole points took 149 s there (the most of any test), and
+  // the sweep's code path (fits, the delay search, the relations of Fig. 3-4) runs under them in
+  // WorkbenchSweep.ClickingRunInstallsTheSweepCoreComputesAndTheViewShowsTable2 (core's Sweep on
+  // three points, beside the GUI's) and Sweep.CancelStops…; the point of this test, the whole of
+  // Table 2 recovered, is the release suite's.
+  if (kSanitized) GTEST_SKIP() << "the release suite's: see the comment";
   std::vector<std::string> files;
   const auto points = sim::PaperFuelPoints();
-  for (std::size_t i = 0; i < points.size(); i += kSanitized ? 2 : 1)
+  for (std::size_t i = 0; i < points.size(); ++i)
     files.push_back(kRoot + "/assets/data/fuel_" + points[i].name + ".csv");
   SweepOptions options;
-  options.estimate.full_delay_profile = !kSanitized;
-  if (kSanitized) options.estimate.starts_on_bound = 0;  // the extra starts have their own test
   auto result = Sweep(*spec, files, options);
   ASSERT_TRUE(result.ok()) << result.error().ToString();
   ASSERT_EQ(result->rows.size(), files.size());
