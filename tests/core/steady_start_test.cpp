@@ -16,6 +16,7 @@
 #include "core/model/model.h"
 #include "core/model/nonlinear_model.h"
 #include "core/sim/engine.h"
+#include "core/util/sanitizers.h"
 #include "tests/core/nonlinear_tank.h"
 
 namespace gb {
@@ -167,7 +168,12 @@ TEST(SteadyStart, AFitFromItReachesTheTanksOptimumFromAStartFarOff) {
   EXPECT_EQ(steady->steady_start->undetermined, 1);
   EXPECT_TRUE(steady->converged) << steady->message;
 
-  // The optimum: the fit from the truth.
+  EXPECT_NE(steady->Report().find("Steady-state start: 2 parameters"), std::string::npos);
+  EXPECT_TRUE(steady->ToJson().contains("steady_start"));
+
+  // The optimum: the fit from the truth. Not under the sanitizers (the two fits took 62 s
+  // there; the steady start's path and the fit from it are the point there, checked above).
+  if (kSanitized) return;
   auto truth_lik = filter::Likelihood::Create(testing::CompileTank(testing::TankTruth()), {series});
   ASSERT_TRUE(truth_lik.ok());
   options.steady_start = false;
@@ -177,8 +183,6 @@ TEST(SteadyStart, AFitFromItReachesTheTanksOptimumFromAStartFarOff) {
   for (std::size_t i = 0; i < best->theta.size(); ++i)
     EXPECT_NEAR(steady->theta[i], best->theta[i], 1e-3 * std::abs(best->theta[i]))
         << best->parameters[i].name;
-  EXPECT_NE(steady->Report().find("Steady-state start: 2 parameters"), std::string::npos);
-  EXPECT_TRUE(steady->ToJson().contains("steady_start"));
 }
 
 }  // namespace
