@@ -77,15 +77,17 @@ class Residuals {
       : solver_(solver), windows_(windows), scale_(std::move(scale)) {}
 
   // The scaled residuals of every window at θ; false when a window has no steady state there.
-  // Each window's solution becomes its next guess only when `keep`.
+  // Each window's solution becomes its next guess when `keep`, or later by KeepLast().
   bool At(std::span<const double> theta, Eigen::VectorXd* r, bool keep) {
     const auto p = scale_.size();
     r->resize(static_cast<Eigen::Index>(windows_.size()) * p);
+    last_.resize(windows_.size());
     Eigen::VectorXd y;
     for (std::size_t w = 0; w < windows_.size(); ++w) {
       Window& win = windows_[w];
       auto x = solver_.Solve(theta, win.u, win.guess, &y);
       if (!x) return false;
+      last_[w] = *x;
       if (keep) win.guess = *x;
       for (Eigen::Index o = 0; o < p; ++o) {
         const double d = (y(o) - win.y(o)) / scale_(o);
@@ -95,8 +97,14 @@ class Residuals {
     }
     return true;
   }
+  // The solutions of the last successful At become the windows' next guesses.
+  void KeepLast() {
+    for (std::size_t w = 0; w < windows_.size() && w < last_.size(); ++w)
+      windows_[w].guess = last_[w];
+  }
 
  private:
+  std::vector<Eigen::VectorXd> last_;
   model::SteadyStateSolver& solver_;
   std::vector<Window>& windows_;
   Eigen::VectorXd scale_;
@@ -161,7 +169,7 @@ int Minimise(Residuals& residuals, const std::vector<Free>& free, const Eigen::M
       }
       Eigen::VectorXd rt;
       if (dz.allFinite() && residuals.At(trial, &rt, false) && rt.squaredNorm() < cost) {
-        residuals.At(trial, &rt, true);  // the new guesses
+        residuals.KeepLast();  // the new guesses
         const double decrease = cost - rt.squaredNorm();
         *theta = trial;
         *r = rt;
