@@ -4,8 +4,9 @@
 # any test failure or any sanitizer report.
 #   scripts/sanitize.sh            configure, build, test
 # One build serves two gates (docs/quality.md): everything is compiled with
-# -fsanitize=fuzzer-no-link,address,undefined (GREYBENCH_FUZZ=ON), so the fuzz targets that
-# scripts/fuzz.sh runs are built here too, from the same objects. -O1 -gline-tables-only:
+# -fsanitize=address,undefined (GREYBENCH_FUZZ=ON), the file readers of core/ with libFuzzer's
+# coverage instrumentation (-fsanitize=fuzzer-no-link) too, so the fuzz targets that
+# scripts/fuzz.sh runs are built here, from the same objects. -O1 -gline-tables-only:
 # libFuzzer's usual level, and line tables are all a stack trace needs (full -g made the build
 # three times as long). Assertions stay on (no NDEBUG).
 # Tests whose point under the sanitizers is the code path run on smaller data here
