@@ -88,5 +88,4 @@ expect 2 "--fault requires --live" -- dyno fuel --fault '5:X*2' --out "$tmp/x.cs
 expect 2 "--live streams the fuel experiment, not crankshaft" -- dyno crankshaft --live
 expect 2 "dyno: --out is required" -- dyno fuel
 
-echo "$passes passed, $failures failed"
-[ "$failures" -eq 0 ]
+summary

@@ -7,8 +7,7 @@ cli=$1
 data=$2
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-passes=0
-failures=0
+source "$(dirname "${BASH_SOURCE[0]}")/expect.bash"
 
 "$cli" prbs --order 6 --period 0.5 --ts 0.0125 --duration 50 --low 1.08 --high 1.32 --name mfi \
   --out "$tmp/u.csv"
@@ -196,5 +195,4 @@ check "the checkpoint is partial" grep -q '"partial": true' "$tmp/ck.json"
 check "--start resumes from it" "$cli" estimate "$data/cli/fuel.json" "$tmp/d.csv" --start "$tmp/ck.json" --max-evaluations 3
 check "the result names its model file" grep -q '"model_file": ".*fuel.json"' "$tmp/full.json"
 
-echo "$passes passed, $failures failed"
-[ "$failures" -eq 0 ]
+summary

@@ -26,3 +26,11 @@ expect() {
     passes=$((passes + 1))
   fi
 }
+
+# summary [NAME]: prints the counts and is the script's exit status: it fails when a check failed
+# and when none ran (a script whose checks never ran, say because it lost this file's `source`
+# line, would otherwise pass without testing anything).
+summary() {
+  echo "${1:+$1: }$passes passed, $failures failed"
+  [ "$failures" -eq 0 ] && [ "$passes" -gt 0 ]
+}

@@ -89,5 +89,4 @@ expect 2 "link.json: diagram.links\[0\].to\[1\]: .*has no in-port 3" -- export-m
 
 [ -e "$tmp/x.json" ] && { echo "FAIL: a refused export wrote its output"; failures=$((failures + 1)); }
 
-echo "$passes passed, $failures failed"
-[ "$failures" -eq 0 ]
+summary

@@ -106,5 +106,4 @@ expect 2 "$tmp: cannot read the file: it is a folder" -- loglik "$tmp" "$csv"
 mkfifo "$tmp/pipe.json"
 expect 2 "pipe.json: cannot read the file: it is a device or a pipe" -- loglik "$tmp/pipe.json" "$csv"
 
-echo "$passes passed, $failures failed"
-[ "$failures" -eq 0 ]
+summary

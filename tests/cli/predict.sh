@@ -9,15 +9,15 @@ cli=$1
 data=$2
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-failures=0
-passes=0
+source "$(dirname "${BASH_SOURCE[0]}")/expect.bash"
 model=$data/cli/fuel.json
 csv=$data/cli/fuel.csv
 
 pass() { passes=$((passes + 1)); }
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 
-# check NAME COMMAND...: a check passes when COMMAND exits 0; its output is shown otherwise.
+# check NAME COMMAND...: a check passes when COMMAND exits 0; its output is shown otherwise (this
+# script's own, in place of expect.bash's).
 check() {
   local name=$1
   shift
@@ -269,5 +269,4 @@ PY
 }
 check "Cascaded Tanks: simulation RMS on the test record below 0.34 V" tanks_check
 
-echo "$passes passed, $failures failed"
-[ "$failures" -eq 0 ]
+summary
