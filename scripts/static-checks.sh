@@ -5,6 +5,8 @@
 #   scripts/static-checks.sh [BUILD_DIR]      BUILD_DIR holds compile_commands.json (default build)
 #   JOBS=N scripts/static-checks.sh           N clang-tidy/cppcheck processes at once (default 1)
 #   FILES="core/a.cpp core/b.cpp" scripts/...  clang-tidy on these files only (cppcheck: all)
+#   FINGERPRINT=1 scripts/static-checks.sh    prints the fingerprint of core/'s compile flags (the
+#                                             second line of .ci/static-checks-base)
 # Needs: clang-tidy, cppcheck (Debian packages clang-tidy, cppcheck), a configured build.
 set -uo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -21,6 +23,32 @@ for tool in clang-tidy cppcheck; do
   command -v "$tool" >/dev/null || { echo "static-checks: $tool is not installed" >&2; exit 2; }
 done
 cd "$root"
+# The compile flags of core/'s units in this build (each unit's command without its own source
+# and object, paths relative to the tree), distinct and sorted, hashed.
+flags_fingerprint() {
+  python3 - "$build/compile_commands.json" "$root" <<'PY'
+import hashlib, json, shlex, sys
+root = sys.argv[2].rstrip("/")
+flags = set()
+for entry in json.load(open(sys.argv[1])):
+    if not entry["file"].startswith(root + "/core/"):
+        continue
+    args, skip = [], False
+    for a in shlex.split(entry["command"]):
+        if skip:
+            skip = False
+        elif a in ("-o", "-c"):
+            skip = True
+        else:
+            args.append(a.replace(root, "."))
+    flags.add(" ".join(args))
+print(hashlib.sha256("\n".join(sorted(flags)).encode()).hexdigest()[:16])
+PY
+}
+if [ "${FINGERPRINT:-}" = 1 ]; then
+  flags_fingerprint
+  exit 0
+fi
 if [ -n "${FILES:-}" ]; then
   read -r -a sources <<<"$FILES"
 else
@@ -29,14 +57,22 @@ else
   # sources and the configuration, so after a commit whose full check passed
   # (.ci/static-checks-base), only the units whose .cpp or any header they include (the build's
   # own dependency record, ninja -t deps) changed since are checked again; everything when the
-  # configuration (.clang-tidy, the CMake files' flags) changed, or the base is not in the
-  # history. STATIC_CHECKS_ALL=1 checks every file.
+  # configuration changed (.clang-tidy, or the compile flags of core/'s units), or the base is
+  # not in the history. The base file's first line is the commit; its second, when there, the
+  # flags' fingerprint at that commit (`FINGERPRINT=1 scripts/static-checks.sh`): with it a change
+  # of a CMake file that leaves core/'s flags as they were checks only what changed; without it
+  # any change of a CMakeLists.txt checks everything. STATIC_CHECKS_ALL=1 checks every file.
   base_file=$root/.ci/static-checks-base
   if [ -z "${STATIC_CHECKS_ALL:-}" ] && [ -f "$base_file" ]; then
-    base=$(tr -d '[:space:]' <"$base_file")
+    base=$(sed -n 1p "$base_file" | tr -d '[:space:]')
+    base_flags=$(sed -n 2p "$base_file" | tr -d '[:space:]')
     if git cat-file -e "$base^{commit}" 2>/dev/null; then
       changed=$(git diff --name-only "$base" HEAD)
-      if ! grep -qxE '\.clang-tidy|CMakeLists\.txt|core/CMakeLists\.txt' <<<"$changed"; then
+      config='\.clang-tidy|CMakeLists\.txt|core/CMakeLists\.txt'
+      if [ -n "$base_flags" ] && [ "$base_flags" = "$(flags_fingerprint)" ]; then
+        config='\.clang-tidy'
+      fi
+      if ! grep -qxE "$config" <<<"$changed"; then
         selected=()
         for f in "${sources[@]}"; do
           deps=$(ninja -C "$build" -t deps "core/CMakeFiles/greybench_core.dir/${f#core/}.o" 2>/dev/null |
