@@ -207,6 +207,12 @@ class LagrangeBasis {
   }
   // ℓ_j(t) for all j into `out`.
   void Evaluate(double t, double* out) const {
+    const double scale = Terms(t, out);
+    for (std::size_t j = 0; j < x_.size(); ++j) out[j] *= scale;
+  }
+  // ℓ_j(t) = scale · out[j]: the barycentric terms into `out`, and the factor (1 / their sum)
+  // returned, for callers that can fold it into a weight of their own.
+  double Terms(double t, double* out) const {
     const std::size_t n = x_.size();
     double sum = 0.0;
     for (std::size_t j = 0; j < n; ++j) {
@@ -214,12 +220,12 @@ class LagrangeBasis {
       if (diff == 0.0) {
         std::fill(out, out + n, 0.0);
         out[j] = 1.0;
-        return;
+        return 1.0;
       }
       out[j] = c_[j] / diff;
       sum += out[j];
     }
-    for (std::size_t j = 0; j < n; ++j) out[j] /= sum;
+    return 1.0 / sum;
   }
 
  private:
@@ -280,6 +286,7 @@ class CycleEquation {
     std::array<Interval, 2> intervals;
     for (int row = 0; row < size; ++row) {
       const double s = Node(row);
+      double* a_row = A.row(row).data();  // contiguous (row-major)
       for (std::size_t r = 0; r < pieces.size(); ++r) {
         const double mid = 0.5 * (pieces[r].left + pieces[r].right);
         const double half = 0.5 * (pieces[r].right - pieces[r].left);
@@ -296,8 +303,11 @@ class CycleEquation {
               const double u = a + part * (m + 0.5 + 0.5 * inner.x[g]);
               const double weight = 0.5 * part * inner.w[g] * std::exp(-0.5 * u * u) /
                                     std::sqrt(2.0 * std::numbers::pi);
-              basis.Evaluate(std::clamp((s + q(u) - mid) / half, -1.0, 1.0), ell.data());
-              for (int j = 0; j < n; ++j) A(row, r * n + j) -= weight * ell[j];
+              const double scale =
+                  basis.Terms(std::clamp((s + q(u) - mid) / half, -1.0, 1.0), ell.data());
+              const double scaled = weight * scale;
+              double* a = a_row + r * n;
+              for (int j = 0; j < n; ++j) a[j] -= scaled * ell[j];
             }
           }
         }

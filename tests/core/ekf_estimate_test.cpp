@@ -99,7 +99,11 @@ TEST(EkfEstimate, NinetyFivePercentIntervalsCoverTheTruthAtTheNominalRate) {
   // s 96, r 94, h0 95 of 100); the z-scores (estimate - truth)/SE have means within ±0.16 of 0
   // and standard deviations 1.15 (k), 1.11 (a), 0.98-1.04 (s, r, h0): the flow parameters,
   // strongly correlated, have Wald intervals slightly too narrow at 600 samples.
-  const int replicates = kSanitized ? 3 : 100;
+  // A Monte Carlo property, measured by the release suite. Its code under the sanitizers (the
+  // EKF's fit of this tank from generic starts) is what RecoversANonlinearTankFromGenericStarts
+  // runs.
+  if (kSanitized) GTEST_SKIP() << "a coverage rate over 100 fits; the release suite measures it";
+  const int replicates = 100;
   const std::map<std::string, double> truth = {
       {"k", 0.8}, {"a", 0.5}, {"s", 0.08}, {"r", 0.004}, {"h0", 2.5}};
   const auto nm = CompileTank(Json::parse(kTank));
@@ -131,10 +135,8 @@ TEST(EkfEstimate, NinetyFivePercentIntervalsCoverTheTruthAtTheNominalRate) {
   RecordProperty("covered_per_parameter", per_parameter);
   std::printf("coverage %.4f over %d intervals;%s of %d each\n", rate, total,
               per_parameter.c_str(), replicates);
-  if (!kSanitized) {
-    EXPECT_GE(rate, 0.90);
-    EXPECT_LE(rate, 0.98);
-  }
+  EXPECT_GE(rate, 0.90);
+  EXPECT_LE(rate, 0.98);
 }
 
 TEST(Bioreactor, LogLikelihoodAtCtsmsEstimatesIsItsPublishedValue) {
