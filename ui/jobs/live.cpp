@@ -113,9 +113,10 @@ void LiveSeries::Clear() { *this = LiveSeries{}; }
 // ---------------------------------------------------------------------------------------------
 // 3. LiveFeed
 
-void LiveFeed::Push(std::vector<LivePoint>* points) {
-  if (points->empty()) return;
+void LiveFeed::Push(std::vector<LivePoint>* points, const LiveStatus* status) {
+  if (points->empty() && !status) return;
   const std::lock_guard<std::mutex> lock(mutex_);
+  if (status) status_ = *status;
   for (LivePoint& p : *points) ring_.push_back(std::move(p));
   pushed_ += static_cast<long long>(points->size());
   while (ring_.size() > capacity_) ring_.pop_front();
@@ -147,9 +148,10 @@ void LiveFeed::Send(const LiveCommand& command) {
   commands_.push_back(command);
 }
 
-void LiveFeed::AppendTo(LiveSeries* series) const {
+void LiveFeed::AppendTo(LiveSeries* series, LiveStatus* status) const {
   {
     const std::lock_guard<std::mutex> lock(mutex_);
+    if (status) *status = status_;
     const long long first = pushed_ - static_cast<long long>(ring_.size());
     for (long long i = std::max(series->taken, first); i < pushed_; ++i)
       series->Append(ring_[static_cast<std::size_t>(i - first)]);
@@ -583,9 +585,6 @@ LiveRunEnd RunLive(const LiveInput& input, LiveFeed& feed, JobControl& control) 
         idle = *fed == 0;
       }
 
-      feed.Push(&points);
-      for (LiveNote& n : notes) feed.Note(n.error, std::move(n.text));
-      notes.clear();
       const Clock::time_point now = Clock::now();
       if (dyno && Seconds(now - rate_wall) >= kRateWindowSeconds) {
         status.achieved_speed = (session.next_time() - rate_t) / Seconds(now - rate_wall);
@@ -595,7 +594,9 @@ LiveRunEnd RunLive(const LiveInput& input, LiveFeed& feed, JobControl& control) 
       if (paused) status.achieved_speed = kNaN;
       status.paused = paused;
       session.FillStatus(&status);
-      feed.SetStatus(status);
+      feed.Push(&points, &status);  // together: a frame never sees one without the other
+      for (LiveNote& n : notes) feed.Note(n.error, std::move(n.text));
+      notes.clear();
 
       if (idle) {
         std::this_thread::sleep_for(kIdleWait);

@@ -13,7 +13,7 @@
 //
 //   auto feed = std::make_shared<LiveFeed>();
 //   job.Start([=](JobControl& c) { return RunLive(input, *feed, c); });
-//   every frame: feed->AppendTo(&series); feed->status(); feed->TakeNotes(); job.TakeIfReady()
+//   every frame: feed->AppendTo(&series, &status); feed->TakeNotes(); job.TakeIfReady()
 //   a button:    feed->Send({LiveCommand::Kind::kPause});
 //
 // Stopping: JobControl::cancel ends the run within one step (a few milliseconds).
@@ -215,7 +215,9 @@ class LiveFeed {
   explicit LiveFeed(std::size_t capacity = kLivePoints) : capacity_(capacity) {}
 
   // The job.
-  void Push(std::vector<LivePoint>* points);  // moves them in; the oldest past capacity go
+  // Moves the points in (the oldest past capacity go) and, with `status`, sets the status in the
+  // same step, so that the UI never takes the one without the other.
+  void Push(std::vector<LivePoint>* points, const LiveStatus* status = nullptr);
   void SetSetup(LiveSetup setup);
   void SetStatus(const LiveStatus& status);
   void Note(bool error, std::string text);
@@ -224,8 +226,8 @@ class LiveFeed {
   // The UI.
   void Send(const LiveCommand& command);
   // Appends the updates `series` has not taken yet (those still in the ring) and trims it to
-  // the ring's capacity.
-  void AppendTo(LiveSeries* series) const;
+  // the ring's capacity; with `status`, copies the status that came with them.
+  void AppendTo(LiveSeries* series, LiveStatus* status = nullptr) const;
   std::optional<LiveSetup> setup() const;
   LiveStatus status() const;
   std::vector<LiveNote> TakeNotes();

@@ -35,8 +35,7 @@ bool UsesSessionFit(const AppState& state) {
 void InstallFeed(AppState& state) {
   LiveState& l = state.live;
   if (!l.setup) l.setup = l.feed->setup();
-  l.feed->AppendTo(&l.series);
-  l.status = l.feed->status();
+  l.feed->AppendTo(&l.series, &l.status);
   for (LiveNote& n : l.feed->TakeNotes())
     AddMessage(state, n.error ? Severity::kError : Severity::kInfo, std::move(n.text));
 }
