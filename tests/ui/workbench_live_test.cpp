@@ -103,6 +103,42 @@ std::optional<ImVec2> FindButtonBelow(WorkbenchDriver& d, const char* label, flo
   return ::testing::AssertionSuccess();
 }
 
+// The job publishes each step's updates with the status after them; a frame takes both at once.
+// Before, a frame could take the updates of a step and the status of the one before (the fault
+// already in the series, not yet in the status).
+TEST(LiveFeed, AFrameTakesTheStatusThatCameWithTheUpdatesItTakes) {
+  LiveFeed feed(1000);
+  constexpr int kSteps = 20000;
+  std::thread job([&] {
+    std::vector<LivePoint> points;
+    LiveStatus status;
+    for (int step = 1; step <= kSteps; ++step) {
+      for (int j = 0; j < 1 + step % 3; ++j) {
+        LivePoint p;
+        p.t = static_cast<double>(status.rows++);
+        points.push_back(std::move(p));
+      }
+      status.t = points.back().t;
+      feed.Push(&points, &status);
+    }
+  });
+  long long rows = 0;  // in all
+  for (int step = 1; step <= kSteps; ++step) rows += 1 + step % 3;
+  LiveSeries series;
+  LiveStatus status;
+  int frames = 0, checked = 0;
+  while (status.rows < rows) {
+    feed.AppendTo(&series, &status);
+    ++frames;
+    if (series.size() == 0) continue;
+    ++checked;
+    ASSERT_EQ(status.t, series.t.back()) << "frame " << frames;
+    ASSERT_EQ(status.rows, series.taken);
+  }
+  job.join();
+  EXPECT_GT(checked, 0);
+}
+
 TEST(WorkbenchLive, WithoutAReferenceTheViewSaysRunAnEstimateFirstAndStartIsRefused) {
   WorkbenchDriver d;
   d.Open(kFuelF1);
