@@ -37,7 +37,7 @@ inline double HuberRho(double r2, bool robust, double c, double* d_rho = nullptr
 }
 
 // Largest state dimension with a fixed-size instantiation of the loops: 8, or what the build
-// sets (GREYBENCH_FIXED_STATES in CMake; the sanitizer build compiles 1 and 2 only, a quarter of
+// sets (GREYBENCH_FIXED_STATES in CMake; the sanitizer build compiles 1 and 2 only, a third of
 // the instantiations, and runs the larger models through the dynamic-size loop, docs/quality.md).
 #ifndef GREYBENCH_MAX_FIXED_STATES
 #define GREYBENCH_MAX_FIXED_STATES 8
