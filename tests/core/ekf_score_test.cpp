@@ -48,9 +48,9 @@ model::ModelSpec Spec(const char* text, model::InitialCovariance kind) {
   return *spec;
 }
 
-// 200 samples simulated from the model, a fraction of them missing.
-// Samples of the record: under the sanitizers 80, the same code paths (each case below checks
-// every parameter against 4 more filter runs; on 200 samples that test took 26 s there).
+// kSamples simulated from the model, a fraction of them missing: 200, under the sanitizers 80,
+// the same code paths (each case below checks every parameter against 4 more filter runs; on 200
+// samples that test took 26 s there).
 constexpr int kSamples = kSanitized ? 80 : 200;
 
 data::Series Simulate(const model::NonlinearModel& nm) {

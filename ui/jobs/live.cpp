@@ -166,11 +166,6 @@ std::optional<LiveSetup> LiveFeed::setup() const {
   return setup_;
 }
 
-LiveStatus LiveFeed::status() const {
-  const std::lock_guard<std::mutex> lock(mutex_);
-  return status_;
-}
-
 std::vector<LiveNote> LiveFeed::TakeNotes() {
   const std::lock_guard<std::mutex> lock(mutex_);
   return std::exchange(notes_, {});

@@ -229,7 +229,6 @@ class LiveFeed {
   // the ring's capacity; with `status`, copies the status that came with them.
   void AppendTo(LiveSeries* series, LiveStatus* status = nullptr) const;
   std::optional<LiveSetup> setup() const;
-  LiveStatus status() const;
   std::vector<LiveNote> TakeNotes();
 
  private:
