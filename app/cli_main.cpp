@@ -189,6 +189,13 @@ int main(int argc, char** argv) {
   c_dyno->add_option("--order", dyno.order, "PRBS order (default: fuel 6, crankshaft 7)");
   c_dyno->add_option("--bit-period", dyno.bit_period, "PRBS bit period in s (default 0.5 / 1)");
   c_dyno->add_flag("--no-filter", dyno.no_filter, "record without the anti-alias filters");
+  c_dyno->add_option("--oversample", dyno.oversample,
+                     "steps of the simulated world per sample (default 10; 1..1000)");
+  c_dyno
+      ->add_option("--lambda-sensor", dyno.lambda_sensor,
+                   "engine: the lambda sensor's transport delay, exact (a delay line, default) or "
+                   "pade (the [3/3] approximant the bundled models use)")
+      ->check(CLI::IsMember({"exact", "pade"}));
   c_dyno->add_flag("--constant-load", dyno.constant_load, "crankshaft: hold the load torque");
   c_dyno->add_option("--out", dyno.out, "output CSV (with --live: default or - is stdout)");
   auto* live = c_dyno->add_flag("--live", dyno.live,

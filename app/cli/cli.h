@@ -122,6 +122,8 @@ struct DynoArgs {
   int order = 0;           // 0: default
   double bit_period = 0;   // 0: default
   bool no_filter = false;
+  int oversample = 0;  // fine-grid steps per sample of the simulated world; 0: default (10)
+  std::string lambda_sensor = "exact";  // engine: exact (a delay line) or pade (the models' [3/3])
   bool constant_load = false;
   std::string out;  // required without --live; with it, empty or "-" is stdout
   // --live (fuel): the live dyno (core/sim/live_dyno.h) writes its CSV a row at a time, each row

@@ -50,6 +50,7 @@ std::string Regenerate(const DynoArgs& args) {
   if (args.order > 0) line += fmt::format(" --order {}", args.order);
   if (args.bit_period > 0) line += fmt::format(" --bit-period {}", args.bit_period);
   if (args.no_filter) line += " --no-filter";
+  if (args.oversample > 0) line += fmt::format(" --oversample {}", args.oversample);
   line += " --live --speed 0";
   if (args.duration > 0) line += fmt::format(" --duration {}", args.duration);
   for (const auto& f : args.faults) line += " --fault '" + f + "'";
@@ -137,6 +138,9 @@ int RunDyno(const DynoArgs& args) {
         InputError(fmt::format("--live streams the fuel experiment, not {}", args.experiment)));
   if (!args.live && args.out.empty())
     return Fail(InputError("dyno: --out is required (or --live to stream the CSV to stdout)"));
+  if (args.lambda_sensor != "exact" && args.experiment != "engine")
+    return Fail(InputError("--lambda-sensor: only the engine experiment has this choice, not " +
+                           args.experiment));
   Result<sim::Record> record = InputError("unknown experiment");
   if (args.experiment == "fuel") {
     auto point = sim::FindFuelPoint(args.point);
@@ -148,6 +152,7 @@ int RunDyno(const DynoArgs& args) {
     if (args.bit_period > 0) e.bit_period = args.bit_period;
     e.seed = args.seed;
     if (args.no_filter) e.recording.filter_hz = 0;
+    if (args.oversample > 0) e.recording.oversample = args.oversample;
     if (args.live) return StreamFuel(args, e);
     record = sim::RunFuelExperiment(e);
   } else if (args.experiment == "crankshaft") {
@@ -158,6 +163,7 @@ int RunDyno(const DynoArgs& args) {
     e.seed = args.seed;
     e.perturb_load = !args.constant_load;
     if (args.no_filter) e.recording.filter_hz = 0;
+    if (args.oversample > 0) e.recording.oversample = args.oversample;
     record = sim::RunCrankshaftExperiment(e);
   } else if (args.experiment == "engine") {
     sim::EngineExperiment e;
@@ -192,12 +198,15 @@ int RunDyno(const DynoArgs& args) {
     if (args.bit_period > 0) e.fuel_bit = args.bit_period;
     e.seed = args.seed;
     if (args.no_filter) e.recording.filter_hz = 0;
+    if (args.oversample > 0) e.recording.oversample = args.oversample;
+    if (args.lambda_sensor == "pade") e.sensor_delay = sim::EngineExperiment::SensorDelay::kPade;
     record = sim::RunEngineExperiment(e);
   } else {
     sim::SquareWaveTest e;
     if (args.duration > 0) e.duration = args.duration;
     e.seed = args.seed;
     if (args.no_filter) e.recording.filter_hz = 0;
+    if (args.oversample > 0) e.recording.oversample = args.oversample;
     record = sim::RunSquareWaveTest(e);
   }
   if (!record) return Fail(record.error());
@@ -220,6 +229,8 @@ int RunDyno(const DynoArgs& args) {
   if (args.throttle_amplitude >= 0)
     where += fmt::format(" --throttle-amplitude {}", args.throttle_amplitude);
   if (args.no_filter) where += " --no-filter";
+  if (args.oversample > 0) where += fmt::format(" --oversample {}", args.oversample);
+  if (args.lambda_sensor != "exact") where += " --lambda-sensor " + args.lambda_sensor;
   comments.push_back(fmt::format("regenerate: greybench-cli dyno {}{} --seed {}{} --out FILE",
                                  args.experiment, where, args.seed,
                                  args.constant_load ? " --constant-load" : ""));

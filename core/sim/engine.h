@@ -30,7 +30,8 @@
 // throttle (± 1°). One point: the paper's experiment at that point. Several: a slow sweep.
 //
 // The continuous world is simulated by Euler-Maruyama on the fine grid h = T_s / oversample; the
-// delay line holds the port's 1/λ at every fine step and is read with linear interpolation.
+// delay line holds the port's 1/λ at every fine step and is read with linear interpolation (with
+// SensorDelay::kPade the port's 1/λ, linear over each fine step, drives the approximant instead).
 #pragma once
 
 #include <cstdint>
@@ -126,6 +127,12 @@ struct EngineExperiment {
   // fuel experiments, so that the air flow stays at the operating point. Either way the load
   // applied is recorded as T_l.
   bool hold_speed = false;
+  // The λ sensor's transport delay Δt = c_d / n: an exact delay line (the physical exhaust), or
+  // the [3/3] Padé approximant the bundled models use for it (engine_mvem.json,
+  // fuel_film_pade.json), which makes the models' sensor exact, so that a fit's bias can be told
+  // apart from the approximant's phase error.
+  enum class SensorDelay { kExact, kPade };
+  SensorDelay sensor_delay = SensorDelay::kExact;
   double duration = 125.0;    // s
   std::uint64_t seed = 1;
   RecordingOptions recording;

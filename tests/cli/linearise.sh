@@ -19,6 +19,14 @@ check "its tag" grep -q '"operating_point": {"name": "f1", "n_rpm": 2931, "alpha
 check "a sweep" "$cli" dyno engine --path 'f3;n=3000,alpha=30' --hold 1 --ramp 1 --out "$tmp/sweep.csv"
 expect 2 "--path: operating point 'f9'" -- dyno engine --path f3,f9 --out "$tmp/x.csv"
 expect 2 "give both n \(rpm\) and alpha" -- dyno engine --point n=3000 --out "$tmp/x.csv"
+check "the Pade sensor, on a finer grid" "$cli" dyno engine --point f1 --duration 2 \
+  --lambda-sensor pade --oversample 20 --out "$tmp/pade.csv"
+check "... says so, and how to regenerate it" bash -c "grep -q '^# lambda sensor: the \[3/3\] Pade' '$tmp/pade.csv' &&
+  grep -q -- '--oversample 20 --lambda-sensor pade --seed 1' '$tmp/pade.csv' &&
+  grep -q '0.000625 s grid' '$tmp/pade.csv'"
+expect 2 "--lambda-sensor: only the engine experiment" -- dyno fuel --lambda-sensor pade --out "$tmp/x.csv"
+expect 2 "--lambda-sensor: delay not in" -- dyno engine --lambda-sensor delay --out "$tmp/x.csv"
+expect 2 "oversample must be 1..1000" -- dyno engine --oversample 5000 --out "$tmp/x.csv"
 check "the model reads it" bash -c "'$cli' loglik '$assets/models/engine_mvem.json' '$tmp/f1.csv' | grep -q '\"filter\":\"ekf\"'"
 
 # A result file at the model's start values with 1 % standard errors, naming its model file.

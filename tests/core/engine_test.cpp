@@ -7,7 +7,9 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
 #include <gtest/gtest.h>
+#include <unsupported/Eigen/MatrixFunctions>
 
 #include "core/diagnose/residuals.h"
 #include "core/diagram/diagram.h"
@@ -123,6 +125,53 @@ TEST(Engine, SensorSeesTheFuelStepAfterTheSpeedsTransportDelay) {
   const double delay = e.truth.cd / 3340;  // 0.05 s: 4 samples
   EXPECT_GE(t[moved], delay - 1e-9);
   EXPECT_LT(t[moved - 1], delay + 0.0125);
+}
+
+TEST(Engine, PadeSensorIsTheModelsApproximantOfTheDelayLine) {
+  // One world recorded twice, through the exact delay line and through the [3/3] Padé sensor.
+  // Noise-free, unfiltered, the speed fixed (a huge inertia) at Δt = c_d / n = 0.05 s, four
+  // samples: the exact record gives the port's value v_k = y_(k+4), and the approximant driven by
+  // that v (linear between fine steps, here the samples) is stepped independently by the matrix
+  // exponential of its realisation, augmented with v's slope.
+  sim::EngineExperiment e;
+  e.truth.sp = e.truth.sn = e.truth.sfv = e.truth.sff = 0;
+  e.truth.rp = e.truth.rn = e.truth.rl = 0;
+  e.truth.Je = 1e9;
+  e.throttle_amplitude = 0;
+  e.recording.filter_hz = 0;
+  e.recording.oversample = 1;
+  e.path = {*sim::ParseEnginePoint("n=3340,alpha=31")};
+  e.duration = 6;
+  auto exact = sim::RunEngineExperiment(e);
+  e.sensor_delay = sim::EngineExperiment::SensorDelay::kPade;
+  auto pade = sim::RunEngineExperiment(e);
+  ASSERT_TRUE(exact.ok() && pade.ok());
+  EXPECT_EQ(pade->comments.size(), exact->comments.size() + 1);
+  const auto& v_late = exact->columns[6];
+  const auto& y = pade->columns[6];
+  EXPECT_EQ(pade->columns[4], exact->columns[4]);  // the same world
+
+  const double D = 167.0 / 3340, h = 0.0125, c = 120 / (D * D * D);
+  Eigen::Matrix<double, 5, 5> M = Eigen::Matrix<double, 5, 5>::Zero();
+  M(0, 1) = M(1, 2) = 1;
+  M(2, 0) = -c;
+  M(2, 1) = -c * D / 2;
+  M(2, 2) = -c * D * D / 10;
+  M(2, 3) = c;  // v
+  M(3, 4) = 1;  // v' = w, the slope over the step
+  const Eigen::Matrix<double, 5, 5> step = (M * h).exp();
+  Eigen::Vector3d z(v_late[4], 0, 0);  // at rest at t = 0
+  double worst = 0, moved = 0;
+  for (std::size_t k = 0; k + 5 < y.size(); ++k) {
+    const double v = v_late[k + 4];
+    worst = std::max(worst, std::abs(y[k] - (2 * z(0) - v + D * D / 5 * z(2))));
+    moved = std::max(moved, std::abs(y[k] - y[0]));
+    Eigen::Matrix<double, 5, 1> a;
+    a << z, v, (v_late[k + 5] - v) / h;
+    z = (step * a).head<3>();
+  }
+  EXPECT_GT(moved, 0.05);  // the fuel's ±10 % PRBS
+  EXPECT_LT(worst, 1e-8);
 }
 
 TEST(Engine, BundledModelIsTheDynosPhysics) {
