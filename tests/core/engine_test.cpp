@@ -471,7 +471,8 @@ TEST(EngineCase, WithTheModelExactTheJointFitRecoversEveryParameter) {
     auto rec = sim::RunEngineExperiment(e);
     ASSERT_TRUE(rec.ok()) << rec.error().ToString();
     std::vector<data::CsvColumn> cols;
-    for (std::size_t i = 0; i < rec->names.size(); ++i) cols.push_back({rec->names[i], rec->columns[i]});
+    for (std::size_t i = 0; i < rec->names.size(); ++i)
+      cols.push_back({rec->names[i], rec->columns[i]});
     files.push_back((tmp / fmt::format("record{}.csv", files.size())).string());
     ASSERT_TRUE(data::WriteCsvFile(files.back(), cols).ok());
   }
