@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <numbers>
+#include <ostream>
 #include <random>
 #include <string>
 #include <vector>
@@ -392,6 +393,24 @@ TEST(Linearise, AtEveryTaggedPointOfASweep) {
   EXPECT_NE(bad.error().message.find("quantity X"), std::string::npos);
 }
 
+// A result file's estimate of each of the dyno's parameters, with its SE and the true value.
+struct Recovered {
+  std::string name;
+  double estimate, se, truth;
+  friend std::ostream& operator<<(std::ostream& os, const Recovered& r) {
+    return os << r.name << " = " << r.estimate << " (" << r.se << "), truth " << r.truth;
+  }
+};
+
+std::vector<Recovered> AgainstTheDyno(const Json& result) {
+  std::vector<Recovered> out;
+  for (const auto& [name, value] : sim::EngineTruth{}.Named()) {
+    const Json& p = result["parameters"][name];
+    out.push_back({name, p["estimate"].get<double>(), p["std_error"].get<double>(), value});
+  }
+  return out;
+}
+
 TEST(EngineCase, TheBundledJointFitRecoversTheDyno) {
   // assets/results/engine_mvem.json: the 19 parameters fitted jointly to engine_points.csv and
   // engine_sweep.csv (docs/case-study-mvem.md). Every estimate within 3 SE of the dyno's value,
@@ -410,15 +429,11 @@ TEST(EngineCase, TheBundledJointFitRecoversTheDyno) {
   auto json = project::ReadJsonFile(lin->result);
   ASSERT_TRUE(json.ok()) << json.error().ToString();
   EXPECT_TRUE((*json)["converged"].get<bool>());
-  const sim::EngineTruth truth;
-  for (const auto& [name, value] : truth.Named()) {
-    const Json& p = (*json)["parameters"][name];
-    const double est = p["estimate"].get<double>(), se = p["std_error"].get<double>();
-    if (name == "cd") {
-      EXPECT_NEAR(est / value, 1.0, 0.04) << name;
+  for (const Recovered& r : AgainstTheDyno(*json)) {
+    if (r.name == "cd") {
+      EXPECT_NEAR(r.estimate / r.truth, 1.0, 0.04) << r;
     } else {
-      EXPECT_LT(std::abs(est - value), (name == "rl" ? 4 : 3) * se)
-          << name << " = " << est << " (" << se << "), truth " << value;
+      EXPECT_LT(std::abs(r.estimate - r.truth), (r.name == "rl" ? 4 : 3) * r.se) << r;
     }
   }
 }
@@ -434,13 +449,8 @@ TEST(EngineCase, WithTheModelExactTheJointFitRecoversEveryParameter) {
   auto json = project::ReadJsonFile(dir + "fit.json");
   ASSERT_TRUE(json.ok()) << json.error().ToString();
   EXPECT_TRUE((*json)["converged"].get<bool>());
-  const sim::EngineTruth truth;
-  for (const auto& [name, value] : truth.Named()) {
-    const Json& p = (*json)["parameters"][name];
-    const double est = p["estimate"].get<double>(), se = p["std_error"].get<double>();
-    EXPECT_LT(std::abs(est - value), 3 * se)
-        << name << " = " << est << " (" << se << "), truth " << value;
-  }
+  for (const Recovered& r : AgainstTheDyno(*json))
+    EXPECT_LT(std::abs(r.estimate - r.truth), 3 * r.se) << r;
   if (kSanitized) GTEST_SKIP() << "two log-likelihoods of 14 400 rows: the release suite's";
 
   // greybench-cli dyno engine --path ... --no-filter --lambda-sensor pade (the folder's README).
