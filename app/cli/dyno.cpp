@@ -44,6 +44,13 @@ Result<std::vector<sim::TimedFuelFault>> ParseFaults(const std::vector<std::stri
   return sim::ScheduleFuelFaults(std::move(faults), point, kFaultOption);
 }
 
+// --no-filter and --oversample, which every experiment's recording takes (after any other
+// setting of the filter's corner).
+void ApplyRecordingArgs(const DynoArgs& args, sim::RecordingOptions* r) {
+  if (args.no_filter) r->filter_hz = 0;
+  if (args.oversample > 0) r->oversample = args.oversample;
+}
+
 std::string Regenerate(const DynoArgs& args) {
   std::string line = fmt::format("regenerate: greybench-cli dyno fuel --point {} --seed {}",
                                  args.point, args.seed);
@@ -151,8 +158,7 @@ int RunDyno(const DynoArgs& args) {
     if (args.order > 0) e.prbs_order = args.order;
     if (args.bit_period > 0) e.bit_period = args.bit_period;
     e.seed = args.seed;
-    if (args.no_filter) e.recording.filter_hz = 0;
-    if (args.oversample > 0) e.recording.oversample = args.oversample;
+    ApplyRecordingArgs(args, &e.recording);
     if (args.live) return StreamFuel(args, e);
     record = sim::RunFuelExperiment(e);
   } else if (args.experiment == "crankshaft") {
@@ -162,8 +168,7 @@ int RunDyno(const DynoArgs& args) {
     if (args.bit_period > 0) e.bit_period = args.bit_period;
     e.seed = args.seed;
     e.perturb_load = !args.constant_load;
-    if (args.no_filter) e.recording.filter_hz = 0;
-    if (args.oversample > 0) e.recording.oversample = args.oversample;
+    ApplyRecordingArgs(args, &e.recording);
     record = sim::RunCrankshaftExperiment(e);
   } else if (args.experiment == "engine") {
     sim::EngineExperiment e;
@@ -197,16 +202,14 @@ int RunDyno(const DynoArgs& args) {
     if (args.order > 0) e.fuel_order = args.order;
     if (args.bit_period > 0) e.fuel_bit = args.bit_period;
     e.seed = args.seed;
-    if (args.no_filter) e.recording.filter_hz = 0;
-    if (args.oversample > 0) e.recording.oversample = args.oversample;
+    ApplyRecordingArgs(args, &e.recording);
     if (args.lambda_sensor == "pade") e.sensor_delay = sim::EngineExperiment::SensorDelay::kPade;
     record = sim::RunEngineExperiment(e);
   } else {
     sim::SquareWaveTest e;
     if (args.duration > 0) e.duration = args.duration;
     e.seed = args.seed;
-    if (args.no_filter) e.recording.filter_hz = 0;
-    if (args.oversample > 0) e.recording.oversample = args.oversample;
+    ApplyRecordingArgs(args, &e.recording);
     record = sim::RunSquareWaveTest(e);
   }
   if (!record) return Fail(record.error());

@@ -366,12 +366,15 @@ Result<Record> RunEngineExperiment(const EngineExperiment& e) {
     // The sensor reads the port's value Δt = c_d / n ago, between two fine steps (or through
     // the approximant of that delay).
     const double delay = truth.cd / std::max(x.n, 300.0);
-    const double lag = std::clamp(delay / h, 0.0, static_cast<double>(line.size() - 2));
-    const auto whole = static_cast<std::int64_t>(std::floor(lag));
-    const double part = lag - static_cast<double>(whole);
-    const double sensor =
-        pade ? pade_sensor.Output(line[slot(i)], delay)
-             : (1 - part) * line[slot(i - whole)] + part * line[slot(i - whole - 1)];
+    double sensor = 0;
+    if (pade) {
+      sensor = pade_sensor.Output(line[slot(i)], delay);
+    } else {
+      const double lag = std::clamp(delay / h, 0.0, static_cast<double>(line.size() - 2));
+      const auto whole = static_cast<std::int64_t>(std::floor(lag));
+      const double part = lag - static_cast<double>(whole);
+      sensor = (1 - part) * line[slot(i - whole)] + part * line[slot(i - whole - 1)];
+    }
     const double channels[6] = {u.alpha, u.mfi, u.Tl, x.n, x.p, sensor};
     if (i % r.oversample == 0 && t >= -1e-9) {
       const std::int64_t k = static_cast<std::int64_t>(rec.columns[0].size());
