@@ -19,6 +19,10 @@
 
 namespace gb::cli {
 
+// The whole command line: parses argv, runs the subcommand, returns the exit status (usage errors
+// print a message and return 2). Never calls exit().
+int Main(int argc, char** argv);
+
 // Prints `greybench-cli: error: <where>: <what>` to stderr; returns 2 (input) or 1 (numerical).
 int Fail(const Error& e);
 

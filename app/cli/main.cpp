@@ -1,0 +1,270 @@
+// greybench-cli's command line (docs/user-guide.md, section 4): the subcommands and their options,
+// parsed and dispatched to the Run* functions of app/cli/. In a library of its own so that a fuzz
+// target can drive the whole command line in one process (tests/fuzz/cli_fuzz.cpp).
+#include <cstdio>
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+#include "app/cli/cli.h"
+
+namespace gb::cli {
+
+int Main(int argc, char** argv) {
+  CLI::App app{"greybench-cli: identify continuous-time stochastic grey-box models"};
+  app.require_subcommand(1);
+  std::function<int()> run;
+
+  LoglikArgs loglik;
+  auto* c_loglik = app.add_subcommand("loglik", "log-likelihood at the model's parameter values");
+  c_loglik->add_option("model", loglik.model, "model file (JSON)")->required();
+  c_loglik->add_option("data", loglik.data, "data files (CSV); their log-likelihoods add up")
+      ->required();
+  c_loglik->add_option("--set", loglik.sets, "NAME=VALUE: override a parameter's value");
+  c_loglik->add_flag("--gradient", loglik.gradient,
+                     "also print the exact gradient over the free parameters (natural scale)");
+  c_loglik->callback([&] { run = [&] { return RunLoglik(loglik); }; });
+
+  BenchArgs bench;
+  auto* c_bench = app.add_subcommand("bench", "time one log-likelihood evaluation (median)");
+  c_bench->add_option("model", bench.model, "model file (JSON)")->required();
+  c_bench->add_option("data", bench.data, "data files (CSV)")->required();
+  c_bench->add_option("--set", bench.sets, "NAME=VALUE: override a parameter's value");
+  c_bench->add_option("--repeat", bench.repeat, "timed evaluations (default 21)");
+  c_bench->callback([&] { run = [&] { return RunBench(bench); }; });
+
+  SimulateArgs simulate;
+  auto* c_sim = app.add_subcommand("simulate", "a sample path of the SDE at the input times");
+  c_sim->add_option("model", simulate.model, "model file (JSON)")->required();
+  c_sim->add_option("--inputs", simulate.inputs, "CSV with t and the model's inputs")->required();
+  c_sim->add_option("--set", simulate.sets, "NAME=VALUE: override a parameter's value");
+  c_sim->add_option("--seed", simulate.seed, "random seed (default 1)");
+  c_sim->add_option("--out", simulate.out, "output CSV")->required();
+  c_sim->callback([&] { run = [&] { return RunSimulate(simulate); }; });
+
+  PrbsArgs prbs;
+  auto* c_prbs = app.add_subcommand("prbs", "a maximal-length PRBS input signal");
+  c_prbs->add_option("--order", prbs.order, "register length n (period 2^n - 1 bits)")->required();
+  c_prbs->add_option("--period", prbs.period, "bit period T_prbs")->required();
+  c_prbs->add_option("--ts", prbs.ts, "sample time")->required();
+  c_prbs->add_option("--duration", prbs.duration, "length of the signal")->required();
+  c_prbs->add_option("--low", prbs.low, "level of a 0 bit")->required();
+  c_prbs->add_option("--high", prbs.high, "level of a 1 bit")->required();
+  c_prbs->add_option("--name", prbs.name, "column name (default u)");
+  c_prbs->add_option("--seed", prbs.seed, "initial register state (default 1)");
+  c_prbs->add_option("--out", prbs.out, "output CSV")->required();
+  c_prbs->callback([&] { run = [&] { return RunPrbs(prbs); }; });
+
+  EstimateArgs est;
+  auto* c_est = app.add_subcommand("estimate", "maximum-likelihood estimates with standard errors");
+  c_est->add_option("model", est.model, "model file (JSON)")->required();
+  c_est->add_option("data", est.data, "data files (CSV), fitted jointly")->required();
+  c_est->add_option("--set", est.sets, "NAME=VALUE: override a start (or fixed) value");
+  c_est->add_option("--out", est.out, "result file (JSON, CONTRACT section 5)");
+  c_est->add_option("--start", est.start,
+                    "start the free parameters at a result file's estimates (--set overrides)");
+  c_est->add_flag("--steady-start", est.steady_start,
+                  "first move the parameters the model's steady states depend on so that they "
+                  "match the records' levels (means over windows; for nonlinear models far from "
+                  "their optimum)");
+  c_est->add_option("--steady-window", est.steady_window,
+                    "the windows' length for --steady-start, in the records' time unit (default 5)")
+      ->check(CLI::PositiveNumber);
+  c_est->add_option("--threads", est.threads, "threads for the score and the Hessian (default: all cores)");
+  c_est->add_option("--multistart", est.multistart, "extra starts spread over the bounds");
+  c_est->add_option("--starts-on-bound", est.starts_on_bound,
+                    "without --multistart: extra starts where the fit ends with a parameter on a "
+                    "bound (default 8; 0: never)")
+      ->check(CLI::NonNegativeNumber);
+  c_est->add_flag("--progress", est.progress,
+                  "print the stage, iteration, evaluations and best log L to stderr after every "
+                  "iteration (for long fits)");
+  c_est->add_option("--checkpoint", est.checkpoint,
+                    "after every iteration, write the best estimates so far to this file (a "
+                    "partial result that --start resumes from)");
+  c_est->add_flag("--score-differences", est.score_differences,
+                  "scores from central differences of log L instead of the exact ones (for "
+                  "comparison; standard errors then from second differences)");
+  c_est->add_option("--max-evaluations", est.max_evaluations, "per fit (default 20000)");
+  c_est->add_option("--algorithm", est.algorithm, "auto (default: BHHH with BFGS corrections), bhhh, slsqp, lbfgs or bobyqa");
+  c_est->add_option("--ftol", est.ftol, "relative tolerance on -log L (default 1e-12)");
+  c_est->add_flag("--profile-intervals", est.profile_intervals,
+                  "likelihood-ratio (profile) intervals for every free parameter");
+  c_est->add_option("--profile-level", est.profile_level, "their level (default 0.95)")
+      ->check(CLI::Range(0.5, 0.9999));
+  c_est->callback([&] { run = [&] { return RunEstimate(est); }; });
+
+  CompareArgs cmp;
+  auto* c_cmp = app.add_subcommand("compare", "likelihood-ratio test of two nested fits");
+  c_cmp->add_option("result_a", cmp.a, "result file (JSON)")->required();
+  c_cmp->add_option("result_b", cmp.b, "result file (JSON)")->required();
+  c_cmp->callback([&] { run = [&] { return RunCompare(cmp); }; });
+
+  PredictArgs predict;
+  auto* c_pred = app.add_subcommand("predict", "one-step predictions with standard deviations");
+  c_pred->add_option("model", predict.model, "model file (JSON)")->required();
+  c_pred->add_option("data", predict.data, "data file (CSV)")->required();
+  c_pred->add_option("--set", predict.sets, "NAME=VALUE: override a parameter's value");
+  c_pred->add_option("--result", predict.result, "take the estimates (and delays) from a result file");
+  c_pred->add_option("--out", predict.out, "output CSV: t, then o, o_pred, o_sd, o_residual")
+      ->required();
+  c_pred->add_option("--simulate-after", predict.simulate_after,
+                     "N: use the outputs of the first N rows only and simulate the rest from the "
+                     "state estimated on them; prints the simulation's RMS error");
+  c_pred->add_option("--states", predict.states,
+                     "CSV of the states: t, then x_filtered, x_filtered_sd, x_smoothed, "
+                     "x_smoothed_sd for every state x, and o_smoothed, o_smoothed_sd for every "
+                     "output o (the smoother conditions on every observation)");
+  c_pred->callback([&] { run = [&] { return RunPredict(predict); }; });
+
+  DiagnoseArgs diag;
+  auto* c_diag = app.add_subcommand("diagnose", "residual diagnostics: ACF, PACF, CCF, periodogram, tests");
+  c_diag->add_option("model", diag.model, "model file (JSON)")->required();
+  c_diag->add_option("data", diag.data, "data file (CSV)")->required();
+  c_diag->add_option("--set", diag.sets, "NAME=VALUE: override a parameter's value");
+  c_diag->add_option("--result", diag.result, "take the estimates (and delays) from a result file");
+  c_diag->add_option("--max-lag", diag.max_lag, "lags of ACF, PACF and CCF (default min(40, n/4))");
+  c_diag->add_option("--lb-lags", diag.ljung_box_lags, "Ljung-Box lags (default min(20, max lag))");
+  c_diag->add_option("--out", diag.out, "output JSON with every series and test")->required();
+  c_diag->callback([&] { run = [&] { return RunDiagnose(diag); }; });
+
+  ExportModelArgs export_model;
+  auto* c_export = app.add_subcommand("export-model", "write the model a project's diagram compiles to");
+  c_export->add_option("project", export_model.project, "project file (JSON) with a \"diagram\"")
+      ->required();
+  c_export->add_option("--out", export_model.out, "model file to write (JSON)")->required();
+  c_export->callback([&] { run = [&] { return RunExportModel(export_model); }; });
+
+  MonitorArgs monitor;
+  auto* c_monitor = app.add_subcommand(
+      "monitor", "watch a model on-line: recursive estimates and alarms from a reference");
+  c_monitor->add_option("model", monitor.model, "model file (JSON)")->required();
+  c_monitor->add_option("source", monitor.source, "- to read rows from standard input");
+  c_monitor->add_option("--reference", monitor.reference, "batch result file (JSON) to start from")
+      ->required();
+  c_monitor->add_option("--follow", monitor.follow,
+                        "CSV file to follow as it grows (as tail -f does)");
+  // One value per occurrence, so that a source `-` after them is not taken for a value.
+  c_monitor->add_option("--set", monitor.sets, "NAME=VALUE: override a parameter of the model")
+      ->allow_extra_args(false);
+  c_monitor->add_option("--forgetting", monitor.forgetting,
+                        "forgetting factor in (0, 1] (memory 1/(1-λ) rows; default 0.999)");
+  c_monitor
+      ->add_option("--track", monitor.track,
+                   "parameters to track (default: all free ones in the dynamics and observations)")
+      ->delimiter(',')
+      ->allow_extra_args(false);
+  c_monitor->add_option("--false-alarms", monitor.false_alarms,
+                        "false alarms per hour, all tests together (default 0.125)");
+  c_monitor->add_option("--change", monitor.change,
+                        "relative change of a parameter worth an alarm (default 0.25)");
+  c_monitor->add_option("--idle", monitor.idle,
+                        "--follow: stop after this many seconds without a new row (default: never)");
+  c_monitor->add_option("--every", monitor.every, "write every N-th update (alarms always)");
+  c_monitor->add_option("--out", monitor.out, "log file (JSON Lines; default or - is stdout)");
+  c_monitor->callback([&] { run = [&] { return RunMonitor(monitor); }; });
+
+  DynoArgs dyno;
+  auto* c_dyno = app.add_subcommand("dyno", "run an experiment on the virtual dyno (simulated data)");
+  c_dyno->add_option("experiment", dyno.experiment, "fuel, crankshaft, square-wave or engine")
+      ->required()
+      ->check(CLI::IsMember({"fuel", "crankshaft", "square-wave", "engine"}));
+  c_dyno->add_option("--point", dyno.point,
+                     "fuel, engine: operating point of Table 2 (f1 f2 f3 f4 f7 f8); engine also "
+                     "n=RPM,alpha=DEG");
+  c_dyno->add_option("--path", dyno.path,
+                     "engine: a slow sweep through these points (f3,f1,f7 or "
+                     "'n=2600,alpha=25;n=3600,alpha=35')");
+  c_dyno->add_option("--hold", dyno.hold, "engine sweep: seconds at each point (default 20)");
+  c_dyno->add_option("--ramp", dyno.ramp, "engine sweep: seconds between points (default 40)");
+  c_dyno->add_option("--sample-time", dyno.sample_time,
+                     "engine: seconds between samples (default 0.0125; the anti-alias filters cut "
+                     "off at a quarter of the rate)");
+  c_dyno->add_flag("--hold-speed", dyno.hold_speed,
+                   "engine: the dyno holds the speed (a PI controller on the load), as for the "
+                   "paper's fuel experiments; default: it holds the load");
+  c_dyno->add_option("--throttle-amplitude", dyno.throttle_amplitude,
+                     "engine: +/- degrees of the throttle's PRBS (default 1; 0: the fuel's only, "
+                     "the paper's experiment)");
+  c_dyno->add_option("--duration", dyno.duration, "seconds (default: fuel 125, crankshaft 600)");
+  c_dyno->add_option("--seed", dyno.seed, "random seed (default 1)");
+  c_dyno->add_option("--order", dyno.order, "PRBS order (default: fuel 6, crankshaft 7)");
+  c_dyno->add_option("--bit-period", dyno.bit_period, "PRBS bit period in s (default 0.5 / 1)");
+  c_dyno->add_flag("--no-filter", dyno.no_filter, "record without the anti-alias filters");
+  c_dyno->add_option("--oversample", dyno.oversample,
+                     "steps of the simulated world per sample (default 10; 1..1000)");
+  c_dyno
+      ->add_option("--lambda-sensor", dyno.lambda_sensor,
+                   "engine: the lambda sensor's transport delay, exact (a delay line, default) or "
+                   "pade (the [3/3] approximant the bundled models use)")
+      ->check(CLI::IsMember({"exact", "pade"}));
+  c_dyno->add_flag("--constant-load", dyno.constant_load, "crankshaft: hold the load torque");
+  c_dyno->add_option("--out", dyno.out, "output CSV (with --live: default or - is stdout)");
+  auto* live = c_dyno->add_flag("--live", dyno.live,
+                                "fuel: stream the live dyno's CSV row by row (each row flushed) "
+                                "until --duration, or without end");
+  c_dyno
+      ->add_option("--speed", dyno.speed,
+                   "with --live: times real time (default 1; 0: as "
+                   "fast as possible)")
+      ->needs(live);
+  c_dyno
+      ->add_option("--fault", dyno.faults,
+                   "with --live: TIME:PARAMETER*FACTOR[/RAMP] (PARAMETER tau_ff, X, delay or "
+                   "gain; a step, or linear over RAMP s) or TIME:clear[/RAMP], e.g. "
+                   "60:tau_ff*1.5/30")
+      ->needs(live);
+  c_dyno
+      ->add_flag("--truth", dyno.truth,
+                 "with --live: also columns true_tau_ff, true_X, true_delay, true_Kb")
+      ->needs(live);
+  c_dyno->callback([&] { run = [&] { return RunDyno(dyno); }; });
+
+  LineariseArgs linearise;
+  auto* c_lin = app.add_subcommand(
+      "linearise", "the linearised model (A, B, C, D) of a fitted model at an operating point");
+  c_lin->add_option("result", linearise.result, "result file of the fit (JSON)")->required();
+  c_lin->add_option("--point", linearise.point,
+                    "NAME=VALUE,...: states, inputs or outputs that fix the steady state")
+      ->required();
+  c_lin->add_option("--model", linearise.model,
+                    "model file (default: the result file's model_file)");
+  c_lin->add_option("--quantity", linearise.quantities,
+                    "NAME=EXPRESSION of A_x_x, B_x_u, C_y_x, D_y_u, states, inputs, outputs and "
+                    "parameters (repeatable)")
+      ->allow_extra_args(false);
+  c_lin->add_option("--out", linearise.out, "write the linearisation as JSON");
+  c_lin->callback([&] { run = [&] { return RunLinearise(linearise); }; });
+
+  SweepArgs sweep;
+  auto* c_sweep = app.add_subcommand("sweep", "estimate one model on many operating points");
+  c_sweep->add_option("model", sweep.model, "model file (JSON)")->required();
+  c_sweep->add_option("data", sweep.data, "data files, each tagged with its operating point")
+      ->required();
+  c_sweep->add_option("--set", sweep.sets, "NAME=VALUE: override a start (or fixed) value");
+  c_sweep->add_option("--out-csv", sweep.out_csv, "table of estimates (CSV)");
+  c_sweep->add_option("--out-md", sweep.out_md, "table of estimates (Markdown)");
+  c_sweep->add_option("--trend", sweep.trend, "PARAMETER:TAG fitted linearly (default X:alpha_deg)");
+  c_sweep->add_option("--delay-parameter", sweep.delay_parameter,
+                      "a parameter that is the delay in seconds (a continuous delay): the delay "
+                      "relation fits its estimates");
+  c_sweep->add_option("--parallel", sweep.parallel, "datasets fitted at once (default: all cores)");
+  c_sweep->callback([&] { run = [&] { return RunSweep(sweep); }; });
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    std::printf("%s", app.help().c_str());
+    return 0;
+  } catch (const CLI::CallForAllHelp&) {
+    std::printf("%s", app.help("", CLI::AppFormatMode::All).c_str());
+    return 0;
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "greybench-cli: error: %s\nRun 'greybench-cli --help' for usage.\n",
+                 e.what());
+    return 2;
+  }
+  return run();
+}
+
+}  // namespace gb::cli
