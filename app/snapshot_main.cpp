@@ -43,6 +43,7 @@
 // placeholder "– s"), the fonts of SetUpWorkbench(), and a software rasteriser, so the same
 // inputs give the same PNG bytes.
 #include <GL/osmesa.h>
+#include <fmt/format.h>
 #include <imgui.h>
 
 #include <algorithm>
@@ -56,7 +57,9 @@
 #include <string_view>
 #include <vector>
 
+#include "core/project/project.h"
 #include "core/sim/dyno.h"
+#include "core/util/output_guard.h"
 #include "core/sim/fault_schedule.h"
 #include "ui/render/fixed_gl_renderer.h"
 #include "ui/render/png.h"
@@ -75,6 +78,8 @@ constexpr int kSettleFrames = 4;
 constexpr float kFrameTime = 1.0f / 60.0f;
 constexpr int kMinSize = 64;
 constexpr int kMaxSize = 8192;
+// --live-until: a day of data at most (the live view runs it on this thread before drawing).
+constexpr double kMaxLiveSeconds = 86400;
 
 struct Shot {
   gb::ui::View view = gb::ui::View::kData;
@@ -185,8 +190,9 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
     } else if (arg == "--live-until") {
       char* end = nullptr;
       const double t = std::strtod(value.c_str(), &end);
-      if (value.empty() || *end != '\0' || !std::isfinite(t) || t < 0) {
-        return "--live-until '" + value + "': expected seconds of data >= 0";
+      if (value.empty() || *end != '\0' || !std::isfinite(t) || t < 0 || t > kMaxLiveSeconds) {
+        return "--live-until '" + value + "': expected seconds of data from 0 to " +
+               fmt::format("{:g}", kMaxLiveSeconds) + " (a day; the run is drawn synchronously)";
       }
       o->live_until = t;
     } else if (arg == "--live-fault") {
@@ -264,6 +270,15 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
   ui::OpenProject(state, options.project);
   ui::WaitForJobs(state);
   if (!state.project) return Fail(kExitBadInput, state.open_error);
+  // No image may land on a file the session reads (the project, its model, data and diagram).
+  std::vector<gb::FileRole> inputs = gb::project::ProjectFiles(*state.project);
+  inputs.push_back({options.live_csv, "the --live-csv file"});
+  inputs.push_back({options.live_reference, "the --live-reference file"});
+  std::vector<gb::FileRole> outputs;
+  for (const Shot& shot : options.shots)
+    outputs.push_back({shot.out, fmt::format("the --out of --view {}", ui::ViewName(shot.view))});
+  if (auto st = gb::CheckOutputs(inputs, outputs); !st)
+    return Fail(kExitBadInput, st.error().ToString());
   for (const ui::LoadedDataset& d : state.datasets) {
     if (!d.data) return Fail(kExitBadInput, d.error);
   }

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -15,6 +16,7 @@
 #include "core/model/linear_model.h"
 #include "core/model/model.h"
 #include "core/model/nonlinear_model.h"
+#include "core/util/output_guard.h"
 #include "core/util/result.h"
 
 namespace gb::cli {
@@ -25,6 +27,13 @@ int Main(int argc, char** argv);
 
 // Prints `greybench-cli: error: <where>: <what>` to stderr; returns 2 (input) or 1 (numerical).
 int Fail(const Error& e);
+
+// The output guard (core/util/output_guard.h) over one command's files, before it opens anything
+// for writing: 0 when no output would destroy an input or another output, otherwise the refusal
+// printed and its exit status (2).
+int GuardOutputs(const std::vector<FileRole>& inputs, const std::vector<FileRole>& outputs);
+// The data files of a command as inputs for GuardOutputs.
+std::vector<FileRole> DataFiles(const std::vector<std::string>& paths);
 
 // Reads the model file and applies every `NAME=VALUE` of --set.
 Result<model::ModelSpec> LoadModelWithOverrides(const std::string& path,
@@ -176,9 +185,9 @@ struct SweepArgs {
   std::vector<std::string> sets;
   std::string out_csv;
   std::string out_md;
-  std::string trend = "X:alpha_deg";  // PARAMETER:TAG
-  std::string delay_parameter;        // a parameter that is the delay in seconds
-  int parallel = 0;
+  std::optional<std::string> trend;  // PARAMETER:TAG; not given: X:alpha_deg where both exist
+  std::string delay_parameter;       // a parameter that is the delay in seconds
+  std::optional<int> parallel;       // not given: all cores
 };
 int RunSweep(const SweepArgs& args);
 

@@ -17,6 +17,17 @@ int Fail(const Error& e) {
   return e.kind == ErrorKind::kNumerical ? 1 : 2;
 }
 
+int GuardOutputs(const std::vector<FileRole>& inputs, const std::vector<FileRole>& outputs) {
+  if (auto st = CheckOutputs(inputs, outputs); !st) return Fail(st.error());
+  return 0;
+}
+
+std::vector<FileRole> DataFiles(const std::vector<std::string>& paths) {
+  std::vector<FileRole> files;
+  for (const std::string& p : paths) files.push_back({p, "the data file"});
+  return files;
+}
+
 Result<model::ModelSpec> LoadModelWithOverrides(const std::string& path,
                                                 const std::vector<std::string>& sets) {
   auto spec = model::LoadModelFile(path);

@@ -66,6 +66,11 @@ Json DiagnosticsJson(const diagnose::ResidualDiagnostics& d) {
 }  // namespace
 
 int RunDiagnose(const DiagnoseArgs& args) {
+  if (int s = GuardOutputs({{args.model, "the model file"},
+                            {args.data, "the data file"},
+                            {args.result, "the --result file"}},
+                           {{args.out, "--out"}}))
+    return s;
   diagnose::DiagnoseOptions options;
   options.max_lag = args.max_lag;
   options.ljung_box_lags = args.ljung_box_lags;

@@ -10,6 +10,7 @@ namespace gb::cli {
 int RunExportModel(const ExportModelArgs& args) {
   auto project = project::LoadProject(args.project);
   if (!project) return Fail(project.error());
+  if (int s = GuardOutputs(project::ProjectFiles(*project), {{args.out, "--out"}})) return s;
   auto diagram = diagram::LoadProjectDiagram(*project);
   if (!diagram) return Fail(diagram.error());
   const diagram::CompileResult compiled = diagram::Compile(*diagram, args.out);

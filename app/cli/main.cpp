@@ -1,14 +1,58 @@
 // greybench-cli's command line (docs/user-guide.md, section 4): the subcommands and their options,
 // parsed and dispatched to the Run* functions of app/cli/. In a library of its own so that a fuzz
 // target can drive the whole command line in one process (tests/fuzz/cli_fuzz.cpp).
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <functional>
 
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
 
 #include "app/cli/cli.h"
+#include "core/estimate/estimate.h"
 
 namespace gb::cli {
+namespace {
+
+// Every floating-point option refuses a value that is not a finite number (`--duration nan`,
+// `--ftol inf`): CLI11 parses them as doubles, and a range check lets NaN through.
+void RequireFiniteNumbers(CLI::App& app) {
+  const CLI::Validator finite(
+      [](std::string& value) -> std::string {
+        const double v = std::strtod(value.c_str(), nullptr);
+        return std::isfinite(v) ? "" : value + " is not a finite number";
+      },
+      "", "finite");
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; }))
+    for (CLI::Option* opt : sub->get_options())
+      if (opt->get_type_name().rfind("FLOAT", 0) == 0) opt->check(finite);
+}
+
+// A number > 0 (CLI::PositiveNumber's message spells out the largest double).
+CLI::Validator Positive() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        const double v = std::strtod(value.c_str(), nullptr);
+        return v > 0 ? "" : value + " is not greater than 0";
+      },
+      "> 0", "positive");
+}
+
+// An empty value, which CLI11 takes as "not given": the option would silently keep its default
+// (`--out ""` would write nothing, `--duration ""` run the default length). "" when none is.
+std::string WhyEmptyValue(const CLI::App& app) {
+  for (const CLI::App* sub : app.get_subcommands())
+    for (const CLI::Option* opt : sub->get_options())
+      for (const std::string& value : opt->results())
+        if (value.empty())
+          return fmt::format("{} {}: the value is empty; give a value, or leave the option out "
+                             "for its default",
+                             sub->get_name(), opt->get_name());
+  return "";
+}
+
+}  // namespace
 
 int Main(int argc, char** argv) {
   CLI::App app{"greybench-cli: identify continuous-time stochastic grey-box models"};
@@ -30,7 +74,8 @@ int Main(int argc, char** argv) {
   c_bench->add_option("model", bench.model, "model file (JSON)")->required();
   c_bench->add_option("data", bench.data, "data files (CSV)")->required();
   c_bench->add_option("--set", bench.sets, "NAME=VALUE: override a parameter's value");
-  c_bench->add_option("--repeat", bench.repeat, "timed evaluations (default 21)");
+  c_bench->add_option("--repeat", bench.repeat, "timed evaluations (default 21; 1..10000)")
+      ->check(CLI::Range(1, 10000));
   c_bench->callback([&] { run = [&] { return RunBench(bench); }; });
 
   SimulateArgs simulate;
@@ -63,19 +108,26 @@ int Main(int argc, char** argv) {
   c_est->add_option("--out", est.out, "result file (JSON, CONTRACT section 5)");
   c_est->add_option("--start", est.start,
                     "start the free parameters at a result file's estimates (--set overrides)");
-  c_est->add_flag("--steady-start", est.steady_start,
-                  "first move the parameters the model's steady states depend on so that they "
-                  "match the records' levels (means over windows; for nonlinear models far from "
-                  "their optimum)");
-  c_est->add_option("--steady-window", est.steady_window,
-                    "the windows' length for --steady-start, in the records' time unit (default 5)")
-      ->check(CLI::PositiveNumber);
-  c_est->add_option("--threads", est.threads, "threads for the score and the Hessian (default: all cores)");
-  c_est->add_option("--multistart", est.multistart, "extra starts spread over the bounds");
+  auto* steady = c_est->add_flag(
+      "--steady-start", est.steady_start,
+      "first move the parameters the model's steady states depend on so that they match the "
+      "records' levels (means over windows; for nonlinear models far from their optimum)");
+  c_est
+      ->add_option("--steady-window", est.steady_window,
+                   "the windows' length for --steady-start, > 0 in the records' time unit "
+                   "(default 5)")
+      ->check(Positive())
+      ->needs(steady);
+  c_est->add_option("--threads", est.threads,
+                    "threads for the score and the Hessian, 1..1024 (default: all cores)")
+      ->check(CLI::Range(1, estimate::kMaxThreads));
+  c_est->add_option("--multistart", est.multistart,
+                    "extra starts spread over the bounds, 0..10000 (default 0)")
+      ->check(CLI::Range(0, estimate::kMaxStarts));
   c_est->add_option("--starts-on-bound", est.starts_on_bound,
                     "without --multistart: extra starts where the fit ends with a parameter on a "
-                    "bound (default 8; 0: never)")
-      ->check(CLI::NonNegativeNumber);
+                    "bound, 0..10000 (default 8; 0: never)")
+      ->check(CLI::Range(0, estimate::kMaxStarts));
   c_est->add_flag("--progress", est.progress,
                   "print the stage, iteration, evaluations and best log L to stderr after every "
                   "iteration (for long fits)");
@@ -85,13 +137,19 @@ int Main(int argc, char** argv) {
   c_est->add_flag("--score-differences", est.score_differences,
                   "scores from central differences of log L instead of the exact ones (for "
                   "comparison; standard errors then from second differences)");
-  c_est->add_option("--max-evaluations", est.max_evaluations, "per fit (default 20000)");
+  c_est->add_option("--max-evaluations", est.max_evaluations,
+                    "log-likelihood evaluations per fit, 1..100000000 (default 20000)")
+      ->check(CLI::Range(1, 100000000));
   c_est->add_option("--algorithm", est.algorithm, "auto (default: BHHH with BFGS corrections), bhhh, slsqp, lbfgs or bobyqa");
-  c_est->add_option("--ftol", est.ftol, "relative tolerance on -log L (default 1e-12)");
-  c_est->add_flag("--profile-intervals", est.profile_intervals,
-                  "likelihood-ratio (profile) intervals for every free parameter");
-  c_est->add_option("--profile-level", est.profile_level, "their level (default 0.95)")
-      ->check(CLI::Range(0.5, 0.9999));
+  c_est->add_option("--ftol", est.ftol,
+                    "relative tolerance on -log L, 0..0.1 (default 1e-12; 0: only the step "
+                    "tolerance stops)")
+      ->check(CLI::Range(0.0, 0.1));
+  auto* profile = c_est->add_flag("--profile-intervals", est.profile_intervals,
+                                  "likelihood-ratio (profile) intervals for every free parameter");
+  c_est->add_option("--profile-level", est.profile_level, "their level, 0.5..0.9999 (default 0.95)")
+      ->check(CLI::Range(0.5, 0.9999))
+      ->needs(profile);
   c_est->callback([&] { run = [&] { return RunEstimate(est); }; });
 
   CompareArgs cmp;
@@ -108,9 +166,11 @@ int Main(int argc, char** argv) {
   c_pred->add_option("--result", predict.result, "take the estimates (and delays) from a result file");
   c_pred->add_option("--out", predict.out, "output CSV: t, then o, o_pred, o_sd, o_residual")
       ->required();
-  c_pred->add_option("--simulate-after", predict.simulate_after,
-                     "N: use the outputs of the first N rows only and simulate the rest from the "
-                     "state estimated on them; prints the simulation's RMS error");
+  c_pred
+      ->add_option("--simulate-after", predict.simulate_after,
+                   "N >= 1: use the outputs of the first N rows only and simulate the rest from "
+                   "the state estimated on them; prints the simulation's RMS error")
+      ->check(Positive());
   c_pred->add_option("--states", predict.states,
                      "CSV of the states: t, then x_filtered, x_filtered_sd, x_smoothed, "
                      "x_smoothed_sd for every state x, and o_smoothed, o_smoothed_sd for every "
@@ -123,8 +183,10 @@ int Main(int argc, char** argv) {
   c_diag->add_option("data", diag.data, "data file (CSV)")->required();
   c_diag->add_option("--set", diag.sets, "NAME=VALUE: override a parameter's value");
   c_diag->add_option("--result", diag.result, "take the estimates (and delays) from a result file");
-  c_diag->add_option("--max-lag", diag.max_lag, "lags of ACF, PACF and CCF (default min(40, n/4))");
-  c_diag->add_option("--lb-lags", diag.ljung_box_lags, "Ljung-Box lags (default min(20, max lag))");
+  c_diag->add_option("--max-lag", diag.max_lag, "lags of ACF, PACF and CCF, >= 1 (default min(40, n/4))")
+      ->check(Positive());
+  c_diag->add_option("--lb-lags", diag.ljung_box_lags, "Ljung-Box lags, >= 1 (default min(20, max lag))")
+      ->check(Positive());
   c_diag->add_option("--out", diag.out, "output JSON with every series and test")->required();
   c_diag->callback([&] { run = [&] { return RunDiagnose(diag); }; });
 
@@ -251,6 +313,7 @@ int Main(int argc, char** argv) {
   c_sweep->add_option("--parallel", sweep.parallel, "datasets fitted at once (default: all cores)");
   c_sweep->callback([&] { run = [&] { return RunSweep(sweep); }; });
 
+  RequireFiniteNumbers(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {
@@ -262,6 +325,10 @@ int Main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "greybench-cli: error: %s\nRun 'greybench-cli --help' for usage.\n",
                  e.what());
+    return 2;
+  }
+  if (const std::string why = WhyEmptyValue(app); !why.empty()) {
+    std::fprintf(stderr, "greybench-cli: error: %s\n", why.c_str());
     return 2;
   }
   return run();

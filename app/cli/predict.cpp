@@ -150,6 +150,11 @@ std::vector<std::string> DescribeEvaluation(const EvaluatedSeries& e, const std:
 }
 
 int RunPredict(const PredictArgs& args) {
+  if (int s = GuardOutputs({{args.model, "the model file"},
+                            {args.data, "the data file"},
+                            {args.result, "the --result file"}},
+                           {{args.out, "--out"}, {args.states, "--states"}}))
+    return s;
   auto e = LoadEvaluatedSeries(args.model, args.data, args.sets, args.result);
   if (!e) return Fail(e.error());
   const std::shared_ptr<const data::Series> original = e->series;  // e->series may be masked

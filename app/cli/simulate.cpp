@@ -12,6 +12,9 @@
 namespace gb::cli {
 
 int RunSimulate(const SimulateArgs& args) {
+  if (int s = GuardOutputs({{args.model, "the model file"}, {args.inputs, "the --inputs file"}},
+                           {{args.out, "--out"}}))
+    return s;
   auto spec = LoadModelWithOverrides(args.model, args.sets);
   if (!spec) return Fail(spec.error());
   const std::vector<double> theta = spec->Values();

@@ -1,5 +1,8 @@
 #include <cstdio>
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
 #include "app/cli/cli.h"
 #include "core/estimate/sweep.h"
 #include "core/project/project.h"
@@ -7,16 +10,57 @@
 namespace gb::cli {
 
 int RunSweep(const SweepArgs& args) {
+  std::vector<FileRole> inputs = DataFiles(args.data);
+  inputs.push_back({args.model, "the model file"});
+  if (int s = GuardOutputs(inputs, {{args.out_csv, "--out-csv"}, {args.out_md, "--out-md"}}))
+    return s;
   auto spec = LoadModelWithOverrides(args.model, args.sets);
   if (!spec) return Fail(spec.error());
   estimate::SweepOptions options;
-  options.parallel = args.parallel;
-  const auto colon = args.trend.find(':');
-  if (colon == std::string::npos || colon == 0 || colon + 1 == args.trend.size())
-    return Fail(InputError("--trend: expected PARAMETER:TAG, e.g. X:alpha_deg"));
-  options.trend_parameter = args.trend.substr(0, colon);
-  options.trend_tag = args.trend.substr(colon + 1);
+  if (args.parallel && !(*args.parallel >= 1 && *args.parallel <= estimate::kMaxThreads))
+    return Fail(InputError(fmt::format("--parallel {}: expected a number of fits at once from 1 "
+                                       "to {}", *args.parallel, estimate::kMaxThreads)));
+  options.parallel = args.parallel.value_or(0);
+  // The default trend (X against alpha_deg, the paper's Fig. 4) is fitted where the model and
+  // the data have them; one the user names must exist.
+  const std::string trend = args.trend.value_or("X:alpha_deg");
+  const auto colon = trend.find(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == trend.size())
+    return Fail(InputError(fmt::format("--trend '{}': expected PARAMETER:TAG, e.g. X:alpha_deg",
+                                       trend)));
+  options.trend_parameter = trend.substr(0, colon);
+  options.trend_tag = trend.substr(colon + 1);
   options.delay_parameter = args.delay_parameter;
+  auto free_parameter = [&](const std::string& option, const std::string& name) -> std::string {
+    const int i = spec->ParameterIndex(name);
+    std::vector<std::string> free;
+    for (const auto& p : spec->parameters)
+      if (!p.fixed) free.push_back(p.name);
+    if (i >= 0 && !spec->parameters[i].fixed) return "";
+    return fmt::format("{}: '{}' is {} of the model {} (its free parameters: {})", option, name,
+                       i < 0 ? "not a parameter" : "a fixed parameter", args.model,
+                       fmt::join(free, ", "));
+  };
+  if (args.trend) {
+    if (auto why = free_parameter("--trend", options.trend_parameter); !why.empty())
+      return Fail(InputError(why));
+    for (const std::string& d : args.data) {
+      auto point = estimate::ReadOperatingPoint(d);
+      if (!point) return Fail(point.error());
+      if (!point->values.count(options.trend_tag)) {
+        std::vector<std::string> tags;
+        for (const auto& [k, v] : point->values) tags.push_back(k);
+        Error e = InputError(fmt::format(
+            "--trend {}: the data file's operating point has no tag '{}' (its tags: {})", trend,
+            options.trend_tag, tags.empty() ? "none" : fmt::format("{}", fmt::join(tags, ", "))));
+        e.file = d;
+        return Fail(e);
+      }
+    }
+  }
+  if (!args.delay_parameter.empty())
+    if (auto why = free_parameter("--delay-parameter", args.delay_parameter); !why.empty())
+      return Fail(InputError(why));
   // A sweep may take minutes: output files that cannot be written are reported before it.
   for (const std::string* out : {&args.out_md, &args.out_csv})
     if (!out->empty())

@@ -178,4 +178,21 @@ Result<std::shared_ptr<const Series>> Bind(const Dataset& data, std::span<const 
   return std::shared_ptr<const Series>(std::move(series));
 }
 
+Error AtRow(Error e, const Series& series, int j) {
+  const bool in_range = j >= 0 && j < static_cast<int>(series.size());
+  const int line = in_range && j < static_cast<int>(series.row_line.size())
+                       ? series.row_line[static_cast<std::size_t>(j)]
+                       : 0;
+  if (e.file.empty() || e.file == series.source) {
+    e.file = series.source;
+    e.line = line;
+    return e;
+  }
+  if (series.source.empty() || !in_range) return e;
+  const double t = series.time[static_cast<std::size_t>(j)];
+  e.message += line > 0 ? fmt::format(" (at {} line {}, t = {:g})", series.source, line, t)
+                        : fmt::format(" (at row {} of {}, t = {:g})", j + 1, series.source, t);
+  return e;
+}
+
 }  // namespace gb::data

@@ -99,6 +99,12 @@ struct Series {
   std::size_t size() const { return time.size(); }
 };
 
+// `e` located at row j of `series`: an error without a file (or in the series' own file) gets
+// the series' file and the row's line; an error in another file (a model's formula, evaluated at
+// this row) keeps its file and JSON path and says in its message where in the data it happened:
+// "... (at data.csv line 14, t = 0.1625)".
+Error AtRow(Error e, const Series& series, int j);
+
 // Binds columns by name. Errors (file:line:col): an input or output column that is absent
 // ("column 'mfi' (an input of the model) is not in the file; its columns are t, u, y") or
 // duplicated, a bound column holding a cell that is not a number, a missing input cell

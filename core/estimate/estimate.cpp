@@ -33,13 +33,19 @@ bool EstimateOptions::IsValid(std::string* why) const {
     if (why) *why = m;
     return false;
   };
-  if (!(ftol_rel >= 0) || !(xtol_rel >= 0)) return fail("tolerances must be >= 0");
+  if (!(ftol_rel >= 0 && ftol_rel < 1) || !(xtol_rel >= 0 && xtol_rel < 1))
+    return fail("the tolerances must be from 0 up to (not including) 1");
   if (ftol_rel == 0 && xtol_rel == 0 && max_evaluations <= 0)
     return fail("no stopping rule: set a tolerance or max_evaluations");
   if (max_evaluations < 0) return fail("max_evaluations must be >= 0");
-  if (multistart < 0) return fail("multistart must be >= 0");
-  if (starts_on_bound < 0) return fail("starts_on_bound must be >= 0");
-  if (threads < 0) return fail("threads must be >= 0 (0 = all cores)");
+  if (multistart < 0 || multistart > kMaxStarts)
+    return fail("multistart must be from 0 to 10000 (each extra start is a whole fit)");
+  if (starts_on_bound < 0 || starts_on_bound > kMaxStarts)
+    return fail("starts_on_bound must be from 0 to 10000");
+  if (threads < 0 || threads > kMaxThreads)
+    return fail("threads must be from 1 to 1024, or 0 for all cores");
+  if (!(profile_level > 0 && profile_level < 1))
+    return fail("the profile intervals' level must lie strictly between 0 and 1");
   if (steady_start && !(steady_window > 0 && std::isfinite(steady_window)))
     return fail("the steady-state start's window must be longer than 0");
   return true;
@@ -590,6 +596,14 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   lik.set_cancel(options.cancel);
   const auto start_time = Clock::now();
   const model::ModelSpec& spec = lik.spec();
+  const bool any_free = std::any_of(spec.parameters.begin(), spec.parameters.end(),
+                                    [](const model::Parameter& p) { return !p.fixed; });
+  if (!any_free && !spec.HasDelayScan())
+    return InputError(fmt::format(
+        "nothing to estimate: every parameter of the model {} is fixed and no delay is scanned; "
+        "free a parameter (\"fixed\": false), or use loglik to evaluate the likelihood at these "
+        "values",
+        spec.source.empty() ? spec.name : spec.source));
   // The start: the model's values, or those with the steady states' parameters moved to the
   // records' levels.
   std::optional<SteadyStartResult> steady;
@@ -940,6 +954,11 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   s.bic = -2 * s.loglik + s.n_free * std::log(static_cast<double>(s.n_obs));
   if (!std::isfinite(s.loglik))
     return NumericalError("the log-likelihood cannot be evaluated at the estimate");
+  for (std::size_t i = 0; i < s.theta.size(); ++i)
+    if (!std::isfinite(s.theta[i]))
+      return NumericalError(fmt::format("the estimate of {} is not a finite number ({}): the fit "
+                                        "ran off; give the parameter bounds or another start",
+                                        spec.parameters[i].name, s.theta[i]));
   if (u.uphill) {
     std::string along;
     for (int i = 0; i < fitter.k(); ++i)

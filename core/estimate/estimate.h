@@ -83,6 +83,11 @@ enum class Algorithm {
   kBobyqa,  // NLopt LN_BOBYQA: derivative-free quadratic models within the bounds
 };
 
+// Limits of EstimateOptions: starts beyond these would only exhaust the machine (each start is a
+// whole fit, and their points are drawn together).
+inline constexpr int kMaxStarts = 10000;
+inline constexpr int kMaxThreads = 1024;
+
 struct EstimateOptions {
   Algorithm algorithm = Algorithm::kAuto;
   // Stop when an iteration changes -log L by less than ftol_rel times its value.

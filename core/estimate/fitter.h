@@ -191,7 +191,8 @@ class Fitter {
       return ScoresByDifferences(z, delay, f, g, info);
     }
     const std::vector<double> theta = Theta(z);
-    const int chunks = split ? std::clamp(std::min(threads_, k() / 2), 1, k()) : 1;
+    // One chunk at least, also with no free parameter (only a delay is estimated).
+    const int chunks = split && k() > 1 ? std::clamp(std::min(threads_, k() / 2), 1, k()) : 1;
     std::vector<std::vector<int>> which(chunks);
     for (int i = 0; i < k(); ++i) which[i * chunks / k()].push_back(free_[i]);
     std::vector<Eigen::VectorXd> g_part(chunks);

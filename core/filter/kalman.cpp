@@ -60,9 +60,7 @@ Result<std::vector<Discrete>> DiscretizeIntervals(const model::StateSpace& ss,
       "e^(A dt) or its integrals overflow at these parameter values (an interval this long, or "
       "a mode this unstable)",
       series.time[k + 1] - series.time[k], k + 1, series.time[k]));
-  e.file = series.source;
-  if (k < series.row_line.size()) e.line = series.row_line[k];
-  return e;
+  return data::AtRow(e, series, static_cast<int>(k));
 }
 
 namespace {

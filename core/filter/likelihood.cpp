@@ -64,6 +64,22 @@ Result<Likelihood> Likelihood::CreateFor(const model::ModelSpec& spec,
         return e;
       }
     }
+    // A record without a single observation in the rows the filter scores contributes nothing:
+    // a fit to it would "converge" anywhere, with log L 0 and a BIC of -inf.
+    long observed = 0;
+    for (std::size_t o = 0; o < spec.outputs.size(); ++o)
+      for (Eigen::Index j = spec.output_delay[o].max; j < s->Y.cols(); ++j)
+        observed += std::isfinite(s->Y(static_cast<Eigen::Index>(o), j)) ? 1 : 0;
+    if (observed == 0 && !spec.outputs.empty()) {
+      std::string names;
+      for (const auto& o : spec.outputs) names += (names.empty() ? "'" : ", '") + o + "'";
+      Error e = InputError(fmt::format(
+          "no observation: every value of the output{} {} is missing in the {} rows the filter "
+          "uses, so there is nothing to fit or evaluate",
+          spec.outputs.size() == 1 ? "" : "s", names, s->size()));
+      e.file = s->source;
+      return e;
+    }
   }
   Likelihood l;
   l.settings_ = FilterSettings::FromModel(spec);

@@ -15,17 +15,6 @@ namespace gb::filter {
 
 using Program = model::NonlinearModel::Program;
 
-namespace {
-
-// Where a series' row is, for messages.
-Error AtRow(Error e, const data::Series& series, int j) {
-  if (e.file.empty()) e.file = series.source;
-  if (j < static_cast<int>(series.row_line.size())) e.line = series.row_line[j];
-  return e;
-}
-
-}  // namespace
-
 // The moment equations over one sample interval: z = [x̂; lower triangle of P, column by column],
 // and with `transition` also Φ (column-major), dΦ/dt = J Φ from Φ = I.
 class MomentPropagator::Moments final : public OdeSystem {
@@ -326,7 +315,7 @@ Status MomentPropagator::Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P,
     // The model's own reason (an entry not finite where the solver tried it) says more than
     // the solver's.
     const std::string why = moments_->failure() ? moments_->failure()->message : s.error().message;
-    return AtRow(NumericalError(fmt::format(
+    return data::AtRow(NumericalError(fmt::format(
                      "the moment equations could not be integrated from row {} (t = {:g}) to "
                      "the next: {}",
                      j + 1, series_.time[j], why)),
@@ -381,7 +370,7 @@ Status MomentPropagator::Initial(model::InitialCovariance kind, Eigen::VectorXd*
     case model::InitialCovariance::kStationary: {
       moments_->SetInterval(series_.U.data(), nullptr, series_.time[0], 1.0);
       if (!moments_->EvaluateAt(series_.time[0], x->data()))
-        return AtRow(*moments_->failure(), series_, 0);
+        return data::AtRow(*moments_->failure(), series_, 0);
       Eigen::VectorXd sigma2(n);
       for (int i = 0; i < n; ++i) sigma2(i) = moments_->sigma()[i] * moments_->sigma()[i];
       std::complex<double> bad;
@@ -392,7 +381,7 @@ Status MomentPropagator::Initial(model::InitialCovariance kind, Eigen::VectorXd*
             "use \"ctsm\" or explicit variances",
             bad.real(), bad.imag()));
       if (K > 0 && !moments_->StationarySensitivities(*P, ds))
-        return AtRow(*moments_->failure(), series_, 0);
+        return data::AtRow(*moments_->failure(), series_, 0);
       return Ok{};
     }
     case model::InitialCovariance::kExplicit:
@@ -421,7 +410,7 @@ Status MomentPropagator::MeasureSensitivities(int j, const Eigen::VectorXd& x,
   const auto& program = sensitivity_->measurement();
   measure_scratch_.resize(program.nonzeros());
   program.Eval(slots_, dense, measure_scratch_);
-  if (auto bad = sensitivity_->NotFinite(program, dense, slots_)) return AtRow(*bad, series_, j);
+  if (auto bad = sensitivity_->NotFinite(program, dense, slots_)) return data::AtRow(*bad, series_, j);
   return Ok{};
 }
 
@@ -434,7 +423,7 @@ Status MomentPropagator::Measure(int j, const Eigen::VectorXd& x, std::span<doub
   model_.Measurement(slots_, out);
   for (std::size_t k = 0; k < out.size(); ++k) {
     if (!std::isfinite(out[k]))
-      return AtRow(model_.NotFinite(Program::kMeasurement, k, out[k], slots_), series_, j);
+      return data::AtRow(model_.NotFinite(Program::kMeasurement, k, out[k], slots_), series_, j);
   }
   return Ok{};
 }

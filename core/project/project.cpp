@@ -201,6 +201,17 @@ Json ProjectToJson(const Project& p, const std::string& path, bool relative_path
   return j;
 }
 
+std::vector<FileRole> ProjectFiles(const Project& p) {
+  std::vector<FileRole> files;
+  if (!p.path.empty()) files.push_back({p.path, "the project file"});
+  if (!p.model_path.empty()) files.push_back({p.model_path, "the project's model file"});
+  for (const std::string& d : p.datasets) files.push_back({d, "a dataset of the project"});
+  if (p.extra.is_object() && p.extra.contains("diagram") && p.extra["diagram"].is_string())
+    files.push_back({ResolvePath(p.base_dir, p.extra["diagram"].get<std::string>()),
+                     "the project's diagram file"});
+  return files;
+}
+
 Status SaveProject(const Project& p, const std::string& path, bool relative_paths) {
   return WriteFileAtomic(path, ProjectToJson(p, path, relative_paths).dump(1) + "\n");
 }
@@ -219,13 +230,63 @@ Error CannotCreate(const std::string& path, const std::string& tmp, int err) {
                    fmt::format("cannot write the file (cannot create {}: {})", tmp, std::strerror(err)));
 }
 
+// Where a write of `path` lands: the path itself, or, through symlinks, the file they name (so
+// that replacing it keeps the link). `through` is true for what is not a regular file and so is
+// written in place (a device such as /dev/null, a FIFO, a terminal), never renamed over.
+struct WriteTarget {
+  std::string path;
+  bool through = false;
+};
+
+WriteTarget TargetOf(const std::string& path) {
+  std::error_code ec;
+  const fs::file_status link = fs::symlink_status(path, ec);
+  if (ec || !fs::exists(link)) return {path, false};
+  const fs::file_status st = fs::status(path, ec);
+  if (ec || !fs::exists(st)) return {path, true};  // a dangling link: created through it
+  std::string target = path;
+  if (fs::is_symlink(link)) {
+    const fs::path resolved = fs::canonical(path, ec);
+    if (!ec) target = resolved.string();
+  }
+  return {target, !fs::is_regular_file(st) && !fs::is_directory(st)};
+}
+
+// Writes all of `text` to `fd`; 0 or the errno of the failure.
+int WriteAll(int fd, const std::string& text) {
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return n < 0 ? errno : EIO;
+    done += static_cast<std::size_t>(n);
+  }
+  return 0;
+}
+
+Status WriteThrough(const std::string& path, const std::string& text) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd < 0) return FileError(path, fmt::format("cannot write the file: {}", std::strerror(errno)));
+  const int err = WriteAll(fd, text);
+  const bool closed = ::close(fd) == 0;
+  if (err || !closed)
+    return FileError(path, fmt::format("cannot write the file: {}", std::strerror(err ? err : errno)));
+  return Ok{};
+}
+
 }  // namespace
 
 Status CheckWritable(const std::string& path) {
   std::error_code ec;
   if (fs::is_directory(path, ec))
     return FileError(path, fmt::format("cannot replace the file: {}", std::strerror(EISDIR)));
-  const std::string tmp = TemporaryFor(path);
+  const WriteTarget target = TargetOf(path);
+  if (target.through) {
+    if (::access(target.path.c_str(), W_OK) != 0 && errno != ENOENT)
+      return FileError(path, fmt::format("cannot write the file: {}", std::strerror(errno)));
+    return Ok{};
+  }
+  const std::string tmp = TemporaryFor(target.path);
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
   if (fd < 0) return CannotCreate(path, tmp, errno);
   ::close(fd);
@@ -234,20 +295,15 @@ Status CheckWritable(const std::string& path) {
 }
 
 Status WriteFileAtomic(const std::string& path, const std::string& text) {
-  const std::string tmp = TemporaryFor(path);
+  const WriteTarget target = TargetOf(path);
+  if (target.through) return WriteThrough(target.path, text);
+  const std::string tmp = TemporaryFor(target.path);
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
   if (fd < 0) return CannotCreate(path, tmp, errno);
   // Every byte reaches the disk before the rename makes the new file visible: after a crash or
   // a power cut the path holds either the old content or the new, never a truncated file.
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    done += static_cast<std::size_t>(n);
-  }
-  const int write_errno = done == text.size() ? 0 : errno;
-  const bool synced = done == text.size() && ::fsync(fd) == 0;
+  const int write_errno = WriteAll(fd, text);
+  const bool synced = write_errno == 0 && ::fsync(fd) == 0;
   const int sync_errno = synced ? 0 : errno;
   const bool closed = ::close(fd) == 0;
   if (!synced || !closed) {
@@ -255,14 +311,14 @@ Status WriteFileAtomic(const std::string& path, const std::string& text) {
     ::unlink(tmp.c_str());
     return FileError(path, fmt::format("cannot write the file: {}", std::strerror(err)));
   }
-  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+  if (::rename(tmp.c_str(), target.path.c_str()) != 0) {
     const int err = errno;
     ::unlink(tmp.c_str());
     return FileError(path, fmt::format("cannot replace the file: {}", std::strerror(err)));
   }
   // The rename itself is durable once the directory is synced. A failure here loses nothing
   // that is not already visible, so it is not reported.
-  const fs::path dir = fs::path(path).parent_path();
+  const fs::path dir = fs::path(target.path).parent_path();
   const int dir_fd = ::open(dir.empty() ? "." : dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dir_fd >= 0) {
     ::fsync(dir_fd);

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/util/json.h"
+#include "core/util/output_guard.h"
 #include "core/util/result.h"
 
 namespace gb::project {
@@ -47,6 +48,10 @@ EstimationDefaults ReadEstimationDefaults(const Project& project);
 // `case.json: datasets[1]: expected a file name (a string)`.
 Result<Project> LoadProject(const std::string& path);
 
+// Every file the project is made of, as inputs for the output guard (core/util/output_guard.h):
+// the project file, its model file, its datasets and its diagram file, each with its role.
+std::vector<FileRole> ProjectFiles(const Project& p);
+
 // `path` as given in a project file: relative paths are taken from `base_dir`.
 std::string ResolvePath(const std::string& base_dir, const std::string& path);
 
@@ -71,7 +76,10 @@ Status SaveProject(const Project& p, const std::string& path, bool relative_path
 // fsync'ed, closed, then renamed over `path`, and the directory fsync'ed. On any failure `path`
 // keeps its old content, the temporary is removed, and the Error names `path` and the reason
 // (e.g. "cannot write the file (cannot create ...: Permission denied)"). The new file gets the
-// default permissions (0666 less the umask), not those of the file it replaces.
+// default permissions (0666 less the umask), not those of the file it replaces. A symlink to a
+// regular file stays a link: the file it names is replaced. What is not a regular file (a device
+// such as /dev/null, a FIFO, a terminal, or a link to one) is written in place, never renamed
+// over. Callers check first that `path` is none of their inputs (core/util/output_guard.h).
 Status WriteFileAtomic(const std::string& path, const std::string& text);
 
 // Whether WriteFileAtomic(path, ...) could write now: creates and removes the temporary it would

@@ -47,6 +47,18 @@ Result<std::vector<int>> ApplyResultFile(const std::string& path, const std::set
                                          spec->source, name));
     par.value = value;
   }
+  // A free parameter the result does not name would silently keep the model's start value:
+  // the result is from another model (or another version of it).
+  std::string missing;
+  for (const model::Parameter& par : spec->parameters)
+    if (!par.fixed && !keep.count(par.name) && !params.contains(par.name))
+      missing += (missing.empty() ? "'" : ", '") + par.name + "'";
+  if (!missing.empty())
+    return ResultFileError(
+        path, "parameters",
+        fmt::format("no estimate of the model's free parameter{} {} (the model {}): is the result "
+                    "from another model? Give a value with --set NAME=VALUE, or fix the parameter",
+                    missing.find(',') == std::string::npos ? "" : "s", missing, spec->source));
   std::vector<int> delay(spec->outputs.size(), -1);
   if (j->contains("output_delay")) {
     const Json& delays = (*j)["output_delay"];

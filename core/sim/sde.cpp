@@ -16,12 +16,6 @@ namespace {
 
 using Program = model::NonlinearModel::Program;
 
-Error AtRow(Error e, const data::Series& series, int j) {
-  if (e.file.empty()) e.file = series.source;
-  if (j < static_cast<int>(series.row_line.size())) e.line = series.row_line[j];
-  return e;
-}
-
 }  // namespace
 
 Result<Simulation> DeterministicResponse(const model::NonlinearModel& model,
@@ -106,10 +100,10 @@ Result<Simulation> SamplePath(const model::NonlinearModel& model, std::span<cons
         if (std::isfinite(x(i))) continue;
         // Name the entry that broke the path.
         for (std::size_t k = 0; k < dyn.size(); ++k)
-          if (!std::isfinite(dyn[k])) return AtRow(model.NotFinite(Program::kDynamics, k, dyn[k], slots), series, j);
+          if (!std::isfinite(dyn[k])) return data::AtRow(model.NotFinite(Program::kDynamics, k, dyn[k], slots), series, j);
         for (std::size_t k = 0; k < noise.size(); ++k)
-          if (!std::isfinite(noise[k])) return AtRow(model.NotFinite(Program::kNoise, k, noise[k], slots), series, j);
-        return AtRow(NumericalError(fmt::format("the sample path of {} is not finite after row {}",
+          if (!std::isfinite(noise[k])) return data::AtRow(model.NotFinite(Program::kNoise, k, noise[k], slots), series, j);
+        return data::AtRow(NumericalError(fmt::format("the sample path of {} is not finite after row {}",
                                                 model.spec().states[i], j + 1)),
                      series, j);
       }
@@ -127,7 +121,7 @@ Result<Simulation> SamplePath(const model::NonlinearModel& model, std::span<cons
       const double S = meas[p + p * n + o];
       if (!std::isfinite(meas[o]) || !std::isfinite(S)) {
         const std::size_t entry = std::isfinite(meas[o]) ? p + p * n + o : o;
-        return AtRow(model.NotFinite(Program::kMeasurement, entry, meas[entry], slots), series, j);
+        return data::AtRow(model.NotFinite(Program::kMeasurement, entry, meas[entry], slots), series, j);
       }
       sim.Y(o, k) = meas[o] + std::sqrt(std::max(0.0, S)) * rng.Normal();
     }

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -30,6 +31,24 @@ inline std::string WhyNotReadable(const std::string& path, std::uintmax_t max_by
   }
   if (size_out) *size_out = size;
   return "";
+}
+
+// The file's bytes as a 64-bit FNV-1a hash in 16 hex digits ("" when it cannot be read): what
+// a result file records of its data, so that `compare` can tell fits to other data apart.
+inline std::string FileFingerprint(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return "";
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  unsigned char buf[1 << 16];
+  std::size_t n = 0;
+  while ((n = std::fread(buf, 1, sizeof buf, f)) > 0)
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ buf[i]) * 0x100000001b3ULL;
+  const bool failed = std::ferror(f) != 0;
+  std::fclose(f);
+  if (failed) return "";
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return hex;
 }
 
 }  // namespace gb

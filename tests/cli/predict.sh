@@ -110,6 +110,8 @@ python3 - "$tmp/result.json" <<'PY'
 import json, sys
 json.dump({"greybench_result": 1,
            "parameters": {"tau_fv": {"estimate": 0.09}, "X": {"estimate": 0.3},
+                          "tau_ff": {"estimate": 0.375}, "s11": {"estimate": 1.098e-3},
+                          "s12": {"estimate": 3.91e-4}, "s2": {"estimate": 1.257e-4},
                           "Kb": {"estimate": 0.8421, "fixed": True}},
            "output_delay": {"ilambda": {"estimate": 3, "profile": []}}}, open(sys.argv[1], "w"))
 PY
@@ -177,7 +179,11 @@ echo '{"loglik": 1}' >"$tmp/notresult.json"
 expect 2 "notresult.json: not a greybench result file" -- predict "$model" "$csv" --result "$tmp/notresult.json" --out "$tmp/x.csv"
 echo '{"greybench_result": 1, "parameters": {"tauff": {"estimate": 1}}}' >"$tmp/other.json"
 expect 2 "other.json: parameters.tauff: .*no parameter 'tauff'" -- predict "$model" "$csv" --result "$tmp/other.json" --out "$tmp/x.csv"
-echo '{"greybench_result": 1, "parameters": {}, "output_delay": {"ilambda": {"estimate": 7}}}' >"$tmp/far.json"
+python3 - "$tmp/result.json" "$tmp/far.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1])); r["output_delay"]["ilambda"]["estimate"] = 7
+json.dump(r, open(sys.argv[2], "w"))
+PY
 expect 2 "far.json: output_delay.ilambda.estimate: delay 7 is outside the model's range 0..5" -- diagnose "$tmp/scan.json" "$csv" --result "$tmp/far.json" --out "$tmp/x.json"
 expect 2 "max_lag 50 needs more than 50" -- diagnose "$model" "$csv" --max-lag 50 --out "$tmp/x.json"
 expect 2 "--set X: 'abc' is not a number" -- predict "$model" "$csv" --set X=abc --out "$tmp/x.csv"

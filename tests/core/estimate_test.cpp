@@ -106,6 +106,62 @@ TEST(Estimate, RecoversTheFuelFilmModelAndItsDelayFromSimulatedPrbsData) {
   EXPECT_NEAR(j["aic"].get<double>(), -2 * s->loglik + 2 * s->n_free, 1e-9);
 }
 
+// With every parameter fixed the only unknown is the scanned delay: the estimate is the delay
+// of the largest log-likelihood, each evaluated directly (a brute-force profile), and nothing
+// else is reported as estimated. Found by issue 32: the score split its parameters into
+// clamp(…, 1, 0) chunks and read past the end (SIGSEGV).
+TEST(Estimate, WithEveryParameterFixedOnlyTheDelayIsEstimatedByItsProfile) {
+  const auto truth = Compile(FuelFilm(true));
+  design::PrbsOptions prbs;
+  prbs.order = 6;
+  prbs.bit_period = 0.5;
+  prbs.sample_time = 0.0125;
+  prbs.duration = 20.0;
+  prbs.low = 1.08;
+  prbs.high = 1.32;
+  const auto series = Simulate(*truth, {prbs}, 7);
+  Json j = FuelFilm(true);
+  for (auto& [name, p] : j["parameters"].items()) p["fixed"] = true;
+  j["output_delay"]["ilambda"] = Json{{"min", 2}, {"max", 8}};
+  auto lik = filter::Likelihood::Create(Compile(j), {series});
+  ASSERT_TRUE(lik.ok()) << lik.error().ToString();
+  auto s = Estimate(*lik, EstimateOptions{});
+  ASSERT_TRUE(s.ok()) << s.error().ToString();
+  int best = -1;
+  double best_loglik = -HUGE_VAL;
+  for (int d = 2; d <= 8; ++d) {
+    const std::vector<int> delay{d};
+    auto l = lik->Evaluate(lik->spec().Values(), delay);
+    ASSERT_TRUE(l.ok());
+    if (l->loglik > best_loglik) best = d, best_loglik = l->loglik;
+  }
+  EXPECT_EQ(s->delays[0].estimate, best);
+  EXPECT_DOUBLE_EQ(s->loglik, best_loglik);
+  EXPECT_EQ(s->n_free, 1);  // the delay
+  for (const auto& p : s->parameters) EXPECT_FALSE(p.std_error.has_value()) << p.name;
+}
+
+TEST(Estimate, AModelWithNothingToEstimateIsRefusedNamingTheModel) {
+  const auto truth = Compile(FuelFilm(true));
+  design::PrbsOptions prbs;
+  prbs.order = 6;
+  prbs.bit_period = 0.5;
+  prbs.sample_time = 0.0125;
+  prbs.duration = 5.0;
+  prbs.low = 1.08;
+  prbs.high = 1.32;
+  const auto series = Simulate(*truth, {prbs}, 7);
+  Json j = FuelFilm(true);
+  for (auto& [name, p] : j["parameters"].items()) p["fixed"] = true;
+  auto lik = filter::Likelihood::Create(Compile(j), {series});
+  ASSERT_TRUE(lik.ok());
+  auto s = Estimate(*lik, EstimateOptions{});
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().kind, ErrorKind::kInput);
+  EXPECT_NE(s.error().message.find("nothing to estimate"), std::string::npos) << s.error().message;
+  EXPECT_NE(s.error().message.find("test.json"), std::string::npos) << s.error().message;
+}
+
 // ---- the crankshaft, eq. 15-16 with the values of Section 5 ------------------------------------
 
 Json Crankshaft(bool truth, bool load_perturbed) {

@@ -1,6 +1,7 @@
 #include "core/filter/likelihood.h"
 
 #include <cmath>
+#include <limits>
 
 #include <gtest/gtest.h>
 
@@ -63,6 +64,26 @@ TEST(Likelihood, SeveralDatasetsAddUp) {
     EXPECT_NEAR(lj->loglik, l1->loglik + l2->loglik, 1e-9 * std::abs(lj->loglik));
     EXPECT_EQ(lj->n_obs, l1->n_obs + l2->n_obs);
   }
+}
+
+// A record without one observation in the rows the filter scores (k >= the largest delay) would
+// give log L = 0 and a fit that "converges" anywhere: refused, naming the record.
+TEST(Likelihood, ARecordWithoutAnObservationInTheScoredRowsIsRefusedNamingIt) {
+  const auto m = Compile(kModel);
+  const auto good = SimulatedSeries(*m, 2, 1, 10.0);
+  auto none = std::make_shared<data::Series>(*good);
+  none->source = "no_obs.csv";
+  // Observations only before row 4, which no delay candidate (up to 4) scores.
+  none->Y.rightCols(none->Y.cols() - 4).setConstant(std::numeric_limits<double>::quiet_NaN());
+  const auto refused = Likelihood::Create(m, {good, none});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().file, "no_obs.csv");
+  EXPECT_NE(refused.error().message.find("no observation"), std::string::npos)
+      << refused.error().message;
+  // One observation left at row 4 is enough.
+  auto one = std::make_shared<data::Series>(*none);
+  one->Y(0, 4) = good->Y(0, 4);
+  EXPECT_TRUE(Likelihood::Create(m, {good, one}).ok());
 }
 
 TEST(Likelihood, ScoresEveryDelayCandidateOnTheSameObservations) {

@@ -447,6 +447,30 @@ TEST_F(ShellTest, AProjectKeepsItsDiagramFileWhenSavedUnlessTheUserChoosesInline
   EXPECT_EQ(file->layout.positions.at(block), (std::array<double, 2>{1234.0, 567.0}));
 }
 
+// Save As onto a file the project is made of (its model, a dataset) would destroy it: refused
+// with both named, and the file keeps every byte.
+TEST_F(ShellTest, SaveAsOntoTheProjectsOwnModelOrDataIsRefusedAndLosesNothing) {
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  ASSERT_TRUE(d.state.project);
+  auto bytes = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  for (const char* name : {"fuel_film.json", "f1.csv"}) {
+    const fs::path target = dir() / "work" / name;
+    const std::string before = bytes(target);
+    ASSERT_FALSE(before.empty());
+    const Status st = SaveProjectAs(d.state, target.string());
+    ASSERT_FALSE(st.ok()) << name;
+    EXPECT_NE(st.error().message.find("would destroy"), std::string::npos) << st.error().message;
+    EXPECT_EQ(bytes(target), before) << name;
+    EXPECT_EQ(d.state.project->path, project());
+  }
+  // Over itself it saves as always.
+  EXPECT_TRUE(SaveProjectAs(d.state, project()).ok());
+}
+
 TEST_F(ShellTest, NewProjectWritesTheProjectFileAndOpensIt) {
   WorkbenchDriver& d = Start();
   d.Open(project());

@@ -532,6 +532,12 @@ void CreateProject(AppState& state) {
     }
     p.datasets.push_back(Absolute(d));
   }
+  std::vector<FileRole> inputs{{p.model_path, "the model file"}};
+  for (const std::string& d : p.datasets) inputs.push_back({d, "a dataset"});
+  if (Status st = CheckOutputs(inputs, {{project_path, "the project file"}}); !st) {
+    f.error = st.error().ToString();
+    return;
+  }
   if (Status st = project::SaveProject(p, project_path); !st) {
     f.error = st.error().ToString();
     return;
@@ -694,6 +700,12 @@ Status SaveProjectAs(AppState& state, const std::string& path) {
   if (!state.project) return InputError("no project is open");
   const std::string target = Absolute(path);
   project::Project p = ProjectToSave(state);
+  // The project may be saved over itself, never over a file it is made of.
+  std::vector<FileRole> inputs = project::ProjectFiles(*state.project);
+  const std::string& current = state.project->path;
+  std::erase_if(inputs, [&](const FileRole& f) { return f.path == current; });
+  inputs.push_back({state.diagram_view.file, "the diagram file"});
+  if (Status st = CheckOutputs(inputs, {{target, "the project file to save"}}); !st) return st;
   if (Status st = KeepDiagramFile(state, target, &p); !st) return st;
   if (Status st = project::SaveProject(p, target); !st) return st;
   const std::string old_path = state.project->path;
