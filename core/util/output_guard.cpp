@@ -1,11 +1,10 @@
 #include "core/util/output_guard.h"
 
+#include <fmt/format.h>
 #include <sys/stat.h>
 
 #include <filesystem>
 #include <optional>
-
-#include <fmt/format.h>
 
 namespace gb {
 namespace {
@@ -55,9 +54,8 @@ Status CheckOutputs(const std::vector<FileRole>& inputs, const std::vector<FileR
     const FileRole& output = outputs[o];
     for (std::size_t i = 0; i < inputs.size(); ++i) {
       if (!in[i] || !SameFile(*out[o], *in[i])) continue;
-      const std::string same = inputs[i].path == output.path
-                                   ? ""
-                                   : fmt::format(" ({})", inputs[i].path);
+      const std::string same =
+          inputs[i].path == output.path ? "" : fmt::format(" ({})", inputs[i].path);
       return InputError(fmt::format(
           "{} {} is {}{}: writing it would destroy that input; choose another path for {}",
           output.role, output.path, inputs[i].role, same, output.role));

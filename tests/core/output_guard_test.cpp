@@ -22,8 +22,8 @@ class OutputGuard : public ::testing::Test {
  protected:
   void SetUp() override {
     static int counter = 0;
-    dir_ = fs::temp_directory_path() / ("greybench-guard-" + std::to_string(::getpid()) + "-" +
-                                        std::to_string(counter++));
+    dir_ = fs::temp_directory_path() /
+           ("greybench-guard-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
     fs::remove_all(dir_);
     fs::create_directories(dir_ / "sub");
     Write("model.json", "{\"model\": 1}\n");
@@ -43,8 +43,9 @@ class OutputGuard : public ::testing::Test {
   }
   // The guard's verdict on one output against the model and data files.
   Status Check(const std::string& out) const {
-    return CheckOutputs({{Path("model.json"), "the model file"}, {Path("data.csv"), "the data file"}},
-                        {{out, "--out"}});
+    return CheckOutputs(
+        {{Path("model.json"), "the model file"}, {Path("data.csv"), "the data file"}},
+        {{out, "--out"}});
   }
 
   fs::path dir_;
@@ -53,9 +54,8 @@ class OutputGuard : public ::testing::Test {
 TEST_F(OutputGuard, AnOutputThatIsAnInputByAnyNameIsRefusedNamingBoth) {
   fs::create_symlink(Path("model.json"), Path("link.json"));
   fs::create_hard_link(Path("data.csv"), Path("hard.csv"));
-  for (const std::string& alias :
-       {Path("model.json"), Path("sub/../model.json"), Path("link.json"), Path("hard.csv"),
-        (dir_ / "." / "data.csv").string()}) {
+  for (const std::string& alias : {Path("model.json"), Path("sub/../model.json"), Path("link.json"),
+                                   Path("hard.csv"), (dir_ / "." / "data.csv").string()}) {
     const Status st = Check(alias);
     ASSERT_FALSE(st.ok()) << alias;
     EXPECT_NE(st.error().message.find("--out " + alias), std::string::npos) << st.error().message;
@@ -75,7 +75,8 @@ TEST_F(OutputGuard, NewFilesOtherFilesAndStandardOutputPass) {
 
 TEST_F(OutputGuard, TwoOutputsOnOneFileAreRefusedUnlessItIsADevice) {
   // Neither exists yet: the same name, spelled two ways.
-  const Status st = CheckOutputs({}, {{Path("out.csv"), "--out"}, {Path("sub/../out.csv"), "--states"}});
+  const Status st =
+      CheckOutputs({}, {{Path("out.csv"), "--out"}, {Path("sub/../out.csv"), "--states"}});
   ASSERT_FALSE(st.ok());
   EXPECT_NE(st.error().message.find("--states"), std::string::npos);
   EXPECT_NE(st.error().message.find("--out"), std::string::npos);
