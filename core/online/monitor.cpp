@@ -18,7 +18,7 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // A parameter's score test sums blocks of rows so that the change it looks for is about this many
-// SDs of a block's standardised score (at most kMaxBlock rows).
+// SDs of a block's standardised score (at most kMaxBlock rows: a smaller change is refused).
 constexpr double kBlockShift = 0.5;
 constexpr int kMaxBlock = 100000;
 // The largest change a score test is designed for, in SDs of one row's standardised score (see
@@ -188,9 +188,14 @@ Result<Monitor> Monitor::Build(std::unique_ptr<OnlineEstimator> estimator,
     // (the test is then more sensitive than asked, and its design stays within reach).
     m.delta_[a] = std::min(m.delta_[a], kMaxRowShift / std::sqrt(info_per_row));
     const double delta_row = m.delta_[a] * std::sqrt(info_per_row);
-    m.block_[a] =
-        std::clamp(static_cast<int>(std::ceil(kBlockShift * kBlockShift / (delta_row * delta_row))),
-                   1, kMaxBlock);
+    const double block = std::ceil(kBlockShift * kBlockShift / (delta_row * delta_row));
+    if (!(block <= kMaxBlock))
+      return InputError(fmt::format(
+          "a change of {} by {:.3g} ({:.3g} %) is too small to test: its score test would sum "
+          "blocks of more than {} rows; ask for a larger change",
+          m.estimator_->tracked_names()[a], m.delta_[a], 100.0 * options.parameter_change,
+          kMaxBlock));
+    m.block_[a] = std::max(1, static_cast<int>(block));
   }
   return m;
 }
@@ -219,7 +224,13 @@ Status Monitor::Design(double sample_time) {
     const double info_block = block_[a] / (test_sd_[a] * test_sd_[a] * ref_rows_);
     const CusumChange change{CusumKind::kMeanUp, delta_[a] * std::sqrt(info_block)};
     auto h = ThresholdForArl0(change, arl0_blocks);
-    if (!h) return h.error();
+    if (!h)
+      return InputError(fmt::format(
+          "the score test of {} for a change of {:.3g} ({:.3g} %) sums blocks of {} rows ({:.3g} "
+          "s), too long to keep to {:.3g} false alarms per hour ({}): ask for a larger change or "
+          "fewer false alarms",
+          estimator_->tracked_names()[a], delta_[a], 100.0 * delta_[a] / std::abs(ref_theta_[a]),
+          block_[a], block_[a] * sample_time, per_hour, h.error().message));
     h_par_[a] = *h;
   }
   return Ok{};

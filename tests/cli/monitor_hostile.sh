@@ -107,6 +107,10 @@ for v in 0 -0.25 nan inf; do
   expect 2 "monitor: --change must be a positive, finite relative change .*not $v" -- \
     "${run[@]}" --change="$v"
 done
+expect 2 "a change of [a-zA-Z0-9_]+ by .* is too small to test: .*ask for a larger change" -- \
+  "${run[@]}" --change 1e-7 "${out[@]}"
+expect 2 "the score test of .* sums blocks of .* rows .*ask for a larger change or fewer false alarms" -- \
+  "${run[@]}" --change 0.1 --false-alarms 1000
 for v in 0 -3; do
   expect 2 "monitor: --every must be at least 1, not $v" -- "${run[@]}" --every="$v"
 done

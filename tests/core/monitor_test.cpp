@@ -293,6 +293,34 @@ TEST(Monitor, AChangeOneRowShowsIsTestedAtTheDesignedFalseAlarmRate) {
   EXPECT_LE(static_cast<double>(total), 2.0 * designed + 3.0 * std::sqrt(2.0 * designed));
 }
 
+// A change so small that its test's blocks are longer than the false-alarm rate allows between
+// two alarms (1 %: blocks of up to 34 000 rows, 9.5 h, at 1 false alarm per hour): the design (at
+// the second row, which gives the sample time) says so and what to change, instead of a CUSUM's
+// "in-control ARL out of reach". Smaller still (0.01 %: blocks beyond 100 000 rows) it is refused
+// at once.
+TEST(Monitor, AChangeTooSmallToTestIsRefusedNamingWhatToChange) {
+  const Fitted& f = OuReference();
+  const Reference ref = ReferenceFromSummary(f.summary, f.problem.spec());
+  MonitorOptions o;
+  o.false_alarms_per_hour = 1.0;
+  o.parameter_change = 0.01;
+  auto monitor = Monitor::Create(f.problem.spec(), ref, o);
+  ASSERT_TRUE(monitor) << monitor.error().ToString();
+  const std::vector<Sample> rows = SimulateOu(f.problem.spec(), f.summary.theta, 2, 1);
+  ASSERT_TRUE(monitor->Push(rows[0]));
+  auto second = monitor->Push(rows[1]);
+  ASSERT_FALSE(second);
+  EXPECT_EQ(second.error().kind, ErrorKind::kInput);
+  EXPECT_NE(second.error().message.find("ask for a larger change or fewer false alarms"),
+            std::string::npos)
+      << second.error().ToString();
+  o.parameter_change = 1e-4;
+  auto tiny = Monitor::Create(f.problem.spec(), ref, o);
+  ASSERT_FALSE(tiny);
+  EXPECT_NE(tiny.error().message.find("is too small to test"), std::string::npos)
+      << tiny.error().ToString();
+}
+
 // ---- the reference's correlation matrix -----------------------------------------------------------
 
 void WriteJson(const std::string& path, const Json& j) {
