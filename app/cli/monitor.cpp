@@ -5,8 +5,8 @@
 #include <fmt/format.h>
 
 #include <cerrno>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -60,7 +60,8 @@ Status CheckOptions(const MonitorArgs& args) {
 }
 
 // The log (--out), opened only once every input has been opened and checked, so that a bad input
-// leaves an earlier log as it was. Null with an error; stdout for none or "-".
+// leaves an earlier log as it was: stdout for none or "-", else the file (an error naming it when it
+// cannot be written).
 Result<std::FILE*> OpenLog(const std::string& path) {
   if (path.empty() || path == "-") return stdout;
   std::FILE* out = std::fopen(path.c_str(), "w");
@@ -135,10 +136,13 @@ int RunMonitor(const MonitorArgs& args) {
                      monitor->estimator().Method().c_str(), list.empty() ? "nothing" : list.c_str());
         for (std::size_t a = 0; a < names.size(); ++a) {
           if (monitor->parameter_block()[a] == 0) {
-            std::fprintf(stderr,
-                         "greybench-cli: monitor: %s: no score test (the reference gives it no "
-                         "standard error)\n",
-                         names[a].c_str());
+            const char* why = !(monitor->reference_sd()[a] > 0.0)
+                                  ? "the reference gives it no standard error"
+                              : monitor->reference_values()[a] == 0.0
+                                  ? "its reference value is 0: a relative change of it is 0"
+                                  : "the reference gives no n_obs";
+            std::fprintf(stderr, "greybench-cli: warning: monitor: %s: no score test (%s)\n",
+                         names[a].c_str(), why);
             continue;
           }
           const double change = monitor->parameter_change()[a];
