@@ -160,7 +160,8 @@ int Main(int argc, char** argv) {
                         "relative change of a parameter worth an alarm, > 0 (default 0.25)");
   c_monitor->add_option_function<double>(
       "--idle", [&monitor](const double& seconds) { monitor.idle = seconds; },
-      "--follow: stop after this many seconds (> 0) without a new row (not given: never stop)");
+      "--follow: stop after this many seconds (> 0) with nothing new in the file (not given: "
+      "never stop)");
   c_monitor->add_option("--every", monitor.every,
                         "write every N-th update, N >= 1 (alarms always; default 1)");
   c_monitor->add_option("--out", monitor.out, "log file (JSON Lines; default or - is stdout)");

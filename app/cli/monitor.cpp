@@ -100,6 +100,16 @@ int RunMonitor(const MonitorArgs& args) {
     auto f = online::FileFollower::Open(args.follow);
     if (!f) return Fail(f.error());
     follower.emplace(std::move(*f));
+    // What the file holds already: a header that cannot be bound is found before the log is
+    // opened (its rows wait in the reader).
+    Result<std::string> bytes = follower->Poll();
+    if (!bytes) return Fail(bytes.error());
+    if (std::optional<std::string> note = follower->TakeNote()) {
+      std::fprintf(stderr, "greybench-cli: warning: %s\n", note->c_str());
+      reader.Restart();
+    }
+    reader.Feed(*bytes);
+    if (reader.fatal()) return Fail(*reader.fatal());
   }
 
   // The output.
@@ -176,7 +186,7 @@ int RunMonitor(const MonitorArgs& args) {
     return true;
   };
 
-  bool running = true;
+  bool running = drain();
   while (running) {
     Result<std::string> bytes = from_stdin ? online::ReadSome(0) : follower->Poll();
     if (!bytes) {

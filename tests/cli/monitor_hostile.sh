@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # greybench-cli monitor (and linearise, which reads the same reference) under hostile input, one
 # check per class: --idle 0 or no --idle; a half-written last line when --idle expires; an
-# earlier log kept when an input is missing or bad; every numeric option out of its range; a
-# reference without a correlation matrix, or with a broken or singular one; a --change so large
-# that a change shows within a row. Each ends with a clear message and the right exit status, and
-# every input file (and the earlier log) is byte for byte as before.
+# earlier log kept when an input is missing or bad (a followed file whose header cannot be bound
+# too); every numeric option out of its range, and a --change too small to test; a reference
+# without a correlation matrix, or with a broken or singular one; a --change so large that a
+# change shows within a row. Each ends with a clear message and the right exit status, and every
+# input file (and the earlier log) is byte for byte as before.
 # Usage: monitor_hostile.sh GREYBENCH_CLI TEST_DATA_DIR
 set -u
 cli=$1
@@ -52,9 +53,10 @@ write("ref_notpsd.json", not_psd)
 write("ref_singular.json", singular)
 write("engine_nocorr.json", no_corr, json.load(open(f"{d}/engine_fit.json")))
 PY
+sed '1s/mfi/fuel/' "$tmp/rows.csv" >"$tmp/unbound.csv"  # its header lacks the input 'mfi'
 printf 'an earlier log\n' >"$tmp/log.jsonl"
-inputs=(model.json engine.json engine_fit.json ref.csv ref.json rows.csv partial.csv ref_nocorr.json
-  ref_asym.json ref_notpsd.json ref_singular.json engine_nocorr.json log.jsonl)
+inputs=(model.json engine.json engine_fit.json ref.csv ref.json rows.csv partial.csv unbound.csv
+  ref_nocorr.json ref_asym.json ref_notpsd.json ref_singular.json engine_nocorr.json log.jsonl)
 (cd "$tmp" && sha256sum "${inputs[@]}") >"$tmp/before.sha256"
 ref=$tmp/ref.json
 
@@ -88,6 +90,8 @@ expect 2 "no-such-model.json" -- \
   monitor "$tmp/no-such-model.json" --reference "$ref" --follow "$tmp/rows.csv" "${out[@]}"
 expect 2 "no-such-ref.json" -- \
   monitor "$model" --reference "$tmp/no-such-ref.json" --follow "$tmp/rows.csv" "${out[@]}"
+expect 2 "unbound.csv:1: column 'mfi' \(an input of the model\) is not in the file" -- \
+  monitor "$model" --reference "$ref" --follow "$tmp/unbound.csv" "${out[@]}"
 expect 2 "ref_nocorr.json: correlation" -- \
   monitor "$model" --reference "$tmp/ref_nocorr.json" --follow "$tmp/rows.csv" "${out[@]}"
 expect 2 "--change must be" -- \
