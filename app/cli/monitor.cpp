@@ -60,8 +60,8 @@ Status CheckOptions(const MonitorArgs& args) {
 }
 
 // The log (--out), opened only once every input has been opened and checked, so that a bad input
-// leaves an earlier log as it was: stdout for none or "-", else the file (an error naming it when it
-// cannot be written).
+// leaves an earlier log as it was: stdout for none or "-", else the file (an error naming it when
+// it cannot be written).
 Result<std::FILE*> OpenLog(const std::string& path) {
   if (path.empty() || path == "-") return stdout;
   std::FILE* out = std::fopen(path.c_str(), "w");

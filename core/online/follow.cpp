@@ -69,7 +69,8 @@ void CsvRowReader::Finish(LastLine last) {
   if (fatal_) return;
   if ((!partial_.empty() || overlong_) && last == LastLine::kDrop) {
     std::string_view start = partial_;
-    if (lines_ == 0 && start.starts_with(kByteOrderMark)) start.remove_prefix(kByteOrderMark.size());
+    if (lines_ == 0 && start.starts_with(kByteOrderMark))
+      start.remove_prefix(kByteOrderMark.size());
     const bool skipped = overlong_ ? overlong_skipped_ : data::internal::IsSkipped(start);
     const int line_no = lines_ < INT_MAX ? lines_ + 1 : INT_MAX;
     const char* const why = "no line end came before reading stopped";

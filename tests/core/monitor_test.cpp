@@ -321,7 +321,7 @@ TEST(Monitor, AChangeTooSmallToTestIsRefusedNamingWhatToChange) {
       << tiny.error().ToString();
 }
 
-// ---- the reference's correlation matrix -----------------------------------------------------------
+// ---- the reference's correlation matrix ----------------------------------------------------
 
 void WriteJson(const std::string& path, const Json& j) {
   std::FILE* out = std::fopen(path.c_str(), "w");
