@@ -173,7 +173,8 @@ struct MonitorArgs {
   std::vector<std::string> track;  // parameter names (empty: all that can be)
   double false_alarms = 0.125;    // per hour, all tests together
   double change = 0.25;           // relative parameter change worth an alarm
-  double idle = 0;                // --follow: stop after this many seconds without a new row (0: never)
+  std::optional<double> idle;     // --follow: stop after this many seconds without a new row
+                                  // (> 0; none: never)
   int every = 1;                  // write every this-many-th update (alarms always)
   std::string out;                // JSON Lines; empty or "-": stdout
 };

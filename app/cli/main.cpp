@@ -217,12 +217,15 @@ int Main(int argc, char** argv) {
       ->delimiter(',')
       ->allow_extra_args(false);
   c_monitor->add_option("--false-alarms", monitor.false_alarms,
-                        "false alarms per hour, all tests together (default 0.125)");
+                        "false alarms per hour, all tests together, > 0 (default 0.125)");
   c_monitor->add_option("--change", monitor.change,
-                        "relative change of a parameter worth an alarm (default 0.25)");
-  c_monitor->add_option("--idle", monitor.idle,
-                        "--follow: stop after this many seconds without a new row (default: never)");
-  c_monitor->add_option("--every", monitor.every, "write every N-th update (alarms always)");
+                        "relative change of a parameter worth an alarm, > 0 (default 0.25)");
+  c_monitor->add_option_function<double>(
+      "--idle", [&monitor](const double& seconds) { monitor.idle = seconds; },
+      "--follow: stop after this many seconds (> 0) with nothing new in the file (not given: "
+      "never stop)");
+  c_monitor->add_option("--every", monitor.every,
+                        "write every N-th update, N >= 1 (alarms always; default 1)");
   c_monitor->add_option("--out", monitor.out, "log file (JSON Lines; default or - is stdout)");
   c_monitor->callback([&] { run = [&] { return RunMonitor(monitor); }; });
 

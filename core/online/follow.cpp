@@ -65,8 +65,25 @@ void CsvRowReader::Feed(std::string_view bytes) {
   }
 }
 
-void CsvRowReader::Finish() {
+void CsvRowReader::Finish(LastLine last) {
   if (fatal_) return;
+  if ((!partial_.empty() || overlong_) && last == LastLine::kDrop) {
+    std::string_view start = partial_;
+    if (lines_ == 0 && start.starts_with(kByteOrderMark))
+      start.remove_prefix(kByteOrderMark.size());
+    const bool skipped = overlong_ ? overlong_skipped_ : data::internal::IsSkipped(start);
+    const int line_no = lines_ < INT_MAX ? lines_ + 1 : INT_MAX;
+    const char* const why = "no line end came before reading stopped";
+    if (!skipped && header_seen_) {
+      Skip(FileError(source_, line_no, 0,
+                     fmt::format("the last line is incomplete ({}): not used", why)));
+    } else if (!skipped) {
+      fatal_ = FileError(source_, line_no, 0,
+                         fmt::format("the header line is incomplete ({}): nothing was read", why));
+    }
+    partial_.clear();
+    overlong_ = false;
+  }
   if (!partial_.empty() || overlong_) {
     EndLine(partial_);
     partial_.clear();

@@ -91,9 +91,14 @@ class CsvRowReader {
   // Parses the complete lines of what has arrived so far; a partial last line waits for the rest.
   // Does nothing once fatal().
   void Feed(std::string_view bytes);
-  // End of input: a last line without a line end is parsed. When no header has come, that is
-  // fatal ("the input ended before a header: it was empty"). Call once, at the end.
-  void Finish();
+  // End of input. A last line without a line end is parsed (kParse: the input ended, so the line
+  // is whole, as for a file read to its end or standard input closed), or dropped (kDrop: reading
+  // stopped while the source may be mid-line, e.g. a followed file whose writer paused; it is a
+  // problem, "run.csv:802: the last line is incomplete (...): not used; row skipped"). When no
+  // header has come, that is fatal ("the input ended before a header: it was empty"). Call once,
+  // at the end.
+  enum class LastLine { kParse, kDrop };
+  void Finish(LastLine last = LastLine::kParse);
   // The source starts again from its first byte (a file truncated or replaced): forgets the
   // unfinished line, the header and its binding, fatal(), the line count and the last time.
   // Samples and problems not yet taken are kept.

@@ -2,9 +2,12 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
+#include <vector>
 
 #include "core/online/augmented.h"
 #include "core/online/ekf_stream.h"
@@ -15,10 +18,79 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // A parameter's score test sums blocks of rows so that the change it looks for is about this many
-// SDs of a block's standardised score (at most kMaxBlock rows).
+// SDs of a block's standardised score (at most kMaxBlock rows: a smaller change is refused).
 constexpr double kBlockShift = 0.5;
 constexpr int kMaxBlock = 100000;
-constexpr double kMaxRowShift = 3.0;
+// The largest change a score test is designed for, in SDs of one row's standardised score (see
+// the header: the CUSUM's false alarms then come from sums of 2h/δ² >= 1000 rows, close enough
+// to normal). With it every block has at least (kBlockShift / kMaxRowShift)² = 25 rows. At 3 (the
+// value before issue 32) the tests of data matching the reference alarmed 90 times (h = 9) to 630
+// times (h = 12) as often as designed; at 0.2, 1.7 times for a variance parameter; at 0.1 and
+// 0.05 at or below the rate (tests/core/monitor_test.cpp). 0.05 makes the change tested so small
+// (0.05 √n reference SEs) that the reference's own estimation error starts to alarm.
+constexpr double kMaxRowShift = 0.1;
+// A tracked block whose scaled covariance has an eigenvalue below this (a combination of the
+// tracked parameters with less than this share of their variance) is singular.
+constexpr double kSingular = 1e-8;
+// The correlation checks' tolerance: greybench writes full doubles, so the matrices it writes are
+// symmetric and have a unit diagonal to the last bit and eigenvalues above -1e-14; one off by
+// more than this was edited or written by another program.
+constexpr double kCorrelationTolerance = 1e-8;
+// An eigenvector's components at least this large name the parameters of its combination.
+constexpr double kInvolved = 0.1;
+
+// "a, b and c" from the parameters whose components of the unit vector v are not negligible.
+std::string CombinationOf(const Eigen::VectorXd& v, const std::vector<std::string>& names) {
+  std::vector<std::string> listed;
+  for (Eigen::Index a = 0; a < v.size(); ++a)
+    if (std::abs(v(a)) >= kInvolved) listed.push_back(names[static_cast<std::size_t>(a)]);
+  std::string out;
+  for (std::size_t a = 0; a < listed.size(); ++a)
+    out += (a == 0 ? "" : a + 1 == listed.size() ? " and " : ", ") + listed[a];
+  return out;
+}
+
+
+// The score tests standardise by the tracked block's covariance given the other free parameters
+// (cov, NaN-free), which says how much each row tells about each tracked parameter. When it is
+// singular the reference claims that a combination of tracked parameters is known exactly (its
+// information infinite): a test designed from it would alarm at nothing or at everything. The
+// tracked parameters with a reference SE are scaled by their marginal SDs (marginal), so that
+// the eigenvalues are shares of variance; those below kSingular are refused, naming the
+// parameters of their combinations.
+Status RefuseSingular(const Eigen::MatrixXd& cov, const Eigen::MatrixXd& marginal,
+                      const std::vector<std::string>& names, const Reference& reference) {
+  std::vector<Eigen::Index> with_se;
+  for (Eigen::Index a = 0; a < cov.rows(); ++a)
+    if (marginal(a, a) > 0.0) with_se.push_back(a);
+  const auto k = static_cast<Eigen::Index>(with_se.size());
+  if (k == 0) return Ok{};
+  Eigen::MatrixXd scaled(k, k);
+  std::vector<std::string> scaled_names;
+  for (Eigen::Index a = 0; a < k; ++a) {
+    scaled_names.push_back(names[static_cast<std::size_t>(with_se[a])]);
+    for (Eigen::Index b = 0; b < k; ++b)
+      scaled(a, b) = cov(with_se[a], with_se[b]) /
+                     std::sqrt(marginal(with_se[a], with_se[a]) * marginal(with_se[b], with_se[b]));
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(scaled);
+  if (eigen.eigenvalues()(0) > kSingular) return Ok{};
+  std::string involved;
+  for (Eigen::Index e = 0; e < k && eigen.eigenvalues()(e) <= kSingular; ++e) {
+    const std::string these = CombinationOf(eigen.eigenvectors().col(e), scaled_names);
+    if (involved.find(these) == std::string::npos)
+      involved += (involved.empty() ? "" : "; ") + these;
+  }
+  Error e = InputError(fmt::format(
+      "the reference's correlations make {} linearly dependent (with the other free parameters "
+      "held at the reference): it says a combination of them is known exactly, and their score "
+      "tests cannot be designed from it. Leave them out of the tracked parameters (track only "
+      "those you watch), or fit the reference again",
+      involved));
+  e.file = reference.source;
+  e.path = "correlation";
+  return e;
+}
 
 }  // namespace
 
@@ -26,6 +98,16 @@ bool MonitorOptions::IsValid(std::string* why) const {
   if (!(false_alarms_per_hour > 0.0) || !std::isfinite(false_alarms_per_hour)) {
     *why = fmt::format("the false-alarm rate must be a positive number per hour, not {:g}",
                        false_alarms_per_hour);
+    return false;
+  }
+  if (!(recursive.forgetting > 0.0 && recursive.forgetting <= 1.0)) {
+    *why = fmt::format("the forgetting factor must be in (0, 1], not {:g}", recursive.forgetting);
+    return false;
+  }
+  if (!(parameter_change > 0.0) || !std::isfinite(parameter_change)) {
+    *why = fmt::format("the parameter change worth an alarm must be a positive relative change, "
+                       "not {:g}",
+                       parameter_change);
     return false;
   }
   return true;
@@ -84,6 +166,9 @@ Result<Monitor> Monitor::Build(std::unique_ptr<OnlineEstimator> estimator,
     m.test_sd_.push_back(std::sqrt(std::max(m.ref_cov_(i, i), 0.0)));
   }
   m.ref_cov_ = m.ref_cov_.unaryExpr([](double v) { return std::isnan(v) ? 0.0 : v; });
+  if (Status s = RefuseSingular(m.ref_cov_, marginal, m.estimator_->tracked_names(), reference);
+      !s)
+    return s.error();
   const std::size_t k = m.ref_theta_.size();
   m.delta_.resize(k);
   m.block_.assign(k, 0);
@@ -103,9 +188,14 @@ Result<Monitor> Monitor::Build(std::unique_ptr<OnlineEstimator> estimator,
     // (the test is then more sensitive than asked, and its design stays within reach).
     m.delta_[a] = std::min(m.delta_[a], kMaxRowShift / std::sqrt(info_per_row));
     const double delta_row = m.delta_[a] * std::sqrt(info_per_row);
-    m.block_[a] =
-        std::clamp(static_cast<int>(std::ceil(kBlockShift * kBlockShift / (delta_row * delta_row))),
-                   1, kMaxBlock);
+    const double block = std::ceil(kBlockShift * kBlockShift / (delta_row * delta_row));
+    if (!(block <= kMaxBlock))
+      return InputError(fmt::format(
+          "a change of {} by {:.3g} ({:.3g} %) is too small to test: its score test would sum "
+          "blocks of more than {} rows; ask for a larger change",
+          m.estimator_->tracked_names()[a], m.delta_[a], 100.0 * options.parameter_change,
+          kMaxBlock));
+    m.block_[a] = std::max(1, static_cast<int>(block));
   }
   return m;
 }
@@ -134,7 +224,13 @@ Status Monitor::Design(double sample_time) {
     const double info_block = block_[a] / (test_sd_[a] * test_sd_[a] * ref_rows_);
     const CusumChange change{CusumKind::kMeanUp, delta_[a] * std::sqrt(info_block)};
     auto h = ThresholdForArl0(change, arl0_blocks);
-    if (!h) return h.error();
+    if (!h)
+      return InputError(fmt::format(
+          "the score test of {} for a change of {:.3g} ({:.3g} %) sums blocks of {} rows ({:.3g} "
+          "s), too long to keep to {:.3g} false alarms per hour ({}): ask for a larger change or "
+          "fewer false alarms",
+          estimator_->tracked_names()[a], delta_[a], 100.0 * delta_[a] / std::abs(ref_theta_[a]),
+          block_[a], block_[a] * sample_time, per_hour, h.error().message));
     h_par_[a] = *h;
   }
   return Ok{};
@@ -280,6 +376,112 @@ Json Monitor::ToJson(const MonitorUpdate& u) const {
   return j;
 }
 
+namespace {
+
+// The covariance of the free parameters with standard errors (`free`, `se`) from the file's
+// "correlation" (see LoadReference).
+Result<Eigen::MatrixXd> CovarianceOfFile(const std::string& path, const Json& j,
+                                         const model::ModelSpec& spec, const std::vector<int>& free,
+                                         const std::vector<double>& se) {
+  const auto k = static_cast<Eigen::Index>(free.size());
+  Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(k, k);
+  for (Eigen::Index a = 0; a < k; ++a) covariance(a, a) = se[a] * se[a];
+  if (!j.contains("correlation")) {
+    if (k < 2) return covariance;
+    std::string names;
+    for (int i : free) names += (names.empty() ? "" : ", ") + spec.parameters[i].name;
+    return project::ResultFileError(
+        path, "correlation",
+        fmt::format("the result gives standard errors of {} parameters ({}) but no correlation "
+                    "matrix, and taken as uncorrelated they would give wrong standard errors and "
+                    "alarms: run estimate again with this version of greybench, which writes it",
+                    k, names));
+  }
+  const Json& c = j["correlation"];
+  if (!c.is_object() || !c.contains("names") || !c["names"].is_array() || !c.contains("matrix") ||
+      !c["matrix"].is_array())
+    return project::ResultFileError(path, "correlation",
+                                    "expected an object with \"names\" and \"matrix\"");
+  const Json& names = c["names"];
+  const Json& matrix = c["matrix"];
+  const std::size_t m = names.size();
+  std::vector<Eigen::Index> at(m, -1);  // position in `free`, or -1
+  std::vector<std::string> listed;
+  for (std::size_t n = 0; n < m; ++n) {
+    if (!names[n].is_string())
+      return project::ResultFileError(path, fmt::format("correlation.names[{}]", n),
+                                      "expected a parameter name");
+    listed.push_back(names[n].get<std::string>());
+    if (std::find(listed.begin(), listed.end() - 1, listed.back()) != listed.end() - 1)
+      return project::ResultFileError(path, fmt::format("correlation.names[{}]", n),
+                                      fmt::format("'{}' is listed twice", listed.back()));
+    const int i = spec.ParameterIndex(listed.back());
+    for (Eigen::Index a = 0; a < k; ++a)
+      if (free[a] == i) at[n] = a;
+  }
+  for (Eigen::Index a = 0; a < k; ++a) {
+    if (std::find(at.begin(), at.end(), a) == at.end())
+      return project::ResultFileError(
+          path, "correlation.names",
+          fmt::format("'{}' has a standard error but is not in the correlation matrix: run "
+                      "estimate again with this version of greybench",
+                      spec.parameters[free[a]].name));
+  }
+  if (matrix.size() != m)
+    return project::ResultFileError(path, "correlation.matrix",
+                                    fmt::format("expected {} rows, one per name", m));
+  Eigen::MatrixXd r(m, m);
+  for (std::size_t x = 0; x < m; ++x) {
+    if (!matrix[x].is_array() || matrix[x].size() != m)
+      return project::ResultFileError(path, fmt::format("correlation.matrix[{}]", x),
+                                      fmt::format("expected {} numbers, one per name", m));
+    for (std::size_t y = 0; y < m; ++y) {
+      const Json& v = matrix[x][y];
+      if (!v.is_number() || !(std::abs(v.get<double>()) <= 1.0))
+        return project::ResultFileError(path, fmt::format("correlation.matrix[{}][{}]", x, y),
+                                        "expected a correlation in [-1, 1]");
+      r(static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y)) = v.get<double>();
+    }
+  }
+  for (Eigen::Index x = 0; x < r.rows(); ++x) {
+    if (std::abs(r(x, x) - 1.0) > kCorrelationTolerance)
+      return project::ResultFileError(
+          path, fmt::format("correlation.matrix[{}][{}]", x, x),
+          fmt::format("the correlation of {} with itself is 1, not {:.10g}", listed[x], r(x, x)));
+    for (Eigen::Index y = 0; y < x; ++y)
+      if (std::abs(r(x, y) - r(y, x)) > kCorrelationTolerance)
+        return project::ResultFileError(
+            path, fmt::format("correlation.matrix[{}][{}]", x, y),
+            fmt::format("{:.10g} differs from matrix[{}][{}] = {:.10g}: a correlation matrix is "
+                        "symmetric",
+                        r(x, y), y, x, r(y, x)));
+  }
+  // Positive semi-definite: no combination of the parameters with a negative variance. Within
+  // the tolerance, negative eigenvalues are rounding and are set to 0.
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(0.5 * (r + r.transpose()));
+  if (m > 0 && eigen.eigenvalues()(0) < -kCorrelationTolerance)
+    return project::ResultFileError(
+        path, "correlation.matrix",
+        fmt::format("is not positive semi-definite (its smallest eigenvalue is {:.3g}, along a "
+                    "combination of {}): no estimates have these correlations; run estimate "
+                    "again with this version of greybench",
+                    eigen.eigenvalues()(0), CombinationOf(eigen.eigenvectors().col(0), listed)));
+  if (m > 0 && eigen.eigenvalues()(0) < 0.0) {
+    r = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
+        eigen.eigenvectors().transpose();
+    const Eigen::VectorXd scale = r.diagonal().cwiseSqrt().cwiseInverse();
+    r = scale.asDiagonal() * r * scale.asDiagonal();
+  }
+  for (std::size_t x = 0; x < m; ++x)
+    for (std::size_t y = 0; y < m; ++y)
+      if (at[x] >= 0 && at[y] >= 0 && at[x] != at[y])
+        covariance(at[x], at[y]) = r(static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y)) *
+                                   se[at[x]] * se[at[y]];
+  return covariance;
+}
+
+}  // namespace
+
 Result<Reference> LoadReference(const std::string& path, const model::ModelSpec& spec) {
   model::ModelSpec copy = spec;
   Json j;
@@ -291,7 +493,7 @@ Result<Reference> LoadReference(const std::string& path, const model::ModelSpec&
   for (std::size_t o = 0; o < delays->size(); ++o)
     r.delay.push_back((*delays)[o] >= 0 ? (*delays)[o] : spec.output_delay[o].min);
   if (j.contains("n_obs") && j["n_obs"].is_number_integer()) r.n_obs = j["n_obs"].get<long>();
-  // The covariance from the standard errors and the correlation matrix, where the file has them.
+  // The covariance from the standard errors and the correlation matrix.
   const Json& params = j["parameters"];
   std::vector<double> se;
   for (int i = 0; i < static_cast<int>(spec.parameters.size()); ++i) {
@@ -307,43 +509,9 @@ Result<Reference> LoadReference(const std::string& path, const model::ModelSpec&
     r.free.push_back(i);
     se.push_back(s);
   }
-  const Eigen::Index k = static_cast<Eigen::Index>(r.free.size());
-  r.covariance = Eigen::MatrixXd::Zero(k, k);
-  for (Eigen::Index a = 0; a < k; ++a) r.covariance(a, a) = se[a] * se[a];
-  if (j.contains("correlation") && j["correlation"].is_object()) {
-    const Json& c = j["correlation"];
-    if (!c.contains("names") || !c["names"].is_array() || !c.contains("matrix") ||
-        !c["matrix"].is_array())
-      return project::ResultFileError(path, "correlation",
-                                      "expected an object with \"names\" and \"matrix\"");
-    const Json& names = c["names"];
-    const Json& matrix = c["matrix"];
-    std::vector<Eigen::Index> at(names.size(), -1);
-    for (std::size_t n = 0; n < names.size(); ++n) {
-      if (!names[n].is_string())
-        return project::ResultFileError(path, fmt::format("correlation.names[{}]", n),
-                                        "expected a parameter name");
-      const int i = spec.ParameterIndex(names[n].get<std::string>());
-      for (Eigen::Index a = 0; a < k; ++a)
-        if (r.free[a] == i) at[n] = a;
-    }
-    if (matrix.size() != names.size())
-      return project::ResultFileError(path, "correlation.matrix",
-                                      fmt::format("expected {} rows, one per name", names.size()));
-    for (std::size_t x = 0; x < names.size(); ++x) {
-      if (!matrix[x].is_array() || matrix[x].size() != names.size())
-        return project::ResultFileError(path, fmt::format("correlation.matrix[{}]", x),
-                                        fmt::format("expected {} numbers", names.size()));
-      for (std::size_t y = 0; y < names.size(); ++y) {
-        const Json& v = matrix[x][y];
-        if (!v.is_number() || !(std::abs(v.get<double>()) <= 1.0))
-          return project::ResultFileError(path, fmt::format("correlation.matrix[{}][{}]", x, y),
-                                          "expected a correlation in [-1, 1]");
-        if (at[x] >= 0 && at[y] >= 0 && at[x] != at[y])
-          r.covariance(at[x], at[y]) = v.get<double>() * se[at[x]] * se[at[y]];
-      }
-    }
-  }
+  auto covariance = CovarianceOfFile(path, j, spec, r.free, se);
+  if (!covariance) return covariance.error();
+  r.covariance = std::move(*covariance);
   return r;
 }
 

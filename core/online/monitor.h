@@ -29,10 +29,25 @@
 //     parameter that moved; parameters that are nearly interchangeable in the data, or a change
 //     large enough to be nonlinear, can also move a neighbour's test). Two
 //     mean-shift CUSUMs of cusum.h per parameter (up, down) watch z, one step per block. B makes
-//     δ about ½ (the scores of one row are far from normal; a block's sum is close to it); the
-//     thresholds come from the share of the false-alarm rate as for the innovations. This is far
-//     more sensitive than waiting for the recursive estimate to leave an interval: it
-//     accumulates evidence at the reference instead of comparing two noisy estimates.
+//     δ about ½; the thresholds come from the share of the false-alarm rate as for the
+//     innovations. This is far more sensitive than waiting for the recursive estimate to leave an
+//     interval: it accumulates evidence at the reference instead of comparing two noisy
+//     estimates.
+//     Calibration. The thresholds assume normal z, but the scores of one row are far from normal
+//     (a variance parameter's is a (χ²₁ - 1) kind, skewness √8). What decides the false alarms is
+//     the per-row shift δ₁ = Δ_a / √(n Σ_T,aa) the test is designed for, not B: the likeliest
+//     way to a false alarm is a run of about 2h/δ₁² rows whose standardised score sum reaches
+//     √(2h) SDs (Wald's tilt; h the threshold, 5-15), and with a per-row skewness κ the rate is
+//     off by about exp(κ δ₁ h / 3). A change that shows within a few rows (δ₁ of order 1) is
+//     decided by a few rows' scores: at δ₁ = 3 the tests alarmed 90-630 times as often as
+//     designed. So δ₁ is at most 0.1 (an alarm weighs >= 1000 rows; blocks have >= 25 rows): a
+//     larger --change is tested as the change of δ₁ = 0.1, more sensitive than asked (a larger
+//     change is found sooner), and parameter_change() says what is tested. That is still
+//     0.1 √n reference SEs (5 for n = 2500 rows), well beyond the reference's own error.
+//   The parameter tests need the reference's correlations (its covariance given the others held
+//   is their information); a tracked block that is singular there (a combination of tracked
+//   parameters known exactly, according to the reference) is refused, naming the parameters:
+//   no calibrated test exists for it. Tracking parameters outside the combination works.
 // Half of the false-alarm rate goes to the innovation tests, half to the parameter tests.
 // Nothing alarms during the estimator's warm-up. Both filters start as recursive.h says (kLive).
 // The alarm state is sticky: `alarm` stays true from the first alarm until Acknowledge().
@@ -64,9 +79,9 @@ struct MonitorOptions {
   double false_alarms_per_hour = 0.125;  // r: all tests together (one false alarm per 8 hours)
   double mean_shift = 1.0;               // δ of the innovation tests (SD units)
   double variance_ratio = 2.0;           // ρ of the innovation variance test
-  // The relative change of a parameter worth an alarm (a change that a single row shows at more
-  // than 3 SDs is tested as a 3-SD change: a well-determined parameter's test is then more
-  // sensitive than asked).
+  // The relative change of a parameter worth an alarm, > 0 and finite (a change that a single
+  // row shows at more than 0.1 SD is tested as a 0.1-SD change, see Calibration above: a
+  // well-determined parameter's test is then more sensitive than asked).
   double parameter_change = 0.25;
   bool IsValid(std::string* why) const;
 };
@@ -160,6 +175,12 @@ class Monitor {
 // The reference of a result file for `spec` (the model the monitor runs): every parameter's
 // estimate (fixed ones as the model has them), the delays, the covariance of the free parameters
 // from their standard errors and correlations, and n_obs. Errors name the file and JSON path.
+// The "correlation" ({"names": [...], "matrix": [[...], ...]}) is required when two or more free
+// parameters have standard errors (without it they would be taken as uncorrelated: wrong alarms,
+// wrong delta-method SEs); its names must cover every one of them, each once; the matrix must be
+// square (one row per name), symmetric, with unit diagonal, entries in [-1, 1], and positive
+// semi-definite, each to within 1e-8 (eigenvalues within it below 0 are taken as 0). A singular
+// matrix is read: where it is used decides (the monitor refuses a singular tracked block).
 Result<Reference> LoadReference(const std::string& path, const model::ModelSpec& spec);
 
 }  // namespace gb::online

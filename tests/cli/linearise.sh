@@ -29,7 +29,8 @@ expect 2 "--lambda-sensor: delay not in" -- dyno engine --lambda-sensor delay --
 expect 2 "oversample must be 1..1000" -- dyno engine --oversample 5000 --out "$tmp/x.csv"
 check "the model reads it" bash -c "'$cli' loglik '$assets/models/engine_mvem.json' '$tmp/f1.csv' | grep -q '\"filter\":\"ekf\"'"
 
-# A result file at the model's start values with 1 % standard errors, naming its model file.
+# A result file at the model's start values with 1 % standard errors, uncorrelated, naming its
+# model file.
 python3 - "$assets/models/engine_mvem.json" "$tmp/result.json" <<'PY'
 import json, sys, os
 m = json.load(open(sys.argv[1]))
@@ -38,6 +39,9 @@ r = {"greybench_result": 1, "model": m["name"], "n_obs": 1,
 for k, v in m["parameters"].items():
     r["parameters"][k] = {"estimate": v["value"], "std_error": abs(v["value"]) * 0.01 or 0.01,
                           "fixed": False}
+names = list(m["parameters"])  # uncorrelated, said so: a result without it is refused
+r["correlation"] = {"names": names,
+                    "matrix": [[float(a == b) for b in names] for a in names]}
 json.dump(r, open(sys.argv[2], "w"))
 PY
 out=$("$cli" linearise "$tmp/result.json" --point N=2931,alpha=29.5,ilambda=1 \

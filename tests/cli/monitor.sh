@@ -69,7 +69,7 @@ check "one JSON line per completed row" test "$(wc -l <"$tmp/follow.jsonl")" -eq
 expect 2 "either --follow FILE or -" -- monitor "$model" --reference "$tmp/ref.json"
 expect 2 "either --follow FILE or -" -- monitor "$model" --reference "$tmp/ref.json" --follow x.csv -
 expect 2 "no-such.json" -- monitor "$model" --reference "$tmp/no-such.json" -
-expect 2 "forgetting factor must be in \(0, 1\]" -- monitor "$model" --reference "$tmp/ref.json" --forgetting 1.5 -
+expect 2 "--forgetting must be in \(0, 1\]" -- monitor "$model" --reference "$tmp/ref.json" --forgetting 1.5 -
 expect 2 "no-such.csv" -- monitor "$model" --reference "$tmp/ref.json" --follow "$tmp/no-such.csv"
 
 # --- a nonlinear model: the augmented EKF on the Cascaded Tanks' test record, from their recorded

@@ -235,6 +235,42 @@ TEST(Follow, FinishParsesALastLineWithoutALineEnd) {
   EXPECT_FALSE(reader.fatal());
 }
 
+// Reading that stops while the source may be mid-line (a followed file whose writer paused):
+// the line without its end is not a row, whatever it holds ("1,3,4" would parse, "1,3" is a cut
+// row), and the problem says so by its line; a trailing comment or blank line is no problem.
+TEST(Follow, FinishDroppingTheLastLineUsesNoIncompleteLineAndSaysSo) {
+  for (const std::string last : {"1,3,4", "1,3", "1,3,4\r\n1,5,6"}) {
+    SCOPED_TRACE(last);
+    CsvRowReader reader("run.csv", kInputs, kOutputs);
+    reader.Feed("t,u,y\n0,1,2\n" + last);
+    const std::size_t whole = reader.TakeSamples().size();
+    reader.Finish(CsvRowReader::LastLine::kDrop);
+    EXPECT_TRUE(reader.TakeSamples().empty());
+    const std::vector<Error> problems = reader.TakeProblems();
+    ASSERT_EQ(problems.size(), 1u);
+    const int line = last.find('\n') == std::string::npos ? 3 : 4;
+    EXPECT_EQ(problems[0].ToString(),
+              fmt::format("run.csv:{}: the last line is incomplete (no line end came before "
+                          "reading stopped): not used; row skipped",
+                          line));
+    EXPECT_EQ(whole, line == 3 ? 1u : 2u);
+    EXPECT_FALSE(reader.fatal());
+  }
+  CsvRowReader reader("run.csv", kInputs, kOutputs);
+  reader.Feed("t,u,y\n0,1,2\n# a comment");
+  reader.Finish(CsvRowReader::LastLine::kDrop);
+  EXPECT_TRUE(reader.TakeProblems().empty());
+  EXPECT_EQ(reader.TakeSamples().size(), 1u);
+  // A header cut short is fatal: nothing can be bound.
+  CsvRowReader header("run.csv", kInputs, kOutputs);
+  header.Feed("t,u");
+  header.Finish(CsvRowReader::LastLine::kDrop);
+  ASSERT_TRUE(header.fatal());
+  EXPECT_EQ(header.fatal()->ToString(),
+            "run.csv:1: the header line is incomplete (no line end came before reading stopped): "
+            "nothing was read");
+}
+
 TEST(Follow, ACrAtTheEndOfAPieceEndsItsLineAndTheLfAfterItEndsNone) {
   CsvRowReader reader("run.csv", kInputs, kOutputs);
   reader.Feed("t,u,y\r");

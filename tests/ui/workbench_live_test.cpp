@@ -68,6 +68,14 @@ std::string WriteTruthReference() {
       << "\"s12\": " << entry(p.s12, 0.2 * p.s12) << ", "
       << "\"s2\": " << entry(p.s2, 0.05 * p.s2) << ", "
       << "\"mfi0\": " << entry(1.0 / p.Kb, 0.01) << "}, "
+      << "\"correlation\": {\"names\": [\"tau_fv\", \"tau_ff\", \"X\", \"Kb\", \"s11\", "
+         "\"s12\", \"s2\", \"mfi0\"], \"matrix\": [";
+  for (int a = 0; a < 8; ++a) {  // uncorrelated, said so (a result without it is refused)
+    out << (a == 0 ? "[" : ", [");
+    for (int b = 0; b < 8; ++b) out << (b == 0 ? "" : ", ") << (a == b ? 1 : 0);
+    out << "]";
+  }
+  out << "]}, "
       << "\"output_delay\": {\"ilambda\": {\"estimate\": 5}}}\n";
   return path;
 }
