@@ -81,6 +81,11 @@ int RunMonitor(const MonitorArgs& args) {
         "monitor: '{}' is not a source: use --follow {} to follow a file, or - for standard input",
         args.source, args.source)));
   if (Status s = CheckOptions(args); !s) return Fail(s.error());
+  if (int s = GuardOutputs({{args.model, "the model file"},
+                            {args.reference, "the --reference file"},
+                            {args.follow, "the --follow file"}},
+                           {{args.out, "--out"}}))
+    return s;
   // The inputs: the model, the reference, the followed file.
   auto spec = LoadModelWithOverrides(args.model, args.sets);
   if (!spec) return Fail(spec.error());

@@ -53,6 +53,10 @@ refused 2 "--out-md t.csv is also the path of --out-csv" -- \
   sweep m.json d.csv --out-csv t.csv --out-md t.csv
 refused 2 "--out-csv d.csv is the data file" -- sweep m.json d.csv --out-csv d.csv
 refused 2 "--out d.csv is the --inputs file" -- simulate m.json --inputs d.csv --out d.csv
+refused 2 "--out d.csv is the --follow file" -- \
+  monitor m.json --reference fit.json --follow d.csv --idle 1 --out d.csv
+refused 2 "--out fit.json is the --reference file" -- \
+  monitor m.json --reference fit.json --follow d.csv --idle 1 --out fit.json
 # A project and every file it names.
 printf '{"greybench_project": 1, "model": "m.json", "datasets": ["d.csv"],\n "diagram": "g.json"}\n' \
   >p.json

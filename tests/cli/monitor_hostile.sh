@@ -62,7 +62,7 @@ ref=$tmp/ref.json
 
 # --- 1. --idle: 0 is not "never"; without it the file is followed until interrupted ---------------
 for v in 0 -1 nan inf; do
-  expect 2 "monitor: --idle must be a positive, finite number of seconds .*not $v" -- \
+  expect 2 "monitor: --idle must be a positive, finite number of seconds .*not $v|--idle: $v is not a finite number" -- \
     monitor "$model" --reference "$ref" --follow "$tmp/rows.csv" --idle="$v"
 done
 expect 2 "monitor: --idle is for --follow" -- monitor "$model" --reference "$ref" --idle 1 -
@@ -101,14 +101,15 @@ check "the earlier log is as it was" test "$(cat "$tmp/log.jsonl")" = "an earlie
 # --- 4. every numeric option in its range, named with it -----------------------------------------
 run=(monitor "$model" --reference "$ref" --follow "$tmp/rows.csv" --idle 0.2)
 for v in 0 1.5 -0.5 nan; do
-  expect 2 "monitor: --forgetting must be in \(0, 1\], not $v" -- "${run[@]}" --forgetting="$v"
+  expect 2 "monitor: --forgetting must be in \(0, 1\], not $v|--forgetting: $v is not a finite number" -- \
+    "${run[@]}" --forgetting="$v"
 done
 for v in 0 -1 nan inf; do
-  expect 2 "monitor: --false-alarms must be a positive, finite number per hour, not $v" -- \
+  expect 2 "monitor: --false-alarms must be a positive, finite number per hour, not $v|--false-alarms: $v is not a finite number" -- \
     "${run[@]}" --false-alarms="$v"
 done
 for v in 0 -0.25 nan inf; do
-  expect 2 "monitor: --change must be a positive, finite relative change .*not $v" -- \
+  expect 2 "monitor: --change must be a positive, finite relative change .*not $v|--change: $v is not a finite number" -- \
     "${run[@]}" --change="$v"
 done
 expect 2 "a change of [a-zA-Z0-9_]+ by .* is too small to test: .*ask for a larger change" -- \
