@@ -275,8 +275,7 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
   inputs.push_back({options.live_csv, "the --live-csv file"});
   inputs.push_back({options.live_reference, "the --live-reference file"});
   std::vector<gb::FileRole> outputs;
-  for (const Shot& shot : options.shots)
-    outputs.push_back({shot.out, fmt::format("the --out of --view {}", ui::ViewName(shot.view))});
+  for (const Shot& shot : options.shots) outputs.push_back({shot.out, "--out"});
   if (auto st = gb::CheckOutputs(inputs, outputs); !st)
     return Fail(kExitBadInput, st.error().ToString());
   for (const ui::LoadedDataset& d : state.datasets) {

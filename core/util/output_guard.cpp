@@ -64,9 +64,9 @@ Status CheckOutputs(const std::vector<FileRole>& inputs, const std::vector<FileR
     for (std::size_t p = 0; p < o; ++p) {
       if (!out[p] || !SameFile(*out[o], *out[p])) continue;
       return InputError(fmt::format(
-          "{} {} is also the path of {}: one output would overwrite the other; give them "
+          "{} {} is also the path of {} {}: one output would overwrite the other; give them "
           "different paths",
-          output.role, output.path, outputs[p].role));
+          output.role, output.path, outputs[p].role, outputs[p].path));
     }
   }
   return Ok{};

@@ -30,7 +30,7 @@ expect_error() {
   local rc=$?
   echo "$err"
   [[ $rc -eq $status ]] || fail "exit status $rc, expected $status"
-  grep -q -- "$pattern" <<<"$err" || fail "stderr does not mention '$pattern'"
+  grep -Eq -- "$pattern" <<<"$err" || fail "stderr does not mention '$pattern'"
 }
 
 case "$case_name" in
@@ -62,6 +62,20 @@ case "$case_name" in
       "$snapshot" --project "$data/no_such_project.json" --view data --out "$out/bad.png"
     expect_error 2 "broken_data.csv" \
       "$snapshot" --project "$data/broken_project.json" --view data --out "$out/bad.png"
+    # An image never lands on a file the project is made of, nor two images on one file; a copy
+    # of the project keeps every byte.
+    copy="$out/guarded"
+    rm -rf "$copy" && mkdir -p "$copy"
+    cp "$data/project.json" "$data/fuel_film.json" "$data/f1.csv" "$copy/"
+    (cd "$copy" && sha256sum project.json fuel_film.json f1.csv) >"$out/guarded.sha256"
+    for target in project.json fuel_film.json f1.csv; do
+      expect_error 2 "--out $copy/$target is .*the project" \
+        "$snapshot" --project "$copy/project.json" --view data --out "$copy/$target"
+    done
+    expect_error 2 "is also the path of --out" \
+      "$snapshot" --project "$copy/project.json" --view data --out "$copy/a.png" \
+      --view residuals --out "$copy/./a.png"
+    (cd "$copy" && sha256sum --quiet -c "$out/guarded.sha256") || fail "an input changed"
     ;;
   bad-view)
     expect_error 2 "unknown view 'plots'" \
