@@ -264,6 +264,11 @@ Result<Steady> SolveSteady(Point& point, const Unknowns& k, Eigen::VectorXd x, E
     if (!accepted) break;
   }
   if (std::sqrt(m) <= 1e-9) return Steady{x, u, e};
+  if (!std::isfinite(m))
+    return InputError(
+        "no steady state found at this point: the model's equations are not finite where the "
+        "search starts (the values given and the first guess of the others); the values "
+        "given may be out of the model's range");
   return InputError(fmt::format(
       "no steady state found at this point (the scaled residual stopped at {:.3g}): the values "
       "given may not be reachable",
@@ -318,28 +323,6 @@ Result<std::vector<double>> EvaluateQuantities(const std::vector<expr::ExprPtr>&
   return out;
 }
 
-// A model whose drift or observation depends on the time t has no steady state (f = 0 would
-// hold at one time, not at all times): refused, naming the first formula that uses t ("t" is the
-// time unless the model names a state, input or parameter so).
-Status RefuseTimeVarying(const ModelSpec& s) {
-  if (s.StateIndex("t") >= 0 || s.InputIndex("t") >= 0 || s.ParameterIndex("t") >= 0) return Ok{};
-  for (const std::vector<Formula>* formulas : {&s.drift, &s.observation}) {
-    for (const Formula& f : *formulas) {
-      std::set<std::string> used;
-      expr::CollectNames(f.expr, &used);
-      if (!used.count("t")) continue;
-      Error e = InputError(fmt::format(
-          "'{}' uses the time t: a model that changes with time has no steady state (to take it "
-          "at one time, replace t by a fixed parameter)",
-          f.text));
-      e.file = s.source;
-      e.path = f.path;
-      return e;
-    }
-  }
-  return Ok{};
-}
-
 // Every value of a linearisation (or with `se` every standard error) finite, or a numerical Error
 // naming the first that is not.
 Status CheckFinite(const ModelSpec& s, const Linearisation& lin,
@@ -387,6 +370,26 @@ Status CheckFinite(const ModelSpec& s, const Linearisation& lin,
 
 }  // namespace
 
+// "t" is the time unless the model names a state, input or parameter so.
+Status CheckTimeInvariant(const ModelSpec& s) {
+  if (s.StateIndex("t") >= 0 || s.InputIndex("t") >= 0 || s.ParameterIndex("t") >= 0) return Ok{};
+  for (const std::vector<Formula>* formulas : {&s.drift, &s.observation}) {
+    for (const Formula& f : *formulas) {
+      std::set<std::string> used;
+      expr::CollectNames(f.expr, &used);
+      if (!used.count("t")) continue;
+      Error e = InputError(fmt::format(
+          "'{}' uses the time t: a model that changes with time has no steady state (to take it "
+          "at one time, replace t by a fixed parameter)",
+          f.text));
+      e.file = s.source;
+      e.path = f.path;
+      return e;
+    }
+  }
+  return Ok{};
+}
+
 Result<Linearisation> Linearise(const NonlinearModel& model, std::span<const double> theta,
                                 const std::vector<std::pair<std::string, double>>& point,
                                 const LinearisationOptions& options) {
@@ -394,7 +397,7 @@ Result<Linearisation> Linearise(const NonlinearModel& model, std::span<const dou
   const int n = model.n_states(), m = model.n_inputs();
   if (static_cast<int>(theta.size()) != model.n_parameters())
     return InputError("linearise: one value per parameter is needed");
-  if (auto st = RefuseTimeVarying(s); !st) return st.error();
+  if (auto st = CheckTimeInvariant(s); !st) return st.error();
   for (std::size_t a = 0; a < options.quantities.size(); ++a)
     for (std::size_t b = 0; b < a; ++b)
       if (options.quantities[a].name == options.quantities[b].name)
@@ -544,7 +547,7 @@ struct SteadyStateSolver::Impl {
 };
 
 Result<SteadyStateSolver> SteadyStateSolver::Make(const NonlinearModel& model) {
-  if (auto st = RefuseTimeVarying(model.spec()); !st) return st.error();
+  if (auto st = CheckTimeInvariant(model.spec()); !st) return st.error();
   auto tape = InputDerivatives(model);
   if (!tape) return tape.error();
   return SteadyStateSolver(std::make_unique<Impl>(model, std::move(*tape)));

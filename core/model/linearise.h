@@ -66,6 +66,11 @@ struct LinearisationOptions {
   Eigen::MatrixXd covariance;
 };
 
+// Ok, or an input Error naming the first drift or observation formula (file and JSON path) that
+// uses the time t: a model that changes with time has no steady state (f = 0 would hold at one
+// time, not at all times).
+Status CheckTimeInvariant(const ModelSpec& spec);
+
 // The steady state and its linearisation at θ (all parameters, natural scale). Fails (input
 // Errors) when the model's drift or observation uses the time t (a model that changes with time
 // has no steady state; the Error names the formula), when the point does not fix the right number

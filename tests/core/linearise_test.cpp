@@ -14,6 +14,7 @@
 
 #include "core/model/model.h"
 #include "core/model/nonlinear_model.h"
+#include "core/project/linearised.h"
 #include "core/util/json.h"
 
 namespace gb::model {
@@ -91,6 +92,13 @@ TEST(Linearise, RefusesAModelWhoseDriftOrObservationUsesTheTime) {
               std::string::npos)
         << lin.error().message;
     EXPECT_FALSE(SteadyStateSolver::Make(m).ok());
+    // A sweep's linearisations (the project's operating_points.linearised): once, not per point.
+    project::LinearisedSpec spec;
+    spec.point = {{"u", {"", 0.5}}};
+    const project::NonlinearFit fit{m.spec().Values(), {}, {}};
+    const auto sweep = project::LineariseAtPoints(m, fit, spec, {{"a", {}}, {"b", {}}});
+    ASSERT_FALSE(sweep.ok());
+    EXPECT_EQ(sweep.error().path, std::string(key) + "." + name);
   }
   // A parameter named t is not the time: the model is linearised as any other.
   Json j = LinTank();
