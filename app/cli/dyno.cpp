@@ -94,13 +94,17 @@ bool Put(std::FILE* out, const std::string& text, bool* reader_gone) {
 // The longest --live run with a --duration, in samples (a count a double holds exactly); without
 // one the run has no end.
 constexpr double kMaxLiveSamples = 9007199254740992.0;  // 2^53
+// The slowest pace: a row every 12.5e6 s (145 days); a slower one would overflow the clock's
+// nanoseconds.
+constexpr double kMinSpeed = 1e-6;
 
 int StreamFuel(const DynoArgs& args, const sim::FuelExperiment& e) {
   const double ts = e.recording.sample_time;
   const double speed = args.speed.value_or(1.0);
-  if (!(speed >= 0 && std::isfinite(speed)))
+  if (!(speed == 0 || (speed >= kMinSpeed && std::isfinite(speed))))
     return Fail(InputError(fmt::format(
-        "--speed {}: expected a factor of real time >= 0 (0: as fast as possible)", speed)));
+        "--speed {}: expected a factor of real time of at least {} (or 0: as fast as possible)",
+        speed, kMinSpeed)));
   if (args.duration && !(*args.duration > 0 && *args.duration / ts <= kMaxLiveSamples))
     return Fail(InputError(fmt::format(
         "--duration {}: expected seconds > 0 giving at most {:.3g} samples (leave --duration out "
@@ -244,6 +248,8 @@ Status CheckRecording(const DynoArgs& a, const sim::RecordingOptions& r, double 
         ts / k, sim::kMaxEngineStep, std::ceil(ts / sim::kMaxEngineStep - 1e-9),
         a.sample_time ? " or a shorter --sample-time" : ""));
   const double samples = std::ceil(duration / ts - 1e-9);
+  if (samples < 1)
+    return InputError(fmt::format("{} gives no sample (a sample every {} s)", duration_from, ts));
   if (samples > sim::kMaxSamples)
     return InputError(fmt::format(
         "{} at a sample time of {} s is {:.3g} samples; at most {:.3g} are recorded (a duration "

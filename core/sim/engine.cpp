@@ -206,8 +206,9 @@ struct PathPosition {
 PathPosition PositionAt(const EngineExperiment& e, double t) {
   if (e.path.size() == 1 || t <= 0) return {};
   const double leg = e.hold_s + e.ramp_s;
-  const auto i = static_cast<std::size_t>(std::floor(t / leg));
-  if (i + 1 >= e.path.size()) return {e.path.size() - 1, 0};
+  const double legs = std::floor(t / leg);  // compared before the cast: a tiny leg gives 1e300
+  if (!(legs + 1 < static_cast<double>(e.path.size()))) return {e.path.size() - 1, 0};
+  const auto i = static_cast<std::size_t>(legs);
   const double into = t - static_cast<double>(i) * leg;
   return {i, into <= e.hold_s ? 0 : (into - e.hold_s) / e.ramp_s};
 }

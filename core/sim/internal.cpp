@@ -139,6 +139,8 @@ bool ValidDuration(double duration, const RecordingOptions& r, std::string* why)
     return fail(
         fmt::format("the duration must be a finite number of seconds > 0, not {}", duration));
   const double samples = std::ceil(duration / r.sample_time - 1e-9);
+  if (samples < 1)
+    return fail(fmt::format("{} s gives no sample (a sample every {} s)", duration, r.sample_time));
   if (!(samples <= kMaxSamples))
     return fail(
         fmt::format("{} s at {} s a sample is {:.3g} samples; at most {:.3g} are recorded "

@@ -147,6 +147,10 @@ expect_kept 2 "--oversample 1000 at a sample time of 0.001 s: the simulated worl
 expect_kept 2 "--sample-time 0.05 with oversample 10: the simulated engine's step would be 0.005 s, longer than 0.0025 s .*give --oversample 20 or more" -- \
   dyno engine --sample-time 0.05 "${out[@]}"
 expect_kept 2 "--bit-period 0.001: shorter than the sample time 0.0125 s" -- dyno fuel --bit-period 0.001 "${out[@]}"
+expect_kept 2 "--duration 1e-12 gives no sample \\(a sample every 0.0125 s\\)" -- dyno fuel --duration 1e-12 "${out[@]}"
+expect_kept 2 "--speed 1e-09: expected a factor of real time of at least 1e-06 \\(or 0" -- dyno fuel --live --speed 1e-9 "${out[@]}"
+check "a sweep with a ramp of 1e-300 s runs (the path's position was cast from 1e300)" \
+  "$cli" dyno engine --path f1,f3 --hold 0 --ramp 1e-300 --duration 1 --out "$tmp/jump.csv"
 check "--sample-time 0.05 with --oversample 20 is taken" \
   "$cli" dyno engine --sample-time 0.05 --oversample 20 --duration 1 --out "$tmp/coarse.csv"
 

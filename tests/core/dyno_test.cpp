@@ -137,7 +137,7 @@ TEST(Dyno, RefusesARecordBeyondItsLimitsBeforeRunningIt) {
   fuel.duration = 1250.0125;
   EXPECT_FALSE(fuel.IsValid(&why));
   EXPECT_NE(why.find("at most 1e+08 are taken"), std::string::npos) << why;
-  for (const double d : {0.0, -1.0, std::nan(""), double{INFINITY}, 1e300}) {
+  for (const double d : {0.0, -1.0, 1e-12, std::nan(""), double{INFINITY}, 1e300}) {
     fuel.duration = d;
     EXPECT_FALSE(fuel.IsValid(&why)) << d;
   }
