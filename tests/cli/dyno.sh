@@ -2,7 +2,11 @@
 # greybench-cli dyno --live: the live fuel experiment streamed as CSV. Without faults its rows are
 # the batch record's, byte for byte; --fault steps, ramps and clears show in the --truth columns
 # and change the output only from their time on; --speed paces the rows; a reader that goes away
-# ends the run with exit 0; bad fault specs are errors naming the argument.
+# ends the run with exit 0; bad fault specs are errors naming the argument. Every dyno experiment's
+# options: a value that is 0, negative, NaN, inf, empty or not whole is refused naming the option
+# and its range (never taken for the default), an option the experiment would ignore is refused,
+# the record's limits are refused with the limit, faults beyond 100 times nominal are refused; each
+# refusal leaves an earlier record byte for byte as it was.
 # Usage: dyno.sh GREYBENCH_CLI TEST_DATA_DIR
 set -u
 cli=$1

@@ -3,7 +3,9 @@
 # mean-value engine model reads; a fit's result file names its model file; the linearisation at a
 # Table 2 point gives the fuel film's parameters with the delta method's standard errors (a
 # quantity that is a parameter carries the parameter's SE); bad points and quantities are bad
-# input (exit 2) naming what is wrong.
+# input (exit 2) naming what is wrong, a quantity that is not finite at the point a numerical
+# failure (exit 1), a model that uses the time t is refused; the result, the model and an earlier
+# --out are left byte for byte as they were.
 # Usage: linearise.sh GREYBENCH_CLI TEST_DATA_DIR
 set -u
 cli=$1

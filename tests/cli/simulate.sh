@@ -33,6 +33,7 @@ prbs "--seed: '4294967296' is not a whole number in \[0, 4294967295\]" --order 5
 prbs "--name '': expected a column name" --order 5 "${ok[@]}" --name ''
 prbs "--name 't': expected a column name" --order 5 "${ok[@]}" --name t
 prbs "--name 'a,b': expected a column name" --order 5 "${ok[@]}" --name a,b
+prbs "--duration 1e-300 at --ts 0.1 gives no sample" --order 5 --period 1 --ts 0.1 --duration 1e-300 --low 0 --high 1
 prbs "would give more than 50 million samples" --order 5 --period 1 --ts 1e-6 --duration 1e3 --low 0 --high 1
 prbs "the bit period 0.01 is shorter than the sample time 0.1" --order 5 --period 0.01 --ts 0.1 --duration 10 --low 0 --high 1
 
