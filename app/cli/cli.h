@@ -120,30 +120,38 @@ struct CompareArgs {
 };
 int RunCompare(const CompareArgs& args);
 
+// dyno EXPERIMENT: the virtual dyno's experiments (core/sim/dyno.h, engine.h, live_dyno.h). An
+// option not given is empty (std::nullopt; the flags false) and takes the experiment's default;
+// an option the experiment does not take is refused (RunDyno), never ignored. The ranges are
+// checked when the command line is parsed (main.cpp), the limits of the record's size and the
+// simulated world's step by RunDyno.
 struct DynoArgs {
   std::string experiment;  // fuel, crankshaft, square-wave, engine
-  std::string point = "f1";  // engine: also n=RPM,alpha=DEG
+  std::optional<std::string> point;  // fuel, engine (default f1); engine also n=RPM,alpha=DEG
   // engine: a sweep along these points (comma-separated names, or n=..,alpha=.. joined by ';'),
-  // `hold` s at each and `ramp` s between; empty: the PRBS experiment at `point`.
-  std::string path;
-  double hold = 20, ramp = 40;
-  double sample_time = 0;  // engine: 0: 0.0125 s (80 Hz); the anti-alias filter at a quarter of the rate
-  bool hold_speed = false;         // engine: the dyno holds the speed (else the load)
-  double throttle_amplitude = -1;  // engine: ± deg of the throttle's PRBS (< 0: the default, 1)
-  double duration = 0;  // 0: the experiment's default; with --live, without end
+  // `hold` s at each (>= 0, default 20) and `ramp` s between (> 0, default 40).
+  std::optional<std::string> path;
+  std::optional<double> hold, ramp;
+  // engine: s between samples, 0.001..1 (default 0.0125, 80 Hz); the anti-alias filters cut off
+  // at a quarter of the rate.
+  std::optional<double> sample_time;
+  bool hold_speed = false;                   // engine: the dyno holds the speed (else the load)
+  std::optional<double> throttle_amplitude;  // engine: ± deg of the throttle's PRBS, 0..10 (1)
+  std::optional<double> duration;  // s > 0 (the experiment's default; with --live, without end)
   std::uint64_t seed = 1;
-  int order = 0;           // 0: default
-  double bit_period = 0;   // 0: default
+  std::optional<int> order;          // PRBS order 2..24 (fuel and engine 6, crankshaft 7)
+  std::optional<double> bit_period;  // PRBS bit period, s >= the sample time (0.5, crankshaft 1)
   bool no_filter = false;
-  int oversample = 0;  // fine-grid steps per sample of the simulated world; 0: default (10)
-  std::string lambda_sensor = "exact";  // engine: exact (a delay line) or pade (the models' [3/3])
-  bool constant_load = false;
+  std::optional<int> oversample;  // fine-grid steps per sample of the simulated world, 1..1000 (10)
+  std::optional<std::string> lambda_sensor;  // engine: exact (a delay line, default) or pade
+  bool constant_load = false;                // crankshaft: hold the load torque
   std::string out;  // required without --live; with it, empty or "-" is stdout
   // --live (fuel): the live dyno (core/sim/live_dyno.h) writes its CSV a row at a time, each row
-  // flushed, paced at `speed` times real time (0: as fast as it can), until `duration` or until
-  // the reader goes away (exit 0). `faults`: TIME:PARAMETER*FACTOR[/RAMP] or TIME:clear[/RAMP].
+  // flushed, paced at `speed` times real time (>= 0, default 1; 0: as fast as it can), until
+  // `duration` (without it, until the reader goes away: exit 0). `faults`:
+  // TIME:PARAMETER*FACTOR[/RAMP] or TIME:clear[/RAMP].
   bool live = false;
-  double speed = 1;
+  std::optional<double> speed;
   std::vector<std::string> faults;
   bool truth = false;  // also the true values of the faulted parameters, as columns
 };

@@ -1,15 +1,20 @@
 // greybench-cli's command line (docs/user-guide.md, section 4): the subcommands and their options,
 // parsed and dispatched to the Run* functions of app/cli/. In a library of its own so that a fuzz
 // target can drive the whole command line in one process (tests/fuzz/cli_fuzz.cpp).
+#include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <limits>
+#include <string>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
 #include "app/cli/cli.h"
+#include "core/design/prbs.h"
 #include "core/estimate/estimate.h"
 
 namespace gb::cli {
@@ -29,16 +34,6 @@ void RequireFiniteNumbers(CLI::App& app) {
       if (opt->get_type_name().rfind("FLOAT", 0) == 0) opt->check(finite);
 }
 
-// A number > 0 (CLI::PositiveNumber's message spells out the largest double).
-CLI::Validator Positive() {
-  return CLI::Validator(
-      [](std::string& value) -> std::string {
-        const double v = std::strtod(value.c_str(), nullptr);
-        return v > 0 ? "" : value + " is not greater than 0";
-      },
-      "> 0", "positive");
-}
-
 // An empty value, which CLI11 takes as "not given": the option would silently keep its default
 // (`--out ""` would write nothing, `--duration ""` run the default length). "" when none is.
 std::string WhyEmptyValue(const CLI::App& app) {
@@ -51,6 +46,75 @@ std::string WhyEmptyValue(const CLI::App& app) {
                              sub->get_name(), opt->get_name());
   return "";
 }
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The values a numeric option takes: a finite number (CLI11 reads "nan" and "inf" as doubles and
+// "" as 0, so the text is checked before it is converted) in [lo, hi], lo left out with lo_open,
+// a whole one with `whole`; `unit` for the message and the help ("seconds").
+struct Allowed {
+  double lo = -kInf;
+  double hi = kInf;
+  bool lo_open = false;
+  bool whole = false;
+  const char* unit = "";
+};
+
+// "a number of seconds > 0", "a whole number in [1, 1000]".
+std::string Describe(const Allowed& a) {
+  std::string what = a.whole ? "a whole number" : "a number";
+  if (*a.unit) what += fmt::format(" of {}", a.unit);
+  if (a.lo == -kInf && a.hi == kInf) return "a finite number";
+  if (a.hi == kInf) return fmt::format("{} {} {}", what, a.lo_open ? ">" : ">=", a.lo);
+  return fmt::format("{} in {}{}, {}]", what, a.lo_open ? '(' : '[', a.lo, a.hi);
+}
+
+// The check of an option's text against `a`; CLI11 prefixes the option's name to the message:
+// "--duration: 'nan' is not a number of seconds > 0".
+CLI::Validator Number(Allowed a) {
+  const std::string what = Describe(a);
+  return CLI::Validator(
+      [a, what](std::string& text) -> std::string {
+        const bool plus = text.size() > 1 && text[0] == '+' && text[1] != '-' && text[1] != '+';
+        const char* first = text.data() + (plus ? 1 : 0);
+        const char* end = text.data() + text.size();
+        double v = 0;
+        bool parsed = false;
+        if (a.whole) {  // digits only, as CLI11 reads them after this check
+          long long i = 0;
+          const auto [ptr, ec] = std::from_chars(first, end, i);
+          parsed = ec == std::errc() && ptr == end;
+          v = static_cast<double>(i);
+        } else {
+          const auto [ptr, ec] = std::from_chars(first, end, v);
+          parsed = ec == std::errc() && ptr == end;
+        }
+        const bool ok = !text.empty() && parsed && std::isfinite(v) &&
+                        (a.lo_open ? v > a.lo : v >= a.lo) && v <= a.hi;
+        return ok ? "" : fmt::format("'{}' is not {}", text, what);
+      },
+      what);
+}
+
+// A seed: a whole number in [0, max] (CLI11 would read "" as 0 and "-1" as the largest value).
+CLI::Validator Seed(std::uint64_t max) {
+  const std::string what = fmt::format("a whole number in [0, {}]", max);
+  return CLI::Validator(
+      [max, what](std::string& text) -> std::string {
+        const char* end = text.data() + text.size();
+        std::uint64_t v = 0;
+        const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+        if (text.empty() || ec != std::errc() || ptr != end || v > max)
+          return fmt::format("'{}' is not {}", text, what);
+        return "";
+      },
+      what);
+}
+
+const Allowed kSeconds{.lo = 0, .lo_open = true, .unit = "seconds"};
+const Allowed kPositive{.lo = 0, .lo_open = true};
+const Allowed kCount{.lo = 1, .whole = true};  // a number of rows or lags, 1 or more
+const Allowed kPrbsOrder{.lo = design::kMinPrbsOrder, .hi = design::kMaxPrbsOrder, .whole = true};
 
 }  // namespace
 
@@ -75,7 +139,7 @@ int Main(int argc, char** argv) {
   c_bench->add_option("data", bench.data, "data files (CSV)")->required();
   c_bench->add_option("--set", bench.sets, "NAME=VALUE: override a parameter's value");
   c_bench->add_option("--repeat", bench.repeat, "timed evaluations (default 21; 1..10000)")
-      ->check(CLI::Range(1, 10000));
+      ->check(Number({.lo = 1, .hi = 10000, .whole = true}));
   c_bench->callback([&] { run = [&] { return RunBench(bench); }; });
 
   SimulateArgs simulate;
@@ -83,20 +147,34 @@ int Main(int argc, char** argv) {
   c_sim->add_option("model", simulate.model, "model file (JSON)")->required();
   c_sim->add_option("--inputs", simulate.inputs, "CSV with t and the model's inputs")->required();
   c_sim->add_option("--set", simulate.sets, "NAME=VALUE: override a parameter's value");
-  c_sim->add_option("--seed", simulate.seed, "random seed (default 1)");
+  c_sim->add_option("--seed", simulate.seed, "random seed (default 1)")
+      ->check(Seed(std::numeric_limits<std::uint64_t>::max()));
   c_sim->add_option("--out", simulate.out, "output CSV")->required();
   c_sim->callback([&] { run = [&] { return RunSimulate(simulate); }; });
 
   PrbsArgs prbs;
   auto* c_prbs = app.add_subcommand("prbs", "a maximal-length PRBS input signal");
-  c_prbs->add_option("--order", prbs.order, "register length n (period 2^n - 1 bits)")->required();
-  c_prbs->add_option("--period", prbs.period, "bit period T_prbs")->required();
-  c_prbs->add_option("--ts", prbs.ts, "sample time")->required();
-  c_prbs->add_option("--duration", prbs.duration, "length of the signal")->required();
-  c_prbs->add_option("--low", prbs.low, "level of a 0 bit")->required();
-  c_prbs->add_option("--high", prbs.high, "level of a 1 bit")->required();
+  c_prbs->add_option("--order", prbs.order, "register length n (period 2^n - 1 bits)")
+      ->required()
+      ->check(Number(kPrbsOrder));
+  c_prbs->add_option("--period", prbs.period, "bit period T_prbs, at least --ts")
+      ->required()
+      ->check(Number({.lo = 0, .lo_open = true}));
+  c_prbs->add_option("--ts", prbs.ts, "sample time")
+      ->required()
+      ->check(Number({.lo = 0, .lo_open = true}));
+  c_prbs
+      ->add_option("--duration", prbs.duration,
+                   "length of the signal (at most 50 million samples)")
+      ->required()
+      ->check(Number({.lo = 0, .lo_open = true}));
+  c_prbs->add_option("--low", prbs.low, "level of a 0 bit")->required()->check(Number({}));
+  c_prbs->add_option("--high", prbs.high, "level of a 1 bit (not --low)")
+      ->required()
+      ->check(Number({}));
   c_prbs->add_option("--name", prbs.name, "column name (default u)");
-  c_prbs->add_option("--seed", prbs.seed, "initial register state (default 1)");
+  c_prbs->add_option("--seed", prbs.seed, "initial register state (default 1)")
+      ->check(Seed(std::numeric_limits<std::uint32_t>::max()));
   c_prbs->add_option("--out", prbs.out, "output CSV")->required();
   c_prbs->callback([&] { run = [&] { return RunPrbs(prbs); }; });
 
@@ -116,18 +194,18 @@ int Main(int argc, char** argv) {
       ->add_option("--steady-window", est.steady_window,
                    "the windows' length for --steady-start, > 0 in the records' time unit "
                    "(default 5)")
-      ->check(Positive())
+      ->check(Number(kPositive))
       ->needs(steady);
   c_est->add_option("--threads", est.threads,
                     "threads for the score and the Hessian, 1..1024 (default: all cores)")
-      ->check(CLI::Range(1, estimate::kMaxThreads));
+      ->check(Number({.lo = 1, .hi = estimate::kMaxThreads, .whole = true}));
   c_est->add_option("--multistart", est.multistart,
                     "extra starts spread over the bounds, 0..10000 (default 0)")
-      ->check(CLI::Range(0, estimate::kMaxStarts));
+      ->check(Number({.lo = 0, .hi = estimate::kMaxStarts, .whole = true}));
   c_est->add_option("--starts-on-bound", est.starts_on_bound,
                     "without --multistart: extra starts where the fit ends with a parameter on a "
                     "bound, 0..10000 (default 8; 0: never)")
-      ->check(CLI::Range(0, estimate::kMaxStarts));
+      ->check(Number({.lo = 0, .hi = estimate::kMaxStarts, .whole = true}));
   c_est->add_flag("--progress", est.progress,
                   "print the stage, iteration, evaluations and best log L to stderr after every "
                   "iteration (for long fits)");
@@ -139,16 +217,16 @@ int Main(int argc, char** argv) {
                   "comparison; standard errors then from second differences)");
   c_est->add_option("--max-evaluations", est.max_evaluations,
                     "log-likelihood evaluations per fit, 1..100000000 (default 20000)")
-      ->check(CLI::Range(1, 100000000));
+      ->check(Number({.lo = 1, .hi = 1e8, .whole = true}));
   c_est->add_option("--algorithm", est.algorithm, "auto (default: BHHH with BFGS corrections), bhhh, slsqp, lbfgs or bobyqa");
   c_est->add_option("--ftol", est.ftol,
                     "relative tolerance on -log L, 0..0.1 (default 1e-12; 0: only the step "
                     "tolerance stops)")
-      ->check(CLI::Range(0.0, 0.1));
+      ->check(Number({.lo = 0, .hi = 0.1}));
   auto* profile = c_est->add_flag("--profile-intervals", est.profile_intervals,
                                   "likelihood-ratio (profile) intervals for every free parameter");
   c_est->add_option("--profile-level", est.profile_level, "their level, 0.5..0.9999 (default 0.95)")
-      ->check(CLI::Range(0.5, 0.9999))
+      ->check(Number({.lo = 0.5, .hi = 0.9999}))
       ->needs(profile);
   c_est->callback([&] { run = [&] { return RunEstimate(est); }; });
 
@@ -170,7 +248,7 @@ int Main(int argc, char** argv) {
       ->add_option("--simulate-after", predict.simulate_after,
                    "N >= 1: use the outputs of the first N rows only and simulate the rest from "
                    "the state estimated on them; prints the simulation's RMS error")
-      ->check(Positive());
+      ->check(Number(kCount));
   c_pred->add_option("--states", predict.states,
                      "CSV of the states: t, then x_filtered, x_filtered_sd, x_smoothed, "
                      "x_smoothed_sd for every state x, and o_smoothed, o_smoothed_sd for every "
@@ -184,9 +262,9 @@ int Main(int argc, char** argv) {
   c_diag->add_option("--set", diag.sets, "NAME=VALUE: override a parameter's value");
   c_diag->add_option("--result", diag.result, "take the estimates (and delays) from a result file");
   c_diag->add_option("--max-lag", diag.max_lag, "lags of ACF, PACF and CCF, >= 1 (default min(40, n/4))")
-      ->check(Positive());
+      ->check(Number(kCount));
   c_diag->add_option("--lb-lags", diag.ljung_box_lags, "Ljung-Box lags, >= 1 (default min(20, max lag))")
-      ->check(Positive());
+      ->check(Number(kCount));
   c_diag->add_option("--out", diag.out, "output JSON with every series and test")->required();
   c_diag->callback([&] { run = [&] { return RunDiagnose(diag); }; });
 
@@ -230,34 +308,64 @@ int Main(int argc, char** argv) {
   c_monitor->callback([&] { run = [&] { return RunMonitor(monitor); }; });
 
   DynoArgs dyno;
-  auto* c_dyno = app.add_subcommand("dyno", "run an experiment on the virtual dyno (simulated data)");
+  auto* c_dyno = app.add_subcommand(
+      "dyno",
+      "run an experiment on the virtual dyno (simulated data); an option the experiment does not "
+      "take is refused");
   c_dyno->add_option("experiment", dyno.experiment, "fuel, crankshaft, square-wave or engine")
       ->required()
       ->check(CLI::IsMember({"fuel", "crankshaft", "square-wave", "engine"}));
   c_dyno->add_option("--point", dyno.point,
-                     "fuel, engine: operating point of Table 2 (f1 f2 f3 f4 f7 f8); engine also "
-                     "n=RPM,alpha=DEG");
+                     "fuel, engine: operating point of Table 2 (f1 f2 f3 f4 f7 f8; default f1); "
+                     "engine also n=RPM,alpha=DEG; not with --path");
   c_dyno->add_option("--path", dyno.path,
-                     "engine: a slow sweep through these points (f3,f1,f7 or "
-                     "'n=2600,alpha=25;n=3600,alpha=35')");
-  c_dyno->add_option("--hold", dyno.hold, "engine sweep: seconds at each point (default 20)");
-  c_dyno->add_option("--ramp", dyno.ramp, "engine sweep: seconds between points (default 40)");
-  c_dyno->add_option("--sample-time", dyno.sample_time,
-                     "engine: seconds between samples (default 0.0125; the anti-alias filters cut "
-                     "off at a quarter of the rate)");
+                     "engine: a slow sweep through two or more points (f3,f1,f7 or "
+                     "'n=2600,alpha=25;n=3600,alpha=35'); not with --point");
+  c_dyno
+      ->add_option("--hold", dyno.hold,
+                   "engine sweep (--path): seconds at each point (default 20)")
+      ->check(Number({.lo = 0, .unit = "seconds"}));
+  c_dyno
+      ->add_option("--ramp", dyno.ramp,
+                   "engine sweep (--path): seconds between points (default 40)")
+      ->check(Number(kSeconds));
+  c_dyno
+      ->add_option("--sample-time", dyno.sample_time,
+                   "engine: seconds between samples (default 0.0125; the anti-alias filters cut "
+                   "off at a quarter of the rate; the simulated world's step, sample time / "
+                   "oversample, at most 0.0025 s)")
+      ->check(Number({.lo = 0.001, .hi = 1, .unit = "seconds"}));
   c_dyno->add_flag("--hold-speed", dyno.hold_speed,
                    "engine: the dyno holds the speed (a PI controller on the load), as for the "
                    "paper's fuel experiments; default: it holds the load");
-  c_dyno->add_option("--throttle-amplitude", dyno.throttle_amplitude,
-                     "engine: +/- degrees of the throttle's PRBS (default 1; 0: the fuel's only, "
-                     "the paper's experiment)");
-  c_dyno->add_option("--duration", dyno.duration, "seconds (default: fuel 125, crankshaft 600)");
-  c_dyno->add_option("--seed", dyno.seed, "random seed (default 1)");
-  c_dyno->add_option("--order", dyno.order, "PRBS order (default: fuel 6, crankshaft 7)");
-  c_dyno->add_option("--bit-period", dyno.bit_period, "PRBS bit period in s (default 0.5 / 1)");
+  c_dyno
+      ->add_option("--throttle-amplitude", dyno.throttle_amplitude,
+                   "engine: +/- degrees of the throttle's PRBS (default 1; 0: the fuel's only, "
+                   "the paper's experiment)")
+      ->check(Number({.lo = 0, .hi = 10, .unit = "degrees"}));
+  c_dyno
+      ->add_option("--duration", dyno.duration,
+                   "default: fuel 125, crankshaft 600, square-wave 16, engine 125 or the sweep's "
+                   "length; with --live, without end; at most 10 million samples and 100 million "
+                   "steps of the simulated world")
+      ->check(Number(kSeconds));
+  c_dyno->add_option("--seed", dyno.seed, "random seed (default 1)")
+      ->check(Seed(std::numeric_limits<std::uint64_t>::max()));
+  c_dyno
+      ->add_option("--order", dyno.order,
+                   "fuel, crankshaft, engine: PRBS order (default: fuel 6, crankshaft 7, engine's "
+                   "fuel 6)")
+      ->check(Number(kPrbsOrder));
+  c_dyno
+      ->add_option("--bit-period", dyno.bit_period,
+                   "fuel, crankshaft, engine: PRBS bit period in s, at least the sample time "
+                   "(default 0.5, crankshaft 1)")
+      ->check(Number(kSeconds));
   c_dyno->add_flag("--no-filter", dyno.no_filter, "record without the anti-alias filters");
-  c_dyno->add_option("--oversample", dyno.oversample,
-                     "steps of the simulated world per sample (default 10; 1..1000)");
+  c_dyno
+      ->add_option("--oversample", dyno.oversample,
+                   "steps of the simulated world per sample (default 10; its step at least 1e-5 s)")
+      ->check(Number({.lo = 1, .hi = 1000, .whole = true}));
   c_dyno
       ->add_option("--lambda-sensor", dyno.lambda_sensor,
                    "engine: the lambda sensor's transport delay, exact (a delay line, default) or "
@@ -270,14 +378,14 @@ int Main(int argc, char** argv) {
                                 "until --duration, or without end");
   c_dyno
       ->add_option("--speed", dyno.speed,
-                   "with --live: times real time (default 1; 0: as "
-                   "fast as possible)")
-      ->needs(live);
+                   "with --live: times real time (default 1; 0: as fast as possible)")
+      ->needs(live)
+      ->check(Number({.lo = 0}));
   c_dyno
       ->add_option("--fault", dyno.faults,
                    "with --live: TIME:PARAMETER*FACTOR[/RAMP] (PARAMETER tau_ff, X, delay or "
-                   "gain; a step, or linear over RAMP s) or TIME:clear[/RAMP], e.g. "
-                   "60:tau_ff*1.5/30")
+                   "gain; a step, or linear over RAMP s; tau_ff and gain within 1/100..100 times "
+                   "their nominal values) or TIME:clear[/RAMP], e.g. 60:tau_ff*1.5/30")
       ->needs(live);
   c_dyno
       ->add_flag("--truth", dyno.truth,
@@ -313,7 +421,10 @@ int Main(int argc, char** argv) {
   c_sweep->add_option("--delay-parameter", sweep.delay_parameter,
                       "a parameter that is the delay in seconds (a continuous delay): the delay "
                       "relation fits its estimates");
-  c_sweep->add_option("--parallel", sweep.parallel, "datasets fitted at once (default: all cores)");
+  c_sweep
+      ->add_option("--parallel", sweep.parallel,
+                   "datasets fitted at once, 1..1024 (default: all cores)")
+      ->check(Number({.lo = 1, .hi = estimate::kMaxThreads, .whole = true}));
   c_sweep->callback([&] { run = [&] { return RunSweep(sweep); }; });
 
   RequireFiniteNumbers(app);

@@ -1,3 +1,4 @@
+#include <cstdint>
 #include <optional>
 
 #include <fmt/format.h>
@@ -31,6 +32,14 @@ int RunSimulate(const SimulateArgs& args) {
   if (!inputs) return Fail(inputs.error());
   auto series = data::Bind(**inputs, m.inputs, {});
   if (!series) return Fail(series.error());
+  if (auto st = sim::CheckSimulationSize(static_cast<std::int64_t>((*series)->size()),
+                                         static_cast<int>(m.states.size()),
+                                         static_cast<int>(m.outputs.size()));
+      !st) {
+    Error e = st.error();
+    e.file = args.inputs;
+    return Fail(e);
+  }
 
   // The series has no outputs; give the simulator an empty output block of the right height.
   data::Series with_outputs = **series;
@@ -74,6 +83,18 @@ int RunSimulate(const SimulateArgs& args) {
 }
 
 int RunPrbs(const PrbsArgs& args) {
+  // The column's name: a CSV header's cell beside t.
+  if (args.name.empty() || args.name == "t" ||
+      args.name.find_first_of(",\"\r\n") != std::string::npos ||
+      args.name.find_first_not_of(" \t") == std::string::npos)
+    return Fail(InputError(fmt::format(
+        "--name '{}': expected a column name (not empty, not t, without commas, quotes or line "
+        "breaks)",
+        args.name)));
+  if (args.low == args.high)
+    return Fail(InputError(
+        fmt::format("--low {} and --high {}: the same level; the signal would be constant",
+                    args.low, args.high)));
   design::PrbsOptions o;
   o.order = args.order;
   o.bit_period = args.period;

@@ -17,9 +17,6 @@ int RunSweep(const SweepArgs& args) {
   auto spec = LoadModelWithOverrides(args.model, args.sets);
   if (!spec) return Fail(spec.error());
   estimate::SweepOptions options;
-  if (args.parallel && !(*args.parallel >= 1 && *args.parallel <= estimate::kMaxThreads))
-    return Fail(InputError(fmt::format("--parallel {}: expected a number of fits at once from 1 "
-                                       "to {}", *args.parallel, estimate::kMaxThreads)));
   options.parallel = args.parallel.value_or(0);
   // The default trend (X against alpha_deg, the paper's Fig. 4) is fitted where the model and
   // the data have them; one the user names must exist.

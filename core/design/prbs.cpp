@@ -80,6 +80,8 @@ bool PrbsOptions::IsValid(std::string* why) const {
     return fail("--ts (the sample time) must be a positive number");
   if (!(duration > 0) || !std::isfinite(duration))
     return fail("--duration must be a positive number");
+  if (std::ceil(duration / sample_time - 1e-9) < 1)
+    return fail(fmt::format("--duration {} at --ts {} gives no sample", duration, sample_time));
   if (duration / sample_time > 5e7)
     return fail(fmt::format("--duration {} at --ts {} would give more than 50 million samples",
                             duration, sample_time));

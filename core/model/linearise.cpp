@@ -2,6 +2,8 @@
 #include "core/model/linearise.h"
 
 #include <algorithm>
+#include <cctype>
+#include <charconv>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -31,6 +33,9 @@ Result<std::vector<std::pair<std::string, double>>> ParseOperatingPoint(const st
   std::vector<std::string> names = spec.states;
   names.insert(names.end(), spec.inputs.begin(), spec.inputs.end());
   names.insert(names.end(), spec.outputs.begin(), spec.outputs.end());
+  if (Trim(text).empty())
+    return InputError(
+        "operating point: empty; expected NAME=VALUE,... (states, inputs or outputs of the model)");
   std::vector<std::pair<std::string, double>> point;
   std::set<std::string> seen;
   std::size_t start = 0;
@@ -38,12 +43,17 @@ Result<std::vector<std::pair<std::string, double>>> ParseOperatingPoint(const st
     const std::size_t comma = std::min(text.find(',', start), text.size());
     const std::string item = Trim(text.substr(start, comma - start));
     start = comma + 1;
+    if (item.empty())
+      return InputError(fmt::format(
+          "operating point '{}': an empty item (two commas together, or one at an end)", text));
     const std::size_t eq = item.find('=');
     if (eq == std::string::npos)
       return InputError(fmt::format(
           "operating point: '{}' is not NAME=VALUE (a state, input or output of the model)", item));
     const std::string name = Trim(item.substr(0, eq));
     const std::string value = Trim(item.substr(eq + 1));
+    if (name.empty())
+      return InputError(fmt::format("operating point: '{}' has no name before '='", item));
     if (std::find(names.begin(), names.end(), name) == names.end()) {
       std::string msg = fmt::format("operating point: '{}' is not a state, input or output of the "
                                     "model",
@@ -54,14 +64,12 @@ Result<std::vector<std::pair<std::string, double>>> ParseOperatingPoint(const st
     if (!seen.insert(name).second)
       return InputError(fmt::format("operating point: '{}' is given twice", name));
     double v = 0;
-    std::size_t used = 0;
-    try {
-      v = std::stod(value, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (value.empty() || used != value.size() || !std::isfinite(v))
-      return InputError(fmt::format("operating point: {}: '{}' is not a number", name, value));
+    const bool plus = value.size() > 1 && value[0] == '+' && value[1] != '+' && value[1] != '-';
+    const char* end = value.data() + value.size();
+    const auto [ptr, ec] = std::from_chars(value.data() + (plus ? 1 : 0), end, v);
+    if (value.empty() || ec != std::errc() || ptr != end || !std::isfinite(v))
+      return InputError(
+          fmt::format("operating point: {}: '{}' is not a finite number", name, value));
     point.emplace_back(name, v);
   }
   return point;
@@ -72,6 +80,16 @@ Result<Quantity> ParseQuantity(const std::string& text) {
   if (eq == std::string::npos || Trim(text.substr(0, eq)).empty())
     return InputError(fmt::format("quantity '{}': expected NAME=EXPRESSION", text));
   Quantity q{Trim(text.substr(0, eq)), Trim(text.substr(eq + 1))};
+  const bool identifier =
+      (std::isalpha(static_cast<unsigned char>(q.name[0])) || q.name[0] == '_') &&
+      std::all_of(q.name.begin(), q.name.end(),
+                  [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+  if (!identifier)
+    return InputError(fmt::format(
+        "quantity '{}': the name '{}' is not a name (letters, digits and _, not first a digit)",
+        text, q.name));
+  if (q.text.empty())
+    return InputError(fmt::format("quantity {}: no expression after '='", q.name));
   if (auto e = expr::Parse(q.text); !e) {
     Error err = e.error();
     err.message = fmt::format("quantity {}: {}", q.name, err.message);
@@ -246,6 +264,11 @@ Result<Steady> SolveSteady(Point& point, const Unknowns& k, Eigen::VectorXd x, E
     if (!accepted) break;
   }
   if (std::sqrt(m) <= 1e-9) return Steady{x, u, e};
+  if (!std::isfinite(m))
+    return InputError(
+        "no steady state found at this point: the model's equations are not finite where the "
+        "search starts (the values given and the first guess of the others); the values "
+        "given may be out of the model's range");
   return InputError(fmt::format(
       "no steady state found at this point (the scaled residual stopped at {:.3g}): the values "
       "given may not be reachable",
@@ -300,7 +323,72 @@ Result<std::vector<double>> EvaluateQuantities(const std::vector<expr::ExprPtr>&
   return out;
 }
 
+// Every value of a linearisation (or with `se` every standard error) finite, or a numerical Error
+// naming the first that is not.
+Status CheckFinite(const ModelSpec& s, const Linearisation& lin,
+                   const std::vector<Quantity>& quantities, bool se) {
+  auto fail = [](const std::string& what, double v) -> Status {
+    return NumericalError(
+        fmt::format("the linearisation is not finite at this point: {} is {}", what, v));
+  };
+  auto vector = [&](const char* kind, const std::vector<std::string>& names,
+                    const Eigen::VectorXd& v) -> Status {
+    for (Eigen::Index i = 0; i < v.size(); ++i)
+      if (!std::isfinite(v(i)))
+        return fail(fmt::format("{}the steady state's {} {}", se ? "the standard error of " : "",
+                                kind, names[static_cast<std::size_t>(i)]),
+                    v(i));
+    return Ok{};
+  };
+  auto matrix = [&](const char* m, const std::vector<std::string>& rows,
+                    const std::vector<std::string>& cols, const Eigen::MatrixXd& v) -> Status {
+    for (Eigen::Index i = 0; i < v.rows(); ++i)
+      for (Eigen::Index j = 0; j < v.cols(); ++j)
+        if (!std::isfinite(v(i, j)))
+          return fail(
+              fmt::format("{}{}_{}_{}", se ? "the standard error of " : "", m,
+                          rows[static_cast<std::size_t>(i)], cols[static_cast<std::size_t>(j)]),
+              v(i, j));
+    return Ok{};
+  };
+  for (const Status& st : {vector("state", s.states, se ? lin.se_x : lin.x),
+                           vector("input", s.inputs, se ? lin.se_u : lin.u),
+                           se ? Status(Ok{}) : vector("output", s.outputs, lin.y),
+                           matrix("A", s.states, s.states, se ? lin.se_A : lin.A),
+                           matrix("B", s.states, s.inputs, se ? lin.se_B : lin.B),
+                           matrix("C", s.outputs, s.states, se ? lin.se_C : lin.C),
+                           matrix("D", s.outputs, s.inputs, se ? lin.se_D : lin.D)})
+    if (!st) return st;
+  const std::vector<double>& q = se ? lin.se_quantities : lin.quantities;
+  for (std::size_t k = 0; k < q.size(); ++k)
+    if (!std::isfinite(q[k]))
+      return fail(fmt::format("{}quantity {} = {}", se ? "the standard error of " : "",
+                              quantities[k].name, quantities[k].text),
+                  q[k]);
+  return Ok{};
+}
+
 }  // namespace
+
+// "t" is the time unless the model names a state, input or parameter so.
+Status CheckTimeInvariant(const ModelSpec& s) {
+  if (s.StateIndex("t") >= 0 || s.InputIndex("t") >= 0 || s.ParameterIndex("t") >= 0) return Ok{};
+  for (const std::vector<Formula>* formulas : {&s.drift, &s.observation}) {
+    for (const Formula& f : *formulas) {
+      std::set<std::string> used;
+      expr::CollectNames(f.expr, &used);
+      if (!used.count("t")) continue;
+      Error e = InputError(fmt::format(
+          "'{}' uses the time t: a model that changes with time has no steady state (to take it "
+          "at one time, replace t by a fixed parameter)",
+          f.text));
+      e.file = s.source;
+      e.path = f.path;
+      return e;
+    }
+  }
+  return Ok{};
+}
 
 Result<Linearisation> Linearise(const NonlinearModel& model, std::span<const double> theta,
                                 const std::vector<std::pair<std::string, double>>& point,
@@ -309,6 +397,13 @@ Result<Linearisation> Linearise(const NonlinearModel& model, std::span<const dou
   const int n = model.n_states(), m = model.n_inputs();
   if (static_cast<int>(theta.size()) != model.n_parameters())
     return InputError("linearise: one value per parameter is needed");
+  if (auto st = CheckTimeInvariant(s); !st) return st.error();
+  for (std::size_t a = 0; a < options.quantities.size(); ++a)
+    for (std::size_t b = 0; b < a; ++b)
+      if (options.quantities[a].name == options.quantities[b].name)
+        return InputError(fmt::format("quantity {} is given twice ('{}' and '{}')",
+                                      options.quantities[a].name, options.quantities[b].text,
+                                      options.quantities[a].text));
 
   auto tape = InputDerivatives(model);
   if (!tape) return tape.error();
@@ -390,6 +485,7 @@ Result<Linearisation> Linearise(const NonlinearModel& model, std::span<const dou
   lin.se_u = Eigen::VectorXd::Constant(m, nan);
   lin.se_quantities.assign(lin.quantities.size(), nan);
   const auto nf = static_cast<Eigen::Index>(options.free.size());
+  if (auto st = CheckFinite(s, lin, options.quantities, /*se=*/false); !st) return st.error();
   if (nf == 0 || options.covariance.rows() != nf || options.covariance.cols() != nf) return lin;
 
   // The delta method: one column of derivatives per free parameter, of everything flattened.
@@ -434,6 +530,7 @@ Result<Linearisation> Linearise(const NonlinearModel& model, std::span<const dou
   lin.se_x = se.segment(c, n), c += n;
   lin.se_u = se.segment(c, m), c += m;
   for (double& q : lin.se_quantities) q = se(c++);
+  if (auto st = CheckFinite(s, lin, options.quantities, /*se=*/true); !st) return st.error();
   return lin;
 }
 
@@ -450,6 +547,7 @@ struct SteadyStateSolver::Impl {
 };
 
 Result<SteadyStateSolver> SteadyStateSolver::Make(const NonlinearModel& model) {
+  if (auto st = CheckTimeInvariant(model.spec()); !st) return st.error();
   auto tape = InputDerivatives(model);
   if (!tape) return tape.error();
   return SteadyStateSolver(std::make_unique<Impl>(model, std::move(*tape)));

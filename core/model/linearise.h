@@ -34,7 +34,8 @@
 namespace gb::model {
 
 // NAME=VALUE pairs naming states, inputs or outputs of `spec`. Errors say which item is wrong
-// (an unknown name, with a suggestion; a value that is not a number; a name given twice).
+// (an empty text or item, an unknown name, with a suggestion; a value that is not a finite
+// number; a name given twice).
 Result<std::vector<std::pair<std::string, double>>> ParseOperatingPoint(const std::string& text,
                                                                         const ModelSpec& spec);
 
@@ -42,7 +43,9 @@ struct Quantity {
   std::string name;
   std::string text;  // the expression
 };
-// NAME=EXPRESSION (the expression may itself contain '=' nowhere; names as described above).
+// NAME=EXPRESSION: NAME letters, digits and _ (not first a digit); the expression may itself
+// contain '=' nowhere and names what is described above. Errors: no '=', a NAME that is not a
+// name, an empty or unparsable expression.
 Result<Quantity> ParseQuantity(const std::string& text);
 
 struct Linearisation {
@@ -63,16 +66,26 @@ struct LinearisationOptions {
   Eigen::MatrixXd covariance;
 };
 
-// The steady state and its linearisation at θ (all parameters, natural scale). Fails when the
-// point does not fix the right number of values, when no steady state is found (the message
-// says how close it came), or when a quantity does not compile (unknown name, with a suggestion).
+// Ok, or an input Error naming the first drift or observation formula (file and JSON path) that
+// uses the time t: a model that changes with time has no steady state (f = 0 would hold at one
+// time, not at all times).
+Status CheckTimeInvariant(const ModelSpec& spec);
+
+// The steady state and its linearisation at θ (all parameters, natural scale). Fails (input
+// Errors) when the model's drift or observation uses the time t (a model that changes with time
+// has no steady state; the Error names the formula), when the point does not fix the right number
+// of values, when no steady state is found (the message says how close it came), or when a
+// quantity does not compile (unknown name, with a suggestion) or is named twice; and (a numerical
+// Error) when a value of the result or, with a covariance, a standard error is not finite (NaN or
+// ±inf: a quantity that divides by 0 at the point), naming it.
 Result<Linearisation> Linearise(const NonlinearModel& model, std::span<const double> theta,
                                 const std::vector<std::pair<std::string, double>>& point,
                                 const LinearisationOptions& options = {});
 
 // Steady states f(x, u, θ) = 0 with every input given, for many inputs and parameter values:
 // the derivatives are compiled once, and each solve is Linearise's damped Newton from a guess
-// (the last solution at a nearby point is a good one).
+// (the last solution at a nearby point is a good one). Make refuses a model whose drift or
+// observation uses the time t, as Linearise does.
 class SteadyStateSolver {
  public:
   static Result<SteadyStateSolver> Make(const NonlinearModel& model);

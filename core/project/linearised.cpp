@@ -21,6 +21,8 @@ std::pair<double, double> LinearisedSweep::At(std::size_t i, const std::string& 
 Result<LinearisedSweep> LineariseAtPoints(const model::NonlinearModel& model,
                                           const NonlinearFit& fit, const LinearisedSpec& spec,
                                           const std::vector<estimate::OperatingPoint>& points) {
+  // A model that changes with time fails at every point: say so once.
+  if (auto st = model::CheckTimeInvariant(model.spec()); !st) return st.error();
   LinearisedSweep out;
   out.model_name = model.spec().name;
   out.result = spec.result;

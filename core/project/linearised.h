@@ -42,8 +42,8 @@ struct NonlinearFit {
 };
 
 // Linearises at each point. A point whose tags lack one `spec.point` names, or where no steady
-// state is found, gets its `error` and the others go on; an expression that does not parse is an
-// Error for the whole sweep.
+// state is found, gets its `error` and the others go on; an expression that does not parse, and a
+// model whose drift or observation uses the time t, is an Error for the whole sweep.
 Result<LinearisedSweep> LineariseAtPoints(const model::NonlinearModel& model,
                                           const NonlinearFit& fit, const LinearisedSpec& spec,
                                           const std::vector<estimate::OperatingPoint>& points);

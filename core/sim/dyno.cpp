@@ -93,6 +93,7 @@ Result<Record> RunFuelExperiment(const FuelExperiment& e) {
     rec.columns[2].push_back(s.ilambda);
   }
   rec.comments = FuelExperimentComments(e);
+  if (auto st = internal::CheckFinite(rec, "fuel experiment"); !st) return st.error();
   return rec;
 }
 
@@ -130,6 +131,7 @@ Result<Record> RunCrankshaftExperiment(const CrankshaftExperiment& e) {
                       ? fmt::format("+/- {} N m PRBS, bit {} s", e.load_amplitude, 2 * e.bit_period)
                       : std::string("held constant")),
       "recording: " + internal::RecordingText(e.recording)};
+  if (auto st = internal::CheckFinite(rec, "crankshaft experiment"); !st) return st.error();
   return rec;
 }
 
@@ -137,9 +139,12 @@ Result<Record> RunCrankshaftExperiment(const CrankshaftExperiment& e) {
 
 Result<Record> RunSquareWaveTest(const SquareWaveTest& e) {
   std::string why;
-  if (!internal::ValidRecording(e.recording, &why)) return InputError("square-wave test: " + why);
-  if (!(e.tau_ff > 0 && e.Kb > 0 && e.X >= 0 && e.X <= 1 && e.period > 0 && e.duration > 0))
-    return InputError("square-wave test: needs τ_ff, K_b, period, duration > 0 and 0 <= X <= 1");
+  if (!internal::ValidRecording(e.recording, &why) ||
+      !internal::ValidDuration(e.duration, e.recording, &why))
+    return InputError("square-wave test: " + why);
+  if (!(e.tau_ff > 0 && e.Kb > 0 && e.X >= 0 && e.X <= 1 && e.period > 0 &&
+        std::isfinite(e.tau_ff + e.Kb + e.period)))
+    return InputError("square-wave test: needs finite τ_ff, K_b, period > 0 and 0 <= X <= 1");
   const RecordingOptions& r = e.recording;
   const double h = r.sample_time / r.oversample;
   const double bias = 1.0 / e.Kb;
@@ -164,15 +169,17 @@ Result<Record> RunSquareWaveTest(const SquareWaveTest& e) {
   const int warmup_samples = static_cast<int>(std::ceil(10 * e.tau_ff / r.sample_time));
   const int n_samples = internal::SampleCount(e.duration, r);
   const long n_fine = static_cast<long>(warmup_samples + n_samples) * r.oversample;
-  std::vector<double> port(static_cast<std::size_t>(n_fine) + 1, y0);
+  // The port's 1/λ over the last delay_steps + 1 fine steps (fine step i in port[i % size]).
+  std::vector<double> port(static_cast<std::size_t>(delay_steps) + 1, y0);
+  const auto slot = [&](long i) { return static_cast<std::size_t>(i) % port.size(); };
   Record rec;
   rec.names = {"t", "mfi", "ilambda"};
   rec.columns.assign(3, {});
   for (long i = 0; i < n_fine; ++i) {
     const double t = internal::FineTime(i, warmup_samples, r);
     const double mfi = level(t);
-    port[i] = e.Kb * ((1 - e.X) * mfi + x(0));  // the vapour path is instantaneous
-    const double sensor = port[std::max(0L, i - delay_steps)];
+    port[slot(i)] = e.Kb * ((1 - e.X) * mfi + x(0));  // the vapour path is instantaneous
+    const double sensor = port[slot(std::max(0L, i - delay_steps))];
     if (i % r.oversample == 0 && i / r.oversample >= warmup_samples) {
       rec.columns[0].push_back(
           internal::SampleTime(static_cast<int>(i / r.oversample - warmup_samples), r.sample_time));
@@ -193,6 +200,7 @@ Result<Record> RunSquareWaveTest(const SquareWaveTest& e) {
       fmt::format("input: fuel {:.6g} g/s +/- {} % square wave, period {} s", bias,
                   100 * e.amplitude, e.period),
       "recording: " + internal::RecordingText(r)};
+  if (auto st = internal::CheckFinite(rec, "square-wave test"); !st) return st.error();
   return rec;
 }
 

@@ -66,6 +66,17 @@ struct RecordingOptions {
   int filter_order = 4;         // even, 2..8
 };
 
+// Limits of a recorded experiment, checked (IsValid) before anything is allocated or run:
+//   kMaxSamples     the record's rows, duration / T_s (a column of doubles is 80 MB at the limit)
+//   kMaxFineSteps   the simulated world's steps, duration / T_s · oversample, after the warm-up:
+//                   the run's time (about 0.35 µs a step for the fuel film, 0.7 µs for the
+//                   engine: a minute or so at the limit)
+//   kMinFineStep    h = T_s / oversample in s: the delay lines hold their history at every fine
+//                   step (about 1.6 s of it for the engine: 1.3 MB at the limit)
+inline constexpr double kMaxSamples = 1e7;
+inline constexpr double kMaxFineSteps = 1e8;
+inline constexpr double kMinFineStep = 1e-5;
+
 struct FuelExperiment {
   FuelOperatingPoint point;
   int prbs_order = 6;

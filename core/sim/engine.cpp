@@ -141,6 +141,8 @@ Result<EnginePoint> ParseEnginePoint(const std::string& text) {
           "operating point '{}': expected a Table 2 point (f1 f2 f3 f4 f7 f8) or "
           "n=RPM,alpha=DEG; '{}' is not one of those",
           text, item));
+    if (key == "n" ? has_n : has_alpha)
+      return InputError(fmt::format("operating point '{}': {} is given twice", text, key));
     (key == "n" ? p.speed_rpm : p.throttle_deg) = v;
     (key == "n" ? has_n : has_alpha) = true;
     start = comma + 1;
@@ -160,13 +162,19 @@ bool EngineExperiment::IsValid(std::string* why) const {
     return false;
   };
   if (!internal::ValidRecording(recording, why)) return false;
+  if (!(recording.sample_time / recording.oversample <= kMaxEngineStep))
+    return fail(
+        fmt::format("the simulated world's step, the sample time {} s / oversample {}, "
+                    "must be at most {} s for the engine (oversample at least {:.0f})",
+                    recording.sample_time, recording.oversample, kMaxEngineStep,
+                    std::ceil(recording.sample_time / kMaxEngineStep - 1e-9)));
   if (!internal::ValidDuration(duration, recording, why)) return false;
   if (path.empty()) return fail("the experiment needs at least one operating point");
   if (path.size() > 1 && !(hold_s >= 0 && ramp_s > 0 && std::isfinite(hold_s + ramp_s)))
     return fail("a sweep needs a hold >= 0 s and a ramp > 0 s");
   if (!(fuel_amplitude >= 0 && fuel_amplitude < 1))
     return fail("the fuel amplitude must be a fraction in [0, 1)");
-  if (!(throttle_amplitude >= 0 && throttle_amplitude < 10))
+  if (!(throttle_amplitude >= 0 && throttle_amplitude <= 10))
     return fail("the throttle amplitude must be 0..10 deg");
   for (int order : {fuel_order, throttle_order})
     if (order < design::kMinPrbsOrder || order > design::kMaxPrbsOrder)
@@ -198,8 +206,9 @@ struct PathPosition {
 PathPosition PositionAt(const EngineExperiment& e, double t) {
   if (e.path.size() == 1 || t <= 0) return {};
   const double leg = e.hold_s + e.ramp_s;
-  const auto i = static_cast<std::size_t>(std::floor(t / leg));
-  if (i + 1 >= e.path.size()) return {e.path.size() - 1, 0};
+  const double legs = std::floor(t / leg);  // compared before the cast: a tiny leg gives 1e300
+  if (!(legs + 1 < static_cast<double>(e.path.size()))) return {e.path.size() - 1, 0};
+  const auto i = static_cast<std::size_t>(legs);
   const double into = t - static_cast<double>(i) * leg;
   return {i, into <= e.hold_s ? 0 : (into - e.hold_s) / e.ramp_s};
 }
@@ -396,6 +405,7 @@ Result<Record> RunEngineExperiment(const EngineExperiment& e) {
     if (pade) pade_sensor.Step(line[slot(i)], line[slot(i + 1)], delay, h);
   }
   rec.comments = EngineComments(e);
+  if (auto st = internal::CheckFinite(rec, "engine experiment"); !st) return st.error();
   return rec;
 }
 

@@ -79,8 +79,14 @@ bool ValidRecording(const RecordingOptions& r, std::string* why) {
     if (why) *why = std::move(m);
     return false;
   };
-  if (!(r.sample_time > 0)) return fail("the sample time must be positive");
+  if (!(r.sample_time > 0 && std::isfinite(r.sample_time)))
+    return fail(fmt::format("the sample time must be a finite number of seconds > 0, not {}",
+                            r.sample_time));
   if (r.oversample < 1 || r.oversample > 1000) return fail("oversample must be 1..1000");
+  if (!(r.sample_time / r.oversample >= kMinFineStep))
+    return fail(fmt::format(
+        "the simulated world's step, the sample time {} s / oversample {}, must be at least {} s",
+        r.sample_time, r.oversample, kMinFineStep));
   if (r.filter_hz > 0 && (r.filter_order < 2 || r.filter_order > 8 || r.filter_order % 2))
     return fail("the filter order must be even, 2..8");
   if (r.filter_hz > 0 && r.filter_hz * r.sample_time > 0.25 * r.oversample)
@@ -125,9 +131,28 @@ bool ValidCrankshaftSetup(const CrankshaftExperiment& e, std::string* why) {
 }
 
 bool ValidDuration(double duration, const RecordingOptions& r, std::string* why) {
-  if (duration > 0 && duration / r.sample_time <= 1e7) return true;
-  if (why) *why = "the duration must be positive and give at most 10 million samples";
-  return false;
+  auto fail = [&](std::string m) {
+    if (why) *why = std::move(m);
+    return false;
+  };
+  if (!(duration > 0 && std::isfinite(duration)))
+    return fail(
+        fmt::format("the duration must be a finite number of seconds > 0, not {}", duration));
+  const double samples = std::ceil(duration / r.sample_time - 1e-9);
+  if (samples < 1)
+    return fail(fmt::format("{} s gives no sample (a sample every {} s)", duration, r.sample_time));
+  if (!(samples <= kMaxSamples))
+    return fail(
+        fmt::format("{} s at {} s a sample is {:.3g} samples; at most {:.3g} are recorded "
+                    "(a duration of at most {:.6g} s)",
+                    duration, r.sample_time, samples, kMaxSamples, kMaxSamples * r.sample_time));
+  if (!(samples * r.oversample <= kMaxFineSteps))
+    return fail(fmt::format(
+        "{} s at {} s a sample and {} steps a sample is {:.3g} steps of the simulated world; "
+        "at most {:.3g} are taken (a duration of at most {:.6g} s, or a smaller oversample)",
+        duration, r.sample_time, r.oversample, samples * r.oversample, kMaxFineSteps,
+        kMaxFineSteps / r.oversample * r.sample_time));
+  return true;
 }
 
 int SampleCount(double duration, const RecordingOptions& r) {
@@ -150,6 +175,17 @@ std::string RecordingText(const RecordingOptions& r) {
                    "sampled every {} s (simulated on a {} s grid)",
                    r.filter_order, r.filter_hz, r.sample_time, r.sample_time / r.oversample)
              : fmt::format("no anti-alias filter, sampled every {} s", r.sample_time);
+}
+
+Status CheckFinite(const Record& record, const std::string& experiment) {
+  const std::size_t rows = record.columns.empty() ? 0 : record.columns[0].size();
+  for (std::size_t k = 0; k < rows; ++k)
+    for (std::size_t c = 0; c < record.columns.size(); ++c)
+      if (!std::isfinite(record.columns[c][k]))
+        return NumericalError(fmt::format(
+            "{}: the simulated record is not finite from t = {} s on (row {}: {} is {})",
+            experiment, record.columns[0][k], k + 1, record.names[c], record.columns[c][k]));
+  return Ok{};
 }
 
 }  // namespace gb::sim::internal

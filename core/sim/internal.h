@@ -14,6 +14,7 @@
 #include "core/design/prbs.h"
 #include "core/sim/dyno.h"
 #include "core/sim/random.h"
+#include "core/util/result.h"
 
 namespace gb::sim::internal {
 
@@ -64,6 +65,8 @@ class PrbsLevel {
   std::uint8_t bit_;
 };
 
+// T_s finite and > 0, oversample 1..1000, the fine step h >= kMinFineStep, the filter's order and
+// cut-off.
 bool ValidRecording(const RecordingOptions& r, std::string* why);
 
 // The checks of FuelExperiment::IsValid and CrankshaftExperiment::IsValid but the duration's
@@ -71,8 +74,8 @@ bool ValidRecording(const RecordingOptions& r, std::string* why);
 bool ValidFuelSetup(const FuelExperiment& e, std::string* why);
 bool ValidCrankshaftSetup(const CrankshaftExperiment& e, std::string* why);
 
-// The duration's check of FuelExperiment::IsValid and CrankshaftExperiment::IsValid, and the
-// number of samples it gives (t = k T_s < duration).
+// The duration's check of every recorded experiment (finite, > 0, within kMaxSamples and
+// kMaxFineSteps), and the number of samples it gives (t = k T_s < duration).
 bool ValidDuration(double duration, const RecordingOptions& r, std::string* why);
 int SampleCount(double duration, const RecordingOptions& r);
 
@@ -84,5 +87,9 @@ double FineTime(std::int64_t i, int warmup_samples, const RecordingOptions& r);
 double SampleTime(std::int64_t k, double ts);
 
 std::string RecordingText(const RecordingOptions& r);
+
+// Every value of the record finite, or a numerical Error "EXPERIMENT: the simulated record is not
+// finite from t = T s on (column C is V)" at the first row with one that is not.
+Status CheckFinite(const Record& record, const std::string& experiment);
 
 }  // namespace gb::sim::internal

@@ -42,6 +42,18 @@ Status CheckFactor(const char* name, double factor, bool may_vanish) {
                                 may_vanish ? ">=" : ">", factor));
 }
 
+// A faulted parameter's new value within kMaxFaultRatio of its nominal value, either way.
+Status CheckTarget(const char* name, double target, const ParameterPath& path, double now,
+                   double factor) {
+  const double ratio = target / path.nominal();
+  if (ratio >= 1 / kMaxFaultRatio && ratio <= kMaxFaultRatio) return Ok{};
+  return InputError(fmt::format(
+      "{} would become {:.6g} ({:.6g} x {}), {:.3g} times its nominal value {:.6g}: a fault may "
+      "take it to {:g}..{:g} times that",
+      name, target, path.At(now), factor, ratio, path.nominal(), 1 / kMaxFaultRatio,
+      kMaxFaultRatio));
+}
+
 // The two live dynos' states step alike: `FineStep(record)` takes fine step `i` (the sample at its
 // start when `record`), `k` counts the samples given.
 template <class State>
@@ -103,6 +115,8 @@ Status FuelFaults::Inject(const FuelFault& f, double now) {
         fmt::format("the sensor delay would become {:.6g} s ({:.6g} s x {}), longer "
                     "than the {:.6g} s the delay line holds",
                     target, path.At(now), f.factor, max_delay_s_));
+  if (f.kind == Kind::kTauFF || f.kind == Kind::kSensorGain)
+    if (auto st = CheckTarget(FaultName(f.kind), target, path, now, f.factor); !st) return st;
   path.MoveTo(target, now, f.ramp_s);
   return Ok{};
 }
@@ -340,7 +354,9 @@ Status LiveCrankshaftDyno::Inject(const CrankshaftFault& f) {
   if (auto st = CheckRamp(f.ramp_s); !st) return st;
   ParameterPath& path = tau ? s_->tau_f : s_->Je;
   const double now = s_->Now();
-  path.MoveTo(path.At(now) * f.factor, now, f.ramp_s);
+  const double target = path.At(now) * f.factor;
+  if (auto st = CheckTarget(tau ? "tau_f" : "Je", target, path, now, f.factor); !st) return st;
+  path.MoveTo(target, now, f.ramp_s);
   return Ok{};
 }
 

@@ -28,6 +28,10 @@
 //
 // The delay line holds the last MaxSensorDelay = max(1 s, 2 Δt_nominal) of the exhaust's fuel flow
 // (max / h + 1 numbers, allocated at the start); a fault that would take Δt beyond it is refused.
+// τ_ff and K_b (and the crankshaft's τ_f and J_e) stay within kMaxFaultRatio of their nominal
+// values, either way: a fault that would take one beyond is refused (a film 100 times slower or
+// a sensor 100 times more sensitive is no longer the engine; far beyond it the simulation's
+// numbers overflow: τ_ff × 1e-320 gives NaN rows).
 //
 // Deterministic: the same experiment (seed) with the same faults injected before the same sample
 // indices gives the same samples. Next() takes `oversample` fine steps: O(1) time and no memory
@@ -41,6 +45,8 @@
 #include "core/util/result.h"
 
 namespace gb::sim {
+
+inline constexpr double kMaxFaultRatio = 100;
 
 // One parameter's value over time under faults (see above): `from` until t0, then linearly to
 // `to` at t0 + ramp (at once for ramp 0), `to` after.
@@ -89,8 +95,9 @@ class FuelFaults {
  public:
   FuelFaults(const FuelOperatingPoint& nominal, double max_delay_s);
   // `f` from `now` on (`now` not before the previous call's). Refused, changing nothing, when the
-  // factor or the ramp is not a finite number in range, when X would leave [0, 1] or when Δt
-  // would pass max_delay_s.
+  // factor or the ramp is not a finite number in range, when X would leave [0, 1], when Δt
+  // would pass max_delay_s, or when τ_ff or K_b would leave 1/kMaxFaultRatio..kMaxFaultRatio
+  // times its nominal value.
   Status Inject(const FuelFault& f, double now);
   // Every parameter back to its nominal value from `now` on (ramp_s >= 0, as for a fault).
   Status Clear(double now, double ramp_s = 0);
@@ -179,8 +186,8 @@ class LiveCrankshaftDyno {
   double Time() const;
   std::int64_t SampleIndex() const;
 
-  // Refused, changing nothing, when the factor is not finite and > 0 or the ramp not finite and
-  // >= 0.
+  // Refused, changing nothing, when the factor is not finite and > 0, the ramp not finite and
+  // >= 0, or the parameter would leave 1/kMaxFaultRatio..kMaxFaultRatio times its nominal value.
   Status Inject(const CrankshaftFault& f);
   Status ClearFaults(double ramp_s = 0);
   CrankshaftTruth Truth() const;

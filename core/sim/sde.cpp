@@ -36,6 +36,7 @@ Result<Simulation> SamplePath(const model::NonlinearModel& model, std::span<cons
   assert(substeps >= 1);
   const int n = model.n_states(), m = model.n_inputs(), p = model.n_outputs();
   const int N = static_cast<int>(series.size());
+  if (auto st = CheckSimulationSize(N, n, p); !st) return st.error();
   const std::vector<int> delay = filter::EffectiveDelay(settings, p);
   const bool foh = settings.hold == model::InputHold::kFoh;
   NormalRng rng(seed);

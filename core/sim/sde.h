@@ -28,8 +28,9 @@ Result<Simulation> DeterministicResponse(const model::NonlinearModel& model,
                                          const data::Series& series,
                                          const filter::FilterSettings& settings);
 
-// Fails where the initial covariance fails, or where the path leaves the model's domain (an
-// entry that is not finite: "drift.h1 is not a number at these values (h1 = -0.01, ...)").
+// Fails where the initial covariance fails, where the size passes kMaxSimulatedValues
+// (simulate.h), or where the path leaves the model's domain (an entry that is not finite:
+// "drift.h1 is not a number at these values (h1 = -0.01, ...)").
 Result<Simulation> SamplePath(const model::NonlinearModel& model, std::span<const double> theta,
                               const data::Series& series, const filter::FilterSettings& settings,
                               std::uint64_t seed, int substeps = 20);

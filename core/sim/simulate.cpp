@@ -1,6 +1,9 @@
 #include "core/sim/simulate.h"
 
+#include <cmath>
+
 #include <Eigen/Dense>
+#include <fmt/format.h>
 
 #include "core/filter/discretize.h"
 #include "core/sim/random.h"
@@ -23,10 +26,20 @@ Eigen::VectorXd Draw(NormalRng& rng, const Eigen::MatrixXd& L) {
 
 }  // namespace
 
+Status CheckSimulationSize(std::int64_t rows, int states, int outputs) {
+  const double values = static_cast<double>(rows) * (states + outputs);
+  if (values <= kMaxSimulatedValues) return Ok{};
+  return InputError(fmt::format(
+      "{} rows of {} states and {} outputs are {:.3g} simulated values; at most {:.3g} are "
+      "simulated at once (split the inputs into shorter files)",
+      rows, states, outputs, values, kMaxSimulatedValues));
+}
+
 Result<Simulation> Simulate(const model::StateSpace& ss, const data::Series& series,
                             const filter::FilterSettings& settings, const SimulateOptions& options) {
   const int n = ss.n_states(), p = ss.n_outputs(), m = ss.n_inputs();
   const int N = static_cast<int>(series.size());
+  if (auto st = CheckSimulationSize(N, n, p); !st) return st.error();
   NormalRng rng(options.seed);
   const auto discretized = filter::DiscretizeIntervals(ss, series, settings.hold);
   if (!discretized) return discretized.error();
@@ -56,6 +69,16 @@ Result<Simulation> Simulate(const model::StateSpace& ss, const data::Series& ser
       }
       if (options.process_noise) next += Draw(rng, q_factor[g]);
       x = next;
+      for (Eigen::Index i = 0; i < n; ++i) {
+        if (std::isfinite(x(i))) continue;
+        Error e = NumericalError(fmt::format(
+            "the simulated state number {} is {} at t = {}: the model's path is not finite "
+            "over this record",
+            i + 1, x(i), series.time[j + 1]));
+        e.file = series.source;
+        if (j + 1 < static_cast<int>(series.row_line.size())) e.line = series.row_line[j + 1];
+        return e;
+      }
     }
   }
   // Measurement noise is drawn after the state path so that the state path of a seed does not

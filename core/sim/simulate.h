@@ -30,8 +30,16 @@ struct Simulation {
   Eigen::MatrixXd Y;  // p x N outputs (NaN where the delay leaves no state)
 };
 
-// `series` supplies the times and inputs (its Y is not used). Fails only where P0 fails
-// ("stationary" with an unstable A).
+// The most numbers a simulation holds, N · (n + p) (800 MB of doubles): checked before anything
+// is allocated.
+inline constexpr double kMaxSimulatedValues = 1e8;
+// An input Error, saying the limit, when N rows of n states and p outputs would pass it.
+Status CheckSimulationSize(std::int64_t rows, int states, int outputs);
+
+// `series` supplies the times and inputs (its Y is not used). Fails where P0 fails ("stationary"
+// with an unstable A), where the size passes kMaxSimulatedValues, and (a numerical Error naming
+// the row, its time and the state) where the path is not finite (an unstable model over a long
+// record).
 Result<Simulation> Simulate(const model::StateSpace& ss, const data::Series& series,
                             const filter::FilterSettings& settings, const SimulateOptions& options);
 

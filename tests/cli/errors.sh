@@ -87,7 +87,7 @@ expect 2 "--set taufv: the model has no parameter 'taufv' \(did you mean 'tau_fv
 expect 2 "--set X: 'abc' is not a number" -- loglik "$model" "$csv" --set X=abc
 expect 2 "error: .*" -- loglik
 expect 2 "error: .*" -- frobnicate
-expect 2 "--order 40 is not offered" -- prbs --order 40 --period 1 --ts 0.1 --duration 10 --low 0 --high 1 --out "$tmp/u.csv"
+expect 2 "--order: '40' is not a whole number in \\[2, 24\\]" -- prbs --order 40 --period 1 --ts 0.1 --duration 10 --low 0 --high 1 --out "$tmp/u.csv"
 
 # --- format variants load and give the same log-likelihood -----------------------------------
 base=$("$cli" loglik "$model" "$csv")

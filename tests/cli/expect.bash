@@ -27,6 +27,22 @@ expect() {
   fi
 }
 
+# expect_kept CODE REGEX -- ARGS...: expect, and every file in the script's array `kept` (its
+# inputs and earlier outputs) byte for byte as before the run (sha256sum).
+expect_kept() {
+  local before after
+  before=$(sha256sum "${kept[@]}" 2>&1)
+  expect "$@"
+  after=$(sha256sum "${kept[@]}" 2>&1)
+  if [ "$before" != "$after" ]; then
+    echo "FAIL: greybench-cli ${*:4}"
+    echo "      changed a file it was given: $(diff <(echo "$before") <(echo "$after") | grep '^>')"
+    failures=$((failures + 1))
+  else
+    passes=$((passes + 1))
+  fi
+}
+
 # summary [NAME]: prints the counts and is the script's exit status: it fails when a check failed
 # and when none ran (a script whose checks never ran, say because it lost this file's `source`
 # line, would otherwise pass without testing anything).

@@ -3,7 +3,9 @@
 # mean-value engine model reads; a fit's result file names its model file; the linearisation at a
 # Table 2 point gives the fuel film's parameters with the delta method's standard errors (a
 # quantity that is a parameter carries the parameter's SE); bad points and quantities are bad
-# input (exit 2) naming what is wrong.
+# input (exit 2) naming what is wrong, a quantity that is not finite at the point a numerical
+# failure (exit 1), a model that uses the time t is refused; the result, the model and an earlier
+# --out are left byte for byte as they were.
 # Usage: linearise.sh GREYBENCH_CLI TEST_DATA_DIR
 set -u
 cli=$1
@@ -26,7 +28,7 @@ check "... says so, and how to regenerate it" bash -c "grep -q '^# lambda sensor
   grep -q '0.000625 s grid' '$tmp/pade.csv'"
 expect 2 "--lambda-sensor: only the engine experiment" -- dyno fuel --lambda-sensor pade --out "$tmp/x.csv"
 expect 2 "--lambda-sensor: delay not in" -- dyno engine --lambda-sensor delay --out "$tmp/x.csv"
-expect 2 "oversample must be 1..1000" -- dyno engine --oversample 5000 --out "$tmp/x.csv"
+expect 2 "--oversample: '5000' is not a whole number in \\[1, 1000\\]" -- dyno engine --oversample 5000 --out "$tmp/x.csv"
 check "the model reads it" bash -c "'$cli' loglik '$assets/models/engine_mvem.json' '$tmp/f1.csv' | grep -q '\"filter\":\"ekf\"'"
 
 # A result file at the model's start values with 1 % standard errors, uncorrelated, naming its
@@ -69,5 +71,37 @@ expect 2 "nomodel.json: model_file: .*give it with --model" -- \
   linearise "$tmp/nomodel.json" --point N=2931,alpha=29.5,ilambda=1
 check "--model instead" "$cli" linearise "$tmp/nomodel.json" --model "$assets/models/engine_mvem.json" \
   --point N=2931,alpha=29.5,ilambda=1 --out "$tmp/lin2.json"
+
+# Hostile points and quantities: refused (exit 2), or not finite at the point (exit 1), naming
+# what; the result file, the model and the earlier --out byte for byte as they were.
+kept=("$tmp/result.json" "$assets/models/engine_mvem.json" "$tmp/lin.json")
+lin=(linearise "$tmp/result.json" --out "$tmp/lin.json")
+expect_kept 2 "operating point: empty" -- "${lin[@]}" --point ''
+expect_kept 2 "operating point: 'N' is not NAME=VALUE" -- "${lin[@]}" --point N,alpha=29.5,ilambda=1
+expect_kept 2 "operating point: N: '' is not a finite number" -- "${lin[@]}" --point N=,alpha=29.5,ilambda=1
+expect_kept 2 "operating point: N: 'nan' is not a finite number" -- "${lin[@]}" --point N=nan,alpha=29.5,ilambda=1
+expect_kept 2 "operating point: alpha: 'inf' is not a finite number" -- "${lin[@]}" --point N=2931,alpha=inf,ilambda=1
+expect_kept 2 "an empty item" -- "${lin[@]}" --point N=2931,alpha=29.5,ilambda=1,
+expect_kept 2 "'speed' is not a state, input or output" -- "${lin[@]}" --point speed=2931,alpha=29.5,ilambda=1
+expect_kept 2 "'N' is given twice" -- "${lin[@]}" --point N=2931,alpha=29.5,N=3000
+point=(--point N=2931,alpha=29.5,ilambda=1)
+expect_kept 1 "the linearisation is not finite at this point: quantity q = 1/\\(alpha - 29.5\\) is inf" -- \
+  "${lin[@]}" "${point[@]}" --quantity 'q=1/(alpha - 29.5)'
+expect_kept 1 "quantity q = log\\(0\\*n\\) is -inf" -- "${lin[@]}" "${point[@]}" --quantity 'q=log(0*n)'
+expect_kept 1 "quantity q = sqrt\\(-n\\) is -?nan" -- "${lin[@]}" "${point[@]}" --quantity 'q=sqrt(-n)'
+expect_kept 2 "quantity q is given twice" -- "${lin[@]}" "${point[@]}" --quantity q=cd --quantity q=n
+expect_kept 2 "quantity 'tau ff=cd': the name 'tau ff' is not a name" -- "${lin[@]}" "${point[@]}" --quantity 'tau ff=cd'
+expect_kept 2 "quantity q: no expression after '='" -- "${lin[@]}" "${point[@]}" --quantity 'q='
+expect_kept 2 "quantity q: unknown name 'nn'" -- "${lin[@]}" "${point[@]}" --quantity 'q=1/nn'
+# A model whose drift uses the time t: no steady state (it was taken at t = 0, silently).
+python3 - "$assets/models/engine_mvem.json" "$tmp/timed.json" <<'PY'
+import json, sys
+m = json.load(open(sys.argv[1]))
+m["drift"]["mff"] = "(" + m["drift"]["mff"] + ") * (1 + 0.01*sin(t))"
+json.dump(m, open(sys.argv[2], "w"))
+PY
+kept+=("$tmp/timed.json")
+expect_kept 2 "timed.json: drift.mff: .* uses the time t: a model that changes with time has no steady state" -- \
+  "${lin[@]}" --model "$tmp/timed.json" "${point[@]}"
 
 summary linearise

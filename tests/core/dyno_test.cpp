@@ -2,6 +2,7 @@
 #include "core/sim/dyno.h"
 
 #include <cmath>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -68,6 +69,93 @@ TEST(Dyno, AntiAliasFilterKeepsTheMeanLevelOfTheInput) {
   for (std::size_t k = 0; k < raw->columns[1].size(); ++k)
     sum_f += filtered->columns[1][k], sum_r += raw->columns[1][k];
   EXPECT_NEAR(sum_f / sum_r, 1.0, 5e-3);
+}
+
+TEST(Dyno, SquareWaveSensorFollowsTheFilmsClosedFormAfterTheDelay) {
+  // Without noise and filters, 1/λ(t) = K_b ((1-X) mfi(t-D) + mff(t-D)) with D the delay on the
+  // fine grid; after the switch from low to high at T/2 the film rises as a first-order step
+  // response: mff = X (low + (high-low)(1 - e^{-(t-T/2)/τff})). The port's history is a ring of
+  // D/h + 1 fine steps, not the whole record.
+  SquareWaveTest e;
+  e.s12 = e.s2 = 0;
+  e.recording.filter_hz = 0;
+  e.duration = 4.0;  // the first period: low until 2 s, high after
+  auto rec = RunSquareWaveTest(e);
+  ASSERT_TRUE(rec.ok()) << rec.error().ToString();
+  const double h = e.recording.sample_time / e.recording.oversample;
+  const double D = static_cast<double>(std::lround(ExhaustDelay(e.speed_rpm) / h)) * h;
+  const double bias = 1 / e.Kb, low = bias * (1 - e.amplitude), high = bias * (1 + e.amplitude);
+  const double half = e.period / 2;
+  const auto& t = rec->columns[0];
+  const auto& y = rec->columns[2];
+  ASSERT_EQ(t.size(), 320u);
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    const double s = t[k] - D;  // the time the sensor reads
+    const double mfi = s < half - 1e-9 ? low : high;
+    const double mff = s < half - 1e-9
+                           ? e.X * low
+                           : e.X * (low + (high - low) * -std::expm1(-(s - half) / e.tau_ff));
+    EXPECT_NEAR(y[k], e.Kb * ((1 - e.X) * mfi + mff), 1e-12) << "t = " << t[k];
+  }
+}
+
+TEST(Dyno, RecordThatIsNotFiniteIsANumericalErrorNamingItsTimeAndColumn) {
+  // A film time constant of 1e-320 s overflows the discretisation: the record is refused, not
+  // returned with NaN rows.
+  FuelExperiment e;
+  e.point = *FindFuelPoint("f1");
+  e.point.tau_ff = 1e-320;
+  e.duration = 1.0;
+  auto rec = RunFuelExperiment(e);
+  ASSERT_FALSE(rec.ok());
+  EXPECT_EQ(rec.error().kind, ErrorKind::kNumerical);
+  EXPECT_NE(
+      rec.error().message.find("fuel experiment: the simulated record is not finite from t = 0 s"),
+      std::string::npos)
+      << rec.error().message;
+  EXPECT_NE(rec.error().message.find("(row 1: ilambda is"), std::string::npos)
+      << rec.error().message;
+}
+
+TEST(Dyno, RefusesARecordBeyondItsLimitsBeforeRunningIt) {
+  std::string why;
+  FuelExperiment fuel;
+  fuel.point = *FindFuelPoint("f1");
+  // 10 million samples at 80 Hz is 125 000 s; one sample more is refused.
+  fuel.duration = kMaxSamples * 0.0125;
+  fuel.recording.oversample = 1;
+  EXPECT_TRUE(fuel.IsValid(&why)) << why;
+  fuel.duration += 0.0125;
+  EXPECT_FALSE(fuel.IsValid(&why));
+  EXPECT_NE(why.find("at most 1e+07 are recorded (a duration of at most 125000 s)"),
+            std::string::npos)
+      << why;
+  // The simulated world's steps: 1e8 at 80 Hz and oversample 1000 is 1250 s.
+  fuel.recording.oversample = 1000;
+  fuel.duration = 1250;
+  EXPECT_TRUE(fuel.IsValid(&why)) << why;
+  fuel.duration = 1250.0125;
+  EXPECT_FALSE(fuel.IsValid(&why));
+  EXPECT_NE(why.find("at most 1e+08 are taken"), std::string::npos) << why;
+  for (const double d : {0.0, -1.0, 1e-12, std::nan(""), double{INFINITY}, 1e300}) {
+    fuel.duration = d;
+    EXPECT_FALSE(fuel.IsValid(&why)) << d;
+  }
+  // The fine step: at least 10 µs.
+  CrankshaftExperiment shaft;
+  shaft.recording.sample_time = 0.005;
+  shaft.recording.oversample = 501;
+  EXPECT_FALSE(shaft.IsValid(&why));
+  EXPECT_NE(why.find("must be at least 1e-05 s"), std::string::npos) << why;
+  shaft.recording.sample_time = INFINITY;
+  EXPECT_FALSE(shaft.IsValid(&why));
+  // The square wave checks its duration too (it allocated its fine steps' history before).
+  SquareWaveTest square;
+  square.duration = 1e300;
+  auto rec = RunSquareWaveTest(square);
+  ASSERT_FALSE(rec.ok());
+  EXPECT_NE(rec.error().message.find("at most 1e+07 are recorded"), std::string::npos)
+      << rec.error().message;
 }
 
 }  // namespace

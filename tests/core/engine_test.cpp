@@ -136,9 +136,10 @@ TEST(Engine, SensorSeesTheFuelStepAfterTheSpeedsTransportDelay) {
 
 TEST(Engine, PadeSensorIsTheModelsApproximantOfTheDelayLine) {
   // One world recorded twice, through the exact delay line and through the [3/3] Padé sensor.
-  // Noise-free, unfiltered, the speed fixed (a huge inertia) at Δt = c_d / n = 0.05 s, four
-  // samples: the exact record gives the port's value v_k = y_(k+4), and the approximant driven by
-  // that v (linear between fine steps, here the samples) is stepped independently by the matrix
+  // Noise-free, unfiltered, the speed fixed (a huge inertia) at Δt = c_d / n = 0.05 s, sampled
+  // at 400 Hz with one fine step a sample (the engine's longest, 2.5 ms), so 20 samples: the
+  // exact record gives the port's value v_k = y_(k+20), and the approximant driven by that v
+  // (linear between fine steps, here the samples) is stepped independently by the matrix
   // exponential of its realisation, augmented with v's slope.
   sim::EngineExperiment e;
   e.truth.sp = e.truth.sn = e.truth.sfv = e.truth.sff = 0;
@@ -146,6 +147,7 @@ TEST(Engine, PadeSensorIsTheModelsApproximantOfTheDelayLine) {
   e.truth.Je = 1e9;
   e.throttle_amplitude = 0;
   e.recording.filter_hz = 0;
+  e.recording.sample_time = sim::kMaxEngineStep;
   e.recording.oversample = 1;
   e.path = {*sim::ParseEnginePoint("n=3340,alpha=31")};
   e.duration = 6;
@@ -158,7 +160,8 @@ TEST(Engine, PadeSensorIsTheModelsApproximantOfTheDelayLine) {
   const auto& y = pade->columns[6];
   EXPECT_EQ(pade->columns[4], exact->columns[4]);  // the same world
 
-  const double D = 167.0 / 3340, h = 0.0125, c = 120 / (D * D * D);
+  const double D = 167.0 / 3340, h = sim::kMaxEngineStep, c = 120 / (D * D * D);
+  const std::size_t lag = 20;  // D / h
   Eigen::Matrix<double, 5, 5> M = Eigen::Matrix<double, 5, 5>::Zero();
   M(0, 1) = M(1, 2) = 1;
   M(2, 0) = -c;
@@ -167,14 +170,14 @@ TEST(Engine, PadeSensorIsTheModelsApproximantOfTheDelayLine) {
   M(2, 3) = c;  // v
   M(3, 4) = 1;  // v' = w, the slope over the step
   const Eigen::Matrix<double, 5, 5> step = (M * h).exp();
-  Eigen::Vector3d z(v_late[4], 0, 0);  // at rest at t = 0
+  Eigen::Vector3d z(v_late[lag], 0, 0);  // at rest at t = 0
   double worst = 0, moved = 0;
-  for (std::size_t k = 0; k + 5 < y.size(); ++k) {
-    const double v = v_late[k + 4];
+  for (std::size_t k = 0; k + lag + 1 < y.size(); ++k) {
+    const double v = v_late[k + lag];
     worst = std::max(worst, std::abs(y[k] - (2 * z(0) - v + D * D / 5 * z(2))));
     moved = std::max(moved, std::abs(y[k] - y[0]));
     Eigen::Matrix<double, 5, 1> a;
-    a << z, v, (v_late[k + 5] - v) / h;
+    a << z, v, (v_late[k + lag + 1] - v) / h;
     z = (step * a).head<3>();
   }
   EXPECT_GT(moved, 0.05);  // the fuel's ±10 % PRBS
@@ -717,11 +720,41 @@ TEST(Engine, PointsParseAndRefuse) {
   EXPECT_FALSE(sim::ParseEnginePoint("n=3000").ok());
   EXPECT_FALSE(sim::ParseEnginePoint("f5").ok());
   EXPECT_FALSE(sim::ParseEnginePoint("n=3000,alpha=x").ok());
+  EXPECT_FALSE(sim::ParseEnginePoint("n=3000,alpha=nan").ok());
+  EXPECT_FALSE(sim::ParseEnginePoint("n=3000,alpha=30,").ok());
+  EXPECT_FALSE(sim::ParseEnginePoint("").ok());
+  auto twice = sim::ParseEnginePoint("n=3000,alpha=30,n=2000");  // was the last n, silently
+  ASSERT_FALSE(twice.ok());
+  EXPECT_NE(twice.error().message.find("n is given twice"), std::string::npos)
+      << twice.error().message;
   sim::EngineExperiment e;
   e.path = {*sim::ParseEnginePoint("n=1000,alpha=2")};  // too little air to turn the engine
   std::string why;
   EXPECT_FALSE(e.IsValid(&why));
   EXPECT_NE(why.find("operating point n1000_a2"), std::string::npos) << why;
+}
+
+TEST(Engine, RefusesAFineStepItsEulerSchemeGetsWrong) {
+  // h = T_s / oversample at most 2.5 ms; at 5 ms the wide-open manifold's pressure is off by 30 %.
+  sim::EngineExperiment e;
+  e.path = {*sim::ParseEnginePoint("f1")};
+  e.duration = 1;
+  e.recording.sample_time = 0.025;
+  e.recording.oversample = 10;
+  std::string why;
+  EXPECT_TRUE(e.IsValid(&why)) << why;
+  e.recording.oversample = 9;
+  EXPECT_FALSE(e.IsValid(&why));
+  EXPECT_NE(why.find("must be at most 0.0025 s for the engine (oversample at least 10)"),
+            std::string::npos)
+      << why;
+  e.recording.oversample = 10;
+  for (const double amplitude : {-1.0, 10.5, std::nan("")}) {
+    e.throttle_amplitude = amplitude;
+    EXPECT_FALSE(e.IsValid(&why)) << amplitude;
+  }
+  e.throttle_amplitude = 10;
+  EXPECT_TRUE(e.IsValid(&why)) << why;
 }
 
 }  // namespace

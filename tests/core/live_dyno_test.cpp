@@ -271,6 +271,38 @@ TEST(LiveFuelDyno, RefusesFaultsOutOfRangeAndChangesNothing) {
   EXPECT_TRUE(dyno->Inject({Kind::kSensorDelay, 16}).ok());  // Δt = 1 s: the whole line
 }
 
+TEST(LiveFuelDyno, RefusesFaultsThatTakeTauFFOrTheGainBeyondAHundredTimesNominal) {
+  // τ_ff × 1e-320 overflowed the film's discretisation and K_b × 1e308 the sensor: NaN and inf
+  // rows. Within 1/100..100 times the nominal value a fault is taken, also as several.
+  auto dyno = LiveFuelDyno::Create(Fuel("f1", 1));
+  ASSERT_TRUE(dyno.ok());
+  const FuelOperatingPoint p = dyno->experiment().point;
+  auto refused = [&](FuelFault f, const char* says) {
+    const Status st = dyno->Inject(f);
+    ASSERT_FALSE(st.ok());
+    EXPECT_NE(st.error().message.find(says), std::string::npos) << st.error().message;
+  };
+  refused({Kind::kTauFF, 1e-320}, "a fault may take it to 0.01..100 times that");
+  refused({Kind::kSensorGain, 1e308}, "gain would become 8.421e+307");
+  refused({Kind::kSensorGain, 0.0099}, "0.0099 times its nominal value 0.8421");
+  ASSERT_TRUE(dyno->Inject({Kind::kTauFF, 10}).ok());
+  refused({Kind::kTauFF, 11}, "tau_ff would become 41.25 (3.75 x 11), 110 times");
+  ASSERT_TRUE(dyno->Inject({Kind::kTauFF, 10}).ok());  // 100 times: the limit
+  EXPECT_DOUBLE_EQ(dyno->Truth().tau_ff, 100 * p.tau_ff);
+  ASSERT_TRUE(dyno->Inject({Kind::kSensorGain, 0.01}).ok());
+  for (int k = 0; k < 160; ++k) {
+    const FuelSample s = dyno->Next();
+    ASSERT_TRUE(std::isfinite(s.mfi) && std::isfinite(s.ilambda)) << k;
+  }
+  auto shaft = LiveCrankshaftDyno::Create(CrankshaftExperiment{});
+  ASSERT_TRUE(shaft.ok());
+  const Status st = shaft->Inject({CrankshaftFault::Kind::kTauF, 1e-320});
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().message.find("tau_f would become"), std::string::npos) << st.error().message;
+  EXPECT_FALSE(shaft->Inject({CrankshaftFault::Kind::kJe, 101}).ok());
+  EXPECT_TRUE(shaft->Inject({CrankshaftFault::Kind::kJe, 100}).ok());
+}
+
 TEST(LiveFuelDyno, FaultsCompoundAndClearBackToTheNominalValues) {
   auto dyno = LiveFuelDyno::Create(Fuel("f2", 1));
   ASSERT_TRUE(dyno.ok());

@@ -73,6 +73,10 @@ TEST(Prbs, RefusesSettingsThatCannotWork) {
   o.sample_time = 0.01;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("shorter than the sample time"), std::string::npos);
+  o.bit_period = 0.01;
+  o.duration = 1e-300;  // was a file of no rows
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("--duration 1e-300 at --ts 0.01 gives no sample"), std::string::npos) << why;
 }
 
 }  // namespace
