@@ -70,6 +70,9 @@ Json MatrixJson(const Eigen::MatrixXd& m, const Eigen::MatrixXd& se) {
 int RunLinearise(const LineariseArgs& args) {
   auto model_path = ModelOf(args);
   if (!model_path) return Fail(model_path.error());
+  if (int s = GuardOutputs({{args.result, "the result file"}, {*model_path, "the model file"}},
+                           {{args.out, "--out"}}))
+    return s;
   auto spec = model::LoadModelFile(*model_path);
   if (!spec) return Fail(spec.error());
   auto reference = online::LoadReference(args.result, *spec);

@@ -47,6 +47,25 @@ std::string WhyEmptyValue(const CLI::App& app) {
   return "";
 }
 
+// "-" as an output: standard output where the help says so (`monitor --out`, `dyno --live
+// --out`); anywhere else it would become a file named "-" in the current folder.
+std::string WhyDashOutput(const CLI::App& app, bool live) {
+  for (const CLI::App* sub : app.get_subcommands()) {
+    const std::string& name = sub->get_name();
+    if (name == "monitor" || (name == "dyno" && live)) continue;
+    for (const CLI::Option* opt : sub->get_options()) {
+      const std::string& o = opt->get_name();
+      if (o.rfind("--out", 0) != 0 && o != "--states" && o != "--checkpoint") continue;
+      for (const std::string& value : opt->results())
+        if (value == "-")
+          return fmt::format("{} {} -: {} writes files, not standard output; give a file name "
+                             "(./- for a file of that name)",
+                             name, o, name);
+    }
+  }
+  return "";
+}
+
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // The values a numeric option takes: a finite number (CLI11 reads "nan" and "inf" as doubles and
@@ -441,7 +460,9 @@ int Main(int argc, char** argv) {
                  e.what());
     return 2;
   }
-  if (const std::string why = WhyEmptyValue(app); !why.empty()) {
+  std::string why = WhyEmptyValue(app);
+  if (why.empty()) why = WhyDashOutput(app, dyno.live);
+  if (!why.empty()) {
     std::fprintf(stderr, "greybench-cli: error: %s\n", why.c_str());
     return 2;
   }

@@ -57,6 +57,8 @@ refused 2 "--out d.csv is the --follow file" -- \
   monitor m.json --reference fit.json --follow d.csv --idle 1 --out d.csv
 refused 2 "--out fit.json is the --reference file" -- \
   monitor m.json --reference fit.json --follow d.csv --idle 1 --out fit.json
+refused 2 "--out fit.json is the result file" -- linearise fit.json --point mfi=1 --out fit.json
+refused 2 "--out m.json is the model file" -- linearise fit.json --point mfi=1 --out m.json
 # A project and every file it names.
 printf '{"greybench_project": 1, "model": "m.json", "datasets": ["d.csv"],\n "diagram": "g.json"}\n' \
   >p.json
@@ -87,27 +89,34 @@ check "and replaces the file it names" grep -q "^t,ilambda,ilambda_pred" target.
 
 # --- 2. numeric options: empty, 0, negative, NaN, huge ---------------------------------------
 refused 2 "estimate --out: the value is empty" -- estimate m.json d.csv --out ""
-refused 2 "--threads: Value 0 not in range 1 to 1024" -- estimate m.json d.csv --threads 0
-refused 2 "--threads: Value -2 not in range 1 to 1024" -- estimate m.json d.csv --threads -2
-refused 2 "--multistart: Value 1000000000 not in range 0 to 10000" -- \
+refused 2 "estimate --out -: estimate writes files, not standard output" -- \
+  estimate m.json d.csv --out -
+refused 2 "predict --states -: predict writes files" -- \
+  predict m.json d.csv --out p.csv --states -
+refused 2 "--threads: '0' is not a whole number in \[1, 1024\]" -- estimate m.json d.csv --threads 0
+refused 2 "--threads: '-2' is not a whole number in \[1, 1024\]" -- \
+  estimate m.json d.csv --threads -2
+refused 2 "--multistart: '1000000000' is not a whole number in \[0, 10000\]" -- \
   estimate m.json d.csv --multistart 1000000000
-refused 2 "--max-evaluations: Value 0 not in range 1 to" -- \
+refused 2 "--max-evaluations: '0' is not a whole number in \[1, " -- \
   estimate m.json d.csv --max-evaluations 0
-refused 2 "--ftol: nan is not a finite number" -- estimate m.json d.csv --ftol nan
-refused 2 "--ftol: Value 2 not in range" -- estimate m.json d.csv --ftol 2
-refused 2 "--profile-level: nan is not a finite number" -- \
+refused 2 "--ftol: 'nan' is not a number in \[0, 0.1\]" -- estimate m.json d.csv --ftol nan
+refused 2 "--ftol: '2' is not a number in \[0, 0.1\]" -- estimate m.json d.csv --ftol 2
+refused 2 "--profile-level: 'nan' is not a number in \[0.5, 0.9999\]" -- \
   estimate m.json d.csv --profile-intervals --profile-level nan
 refused 2 "--profile-level requires --profile-intervals" -- \
   estimate m.json d.csv --profile-level 0.9
-refused 2 "--steady-window: inf is not a finite number" -- \
+refused 2 "--steady-window: 'inf' is not a number > 0" -- \
   estimate m.json d.csv --steady-start --steady-window inf
-refused 2 "--steady-window: 0 is not greater than 0" -- \
+refused 2 "--steady-window: '0' is not a number > 0" -- \
   estimate m.json d.csv --steady-start --steady-window 0
 refused 2 "--steady-window requires --steady-start" -- estimate m.json d.csv --steady-window 3
-refused 2 "--simulate-after" -- predict m.json d.csv --simulate-after 0 --out p.csv
-refused 2 "--max-lag" -- diagnose m.json d.csv --max-lag 0 --out g2.json
-refused 2 "--repeat" -- bench m.json d.csv --repeat 0
-refused 2 "--parallel 0: expected a number of fits at once from 1" -- \
+refused 2 "--simulate-after: '0' is not a whole number >= 1" -- \
+  predict m.json d.csv --simulate-after 0 --out p.csv
+refused 2 "--max-lag: '0' is not a whole number >= 1" -- \
+  diagnose m.json d.csv --max-lag 0 --out g2.json
+refused 2 "--repeat: '0' is not a whole number in \[1, 10000\]" -- bench m.json d.csv --repeat 0
+refused 2 "--parallel: '0' is not a whole number in \[1, 1024\]" -- \
   sweep m.json d.csv --parallel 0
 refused 2 "--set X: the value must be a finite number" -- loglik m.json d.csv --set X=nan
 

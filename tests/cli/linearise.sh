@@ -76,7 +76,7 @@ check "--model instead" "$cli" linearise "$tmp/nomodel.json" --model "$assets/mo
 # what; the result file, the model and the earlier --out byte for byte as they were.
 kept=("$tmp/result.json" "$assets/models/engine_mvem.json" "$tmp/lin.json")
 lin=(linearise "$tmp/result.json" --out "$tmp/lin.json")
-expect_kept 2 "operating point: empty" -- "${lin[@]}" --point ''
+expect_kept 2 "linearise --point: the value is empty" -- "${lin[@]}" --point ''
 expect_kept 2 "operating point: 'N' is not NAME=VALUE" -- "${lin[@]}" --point N,alpha=29.5,ilambda=1
 expect_kept 2 "operating point: N: '' is not a finite number" -- "${lin[@]}" --point N=,alpha=29.5,ilambda=1
 expect_kept 2 "operating point: N: 'nan' is not a finite number" -- "${lin[@]}" --point N=nan,alpha=29.5,ilambda=1

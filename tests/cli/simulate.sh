@@ -30,7 +30,7 @@ prbs "--high: '' is not a finite number" --order 5 --period 1 --ts 0.1 --duratio
 prbs "--low 1 and --high 1: the same level" --order 5 --period 1 --ts 0.1 --duration 10 --low 1 --high 1
 prbs "--seed: '-1' is not a whole number in \[0, 4294967295\]" --order 5 "${ok[@]}" --seed -1
 prbs "--seed: '4294967296' is not a whole number in \[0, 4294967295\]" --order 5 "${ok[@]}" --seed 4294967296
-prbs "--name '': expected a column name" --order 5 "${ok[@]}" --name ''
+prbs "prbs --name: the value is empty" --order 5 "${ok[@]}" --name ''
 prbs "--name 't': expected a column name" --order 5 "${ok[@]}" --name t
 prbs "--name 'a,b': expected a column name" --order 5 "${ok[@]}" --name a,b
 prbs "--duration 1e-300 at --ts 0.1 gives no sample" --order 5 --period 1 --ts 0.1 --duration 1e-300 --low 0 --high 1
