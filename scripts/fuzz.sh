@@ -53,10 +53,13 @@ run() {
   mkdir -p "$corpus"
   local dict=()
   [ -f "tests/fuzz/$t.dict" ] && dict=(-dict="tests/fuzz/$t.dict")
-  # rss_limit and timeout: a slow or memory-hungry input is a failure too.
+  # rss_limit and timeout: a slow or memory-hungry input is a failure too. cli's inputs are whole
+  # commands, whose fits take seconds under the sanitizers (a sweep of 3 files about 6 s).
+  local timeout=10
+  [ "$t" = cli ] && timeout=25
   local rc=0
   "$build/tests/fuzz/${t}_fuzz" "$corpus" "tests/fuzz/corpus/$t" "${dict[@]}" \
-    -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=8192 \
+    -max_total_time="$seconds" -timeout="$timeout" -rss_limit_mb=2048 -max_len=8192 \
     -artifact_prefix="$root/$build/artifacts/$t-" -print_final_stats=1 ${FUZZ_ARGS:-} \
     >"$build/$t.log" 2>&1 || rc=$?
   echo "$rc" >"$build/$t.rc"

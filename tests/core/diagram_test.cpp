@@ -638,7 +638,8 @@ TEST(DiagramHostile, ADiagramOf100000UnconnectedBlocksHasEachOfItsProblemsReport
     ASSERT_LE(p.block, kLarge);
     ++per_block[p.block];
     if (p.message.find("is not connected") != std::string::npos) ++not_connected;
-    if (p.block == 0 && p.message.find("a model takes at most 1000") != std::string::npos)
+    if (p.block == 0 &&
+        p.message.find(fmt::format("a model takes at most {}", kMaxModelSize)) != std::string::npos)
       ++too_large;
   }
   EXPECT_EQ(too_large, 2) << r.problems.front().ToString();
@@ -728,7 +729,7 @@ TEST(DiagramHostile, OneChainOf100000BlocksIsOneProblemAtTheChainLimit) {
 }
 
 TEST(DiagramHostile, MoreStatesThanAModelTakesIsAProblemNotAnAllocation) {
-  // 1001 lags, each after one gain, all connected and otherwise valid.
+  // kMaxModelSize + 1 lags, each after one gain, all connected and otherwise valid.
   const int too_many = static_cast<int>(kMaxModelSize) + 1;
   auto d = FromJson(ChainsJson(too_many, 1, 1));
   ASSERT_TRUE(d.ok()) << d.error().ToString();
@@ -736,11 +737,13 @@ TEST(DiagramHostile, MoreStatesThanAModelTakesIsAProblemNotAnAllocation) {
   ASSERT_FALSE(r.ok());
   ASSERT_EQ(r.problems.size(), 2u) << r.Message();
   EXPECT_EQ(r.problems[0].ToString(),
-            "diagram: the diagram has 1001 lag, integrator and state blocks: a model takes at "
-            "most 1000");
+            fmt::format("diagram: the diagram has {} lag, integrator and state blocks: a model "
+                        "takes at most {}",
+                        too_many, kMaxModelSize));
   EXPECT_EQ(r.problems[1].ToString(),
-            "diagram: the diagram has 1001 output blocks: a model takes at most 1000");
-  // 1000 are not too many: with one unconnected gain more, that gain is the only problem.
+            fmt::format("diagram: the diagram has {} output blocks: a model takes at most {}",
+                        too_many, kMaxModelSize));
+  // kMaxModelSize are not too many: with one unconnected gain more, it is the only problem.
   Json fits = ChainsJson(too_many - 1, 1, 1);
   fits["blocks"].push_back({{"id", 999999}, {"kind", "gain"}});
   auto e = FromJson(fits);

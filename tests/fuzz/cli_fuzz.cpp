@@ -21,7 +21,9 @@
 // The seed corpus (tests/fuzz/corpus/cli/) holds command lines in this form, one a file; cli.dict
 // lists the vocabulary.
 //
-// After every run, each of these must hold, or the target aborts (libFuzzer saves the input):
+// After every run, each of these must hold, or the target aborts (libFuzzer saves the input;
+// with CLI_FUZZ_SURVEY=1 in the environment it prints each kind of failure once and goes on;
+// CLI_FUZZ_ECHO=1 prints each command line before it runs):
 //   - the exit status is 0, 1 or 2;
 //   - every file of the set is byte for byte as before, except one the command line names as an
 //     output (--out, --out-csv, --out-md, --states, --checkpoint) and does not also read; the null
@@ -39,8 +41,9 @@
 // is /dev/null here anyway) and `dyno --live` (a live stream until it is stopped). For the same
 // reason a `monitor --follow` without --idle is given `--idle 0.05` (without it, following a file
 // never ends, as the help says), and command lines that ask for legitimately long work are not run
-// (LegitimatelyLong: `monitor --idle` of more than 1 s, `bench --repeat` of more than 100). The
-// known hangs of issue 32 (--multistart 1000000000, monitor --idle 0, ...) are not hidden.
+// (LegitimatelyLong: `monitor --idle` of more than 1 s, `bench --repeat` of more than 100, `sweep`
+// of more than 3 data files, a fit each). The known hangs of issue 32 (--multistart 1000000000,
+// monitor --idle 0, ...) are not hidden.
 //
 // Sections: 1. the vocabulary  2. the fixture  3. one command line (decode, run, check)
 #include <fcntl.h>
@@ -314,6 +317,7 @@ struct CommandLine {
   std::set<std::string> inputs;         // fixture files named in input positions
   std::set<std::string> outputs;        // file names given to an output option
   std::vector<std::string> output_seq;  // in order, repeats kept
+  int positionals = 0;                  // words that are neither options nor their values
 };
 
 std::size_t Hash(std::string_view word) { return std::hash<std::string_view>{}(word); }
@@ -353,6 +357,7 @@ CommandLine Decode(const std::uint8_t* data, std::size_t size) {
       token = vocabulary[Hash(token) % vocabulary.size()];
     std::string arg = token == "\"\"" ? "" : token;
     const bool after_value_option = previous.rfind("--", 0) == 0 && !Flags().count(previous);
+    if (!after_value_option && token.rfind("--", 0) != 0) ++cl.positionals;
     for (const auto& p : Paths()) {
       if (token != p.token) continue;
       arg = Resolve(p.file);
@@ -407,10 +412,12 @@ bool LegitimatelyLong(CommandLine* cl) {
     if (Number(ValueOf(*cl, "--idle"), &v) && v > 1) return true;
   }
   if (command == "bench" && Number(ValueOf(*cl, "--repeat"), &v) && v > 100) return true;
+  // A fit per data file, some 2 s each under the sanitizers: more than 3 files outlast -timeout.
+  if (command == "sweep" && cl->positionals > 4) return true;
   return false;
 }
 
-[[noreturn]] void Finding(const CommandLine& cl, const std::string& what) {
+void Report(const CommandLine& cl, const std::string& what) {
   std::string text;  // with the paths written as their tokens (@lin, ...)
   for (const auto& a : cl.args) {
     std::string word = a.empty() ? "''" : a;
@@ -420,7 +427,6 @@ bool LegitimatelyLong(CommandLine* cl) {
   }
   std::fprintf(stderr, "cli_fuzz: %s\n  command line: greybench-cli%s\n", what.c_str(),
                text.c_str());
-  std::abort();
 }
 
 // Checks the properties of the head of the file after a run, and restores the fixture.
@@ -480,11 +486,19 @@ void CheckAndRestore(const CommandLine& cl, int rc) {
   }
   for (const auto& p : extra) fs::remove_all(p, ec);
 
-  if (!problems.empty()) {
-    std::string all;
-    for (const auto& p : problems) all += (all.empty() ? "" : "; ") + p;
-    Finding(cl, all);
+  if (problems.empty()) return;
+  // CLI_FUZZ_SURVEY=1: each kind of failed property is printed once and the run goes on (a survey
+  // of what the command line gets wrong; crashes, hangs and sanitizer reports still stop it).
+  if (std::getenv("CLI_FUZZ_SURVEY")) {
+    static std::set<std::string> seen;
+    for (const auto& p : problems)
+      if (seen.insert(cl.args[0] + ": " + p).second) Report(cl, p);
+    return;
   }
+  std::string all;
+  for (const auto& p : problems) all += (all.empty() ? "" : "; ") + p;
+  Report(cl, all);
+  std::abort();
 }
 
 }  // namespace
@@ -501,6 +515,8 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   CommandLine cl = Decode(data, size);
   if (LegitimatelyLong(&cl)) return 0;
+  // CLI_FUZZ_ECHO=1: each command line is printed before it runs (to read what a hang ran).
+  if (std::getenv("CLI_FUZZ_ECHO")) Report(cl, "running");
   const int rc = RunCli(cl.args);
   CheckAndRestore(cl, rc);
   return 0;
