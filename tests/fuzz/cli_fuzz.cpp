@@ -30,8 +30,8 @@
 //     device is still a character device;
 //   - a run that succeeds (exit 0) names no file both as an input and as an output, nor as two
 //     outputs (the null device aside);
-//   - nothing is left in the directory but the set and the outputs named (no temporaries), nor a
-//     file `-` in the working directory unless `-` is named as an output.
+//   - nothing is left in the directory but the set and the outputs named (no temporaries), nor in
+//     the working directory, where a word of the vocabulary given as an output (--out 2) lands.
 // Then the set is restored and the outputs removed, so that every run starts from the same files.
 // A hang is libFuzzer's -timeout (scripts/fuzz.sh); stdout and stderr of the command go to
 // /dev/null (stdout and stderr are swapped for a FILE* on /dev/null during the call, so libFuzzer's
@@ -178,8 +178,10 @@ struct Fixture {
   std::string null_device;                   // what @null names
   bool own_null = false;                     // a device node of our own (made as root)
   std::FILE* devnull = nullptr;              // where the commands' stdout and stderr go
-  fs::path cwd;               // the working directory (libFuzzer's paths are relative to it)
-  bool dash_existed = false;  // whether it held a file `-` at start-up
+  fs::path cwd;  // the working directory (libFuzzer's paths are relative to it)
+  // The words of the vocabulary that name no file in it at start-up: a command given one as an
+  // output (--out 2) writes a file of that name there.
+  std::vector<std::string> relative_names;
 };
 
 Fixture& TheFixture() {
@@ -296,7 +298,12 @@ void MakeFixture() {
   FUZZ_CHECK(f.devnull != nullptr);
   f.cwd = fs::current_path();
   std::error_code ec;
-  f.dash_existed = fs::exists(fs::symlink_status(f.cwd / "-", ec));
+  std::set<std::string> words(Values().begin(), Values().end());
+  for (const auto& c : Commands()) words.insert(c.options.begin(), c.options.end());
+  for (const auto& w : words)
+    if (!w.empty() && w.find('/') == std::string::npos && w != "\"\"" &&
+        !fs::exists(fs::symlink_status(f.cwd / w, ec)))
+      f.relative_names.push_back(w);
   const int rc = RunCli(
       {"estimate", Resolve("lin.json"), Resolve("data.csv"), "--out", Resolve("result.json")});
   FUZZ_CHECK(rc == 0);
@@ -368,8 +375,9 @@ CommandLine Decode(const std::uint8_t* data, std::size_t size) {
         cl.inputs.insert(p.file);
       }
     }
-    // `-` and `""` as an output name a file too ("-" is stdout only for monitor and dyno --live).
-    if (OutputOptions().count(previous) && (token == "-" || token == "\"\"")) {
+    // Any other word after an output option names a file in the working directory ("-" is
+    // stdout only for monitor and dyno --live; a command may take "--out" for a file name).
+    if (OutputOptions().count(previous) && token[0] != '@') {
       cl.outputs.insert(arg);
       cl.output_seq.push_back(arg);
     }
@@ -479,10 +487,11 @@ void CheckAndRestore(const CommandLine& cl, int rc) {
       problems.push_back(name + " is left behind, though no option names it");
     extra.push_back(it->path());
   }
-  // The one relative path a command line can hold, `-`, names a file in the working directory.
-  if (!f.dash_existed && fs::exists(fs::symlink_status(f.cwd / "-", ec))) {
-    if (!cl.outputs.count("-")) problems.push_back("./- is left behind, though no option names it");
-    extra.push_back(f.cwd / "-");
+  for (const auto& name : f.relative_names) {
+    if (!fs::exists(fs::symlink_status(f.cwd / name, ec))) continue;
+    if (!cl.outputs.count(name))
+      problems.push_back("./" + name + " is left behind, though no option names it");
+    extra.push_back(f.cwd / name);
   }
   for (const auto& p : extra) fs::remove_all(p, ec);
 
@@ -515,6 +524,13 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   CommandLine cl = Decode(data, size);
   if (LegitimatelyLong(&cl)) return 0;
+  // A relative output that names a file already in the working directory (not ours) is not run.
+  for (const std::string& out : cl.outputs) {
+    std::error_code ec;
+    if (!out.empty() && out.find('/') == std::string::npos &&
+        fs::exists(fs::symlink_status(TheFixture().cwd / out, ec)))
+      return 0;
+  }
   // CLI_FUZZ_ECHO=1: each command line is printed before it runs (to read what a hang ran).
   if (std::getenv("CLI_FUZZ_ECHO")) Report(cl, "running");
   const int rc = RunCli(cl.args);
