@@ -1,4 +1,7 @@
 // greybench-cli export-model: the model a project's block diagram compiles to.
+#include <fmt/format.h>
+
+#include <cstddef>
 #include <cstdio>
 
 #include "app/cli/cli.h"
@@ -15,9 +18,18 @@ int RunExportModel(const ExportModelArgs& args) {
   if (!diagram) return Fail(diagram.error());
   const diagram::CompileResult compiled = diagram::Compile(*diagram, args.out);
   if (!compiled.ok()) {
-    // Every problem, each naming the block, so they can all be fixed in one pass.
-    for (const auto& p : compiled.problems) {
-      Error e = InputError(p.ToString());
+    // The problems, each naming the block, so that they can be fixed in one pass; a diagram with
+    // a problem on every one of 100 000 blocks gets the first few and their count.
+    constexpr std::size_t kMaxShown = 20;
+    const std::size_t n = compiled.problems.size();
+    for (std::size_t i = 0; i < n && i < kMaxShown; ++i) {
+      Error e = InputError(compiled.problems[i].ToString());
+      e.file = args.project;
+      Fail(e);
+    }
+    if (n > kMaxShown) {
+      Error e = InputError(
+          fmt::format("the diagram has {} problems; the first {} are above", n, kMaxShown));
       e.file = args.project;
       Fail(e);
     }

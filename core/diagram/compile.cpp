@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <map>
 #include <set>
+#include <unordered_set>
 
 #include "core/diagram/diagram.h"
 #include "core/diagram/internal.h"
@@ -162,6 +163,18 @@ class Compiler {
                                              [](const Block& b) { return HoldsState(b.kind); }))
       ReportDiagram("the diagram has no lag, integrator or state block: a model needs a state");
     if (output_names.empty()) ReportDiagram("the diagram has no output block");
+    std::size_t states = 0, inputs = 0, outputs = 0;
+    for (const auto& b : d_.blocks) {
+      states += HoldsState(b.kind);
+      inputs += b.kind == BlockKind::kInput;
+      outputs += b.kind == BlockKind::kOutput;
+    }
+    for (const auto& [count, what] :
+         {std::pair{states, "lag, integrator and state blocks"}, std::pair{inputs, "input blocks"},
+          std::pair{outputs, "output blocks"}})
+      if (count > kMaxModelSize)
+        ReportDiagram(fmt::format("the diagram has {} {}: a model takes at most {}", count, what,
+                                  kMaxModelSize));
   }
 
   // A field's expression (parsed, names checked), or nullptr after reporting why not.
@@ -438,67 +451,70 @@ CompileResult Compile(const BlockDiagram& d, const std::string& source) {
   Compiler c(d);
   c.CheckStructure();
 
-  Json j;
-  j["greybench_model"] = 1;
-  if (!d.name.empty()) j["name"] = d.name;
+  // The model file's entries by name, in block order. Kept in lists until every block is checked:
+  // a JSON object looks a name up by a scan, which would make this loop quadratic in the blocks.
+  using Entries = std::vector<std::pair<std::string, std::string>>;
+  Entries drift, diffusion, initial, observation, variance;
+  std::vector<std::pair<std::string, Json>> delays;
   std::vector<std::string> states, inputs, outputs;
   for (const auto& b : d.blocks) {
     if (b.kind == BlockKind::kInput) inputs.push_back(b.name);
-    if (b.kind == BlockKind::kOutput) outputs.push_back(b.name);
-    if (HoldsState(b.kind)) states.push_back(b.name);
-  }
-  j["states"] = states;
-  j["inputs"] = inputs;
-  j["outputs"] = outputs;
-  j["parameters"] = model::ParametersToJson(d.parameters);
-  Json drift = Json::object(), diffusion = Json::object(), initial = Json::object();
-  Json observation = Json::object(), variance = Json::object(), delays = Json::object();
-
-  for (const auto& b : d.blocks) {
     if (HoldsState(b.kind)) {
-      if (ExprPtr f = c.Drift(b); f && !c.TooLarge(b, f)) drift[b.name] = Text(f);
+      states.push_back(b.name);
+      if (ExprPtr f = c.Drift(b); f && !c.TooLarge(b, f)) drift.emplace_back(b.name, Text(f));
       if (ExprPtr x0 = c.Field(b, "x0", "the initial state x0 is not set"))
-        initial[b.name] = Text(x0);
+        initial.emplace_back(b.name, Text(x0));
     } else if (b.kind == BlockKind::kOutput) {
-      if (ExprPtr h = c.Observation(b); h && !c.TooLarge(b, h)) observation[b.name] = Text(h);
+      outputs.push_back(b.name);
+      if (ExprPtr h = c.Observation(b); h && !c.TooLarge(b, h))
+        observation.emplace_back(b.name, Text(h));
       if (ExprPtr s = c.Field(b, "variance", "the output has no measurement variance"))
-        variance[b.name] = Text(s);
+        variance.emplace_back(b.name, Text(s));
       if (auto delay = c.Delay(b); delay && (delay->min != 0 || delay->max != 0))
-        delays[b.name] = DelayJson(*delay);
+        delays.emplace_back(b.name, DelayJson(*delay));
     } else if (b.kind == BlockKind::kNoise) {
       ExprPtr sigma = c.Field(b, "sigma", "the noise intensity sigma is not set");
       bool attached = false;
-      for (const auto& l : d.links) {
-        if (l.from.block != b.id) continue;
-        const Block* target = d.FindBlock(l.to.block);
+      for (const Link* l : d.LinksFrom(b.id)) {
+        const Block* target = d.FindBlock(l->to.block);
         if (!target || !HoldsState(target->kind)) continue;
         attached = true;
-        if (sigma) diffusion[target->name] = Text(sigma);
+        if (sigma) diffusion.emplace_back(target->name, Text(sigma));
       }
       if (!attached) c.Report(b, "this noise block is attached to no state");
     } else if (b.kind == BlockKind::kDelay) {
-      if (std::none_of(d.links.begin(), d.links.end(),
-                       [&](const Link& l) { return l.from.block == b.id; }))
+      if (d.LinksFrom(b.id).empty())
         c.Report(b, "this delay feeds nothing: a delay sits directly in front of an output");
     } else {
       for (int k = 0; k < static_cast<int>(OutPorts(b).size()); ++k) c.Signal(b.id, k);
     }
   }
   if (!c.problems.empty()) {
-    for (auto& p : c.problems) {  // a field read by two out-ports is reported once
-      const bool seen = std::any_of(result.problems.begin(), result.problems.end(),
-                                    [&](const Problem& q) { return q.ToString() == p.ToString(); });
-      if (!seen) result.problems.push_back(std::move(p));
-    }
+    std::unordered_set<std::string> seen;  // a field read by two out-ports is reported once
+    for (auto& p : c.problems)
+      if (seen.insert(p.ToString()).second) result.problems.push_back(std::move(p));
     return result;
   }
 
-  j["drift"] = drift;
-  j["diffusion"] = diffusion;
-  j["observation"] = observation;
-  j["measurement_variance"] = variance;
-  if (!delays.empty()) j["output_delay"] = delays;
-  j["initial_state"] = initial;
+  // No problem: the names are unique (CheckStructure) and at most kMaxModelSize of each kind.
+  auto object = [](const auto& entries) {
+    Json o = Json::object();
+    for (const auto& [name, value] : entries) o[name] = value;
+    return o;
+  };
+  Json j;
+  j["greybench_model"] = 1;
+  if (!d.name.empty()) j["name"] = d.name;
+  j["states"] = states;
+  j["inputs"] = inputs;
+  j["outputs"] = outputs;
+  j["parameters"] = model::ParametersToJson(d.parameters);
+  j["drift"] = object(drift);
+  j["diffusion"] = object(diffusion);
+  j["observation"] = object(observation);
+  j["measurement_variance"] = object(variance);
+  if (!delays.empty()) j["output_delay"] = object(delays);
+  j["initial_state"] = object(initial);
   j["initial_covariance"] = internal::InitialCovarianceJson(d);
   j["input_hold"] = d.input_hold == model::InputHold::kFoh ? "foh" : "zoh";
   if (d.robust_huber) j["robust_huber"] = *d.robust_huber;

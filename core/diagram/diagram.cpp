@@ -230,6 +230,19 @@ const Link* BlockDiagram::LinkInto(const PortRef& in) const {
               [&in](const Link& l) { return l.to == in; });
 }
 
+std::vector<const Link*> BlockDiagram::LinksFrom(int block) const {
+  std::vector<const Link*> out;
+  if (index.links == links.size()) {
+    if (auto it = index.from.find(block); it != index.from.end())
+      for (std::size_t i : it->second)
+        if (i < links.size() && links[i].from.block == block) out.push_back(&links[i]);
+    return out;
+  }
+  for (const Link& l : links)
+    if (l.from.block == block) out.push_back(&l);
+  return out;
+}
+
 void BlockDiagram::AppendedBlock() {
   if (index.blocks + 1 != blocks.size()) return Reindex();
   index.block.emplace(blocks.back().id, blocks.size() - 1);
@@ -240,6 +253,7 @@ void BlockDiagram::AppendedLink() {
   if (index.links + 1 != links.size()) return Reindex();
   index.link.emplace(links.back().id, links.size() - 1);
   index.into.emplace(PortKey(links.back().to), links.size() - 1);
+  index.from[links.back().from.block].push_back(links.size() - 1);
   index.links = links.size();
 }
 
@@ -247,10 +261,12 @@ void BlockDiagram::Reindex() {
   index.block.clear();
   index.link.clear();
   index.into.clear();
+  index.from.clear();
   for (std::size_t i = 0; i < blocks.size(); ++i) index.block.emplace(blocks[i].id, i);
   for (std::size_t i = 0; i < links.size(); ++i) {
     index.link.emplace(links[i].id, i);
     index.into.emplace(PortKey(links[i].to), i);  // the first, as a scan finds it
+    index.from[links[i].from.block].push_back(i);
   }
   index.blocks = blocks.size();
   index.links = links.size();
@@ -348,9 +364,8 @@ bool ClosesAlgebraicLoop(const BlockDiagram& d, int from_block, int to_block) {
     stack.pop_back();
     if (id == from_block) return true;
     if (!seen.insert(id).second) continue;
-    for (const auto& l : d.links) {
-      if (l.from.block != id) continue;
-      const Block* next = d.FindBlock(l.to.block);
+    for (const Link* l : d.LinksFrom(id)) {
+      const Block* next = d.FindBlock(l->to.block);
       if (next && !HoldsState(next->kind)) stack.push_back(next->id);
     }
   }

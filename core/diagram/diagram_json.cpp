@@ -60,9 +60,14 @@ Json ToJson(const BlockDiagram& d) {
     links.push_back(
         {{"id", l.id}, {"from", {l.from.block, l.from.index}}, {"to", {l.to.block, l.to.index}}});
   j["links"] = links;
+  // The ids are unique, so the entries are appended as they are: a JSON object's operator[]
+  // looks for the key by a scan, which made writing the layout quadratic in the blocks.
   Json layout = Json::object();
-  for (const auto& [id, xy] : d.layout.positions) layout[std::to_string(id)] = {xy[0], xy[1]};
-  j["layout"] = layout;
+  auto& entries = static_cast<Json::object_t::Container&>(layout.get_ref<Json::object_t&>());
+  entries.reserve(d.layout.positions.size());
+  for (const auto& [id, xy] : d.layout.positions)
+    entries.emplace_back(std::to_string(id), Json{xy[0], xy[1]});
+  j["layout"] = std::move(layout);
   return j;
 }
 

@@ -4,12 +4,17 @@
 //           5. JSON
 #include "core/diagram/diagram.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <string>
+#include <vector>
 
 #include "core/expr/expr.h"
 #include "core/model/linear_model.h"
@@ -581,6 +586,173 @@ TEST(DiagramHostile, ASumTakesAtMost64Inputs) {
       << read.error().ToString();
 }
 
+// Issue 32: checking a diagram took time quadratic in its unconnected blocks (20 000 blocks
+// 50 s): every problem was compared, as text, with every one reported before it. The size is
+// the point of these tests; their time is in the report of the commit that made them pass.
+constexpr int kLarge = 100'000;
+
+// One block of each kind that has in-ports or must be attached, none connected, repeated: the
+// in-ports that must be connected, by kind, and the problems each block has beyond them.
+struct Unconnected {
+  const char* kind;
+  int required_in_ports;
+  int other_problems;  // a noise block attached to no state; a delay that feeds nothing
+};
+constexpr Unconnected kUnconnected[] = {{"gain", 1, 0},    {"sum", 2, 0},       {"lag", 1, 0},
+                                        {"output", 1, 0},  {"noise", 0, 1},     {"delay", 1, 1},
+                                        {"product", 2, 0}, {"saturation", 1, 0}};
+
+TEST(DiagramHostile, ADiagramOf100000UnconnectedBlocksHasEachOfItsProblemsReportedOnce) {
+  Json j = {{"greybench_diagram", 1}, {"blocks", Json::array()}};
+  int expected = 0;
+  std::size_t states = 0, outputs = 0;
+  for (int id = 1; id <= kLarge; ++id) {
+    const Unconnected& u = kUnconnected[id % std::size(kUnconnected)];
+    const std::string kind = u.kind;
+    Json b = {{"id", id}, {"kind", kind}};
+    if (kind == "lag") {
+      b["name"] = fmt::format("x{}", id);
+      ++states;
+    } else if (kind == "output") {
+      b["name"] = fmt::format("y{}", id);
+      b["variance"] = "1";
+      ++outputs;
+    } else if (kind == "sum") {
+      b["signs"] = "+-";
+    }
+    j["blocks"].push_back(std::move(b));
+    expected += u.required_in_ports + u.other_problems;
+  }
+  auto d = FromJson(j);
+  ASSERT_TRUE(d.ok()) << d.error().ToString();
+  const CompileResult r = Compile(*d);
+  ASSERT_FALSE(r.ok());
+  // And two about the whole diagram: more states, and more outputs, than a model takes.
+  ASSERT_GT(states, kMaxModelSize);
+  ASSERT_GT(outputs, kMaxModelSize);
+  EXPECT_EQ(r.problems.size(), static_cast<std::size_t>(expected) + 2);
+  std::vector<int> per_block(kLarge + 1, 0);
+  int not_connected = 0, too_large = 0;
+  for (const Problem& p : r.problems) {
+    ASSERT_GE(p.block, 0);
+    ASSERT_LE(p.block, kLarge);
+    ++per_block[p.block];
+    if (p.message.find("is not connected") != std::string::npos) ++not_connected;
+    if (p.block == 0 &&
+        p.message.find(fmt::format("a model takes at most {}", kMaxModelSize)) != std::string::npos)
+      ++too_large;
+  }
+  EXPECT_EQ(too_large, 2) << r.problems.front().ToString();
+  int required = 0;
+  for (int id = 1; id <= kLarge; ++id) {
+    const Unconnected& u = kUnconnected[id % std::size(kUnconnected)];
+    required += u.required_in_ports;
+    EXPECT_EQ(per_block[id], u.required_in_ports + u.other_problems) << "block " << id;
+  }
+  EXPECT_EQ(not_connected, required);
+}
+
+// `lags` lags x<g> (K = g + 1, tau), each fed by a sum of `chains` chains of `length` gains
+// (k = 1) from the input u and read by an output y<g>: dx_g/dt = ((g + 1) chains u - x_g)/tau.
+Json ChainsJson(int lags, int chains, int length) {
+  Json j = ToJson(MakeSmall().d);  // for the parameter table k, tau, s2
+  j["blocks"] = Json::array();
+  j["links"] = Json::array();
+  j.erase("layout");
+  int id = 1;
+  const int u = id++;
+  j["blocks"].push_back({{"id", u}, {"kind", "input"}, {"name", "u"}});
+  auto link = [&](int from, int to, int port) {
+    j["links"].push_back({{"id", id++}, {"from", {from, 0}}, {"to", {to, port}}});
+  };
+  for (int g = 0; g < lags; ++g) {
+    const int sum = id++, x = id++, y = id++;
+    j["blocks"].push_back({{"id", sum}, {"kind", "sum"}, {"signs", std::string(chains, '+')}});
+    for (int c = 0; c < chains; ++c) {
+      int from = u;
+      for (int i = 0; i < length; ++i) {
+        const int gain = id++;
+        j["blocks"].push_back({{"id", gain}, {"kind", "gain"}, {"k", "1"}});
+        link(from, gain, 0);
+        from = gain;
+      }
+      link(from, sum, c);
+    }
+    j["blocks"].push_back({{"id", x},
+                           {"kind", "lag"},
+                           {"name", fmt::format("x{}", g)},
+                           {"K", std::to_string(g + 1)},
+                           {"tau", "tau"},
+                           {"x0", "0"}});
+    j["blocks"].push_back({{"id", y},
+                           {"kind", "output"},
+                           {"name", fmt::format("y{}", g)},
+                           {"ports", {"u"}},
+                           {"h", "u"},
+                           {"variance", "s2"}});
+    link(sum, x, 0);
+    link(x, y, 0);
+  }
+  return j;
+}
+
+// 8 lags, each after a sum of 50 chains of 250 gains: 100 025 blocks. (A signal may pass through
+// 256 blocks from its input or state: Compile's recursion and the formula's depth are bounded.)
+constexpr int kLags = 8, kChainsPerLag = 50, kChainLength = kLarge / (kLags * kChainsPerLag);
+
+TEST(DiagramHostile, LongChainsOf100000BlocksCompileToTheirClosedForm) {
+  auto d = FromJson(ChainsJson(kLags, kChainsPerLag, kChainLength));
+  ASSERT_TRUE(d.ok()) << d.error().ToString();
+  ASSERT_EQ(d->blocks.size(), static_cast<std::size_t>(kLarge + 1 + 3 * kLags));
+  const CompileResult r = Compile(*d);
+  ASSERT_TRUE(r.ok()) << r.problems.size()
+                      << " problems, the first: " << r.problems.front().ToString();
+  auto linear = model::LinearModel::Compile(*r.model);
+  ASSERT_TRUE(linear.ok()) << linear.error().ToString();
+  auto m = linear->Evaluate(std::vector<double>(r.model->parameters.size(), 1.0));
+  ASSERT_TRUE(m.ok()) << m.error().ToString();
+  ASSERT_EQ(m->B.rows(), kLags);
+  for (int g = 0; g < kLags; ++g) {  // tau = 1
+    EXPECT_EQ(m->B(g, 0), kChainsPerLag * (g + 1.0)) << g;
+    EXPECT_EQ(m->A(g, g), -1.0) << g;
+  }
+}
+
+TEST(DiagramHostile, OneChainOf100000BlocksIsOneProblemAtTheChainLimit) {
+  const Small s = SmallReadyToCompile();
+  auto d = FromJson(ChainJson(s, kLarge, "gain", "+"));
+  ASSERT_TRUE(d.ok()) << d.error().ToString();
+  const CompileResult r = Compile(*d);
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(HasProblem(r, "more than 256 blocks")) << r.Message();
+  EXPECT_LE(r.problems.size(), 2u) << r.Message();
+}
+
+TEST(DiagramHostile, MoreStatesThanAModelTakesIsAProblemNotAnAllocation) {
+  // kMaxModelSize + 1 lags, each after one gain, all connected and otherwise valid.
+  const int too_many = static_cast<int>(kMaxModelSize) + 1;
+  auto d = FromJson(ChainsJson(too_many, 1, 1));
+  ASSERT_TRUE(d.ok()) << d.error().ToString();
+  const CompileResult r = Compile(*d);
+  ASSERT_FALSE(r.ok());
+  ASSERT_EQ(r.problems.size(), 2u) << r.Message();
+  EXPECT_EQ(r.problems[0].ToString(),
+            fmt::format("diagram: the diagram has {} lag, integrator and state blocks: a model "
+                        "takes at most {}",
+                        too_many, kMaxModelSize));
+  EXPECT_EQ(r.problems[1].ToString(),
+            fmt::format("diagram: the diagram has {} output blocks: a model takes at most {}",
+                        too_many, kMaxModelSize));
+  // kMaxModelSize are not too many: with one unconnected gain more, it is the only problem.
+  Json fits = ChainsJson(too_many - 1, 1, 1);
+  fits["blocks"].push_back({{"id", 999999}, {"kind", "gain"}});
+  auto e = FromJson(fits);
+  ASSERT_TRUE(e.ok()) << e.error().ToString();
+  const CompileResult one = Compile(*e);
+  ASSERT_EQ(one.problems.size(), 1u) << one.Message();
+  EXPECT_EQ(one.problems[0].ToString(), "block 999999, in-port 0: in-port 'u' is not connected");
+}
+
 // ---- 4. FromModel -------------------------------------------------------------------------------
 
 TEST(DiagramFromModel, CrankshaftAndFuelFilmCompileBackToTheSameMatrices) {
@@ -744,6 +916,26 @@ TEST(DiagramJson, RefusesIdsOutsideTheRangeOfInt) {
   auto r = FromJson(largest);
   ASSERT_TRUE(r.ok()) << r.error().ToString();
   EXPECT_EQ(r->next_id, 2147483647);
+}
+
+// Reading a file of 100 000 blocks took 50 s: a JSON object (the layout's) found each key by a
+// scan of the keys before it. Written and read back, the diagram is the same.
+TEST(DiagramJson, ADiagramOf100000BlocksIsWrittenAndReadBackWhole) {
+  auto d = FromJson(ChainsJson(kLags, kChainsPerLag, kChainLength));
+  ASSERT_TRUE(d.ok()) << d.error().ToString();
+  for (const Block& b : d->blocks) d->layout.positions[b.id] = {b.id * 1.5, -b.id * 0.25};
+  const Json written = ToJson(*d);
+  ASSERT_EQ(written["layout"].size(), d->blocks.size());
+  const std::string path = ::testing::TempDir() + "/greybench_large_diagram.json";
+  {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << written.dump(1);
+  }
+  auto read = LoadDiagramFile(path);
+  std::remove(path.c_str());
+  ASSERT_TRUE(read.ok()) << read.error().ToString();
+  EXPECT_EQ(read->layout.positions, d->layout.positions);
+  EXPECT_EQ(ToJson(*read).dump(), written.dump());
 }
 
 }  // namespace
