@@ -601,8 +601,8 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   if (!any_free && !spec.HasDelayScan())
     return InputError(fmt::format(
         "nothing to estimate: every parameter of the model {} is fixed and no delay is scanned; "
-        "free a parameter (\"fixed\": false), or use loglik to evaluate the likelihood at these "
-        "values",
+        "free a parameter (in the Parameters view, or \"fixed\": false in the model file), or "
+        "evaluate the likelihood at these values (greybench-cli loglik)",
         spec.source.empty() ? spec.name : spec.source));
   // The start: the model's values, or those with the steady states' parameters moved to the
   // records' levels.
