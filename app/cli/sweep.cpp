@@ -30,10 +30,10 @@ int RunSweep(const SweepArgs& args) {
   options.delay_parameter = args.delay_parameter;
   auto free_parameter = [&](const std::string& option, const std::string& name) -> std::string {
     const int i = spec->ParameterIndex(name);
+    if (i >= 0 && !spec->parameters[i].fixed) return "";
     std::vector<std::string> free;
     for (const auto& p : spec->parameters)
       if (!p.fixed) free.push_back(p.name);
-    if (i >= 0 && !spec->parameters[i].fixed) return "";
     return fmt::format("{}: '{}' is {} of the model {} (its free parameters: {})", option, name,
                        i < 0 ? "not a parameter" : "a fixed parameter", args.model,
                        fmt::join(free, ", "));

@@ -532,9 +532,8 @@ void CreateProject(AppState& state) {
     }
     p.datasets.push_back(Absolute(d));
   }
-  std::vector<FileRole> inputs{{p.model_path, "the model file"}};
-  for (const std::string& d : p.datasets) inputs.push_back({d, "a dataset"});
-  if (Status st = CheckOutputs(inputs, {{project_path, "the project file"}}); !st) {
+  if (Status st = CheckOutputs(project::ProjectFiles(p), {{project_path, "the project file"}});
+      !st) {
     f.error = st.error().ToString();
     return;
   }
