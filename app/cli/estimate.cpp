@@ -83,7 +83,8 @@ int RunEstimate(const EstimateArgs& args) {
   else if (args.algorithm == "lbfgs") options.algorithm = estimate::Algorithm::kLbfgs;
   else if (args.algorithm == "slsqp") options.algorithm = estimate::Algorithm::kSlsqp;
   else if (args.algorithm == "bobyqa") options.algorithm = estimate::Algorithm::kBobyqa;
-  else return Fail(InputError("--algorithm: use auto, bhhh, slsqp, lbfgs or bobyqa"));
+  else if (args.algorithm == "trust-region") options.algorithm = estimate::Algorithm::kTrustRegion;
+  else return Fail(InputError("--algorithm: use auto, bhhh, slsqp, lbfgs, bobyqa or trust-region"));
   auto summary = estimate::Estimate(*lik, options);
   if (!summary) return Fail(summary.error());
   std::printf("%s", summary->Report().c_str());

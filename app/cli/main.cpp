@@ -237,7 +237,7 @@ int Main(int argc, char** argv) {
   c_est->add_option("--max-evaluations", est.max_evaluations,
                     "log-likelihood evaluations per fit, 1..100000000 (default 20000)")
       ->check(Number({.lo = 1, .hi = 1e8, .whole = true}));
-  c_est->add_option("--algorithm", est.algorithm, "auto (default: BHHH with BFGS corrections), bhhh, slsqp, lbfgs or bobyqa");
+  c_est->add_option("--algorithm", est.algorithm, "auto (default: BHHH with BFGS corrections), bhhh, slsqp, lbfgs, bobyqa or trust-region (auto, then a trust-region Newton end game on the exact Hessian)");
   c_est->add_option("--ftol", est.ftol,
                     "relative tolerance on -log L, 0..0.1 (default 1e-12; 0: only the step "
                     "tolerance stops)")

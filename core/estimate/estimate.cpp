@@ -922,7 +922,8 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
     std::optional<FitResult> higher;
     if (u.uphill) {
       higher = EscapeSaddle(fitter, best, *u.uphill, delay);
-    } else if (u.newton_decrement > kNegligibleImprovement && options.algorithm == Algorithm::kAuto) {
+    } else if (u.newton_decrement > kNegligibleImprovement && (options.algorithm == Algorithm::kAuto ||
+                                                                  options.algorithm == Algorithm::kTrustRegion)) {
       FitResult r = fitter.Fit(best.z, delay, "fitting", kMaxBhhhIterations, &u.hessian_scaled);
       if (r.cancelled || r.loglik > best.loglik) higher = std::move(r);
     }

@@ -20,6 +20,10 @@
 //   - BHHH: the same without the BFGS corrections. Bounds, in both: a parameter on a bound whose
 //     gradient points out is held; steps are clipped to the box; backtracking line search (Armijo).
 //   - NLopt's LD_SLSQP, LD_LBFGS (bounds native) or LN_BOBYQA (derivative-free), selectable.
+//   - trust-region: auto's start, and where its steps crawl (gains that shrink too slowly to wait
+//     for) or its line search fails, a trust-region Newton method whose curvature model is the
+//     exact Hessian from forward differences of the exact gradient, refreshed every k steps
+//     (Fitter::FitTrustRegion). Selectable for measurement (docs/benchmarks.md, issue 33).
 //
 // Output delays with a range [min, max] (CONTRACT section 1) are estimated by profile likelihood:
 // the delay to start at is the best of the grid at the start values; the fit alternates between
@@ -81,6 +85,8 @@ enum class Algorithm {
   kLbfgs,   // NLopt LD_LBFGS: limited-memory quasi-Newton with bounds
   kSlsqp,   // NLopt LD_SLSQP: sequential quadratic programming with a dense BFGS Hessian
   kBobyqa,  // NLopt LN_BOBYQA: derivative-free quadratic models within the bounds
+  kTrustRegion,  // auto's BHHH with BFGS corrections while it gains well, then a trust-region
+                 // Newton end game on the exact Hessian (from differences of the exact gradient)
 };
 
 // Limits of EstimateOptions: starts beyond these would only exhaust the machine (each start is a

@@ -669,7 +669,8 @@ TEST(Faults, TheOptimiserBacksOffFromNonFiniteLogLikelihoodsAndFindsTheFiniteOpt
   ASSERT_FALSE(lik->Evaluate(std::vector<double>{-0.5, -0.5, 0.01}).ok());
   for (auto algorithm :
        {estimate::Algorithm::kAuto, estimate::Algorithm::kBhhh, estimate::Algorithm::kLbfgs,
-        estimate::Algorithm::kSlsqp, estimate::Algorithm::kBobyqa}) {
+        estimate::Algorithm::kSlsqp, estimate::Algorithm::kBobyqa,
+        estimate::Algorithm::kTrustRegion}) {
     SCOPED_TRACE(static_cast<int>(algorithm));
     estimate::EstimateOptions options;
     options.algorithm = algorithm;

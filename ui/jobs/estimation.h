@@ -44,12 +44,14 @@ struct AlgorithmInfo {
   const char* name;     // as on the command line: "auto", "bhhh", ...
   const char* summary;  // one line for a tooltip
 };
-inline constexpr std::array<AlgorithmInfo, 5> kAlgorithms = {{
+inline constexpr std::array<AlgorithmInfo, 6> kAlgorithms = {{
     {estimate::Algorithm::kAuto, "auto", "BHHH's information corrected by BFGS updates (exact gradients)"},
     {estimate::Algorithm::kBhhh, "bhhh", "Newton steps with the outer-product information"},
     {estimate::Algorithm::kSlsqp, "slsqp", "NLopt SLSQP: sequential quadratic programming"},
     {estimate::Algorithm::kLbfgs, "lbfgs", "NLopt L-BFGS: limited-memory quasi-Newton"},
     {estimate::Algorithm::kBobyqa, "bobyqa", "NLopt BOBYQA: derivative-free"},
+    {estimate::Algorithm::kTrustRegion, "trust-region",
+     "auto, then trust-region Newton steps on the exact Hessian where its steps crawl"},
 }};
 const AlgorithmInfo& Info(estimate::Algorithm algorithm);
 

@@ -1,0 +1,839 @@
+// The fitter's implementation (fitter.h declares it; estimate.h describes the optimisers).
+#include "core/estimate/fitter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
+#include <nlopt.hpp>
+
+#include "core/util/parallel.h"
+
+namespace gb::estimate::internal {
+
+namespace {
+
+// What NLopt sees at a point z where log L cannot be evaluated: worse than every point seen, by
+// the spread of the values seen so far (at least 1), and a gradient that points back to the best
+// point. A finite, moderate value keeps BOBYQA's quadratic models and the quasi-Newton line
+// searches usable: 1e300 would swamp them, and a zero gradient reads as a stationary point. The
+// optimiser then shortens its step or turns away, as it would from a steep wall.
+double FailedObjective(const std::vector<double>& z, std::vector<double>& grad,
+                              const FitResult& best, double worst_loglik) {
+  if (!std::isfinite(best.loglik)) {
+    std::fill(grad.begin(), grad.end(), 0.0);
+    return kFailedObjective;
+  }
+  const double gap = std::max(1.0, best.loglik - worst_loglik);
+  if (!grad.empty()) {
+    double dist2 = 0;
+    for (std::size_t i = 0; i < z.size(); ++i) dist2 += (z[i] - best.z[i]) * (z[i] - best.z[i]);
+    for (std::size_t i = 0; i < z.size(); ++i)
+      grad[i] = dist2 > 0 ? gap * (z[i] - best.z[i]) / dist2 : 0.0;
+  }
+  return -worst_loglik + gap;
+}
+
+
+}  // namespace
+
+Eigen::VectorXd TrustRegionStep(const Eigen::MatrixXd& B, const Eigen::VectorXd& g, double radius) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(B);
+  const Eigen::VectorXd& lam = es.eigenvalues();  // ascending
+  const Eigen::MatrixXd& Q = es.eigenvectors();
+  const Eigen::VectorXd gamma = Q.transpose() * g;
+  const Eigen::Index m = lam.size();
+  const double tiny = 1e-12 * std::max(1.0, lam.cwiseAbs().maxCoeff());
+  auto coefficients = [&](double l) {
+    Eigen::VectorXd c(m);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const double denominator = lam(i) + l;
+      c(i) = denominator > tiny ? gamma(i) / denominator : 0.0;
+    }
+    return c;
+  };
+  const double lmin = lam(0);
+  if (lmin > tiny) {
+    const Eigen::VectorXd c = coefficients(0.0);
+    if (c.norm() <= radius) return Q * c;
+  }
+  const double lo0 = std::max(0.0, -lmin);
+  Eigen::VectorXd c = coefficients(lo0);
+  if (c.norm() <= radius) {
+    // ‖e‖ stays within the radius down to the smallest λ allowed: with negative curvature, the
+    // rest of the radius goes along its eigenvector (the sign that does not lower g'e).
+    if (lmin < -tiny) {
+      const double tau = std::sqrt(std::max(0.0, radius * radius - c.squaredNorm()));
+      c(0) += gamma(0) >= 0 ? tau : -tau;
+    }
+    return Q * c;
+  }
+  double lo = lo0, hi = lo0 + g.norm() / radius + tiny;
+  for (int it = 0; it < 200 && hi - lo > 1e-14 * std::max(1.0, hi); ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (coefficients(mid).norm() > radius ? lo : hi) = mid;
+  }
+  return Q * coefficients(hi);
+}
+
+Fitter::Fitter(const filter::Likelihood& lik, const EstimateOptions& options,
+       std::span<const double> theta_base, std::span<const int> held)
+    : lik_(lik), options_(options) {
+  const auto& spec = lik.spec();
+  theta0_ = theta_base.empty() ? spec.Values()
+                               : std::vector<double>(theta_base.begin(), theta_base.end());
+  for (std::size_t i = 0; i < spec.parameters.size(); ++i) {
+    const auto& p = spec.parameters[i];
+    if (p.fixed || std::find(held.begin(), held.end(), static_cast<int>(i)) != held.end())
+      continue;
+    free_.push_back(static_cast<int>(i));
+    const double start = theta0_[i];
+    const double s = start != 0 ? std::abs(start)
+                     : (p.lower && p.upper) ? (*p.upper - *p.lower) / 10 : 1.0;
+    scale_.push_back(s);
+    lower_.push_back(p.lower ? *p.lower / s : -HUGE_VAL);
+    upper_.push_back(p.upper ? *p.upper / s : HUGE_VAL);
+    if (p.prior) priors_.push_back({static_cast<int>(free_.size()) - 1, *p.prior});
+  }
+  threads_ = options.threads > 0 ? options.threads : HardwareThreads();
+}
+
+FitResult Fitter::FitAlongside(std::vector<double> z, const std::vector<int>& delay,
+                               const std::string& stage, int threads, int max_evaluations,
+                               const Eigen::MatrixXd* first_model) {
+  return Alongside(threads, max_evaluations, /*report=*/true, [&](Fitter& f) {
+    return f.Fit(std::move(z), delay, stage, kMaxBhhhIterations, first_model);
+  });
+}
+
+FitResult Fitter::ExploreAlongside(std::vector<double> z, const std::vector<int>& delay,
+                                   int iterations, int threads) {
+  return Alongside(threads, 0, /*report=*/false, [&](Fitter& f) {
+    return f.FitBhhh(std::move(z), delay, "fitting", iterations, /*bfgs_updates=*/true);
+  });
+}
+
+Fitter::Fitter(const Fitter& base, const EstimateOptions& options)
+    : lik_(base.lik_), options_(options), theta0_(base.theta0_), free_(base.free_),
+      scale_(base.scale_), lower_(base.lower_), upper_(base.upper_), priors_(base.priors_) {
+  threads_ = options.threads > 0 ? options.threads : HardwareThreads();
+}
+
+double Fitter::LogLik(const std::vector<double>& z, const std::vector<int>& delay, long* n_obs) {
+  evaluations_.fetch_add(1);
+  auto l = lik_.Evaluate(Theta(z), delay);
+  if (!l) return -std::numeric_limits<double>::infinity();
+  if (n_obs) *n_obs = l->n_obs;
+  return l->loglik;
+}
+
+void Fitter::AddPriorDerivatives(const std::vector<double>& z, Eigen::VectorXd* g,
+                         Eigen::MatrixXd* info) const {
+  for (const auto& [i, prior] : priors_) {
+    const double sd_z = prior.sd / scale_[i];
+    (*g)(i) -= (z[i] - prior.mean / scale_[i]) / (sd_z * sd_z);
+    if (info) (*info)(i, i) += 1 / (sd_z * sd_z);
+  }
+}
+
+bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay, double* f,
+            Eigen::VectorXd* g, Eigen::MatrixXd* info, bool split,
+            bool* exact) {
+  if (exact) *exact = true;
+  if (Cancelled()) return false;
+  // The iterated extended Kalman filter has no exact score: differences of its terms, as where
+  // an exact score fails (and, not being exact, they are not differenced again for the Hessian).
+  if (!lik_.exact_scores() || options_.score_differences) {
+    if (exact) *exact = false;
+    return ScoresByDifferences(z, delay, f, g, info);
+  }
+  const std::vector<double> theta = Theta(z);
+  // One chunk at least, also with no free parameter (only a delay is estimated).
+  const int chunks = split && k() > 1 ? std::clamp(std::min(threads_, k() / 2), 1, k()) : 1;
+  std::vector<std::vector<int>> which(chunks);
+  for (int i = 0; i < k(); ++i) which[i * chunks / k()].push_back(free_[i]);
+  std::vector<Eigen::VectorXd> g_part(chunks);
+  std::vector<Eigen::MatrixXd> J_part(chunks);
+  std::vector<double> value(chunks, 0.0);
+  std::vector<char> ok(chunks, 0);
+  evaluations_.fetch_add(1);
+  ParallelFor(chunks, chunks, [&](int c) {
+    auto l = lik_.EvaluateWithScore(theta, delay, which[c], &g_part[c],
+                                    info ? &J_part[c] : nullptr);
+    ok[c] = l.ok();
+    if (l) value[c] = l->loglik;
+  });
+  if (Cancelled()) return false;
+  if (std::find(ok.begin(), ok.end(), 0) != ok.end()) {  // e.g. d sqrt(s)/ds at s = 0
+    if (exact) *exact = false;
+    return ScoresByDifferences(z, delay, f, g, info);
+  }
+  *f = value[0] + LogPrior(z);
+  g->resize(k());
+  Eigen::MatrixXd J;
+  if (info) J.resize(J_part[0].rows(), k());
+  for (int c = 0, at = 0; c < chunks; ++c) {
+    const int n = static_cast<int>(which[c].size());
+    for (int a = 0; a < n; ++a) {
+      (*g)(at + a) = g_part[c](a) * scale_[at + a];
+      if (info) J.col(at + a) = J_part[c].col(a) * scale_[at + a];
+    }
+    at += n;
+  }
+  if (info) *info = J.transpose() * J;
+  AddPriorDerivatives(z, g, info);
+  return std::isfinite(*f) && g->allFinite() && (!info || info->allFinite());
+}
+
+bool Fitter::ScoresByDifferences(const std::vector<double>& z, const std::vector<int>& delay, double* f,
+                         Eigen::VectorXd* g, Eigen::MatrixXd* info) {
+  std::vector<double> f0_terms;
+  evaluations_.fetch_add(1);
+  auto l0 = lik_.Evaluate(Theta(z), delay, &f0_terms);
+  if (!l0) return false;
+  struct Point {
+    int i;
+    double step;
+  };
+  std::vector<Point> points;
+  for (int i = 0; i < k(); ++i) {
+    const double h = kGradientStep * std::max(1.0, std::abs(z[i]));
+    if (z[i] + h <= upper_[i]) points.push_back({i, h});
+    if (z[i] - h >= lower_[i]) points.push_back({i, -h});
+  }
+  std::vector<std::vector<double>> terms(points.size());
+  std::vector<char> ok(points.size(), 0);
+  ParallelFor(static_cast<int>(points.size()), threads_, [&](int p) {
+    if (Cancelled()) return;
+    std::vector<double> zp = z;
+    zp[points[p].i] += points[p].step;
+    evaluations_.fetch_add(1);
+    ok[p] = lik_.Evaluate(Theta(zp), delay, &terms[p]).ok();
+  });
+  if (Cancelled()) return false;
+  const Eigen::Index n = static_cast<Eigen::Index>(f0_terms.size());
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n, k());
+  for (int i = 0; i < k(); ++i) {
+    int plus = -1, minus = -1;
+    for (std::size_t p = 0; p < points.size(); ++p) {
+      if (points[p].i != i || !ok[p]) continue;
+      (points[p].step > 0 ? plus : minus) = static_cast<int>(p);
+    }
+    const std::vector<double>* a = plus >= 0 ? &terms[plus] : &f0_terms;
+    const std::vector<double>* b = minus >= 0 ? &terms[minus] : &f0_terms;
+    const double width = (plus >= 0 ? points[plus].step : 0.0) - (minus >= 0 ? points[minus].step : 0.0);
+    if (width == 0.0) return false;
+    for (Eigen::Index j = 0; j < n; ++j) S(j, i) = ((*a)[j] - (*b)[j]) / width;
+  }
+  *f = l0->loglik + LogPrior(z);
+  *g = S.colwise().sum().transpose();
+  if (info) *info = S.transpose() * S;
+  AddPriorDerivatives(z, g, info);
+  return std::isfinite(*f) && g->allFinite() && (!info || info->allFinite());
+}
+
+Eigen::VectorXd Fitter::NewtonStep(const Eigen::MatrixXd& info, const Eigen::VectorXd& g,
+                                  const std::vector<int>& F) {
+  const int m = static_cast<int>(F.size());
+  Eigen::MatrixXd I(m, m);
+  Eigen::VectorXd gF(m);
+  for (int a = 0; a < m; ++a) {
+    gF(a) = g(F[a]);
+    for (int b = 0; b < m; ++b) I(a, b) = info(F[a], F[b]);
+  }
+  // Damping μ = 0, then 1e-10, 1e-8, ..., 1e4 (an integer counter: no float loop counter).
+  for (int attempt = 0; attempt <= kDampingSteps; ++attempt) {
+    const double mu = attempt == 0 ? 0.0 : kFirstDamping * std::pow(100.0, attempt - 1);
+    Eigen::MatrixXd M = I;
+    M.diagonal() += mu * I.diagonal().cwiseMax(1e-300) + Eigen::VectorXd::Constant(m, mu);
+    Eigen::LLT<Eigen::MatrixXd> llt(M);
+    if (llt.info() != Eigen::Success) continue;
+    Eigen::VectorXd d = llt.solve(gF);
+    if (d.allFinite()) return d;
+  }
+  return {};
+}
+
+FitResult Fitter::FitBhhh(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
+                  int max_iterations, bool bfgs_updates,
+                  const Eigen::MatrixXd* first_model, bool hand_over) {
+  Eigen::MatrixXd B;  // the curvature model of -objective (scaled units)
+  FitResult r = BhhhLoop(std::move(z), delay, stage, max_iterations, bfgs_updates, first_model, hand_over, B);
+  r.model = std::move(B);
+  return r;
+}
+
+FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
+                   int max_iterations, bool bfgs_updates, const Eigen::MatrixXd* first_model,
+                   bool hand_over, Eigen::MatrixXd& B) {
+  FitResult r;
+  const int evaluations_before = evaluations();
+  Eigen::VectorXd g_last;            // the gradient at the last accepted point
+  std::vector<double> z_last;
+  bool reset = true;                 // take BHHH's information afresh
+  for (int i = 0; i < k(); ++i) z[i] = std::clamp(z[i], lower_[i], upper_[i]);
+  r.z = z;
+  if (k() == 0) {
+    r.loglik = Objective(z, delay);
+    r.converged = std::isfinite(r.loglik);
+    r.message = r.converged ? "no free parameters" : "the log-likelihood cannot be evaluated";
+    return r;
+  }
+  double last_expected = HUGE_VAL;
+  std::vector<double> recent_gains;  // of the accepted steps
+  bool scored_ahead = false;  // f_ahead, g_ahead (and info_ahead) are the scores at z
+  double f_ahead = 0;
+  Eigen::VectorXd g_ahead;
+  Eigen::MatrixXd info_ahead;
+  for (int it = 0; it < max_iterations; ++it) {
+    if (Cancelled()) {
+      r.cancelled = true;
+      r.message = "cancelled";
+      return r;
+    }
+    if (options_.max_evaluations > 0 &&
+        evaluations() - evaluations_before > options_.max_evaluations) {
+      r.message = fmt::format("stopped after {} evaluations without converging (raise the "
+                              "evaluation limit)", evaluations() - evaluations_before);
+      return r;
+    }
+    // BHHH's information is needed where the curvature model starts afresh; the scores at z
+    // may be known already from the line search's full step.
+    const bool need_info = !bfgs_updates || reset || B.size() == 0;
+    double f = 0;
+    Eigen::VectorXd g;
+    Eigen::MatrixXd info;
+    if (scored_ahead && (!need_info || info_ahead.size() > 0)) {
+      f = f_ahead;
+      g = g_ahead;
+      info = info_ahead;
+    } else if (!Scores(z, delay, &f, &g, need_info ? &info : nullptr)) {
+      r.cancelled = Cancelled();
+      r.message = r.cancelled ? "cancelled"
+                  : it == 0   ? "the log-likelihood or its score cannot be evaluated at the start"
+                              : "the score could not be computed at an accepted point";
+      return r;
+    }
+    r.z = z;
+    r.loglik = f;
+    ++iterations_;
+    Report(stage, z, f, delay);
+    // BHHH's information, or (bfgs_updates) that of the first iteration corrected by BFGS
+    // updates from the gradient differences along the steps taken: where the model is
+    // misspecified (a wrong delay, say) the outer product of the scores is a poor Hessian, and
+    // the updates learn the difference.
+    scored_ahead = false;
+    info_ahead.resize(0, 0);
+    bool fresh = false;  // B is BHHH's information at z
+    if (need_info) {
+      const bool first = B.size() == 0;
+      B = info;
+      reset = false;
+      fresh = true;
+      // A better first model where one is known (the Hessian from the standard errors): its
+      // finite entries replace BHHH's.
+      if (first && first_model)
+        for (int i = 0; i < k(); ++i)
+          for (int j = 0; j < k(); ++j)
+            if (std::isfinite((*first_model)(i, j))) B(i, j) = (*first_model)(i, j);
+    } else if (!z_last.empty()) {
+      Eigen::VectorXd step(k());
+      for (int i = 0; i < k(); ++i) step(i) = z[i] - z_last[i];
+      const Eigen::VectorXd y = g_last - g;  // change of the gradient of -objective
+      const double sy = step.dot(y);
+      const Eigen::VectorXd Bs = B * step;
+      const double sBs = step.dot(Bs);
+      if (sy > 1e-10 * step.norm() * y.norm() && sBs > 0)
+        B += y * y.transpose() / sy - Bs * Bs.transpose() / sBs;
+    }
+    g_last = g;
+    z_last = z;
+    std::vector<int> F;
+    std::vector<std::pair<int, double>> onto_bound;  // held parameters and their bound
+    for (int i = 0; i < k(); ++i) {
+      // On a bound, or within kNearBound of it (scaled units), with the gradient pointing out:
+      // held, and put on the bound by the step. Without the band a parameter a hair above its
+      // bound stays free, and every step clamps it after a dozen halvings.
+      const bool at_lower = z[i] <= lower_[i] + kNearBound && g(i) <= 0;
+      const bool at_upper = z[i] >= upper_[i] - kNearBound && g(i) >= 0;
+      if (!at_lower && !at_upper) F.push_back(i);
+      else onto_bound.emplace_back(i, at_lower ? lower_[i] : upper_[i]);
+    }
+    if (F.empty()) {
+      r.converged = true;
+      r.message = "every free parameter is held at a bound";
+      return r;
+    }
+    // Solve for the step on the free set; a parameter on a bound whose step points out of the
+    // box is held too, and the step re-solved (projected Newton).
+    Eigen::VectorXd d, gF;
+    for (;;) {
+      d = NewtonStep(B, g, F);
+      if (d.size() == 0) {
+        r.message = "the information matrix is singular: the data do not determine the parameters";
+        return r;
+      }
+      std::vector<int> keep;
+      for (std::size_t a = 0; a < F.size(); ++a) {
+        const int i = F[a];
+        const bool out = (z[i] <= lower_[i] && d(a) < 0) || (z[i] >= upper_[i] && d(a) > 0);
+        if (!out) keep.push_back(i);
+      }
+      if (keep.size() == F.size()) break;
+      F = std::move(keep);
+      if (F.empty()) {
+        r.converged = true;
+        r.message = "every free parameter is held at a bound";
+        return r;
+      }
+    }
+    const int m = static_cast<int>(F.size());
+    gF.resize(m);
+    for (int a = 0; a < m; ++a) gF(a) = g(F[a]);
+    const double expected = 0.5 * gF.dot(d);  // the Newton decrement / 2
+    last_expected = expected;
+    const double tol = std::max(options_.ftol_rel * std::abs(f), 1e-12);
+    if (expected < tol) {
+      r.converged = true;
+      r.message = "the expected improvement of log L is below the tolerance";
+      return r;
+    }
+    // Backtracking along the projected direction.
+    bool accepted = false;
+    std::vector<double> z_new(z);
+    double f_new = f;
+    for (int half = 0, alpha_exp = 0; half < kMaxHalvings; ++half, --alpha_exp) {
+      const double alpha = std::ldexp(1.0, alpha_exp);
+      z_new = z;
+      double predicted = 0;
+      for (const auto& [i, bound] : onto_bound) {
+        z_new[i] = bound;
+        predicted += g(i) * (bound - z[i]);
+      }
+      for (int a = 0; a < m; ++a) {
+        const int i = F[a];
+        z_new[i] = std::clamp(z[i] + alpha * d(a), lower_[i], upper_[i]);
+        predicted += g(i) * (z_new[i] - z[i]);
+      }
+      // The full step with its scores (they serve the next iteration when it is accepted, as
+      // it mostly is); a shorter one with log L alone.
+      if (half == 0) {
+        if (!Scores(z_new, delay, &f_ahead, &g_ahead, bfgs_updates ? nullptr : &info_ahead))
+          f_ahead = -HUGE_VAL;
+        f_new = f_ahead;
+      } else {
+        f_new = Objective(z_new, delay);
+      }
+      if (std::isfinite(f_new) && f_new >= f + kArmijo * predicted && f_new > f) {
+        accepted = true;
+        scored_ahead = half == 0;
+        break;
+      }
+      if (Cancelled()) break;
+    }
+    if (!accepted) {
+      if (Cancelled()) {
+        r.cancelled = true;
+        r.message = "cancelled";
+        return r;
+      }
+      if (bfgs_updates && !fresh) {  // the updated model misled: start it afresh
+        reset = true;
+        z_last.clear();
+        continue;
+      }
+      r.converged = expected < kNegligibleImprovement;
+      r.message = r.converged ? "at the precision of the log-likelihood (no further increase is possible)"
+                              : "the line search found no increase of the log-likelihood";
+      return r;
+    }
+    const double gain = f_new - f;
+    z = z_new;
+    r.z = z;
+    r.loglik = f_new;
+    if (gain < tol && expected < kNegligibleImprovement) {
+      r.converged = true;
+      r.message = "the log-likelihood stopped increasing";
+      return r;
+    }
+    recent_gains.push_back(gain);
+    if (hand_over && static_cast<int>(recent_gains.size()) >= kCrawlWindow) {
+      // Crawling: small gains that shrink too slowly to be worth waiting for. At the rate ρ they
+      // shrank by over the window (linear convergence), the gain falls below kNegligibleGain after
+      // log(kNegligibleGain / gain) / log ρ more steps; where that is more than the k gradients
+      // the exact Hessian costs, the end game takes over.
+      const std::size_t first = recent_gains.size() - kCrawlWindow;
+      double sum = 0;
+      for (std::size_t j = first; j < recent_gains.size(); ++j) sum += recent_gains[j];
+      const double last = recent_gains.back();
+      const double rate = std::pow(last / recent_gains[first], 1.0 / (kCrawlWindow - 1));
+      const double steps_left = last <= kNegligibleGain ? 0.0
+                                : rate >= 1 || !(rate > 0) ? HUGE_VAL
+                                : std::log(kNegligibleGain / last) / std::log(rate);
+      if (sum < kCrawlGain && steps_left > std::max(k(), kCrawlWindow)) {
+        r.crawling = true;
+        r.message = "gaining too slowly";
+        return r;
+      }
+    }
+  }
+  r.converged = last_expected < kNegligibleImprovement;
+  r.message = r.converged ? "the expected improvement left is negligible"
+                          : fmt::format("stopped after {} iterations without converging",
+                                        max_iterations);
+  return r;
+}
+
+bool Fitter::ExactHessian(const std::vector<double>& z, const std::vector<int>& delay,
+                          const Eigen::VectorXd& g, const std::vector<int>& which,
+                          Eigen::MatrixXd* H) {
+  const int m = static_cast<int>(which.size());
+  std::vector<Eigen::VectorXd> column(m);
+  std::vector<double> step(m, 0.0);
+  ParallelFor(m, threads_, [&](int a) {
+    const int i = which[a];
+    const double h = kGradientHessianStep * std::max(std::abs(z[i]), 1.0);
+    for (const double signed_h : {h, -h}) {
+      std::vector<double> zp = z;
+      zp[i] += signed_h;
+      if (zp[i] > upper_[i] || zp[i] < lower_[i]) continue;
+      double value = 0;
+      Eigen::VectorXd gp;
+      if (!Scores(zp, delay, &value, &gp, nullptr, /*split=*/false)) continue;
+      column[a] = -(gp - g) / signed_h;
+      step[a] = signed_h;
+      return;
+    }
+  });
+  if (Cancelled()) return false;
+  for (int a = 0; a < m; ++a)
+    if (step[a] == 0.0) return false;
+  Eigen::MatrixXd block(m, m);
+  for (int a = 0; a < m; ++a)
+    for (int b = 0; b < m; ++b) block(b, a) = column[a](which[b]);
+  block = (block + block.transpose()) / 2;
+  for (int a = 0; a < m; ++a)
+    for (int b = 0; b < m; ++b) (*H)(which[a], which[b]) = block(a, b);
+  return true;
+}
+
+FitResult Fitter::FitTrustRegion(std::vector<double> z, const std::vector<int>& delay,
+                                 const std::string& stage, int max_iterations,
+                                 const Eigen::MatrixXd* first_model, bool exact_first) {
+  FitResult r;
+  for (int i = 0; i < k(); ++i) z[i] = std::clamp(z[i], lower_[i], upper_[i]);
+  r.z = z;
+  if (k() == 0) {
+    r.loglik = Objective(z, delay);
+    r.converged = std::isfinite(r.loglik);
+    r.message = r.converged ? "no free parameters" : "the log-likelihood cannot be evaluated";
+    return r;
+  }
+  const int evaluations_before = evaluations();
+  double f = 0;
+  Eigen::VectorXd g;
+  Eigen::MatrixXd B;  // the curvature model of -objective at z
+  if (!Scores(z, delay, &f, &g, &B)) {
+    r.cancelled = Cancelled();
+    r.message = r.cancelled ? "cancelled"
+                            : "the log-likelihood or its score cannot be evaluated at the start";
+    return r;
+  }
+  if (first_model)
+    for (int i = 0; i < k(); ++i)
+      for (int j = 0; j < k(); ++j)
+        if (std::isfinite((*first_model)(i, j))) B(i, j) = (*first_model)(i, j);
+  r.loglik = f;
+  Eigen::VectorXd D = Eigen::VectorXd::Zero(k());  // the trust region's scaling, √diag B at most
+  double radius = -1;                              // set by the first step
+  bool exact_here = false;   // B is the exact Hessian at z
+  bool been_exact = false;   // B was the exact Hessian once (then SR1 updates: it may be indefinite)
+  int since_exact = 0;       // accepted steps since B last was the exact Hessian
+  int tiny_gains = 0;        // accepted steps in a row that gained and promised next to nothing
+  auto finish = [&](bool converged, std::string message) {
+    r.converged = converged;
+    r.message = std::move(message);
+    r.model = B;
+    return r;
+  };
+  // B becomes the exact Hessian at z over the parameters F (false where it cannot be computed).
+  auto make_exact = [&](const std::vector<int>& F) {
+    if (!ExactHessian(z, delay, g, F, &B)) return false;
+    exact_here = been_exact = true;
+    since_exact = 0;
+    return true;
+  };
+  for (int it = 0; it < max_iterations; ++it) {
+    if (Cancelled()) {
+      r.cancelled = true;
+      return finish(false, "cancelled");
+    }
+    if (options_.max_evaluations > 0 &&
+        evaluations() - evaluations_before > options_.max_evaluations)
+      return finish(false, fmt::format("stopped after {} evaluations without converging (raise "
+                                       "the evaluation limit)", evaluations() - evaluations_before));
+    ++iterations_;
+    Report(stage, z, f, delay);
+    // The parameters on a bound (or within kNearBound of it) whose gradient points out are held
+    // there; the others are free to move.
+    std::vector<int> F;
+    std::vector<std::pair<int, double>> onto_bound;
+    for (int i = 0; i < k(); ++i) {
+      const bool at_lower = z[i] <= lower_[i] + kNearBound && g(i) <= 0;
+      const bool at_upper = z[i] >= upper_[i] - kNearBound && g(i) >= 0;
+      if (!at_lower && !at_upper) F.push_back(i);
+      else onto_bound.emplace_back(i, at_lower ? lower_[i] : upper_[i]);
+    }
+    if (F.empty()) return finish(true, "every free parameter is held at a bound");
+    if (!exact_here && (exact_first || since_exact >= std::max(kExactEvery, k()))) {
+      exact_first = false;
+      if (!make_exact(F) && Cancelled()) continue;
+    }
+    const int m = static_cast<int>(F.size());
+    Eigen::MatrixXd BF(m, m);
+    Eigen::VectorXd gF(m);
+    for (int a = 0; a < m; ++a) {
+      gF(a) = g(F[a]);
+      D(F[a]) = std::max(D(F[a]), std::sqrt(std::abs(B(F[a], F[a]))));
+    }
+    Eigen::VectorXd DF(m);
+    const double d_floor = 1e-8 * std::max(1e-300, D.maxCoeff());
+    for (int a = 0; a < m; ++a) {
+      DF(a) = std::max(D(F[a]), d_floor);
+      for (int b = 0; b < m; ++b) BF(a, b) = B(F[a], F[b]) / (DF(a) * DF(b));
+    }
+    const Eigen::VectorXd gs = gF.cwiseQuotient(DF);
+    // The increase the model promises for its unconstrained maximum (infinite where B is not
+    // positive definite on F): below the tolerance the fit has converged, if B can be trusted.
+    const Eigen::LLT<Eigen::MatrixXd> llt(BF);
+    const bool definite = llt.info() == Eigen::Success;
+    const Eigen::VectorXd newton = definite ? Eigen::VectorXd(llt.solve(gs)) : Eigen::VectorXd();
+    const double decrement = definite && newton.allFinite() ? 0.5 * gs.dot(newton) : HUGE_VAL;
+    const double tol = std::max(options_.ftol_rel * std::abs(f), 1e-12);
+    // A quasi-Newton model's promise is checked with the exact Hessian first.
+    if (decrement < tol) {
+      if (exact_here || been_exact || !make_exact(F)) {
+        if (Cancelled()) continue;
+        return finish(true, "the expected improvement of log L is below the tolerance");
+      }
+      continue;  // check again with the exact Hessian
+    }
+    if (radius < 0) radius = definite && newton.allFinite() ? newton.norm() : DF.norm();
+    const Eigen::VectorXd e = TrustRegionStep(BF, gs, radius);
+    std::vector<double> z_new = z;
+    for (const auto& [i, bound] : onto_bound) z_new[i] = bound;
+    for (int a = 0; a < m; ++a)
+      z_new[F[a]] = std::clamp(z[F[a]] + e(a) / DF(a), lower_[F[a]], upper_[F[a]]);
+    Eigen::VectorXd s(k());
+    for (int i = 0; i < k(); ++i) s(i) = z_new[i] - z[i];
+    const double predicted = g.dot(s) - 0.5 * s.dot(B * s);
+    double step_norm = 0;
+    for (int a = 0; a < m; ++a) step_norm += std::pow(DF(a) * s(F[a]), 2);
+    step_norm = std::sqrt(step_norm);
+    double f_new = -HUGE_VAL;
+    Eigen::VectorXd g_new;
+    if (predicted > 0 && step_norm > 0 && !Scores(z_new, delay, &f_new, &g_new, nullptr))
+      f_new = -HUGE_VAL;
+    if (Cancelled()) continue;
+    const double ratio = predicted > 0 ? (f_new - f) / predicted : -1.0;
+    if (!(ratio >= kShrinkRatio)) radius = kShrinkRatio * std::min(radius, step_norm);
+    else if (ratio > kGrowRatio && step_norm > 0.99 * radius) radius *= 2;
+    if (!(ratio > kAcceptRatio && f_new > f)) {
+      // No increase: the radius shrank. Below the rounding of the parameters nothing is left to
+      // try but the exact Hessian, once.
+      double size = 0;
+      for (int a = 0; a < m; ++a) size += std::pow(DF(a) * std::max(std::abs(z[F[a]]), 1.0), 2);
+      if (radius > 1e-12 * std::sqrt(size)) continue;
+      if (!exact_here && make_exact(F)) {
+        radius = -1;
+        continue;
+      }
+      if (Cancelled()) continue;
+      const bool converged = decrement < kNegligibleImprovement;
+      return finish(converged, converged
+                                   ? "at the precision of the log-likelihood (no further increase "
+                                     "is possible)"
+                                   : "the trust region shrank to nothing without an increase of "
+                                     "the log-likelihood");
+    }
+    // Accepted: the model learns from the gradient's change along the step.
+    const Eigen::VectorXd y = g - g_new;  // change of the gradient of -objective
+    const Eigen::VectorXd Bs = B * s;
+    if (been_exact) {  // SR1: keeps the curvature's sign, which a saddle needs
+      const Eigen::VectorXd v = y - Bs;
+      const double vs = v.dot(s);
+      if (std::abs(vs) > 1e-8 * v.norm() * s.norm()) B += v * v.transpose() / vs;
+    } else {           // BFGS, where the step shows positive curvature
+      const double sy = s.dot(y), sBs = s.dot(Bs);
+      if (sy > 1e-10 * s.norm() * y.norm() && sBs > 0)
+        B += y * y.transpose() / sy - Bs * Bs.transpose() / sBs;
+    }
+    const double gain = f_new - f;
+    z = std::move(z_new);
+    f = f_new;
+    g = std::move(g_new);
+    exact_here = false;
+    ++since_exact;
+    r.z = z;
+    r.loglik = f;
+    // Steps that gain nothing measurable where the model (from the exact Hessian) promises
+    // little more: converged. (A flat or nearly singular direction keeps the Newton decrement
+    // large while the steps along it gain nothing.)
+    tiny_gains = gain < kNegligibleImprovement && predicted < kNegligibleImprovement ? tiny_gains + 1 : 0;
+    if (been_exact && tiny_gains >= 3)
+      return finish(true, "the log-likelihood stopped increasing");
+  }
+  return finish(false, fmt::format("stopped after {} iterations without converging",
+                                   max_iterations));
+}
+
+FitResult Fitter::Fit(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
+              int max_iterations,
+              const Eigen::MatrixXd* first_model) {
+  if (options_.algorithm == Algorithm::kBhhh) return FitBhhh(std::move(z), delay, stage, max_iterations);
+  if (options_.algorithm == Algorithm::kAuto) {
+    // BHHH with BFGS corrections from the start; where it cannot finish (flat or bound-limited
+    // directions), L-BFGS to the full tolerance from its best point.
+    FitResult r = FitBhhh(std::move(z), delay, stage, max_iterations, /*bfgs_updates=*/true,
+                          first_model);
+    if (r.converged || r.cancelled || !std::isfinite(r.loglik)) return r;
+    FitResult finished = FitNlopt(r.z, delay, stage, Algorithm::kLbfgs, options_.ftol_rel);
+    return finished.loglik >= r.loglik ? finished : r;
+  }
+  if (options_.algorithm == Algorithm::kTrustRegion) {
+    // The same while it gains well; where it crawls or its line search fails, the trust-region
+    // end game from the exact Hessian.
+    FitResult r = FitBhhh(std::move(z), delay, stage, max_iterations, /*bfgs_updates=*/true,
+                          first_model, /*hand_over=*/true);
+    if (r.converged || r.cancelled || !std::isfinite(r.loglik)) return r;
+    FitResult finished = FitTrustRegion(r.z, delay, stage, max_iterations, &r.model,
+                                        /*exact_first=*/true);
+    return finished.loglik >= r.loglik || finished.cancelled ? finished : r;
+  }
+  return FitNlopt(std::move(z), delay, stage, options_.algorithm, options_.ftol_rel);
+}
+
+
+FitResult Fitter::FitNlopt(std::vector<double> z, const std::vector<int>& delay,
+                           const std::string& stage, Algorithm algorithm, double ftol_rel) {
+  const nlopt::algorithm algo = algorithm == Algorithm::kLbfgs   ? nlopt::LD_LBFGS
+                                : algorithm == Algorithm::kSlsqp ? nlopt::LD_SLSQP
+                                                                 : nlopt::LN_BOBYQA;
+  FitResult result;
+  for (int i = 0; i < k(); ++i) z[i] = std::clamp(z[i], lower_[i], upper_[i]);
+  if (k() == 0) {
+    result.z = z;
+    result.loglik = Objective(z, delay);
+    result.converged = std::isfinite(result.loglik);
+    result.message = "no free parameters";
+    return result;
+  }
+  struct Data {
+    Fitter* self;
+    const std::vector<int>* delay;
+    FitResult* best;
+    const std::string* stage;
+    double worst_loglik;  // the lowest finite log L seen
+  } data{this, &delay, &result, &stage, HUGE_VAL};
+  auto objective = [](const std::vector<double>& zz, std::vector<double>& grad, void* raw) {
+    auto* d = static_cast<Data*>(raw);
+    Fitter* self = d->self;
+    if (self->Cancelled()) throw nlopt::forced_stop();
+    double f = -HUGE_VAL;
+    Eigen::VectorXd g;
+    if (grad.empty()) {
+      f = self->Objective(zz, *d->delay);
+    } else if (!self->Scores(zz, *d->delay, &f, &g, nullptr)) {
+      if (self->Cancelled()) throw nlopt::forced_stop();
+      f = -HUGE_VAL;
+    }
+    if (!std::isfinite(f)) return FailedObjective(zz, grad, *d->best, d->worst_loglik);
+    d->worst_loglik = std::min(d->worst_loglik, f);
+    if (f > d->best->loglik) {
+      d->best->loglik = f;
+      d->best->z = zz;
+    }
+    if (!grad.empty()) {
+      ++self->iterations_;
+      for (int i = 0; i < self->k(); ++i) grad[i] = -g(i);
+      self->Report(*d->stage, d->best->z, d->best->loglik, *d->delay);
+    }
+    return -f;
+  };
+  nlopt::opt opt(algo, static_cast<unsigned>(k()));
+  opt.set_lower_bounds(lower_);
+  opt.set_upper_bounds(upper_);
+  opt.set_min_objective(objective, &data);
+  opt.set_ftol_rel(ftol_rel);
+  opt.set_xtol_rel(options_.xtol_rel);
+  if (options_.max_evaluations > 0) opt.set_maxeval(options_.max_evaluations);
+  double minf = 0;
+  result.z = z;
+  try {
+    const nlopt::result r = opt.optimize(z, minf);
+    result.converged = r == nlopt::FTOL_REACHED || r == nlopt::XTOL_REACHED ||
+                       r == nlopt::SUCCESS || r == nlopt::STOPVAL_REACHED;
+    switch (r) {
+      case nlopt::FTOL_REACHED: result.message = "relative tolerance on the objective reached"; break;
+      case nlopt::XTOL_REACHED: result.message = "relative tolerance on the parameters reached"; break;
+      case nlopt::MAXEVAL_REACHED:
+        result.message = fmt::format("stopped after {} evaluations without converging "
+                                     "(raise the evaluation limit)", options_.max_evaluations);
+        break;
+      default: result.message = "the optimiser reported success"; break;
+    }
+  } catch (const nlopt::forced_stop&) {
+    result.cancelled = true;
+    result.message = "cancelled";
+  } catch (const nlopt::roundoff_limited&) {
+    // The objective's rounding noise stops further progress: at the optimum to the precision
+    // the likelihood can be computed. Accept when the gradient is small there.
+    result.converged = true;
+    result.message = "at the precision of the log-likelihood (roundoff-limited)";
+  } catch (const std::exception& e) {
+    result.message = fmt::format("the optimiser failed: {}", e.what());
+  }
+  if (!std::isfinite(result.loglik)) {
+    result.converged = false;
+    if (!result.cancelled) result.message = "the log-likelihood could not be evaluated";
+  }
+  return result;
+}
+
+void Fitter::Report(const std::string& stage, const std::vector<double>& z, double loglik,
+            const std::vector<int>& delay) {
+  if (!options_.progress) return;
+  Progress p;
+  p.iteration = iterations_;
+  p.evaluations = evaluations();
+  p.loglik = loglik;
+  p.theta = Theta(z);
+  p.delay = delay;
+  p.stage = stage;
+  options_.progress(p);
+}
+
+FitResult Fitter::Alongside(int threads, int max_evaluations, bool report,
+                            const std::function<FitResult(Fitter&)>& fit) {
+  EstimateOptions sub = options_;
+  sub.threads = threads;
+  if (max_evaluations > 0) sub.max_evaluations = max_evaluations;
+  sub.progress = nullptr;
+  if (report && options_.progress)
+    sub.progress = [this](const Progress& p) {
+      const std::lock_guard<std::mutex> lock(progress_mutex_);
+      Progress q = p;
+      q.iteration += iterations_.load();
+      q.evaluations += evaluations_.load();
+      options_.progress(q);
+    };
+  Fitter f(*this, sub);
+  FitResult r = fit(f);
+  iterations_.fetch_add(f.iterations());
+  evaluations_.fetch_add(f.evaluations());
+  return r;
+}
+
+}  // namespace gb::estimate::internal
