@@ -273,14 +273,7 @@ FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
   Eigen::VectorXd g_last;            // the gradient at the last accepted point
   std::vector<double> z_last;
   bool reset = true;                 // take BHHH's information afresh
-  for (int i = 0; i < k(); ++i) z[i] = std::clamp(z[i], lower_[i], upper_[i]);
-  r.z = z;
-  if (k() == 0) {
-    r.loglik = Objective(z, delay);
-    r.converged = std::isfinite(r.loglik);
-    r.message = r.converged ? "no free parameters" : "the log-likelihood cannot be evaluated";
-    return r;
-  }
+  if (StartInBox(&z, delay, &r)) return r;
   double last_expected = HUGE_VAL;
   std::vector<double> recent_gains;  // of the accepted steps
   bool scored_ahead = false;  // f_ahead, g_ahead (and info_ahead) are the scores at z
@@ -519,18 +512,21 @@ bool Fitter::ExactHessian(const std::vector<double>& z, const std::vector<int>& 
   return true;
 }
 
+bool Fitter::StartInBox(std::vector<double>* z, const std::vector<int>& delay, FitResult* r) {
+  for (int i = 0; i < k(); ++i) (*z)[i] = std::clamp((*z)[i], lower_[i], upper_[i]);
+  r->z = *z;
+  if (k() > 0) return false;
+  r->loglik = Objective(*z, delay);
+  r->converged = std::isfinite(r->loglik);
+  r->message = r->converged ? "no free parameters" : "the log-likelihood cannot be evaluated";
+  return true;
+}
+
 FitResult Fitter::FitTrustRegion(std::vector<double> z, const std::vector<int>& delay,
                                  const std::string& stage, int max_iterations,
                                  const Eigen::MatrixXd* first_model, bool exact_first) {
   FitResult r;
-  for (int i = 0; i < k(); ++i) z[i] = std::clamp(z[i], lower_[i], upper_[i]);
-  r.z = z;
-  if (k() == 0) {
-    r.loglik = Objective(z, delay);
-    r.converged = std::isfinite(r.loglik);
-    r.message = r.converged ? "no free parameters" : "the log-likelihood cannot be evaluated";
-    return r;
-  }
+  if (StartInBox(&z, delay, &r)) return r;
   const int evaluations_before = evaluations();
   double f = 0;
   Eigen::VectorXd g;

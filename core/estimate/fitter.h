@@ -219,6 +219,10 @@ class Fitter {
               const std::vector<int>& delay);
 
  private:
+  // A fit's start: z clamped into the bounds, and r->z set to it. True when there is nothing to
+  // fit (no free parameter): *r is then the result.
+  bool StartInBox(std::vector<double>* z, const std::vector<int>& delay, FitResult* r);
+
   // Runs fit(sub) on a fitter over the same parameters with its own options (threads, evaluation
   // limit, progress passed on under a lock or none), and adds its counts to this one's.
   FitResult Alongside(int threads, int max_evaluations, bool report,
