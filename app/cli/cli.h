@@ -101,6 +101,7 @@ struct EstimateArgs {
   int multistart = 0;
   int starts_on_bound = 8;
   bool score_differences = false;
+  bool log_scale = false;
   std::string start;  // a result file whose estimates are the start values
   int max_evaluations = 20000;
   std::string algorithm = "auto";

@@ -37,6 +37,7 @@ int RunEstimate(const EstimateArgs& args) {
   options.multistart = args.multistart;
   options.starts_on_bound = args.starts_on_bound;
   options.score_differences = args.score_differences;
+  options.log_scale = args.log_scale;
   options.max_evaluations = args.max_evaluations;
   options.ftol_rel = args.ftol;
   options.profile_intervals = args.profile_intervals;

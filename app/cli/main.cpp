@@ -234,6 +234,9 @@ int Main(int argc, char** argv) {
   c_est->add_flag("--score-differences", est.score_differences,
                   "scores from central differences of log L instead of the exact ones (for "
                   "comparison; standard errors then from second differences)");
+  c_est->add_flag("--log-scale", est.log_scale,
+                  "fit the parameters with a positive lower bound on a log scale (for comparison: "
+                  "docs/benchmarks.md, issue 33)");
   c_est->add_option("--max-evaluations", est.max_evaluations,
                     "log-likelihood evaluations per fit, 1..100000000 (default 20000)")
       ->check(Number({.lo = 1, .hi = 1e8, .whole = true}));

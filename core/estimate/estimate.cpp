@@ -80,7 +80,9 @@ std::vector<std::vector<double>> StartPoints(const Fitter& f, int extra, std::ui
       const double u = columns[i][s];
       const double lo = f.lower(i), hi = f.upper(i);
       if (std::isfinite(lo) && std::isfinite(hi)) {
-        z[i] = lo + u * (hi - lo);
+        z[i] = lo + u * (hi - lo);  // on a log scale: log-uniform in θ
+      } else if (f.log_scale(i)) {  // within a factor 10 of the start
+        z[i] = std::clamp(z0[i] + std::log(10.0) * (2 * u - 1), lo, hi);
       } else {
         const double base = z0[i] != 0 ? z0[i] : 1.0;
         z[i] = std::clamp(base * std::pow(10.0, 2 * u - 1), lo, hi);
@@ -459,9 +461,17 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
   for (int a = 0; a < m; ++a)
     for (int b = 0; b < m; ++b)
       if (!dropped[a] && !dropped[b]) u.hessian_scaled(active[a], active[b]) = H(a, b);
-  // Hessian of -log L in scaled units, then to the natural scale: θ_i = s_i z_i.
+  // Hessian of -log L in working units, then to the natural scale: with θ_i = θ_i(z_i),
+  //   ∂²(-f)/∂z_a∂z_b = θ'_a θ'_b ∂²(-f)/∂θ_a∂θ_b - [a = b] θ''_a ∂f/∂θ_a,
+  // and θ'' = θ' on a log scale (θ = e^z), 0 on a linear one (θ = s z): a log-scale parameter's
+  // diagonal gets its gradient g_a = θ'_a ∂f/∂θ_a back before the division.
+  for (int a = 0; a < m; ++a) {
+    const int i = active[a];
+    if (f.log_scale(i) && g0.size() == k && g0.allFinite() && !dropped[a]) H(a, a) += g0(i);
+  }
   for (int a = 0; a < m; ++a)
-    for (int b = 0; b < m; ++b) H(a, b) /= f.scale()[active[a]] * f.scale()[active[b]];
+    for (int b = 0; b < m; ++b)
+      H(a, b) /= f.Slope(active[a], z[active[a]]) * f.Slope(active[b], z[active[b]]);
 
   // Parameters whose own curvature is not positive are not determined by the data at all.
   std::vector<int> keep;
@@ -512,7 +522,7 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
   u.covariance = llt.solve(Eigen::MatrixXd::Identity(n, n));
   if (g0.size() == k) {
     Eigen::VectorXd g_natural(n);
-    for (int i = 0; i < n; ++i) g_natural(i) = g0(active[keep[i]]) / f.scale()[active[keep[i]]];
+    for (int i = 0; i < n; ++i) g_natural(i) = g0(active[keep[i]]) / f.Slope(active[keep[i]], z[active[keep[i]]]);
     u.newton_decrement = 0.5 * g_natural.dot(u.covariance * g_natural);
   }
   for (int i = 0; i < n; ++i) {
@@ -581,6 +591,41 @@ void RecommendProfiles(const std::vector<ParameterEstimate>& parameters,
                                     "does not hold at a bound or where the data hardly determine "
                                     "a parameter ({}): use profile intervals "
                                     "(--profile-intervals)", which));
+}
+
+// A fit from one start: its optimum (or where it stopped), at `delay`.
+struct Reached {
+  double loglik;
+  std::vector<double> z;
+  bool converged;
+  std::vector<int> delay;
+};
+
+// The distinct optima among the fits `reached` at the estimate's delay, best first: fits whose
+// objectives lie within kSameOptimum of a better one's reached the same optimum. The best's is the
+// estimate `best` (its fit may have gone on from there: a saddle left, the exact Hessian's refit).
+std::vector<Optimum> DistinctOptima(const Fitter& f, std::vector<Reached> reached,
+                                    const FitResult& best, const std::vector<int>& delay) {
+  std::erase_if(reached, [&](const Reached& r) { return r.delay != delay || !std::isfinite(r.loglik); });
+  std::stable_sort(reached.begin(), reached.end(),
+                   [](const Reached& a, const Reached& b) { return a.loglik > b.loglik; });
+  std::vector<Optimum> optima;
+  for (const Reached& r : reached) {
+    if (!optima.empty() && r.loglik >= optima.back().loglik - kSameOptimum) {
+      ++optima.back().starts;
+      continue;
+    }
+    optima.push_back({r.loglik, 1, r.converged, f.Theta(r.z)});
+  }
+  if (optima.empty() || best.loglik >= optima.front().loglik - kSameOptimum) {
+    if (optima.empty()) optima.push_back({best.loglik, 1, best.converged, {}});
+    optima.front().loglik = std::max(optima.front().loglik, best.loglik);
+    optima.front().converged = best.converged;
+    optima.front().theta = f.Theta(best.z);
+  } else {  // the estimate's fit left the basins the starts reached (a saddle's escape)
+    optima.insert(optima.begin(), Optimum{best.loglik, 1, best.converged, f.Theta(best.z)});
+  }
+  return optima;
 }
 
 }  // namespace
@@ -715,7 +760,9 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
 
   // 2. Extra starts (multistart) at that delay. The plain start's fit is one of them, so the
   //    result is never worse than it.
-  std::vector<double> start_values{best.loglik};
+  // The fits from the starts: the plain start's and the extra ones (their optima, the delay they
+  // were fitted at), for the count that reached the best and the distinct optima.
+  std::vector<Reached> reached{{best.loglik, best.z, best.converged, delay}};
   // `explore` > 0: each start is fitted for that many iterations only (side by side where there are
   // threads), and the best of them is fitted on to convergence; the others count as not reaching
   // the best optimum.
@@ -756,7 +803,7 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
         best = r;
         return;
       }
-      start_values.push_back(r.loglik);
+      reached.push_back({r.loglik, r.z, r.converged, delay});
       if (r.loglik > best.loglik) best = r, improved = true;
     }
     if (improved) settle();
@@ -899,14 +946,11 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   //    first delay does not cost them).
   if (options.multistart == 0 && options.starts_on_bound > 0 && !best.cancelled &&
       !fitter.Cancelled() && std::isfinite(best.loglik) && OnABound(fitter, best.z)) {
-    start_values = {best.loglik};
+    reached = {{best.loglik, best.z, best.converged, delay}};
     s.starts_for_bound = true;
     extra_starts(options.starts_on_bound, kExploreIterations);
   }
-  s.starts = static_cast<int>(start_values.size());
-  s.starts_at_best = static_cast<int>(std::count_if(
-      start_values.begin(), start_values.end(),
-      [&](double v) { return std::isfinite(v) && v >= best.loglik - kSameOptimum; }));
+  s.starts = static_cast<int>(reached.size());
   if (best.cancelled || fitter.Cancelled()) return cancelled_summary();
   if (!std::isfinite(best.loglik))
     return NumericalError("the log-likelihood could not be evaluated anywhere the optimiser went");
@@ -944,6 +988,8 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
   s.converged = best.converged;
   s.message = best.message;
   s.theta = fitter.Theta(best.z);
+  s.optima = DistinctOptima(fitter, reached, best, delay);
+  s.starts_at_best = s.optima.empty() ? 1 : s.optima.front().starts;
   long n_obs = 0;
   s.loglik = fitter.LogLik(best.z, delay, &n_obs);
   s.n_obs = n_obs;

@@ -129,6 +129,9 @@ struct EstimateOptions {
   // records' time unit).
   bool steady_start = false;
   double steady_window = 5.0;
+  // Fit the parameters with a positive lower bound on a log scale (Fitter::log_scale), for
+  // comparison: on the bundled cases it is not yet better (docs/benchmarks.md, issue 33).
+  bool log_scale = false;
   // Called from the estimating thread after every iteration (keep it short).
   std::function<void(const Progress&)> progress;
   // Set to true from any thread to stop; Estimate returns within about one evaluation.
@@ -184,6 +187,14 @@ struct DelayEstimate {
   std::vector<DelayProfilePoint> profile;
 };
 
+// An optimum the fit's starts reached (EstimateSummary::optima).
+struct Optimum {
+  double loglik = 0.0;        // the objective there: log L, or the log posterior with priors
+  int starts = 1;             // the starts that reached it (within 1e-3 in the objective)
+  bool converged = true;      // false: the best fit that reached it stopped early
+  std::vector<double> theta;  // all parameters there
+};
+
 struct EstimateSummary {
   bool converged = false;
   std::string message = "Estimate() was not called";
@@ -210,6 +221,9 @@ struct EstimateSummary {
   int starts = 1;           // start points fitted (the model's and the multistart ones)
   bool starts_for_bound = false;  // the extra starts were starts_on_bound's (not multistart's)
   int starts_at_best = 1;   // of them, those that reached the best optimum (within 1e-3 in log L)
+  // The distinct optima the starts reached, best first (the estimate's is the first): more than
+  // one is a second basin the user should know of.
+  std::vector<Optimum> optima;
   std::vector<ParameterEstimate> parameters;   // all parameters, in model order
   std::vector<double> theta;                   // all parameters at the estimate
   std::vector<std::string> correlation_names;  // parameters with a standard error

@@ -90,11 +90,19 @@ Fitter::Fitter(const filter::Likelihood& lik, const EstimateOptions& options,
       continue;
     free_.push_back(static_cast<int>(i));
     const double start = theta0_[i];
-    const double s = start != 0 ? std::abs(start)
+    const bool log = options.log_scale && p.lower && *p.lower > 0 && start > 0;
+    const double s = log ? 1.0
+                     : start != 0 ? std::abs(start)
                      : (p.lower && p.upper) ? (*p.upper - *p.lower) / 10 : 1.0;
+    log_.push_back(log ? 1 : 0);
     scale_.push_back(s);
-    lower_.push_back(p.lower ? *p.lower / s : -HUGE_VAL);
-    upper_.push_back(p.upper ? *p.upper / s : HUGE_VAL);
+    if (log) {
+      lower_.push_back(std::log(*p.lower));
+      upper_.push_back(p.upper ? std::log(*p.upper) : HUGE_VAL);
+    } else {
+      lower_.push_back(p.lower ? *p.lower / s : -HUGE_VAL);
+      upper_.push_back(p.upper ? *p.upper / s : HUGE_VAL);
+    }
     if (p.prior) priors_.push_back({static_cast<int>(free_.size()) - 1, *p.prior});
   }
   threads_ = options.threads > 0 ? options.threads : HardwareThreads();
@@ -117,7 +125,8 @@ FitResult Fitter::ExploreAlongside(std::vector<double> z, const std::vector<int>
 
 Fitter::Fitter(const Fitter& base, const EstimateOptions& options)
     : lik_(base.lik_), options_(options), theta0_(base.theta0_), free_(base.free_),
-      scale_(base.scale_), lower_(base.lower_), upper_(base.upper_), priors_(base.priors_) {
+      scale_(base.scale_), lower_(base.lower_), upper_(base.upper_), log_(base.log_),
+      priors_(base.priors_) {
   threads_ = options.threads > 0 ? options.threads : HardwareThreads();
 }
 
@@ -132,9 +141,11 @@ double Fitter::LogLik(const std::vector<double>& z, const std::vector<int>& dela
 void Fitter::AddPriorDerivatives(const std::vector<double>& z, Eigen::VectorXd* g,
                          Eigen::MatrixXd* info) const {
   for (const auto& [i, prior] : priors_) {
-    const double sd_z = prior.sd / scale_[i];
-    (*g)(i) -= (z[i] - prior.mean / scale_[i]) / (sd_z * sd_z);
-    if (info) (*info)(i, i) += 1 / (sd_z * sd_z);
+    // d/dz log N(θ | m, s²) = -(θ - m) / s² dθ/dz; the information (θ' / s)² (Fisher's: the
+    // second derivative of the log scale's transform does not enter it).
+    const double slope = Slope(i, z[i]);
+    (*g)(i) -= (ThetaOf(i, z[i]) - prior.mean) / (prior.sd * prior.sd) * slope;
+    if (info) (*info)(i, i) += slope * slope / (prior.sd * prior.sd);
   }
 }
 
@@ -177,8 +188,9 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   for (int c = 0, at = 0; c < chunks; ++c) {
     const int n = static_cast<int>(which[c].size());
     for (int a = 0; a < n; ++a) {
-      (*g)(at + a) = g_part[c](a) * scale_[at + a];
-      if (info) J.col(at + a) = J_part[c].col(a) * scale_[at + a];
+      const double slope = Slope(at + a, z[at + a]);
+      (*g)(at + a) = g_part[c](a) * slope;
+      if (info) J.col(at + a) = J_part[c].col(a) * slope;
     }
     at += n;
   }

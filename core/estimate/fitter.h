@@ -4,6 +4,7 @@
 #pragma once
 
 #include <atomic>
+#include <cmath>
 #include <functional>
 #include <limits>
 #include <mutex>
@@ -101,22 +102,29 @@ class Fitter {
 
   int k() const { return static_cast<int>(free_.size()); }
   const std::vector<int>& free() const { return free_; }
-  const std::vector<double>& scale() const { return scale_; }
   double lower(int i) const { return lower_[i]; }
   double upper(int i) const { return upper_[i]; }
   int evaluations() const { return evaluations_.load(); }
   int iterations() const { return iterations_.load(); }
   bool Cancelled() const { return options_.cancel && options_.cancel->load(); }
 
+  // The working scale of free parameter i: z = θ / s (s = |start|, or a tenth of the range, or
+  // 1), or, for a parameter with a positive lower bound, z = log θ (a decade is one unit there, and
+  // a variance or time constant heading for its bound walks a straight line).
+  bool log_scale(int i) const { return log_[i] != 0; }
+  double ThetaOf(int i, double z) const { return log_[i] ? std::exp(z) : z * scale_[i]; }
+  double ZOf(int i, double theta) const { return log_[i] ? std::log(theta) : theta / scale_[i]; }
+  double Slope(int i, double z) const { return log_[i] ? std::exp(z) : scale_[i]; }  // dθ/dz
+
   std::vector<double> ZStart() const {
     std::vector<double> z(k());
-    for (int i = 0; i < k(); ++i) z[i] = theta0_[free_[i]] / scale_[i];
+    for (int i = 0; i < k(); ++i) z[i] = ZOf(i, theta0_[free_[i]]);
     return z;
   }
 
   std::vector<double> Theta(const std::vector<double>& z) const {
     std::vector<double> theta = theta0_;
-    for (int i = 0; i < k(); ++i) theta[free_[i]] = z[i] * scale_[i];
+    for (int i = 0; i < k(); ++i) theta[free_[i]] = ThetaOf(i, z[i]);
     return theta;
   }
 
@@ -134,7 +142,7 @@ class Fitter {
   // Σ log N(θ_i | m_i, s_i²) over the free parameters with a prior (natural scale, normalised).
   double LogPrior(const std::vector<double>& z) const {
     double sum = 0;
-    for (const auto& [i, prior] : priors_) sum += prior.LogDensity(z[i] * scale_[i]);
+    for (const auto& [i, prior] : priors_) sum += prior.LogDensity(ThetaOf(i, z[i]));
     return sum;
   }
 
@@ -233,6 +241,7 @@ class Fitter {
   std::vector<double> theta0_;
   std::vector<int> free_;
   std::vector<double> scale_, lower_, upper_;
+  std::vector<char> log_;
   struct FreePrior {
     int i;                          // index into the free parameters
     model::Parameter::Prior prior;  // natural scale

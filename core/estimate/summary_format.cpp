@@ -1,5 +1,6 @@
 // EstimateSummary::Report (readable, in the spirit of CTSM's summary) and ToJson (CONTRACT
 // section 5). No NaN is ever printed as a number: missing values are blank / null.
+#include <algorithm>
 #include <cmath>
 
 #include <boost/math/distributions/normal.hpp>
@@ -9,6 +10,8 @@
 
 namespace gb::estimate {
 namespace {
+
+constexpr std::size_t kListedOptima = 5;  // the report lists at most this many distinct optima
 
 std::string Num(double v) { return fmt::format("{:.6g}", v); }
 
@@ -61,6 +64,39 @@ std::string EstimateSummary::Report() const {
                      starts_for_bound ? "Extra starts (the fit ended with a parameter on a bound)"
                                       : "Multistart",
                      starts_at_best, starts));
+  if (optima.size() > 1) {
+    // Each other optimum with the free parameters that differ most from the estimate, in its
+    // standard errors where it has one (else relative to its size).
+    line(fmt::format("Distinct optima reached ({} of the starts, the estimate's first):",
+                     log_posterior ? "log posterior" : "log L"));
+    const std::size_t listed = std::min<std::size_t>(optima.size(), kListedOptima);
+    for (std::size_t o = 0; o < listed; ++o) {
+      const Optimum& opt = optima[o];
+      std::string text = fmt::format("  {:.6f}  {} start{}{}", opt.loglik, opt.starts,
+                                     opt.starts == 1 ? "" : "s",
+                                     opt.converged ? "" : " (stopped early)");
+      if (o > 0 && opt.theta.size() == parameters.size()) {
+        std::vector<std::pair<double, std::size_t>> differ;
+        for (std::size_t i = 0; i < parameters.size(); ++i) {
+          const ParameterEstimate& p = parameters[i];
+          if (p.fixed) continue;
+          const double unit = p.std_error ? *p.std_error : std::max(std::abs(p.estimate), 1e-300);
+          const double d = std::abs(opt.theta[i] - p.estimate) / unit;
+          if (d > 0 && std::isfinite(d)) differ.emplace_back(d, i);
+        }
+        std::stable_sort(differ.begin(), differ.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+        std::string most;
+        for (std::size_t t = 0; t < differ.size() && t < 3; ++t) {
+          const ParameterEstimate& p = parameters[differ[t].second];
+          most += fmt::format("{}{} {:.4g} (estimate {:.4g})", t ? ", " : "", p.name,
+                              opt.theta[differ[t].second], p.estimate);
+        }
+        if (!most.empty()) text += "; differs most in " + most;
+      }
+      line(text);
+    }
+    if (optima.size() > listed) line(fmt::format("  ... and {} more", optima.size() - listed));
+  }
   for (const auto& d : delays) {
     if (!d.scanned && d.estimate == 0) continue;
     line(fmt::format("Output delay of {}: {} samples{}", d.output, d.estimate,
@@ -184,6 +220,15 @@ Json EstimateSummary::ToJson() const {
   j["filter"]["scores"] = exact_scores ? "exact" : "differences";
   if (log_posterior) j["log_posterior"] = *log_posterior;
   j["starts"] = {{"total", starts}, {"at_best", starts_at_best}, {"on_bound", starts_for_bound}};
+  Json optima_json = Json::array();
+  for (const Optimum& opt : optima) {
+    Json values = Json::object();
+    for (std::size_t i = 0; i < parameters.size() && i < opt.theta.size(); ++i)
+      values[parameters[i].name] = opt.theta[i];
+    optima_json.push_back({{"loglik", opt.loglik}, {"starts", opt.starts},
+                           {"converged", opt.converged}, {"parameters", values}});
+  }
+  j["optima"] = std::move(optima_json);
   if (steady_start) j["steady_start"] = steady_start->ToJson();
   Json params = Json::object();
   for (const auto& p : parameters) {

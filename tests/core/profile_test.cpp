@@ -312,6 +312,61 @@ TEST(Estimate, MultistartIsNeverWorseThanThePlainStartAndCountsTheStartsAtTheBes
   EXPECT_EQ(multi->ToJson()["starts"]["total"], multi->starts);
 }
 
+TEST(Estimate, ListsTheDistinctOptimaBestFirstEachWithItsStartsAndItsLogLikelihood) {
+  const auto lik = GenericFuelFilm("f8", 6, 6, 2500);
+  EstimateOptions options;
+  options.threads = 1;
+  options.multistart = kSanitized ? 1 : 4;
+  auto s = Estimate(*lik, options);
+  ASSERT_TRUE(s.ok());
+  ASSERT_FALSE(s->optima.empty());
+  // The first is the estimate.
+  EXPECT_NEAR(s->optima.front().loglik, s->loglik, 1e-9);
+  EXPECT_EQ(s->optima.front().theta, s->theta);
+  EXPECT_EQ(s->optima.front().starts, s->starts_at_best);
+  int starts = 0;
+  const Json j = s->ToJson();
+  ASSERT_EQ(j["optima"].size(), s->optima.size());
+  for (std::size_t o = 0; o < s->optima.size(); ++o) {
+    const Optimum& opt = s->optima[o];
+    starts += opt.starts;
+    // Distinct: each lies more than 1e-3 below the one before.
+    if (o > 0) EXPECT_LT(opt.loglik, s->optima[o - 1].loglik - 1e-3);
+    // Its parameters give its log-likelihood, evaluated afresh.
+    const std::vector<int> delay = {s->delays[0].estimate};
+    const auto l = lik->Evaluate(opt.theta, delay);
+    ASSERT_TRUE(l.ok());
+    EXPECT_NEAR(l->loglik, opt.loglik, 1e-6 * std::abs(opt.loglik));
+    EXPECT_EQ(j["optima"][o]["starts"], opt.starts);
+    EXPECT_EQ(j["optima"][o]["parameters"]["tau_ff"], opt.theta[1]);
+  }
+  EXPECT_LE(starts, s->starts);
+  EXPECT_EQ(s->Report().find("Distinct optima") != std::string::npos, s->optima.size() > 1);
+}
+
+TEST(Estimate, OnALogScaleTheOptimumAndItsStandardErrorsAreTheLinearScalesOnes) {
+  // The working scale changes the path, not the answer: the same optimum, and the standard
+  // errors of θ (from the Hessian in log θ, with its gradient term, mapped back) agree.
+  const auto lik = GenericFuelFilm("f1", 5, 5, 3000);
+  EstimateOptions linear, log;
+  linear.threads = log.threads = 1;
+  log.log_scale = true;
+  auto a = Estimate(*lik, linear);
+  auto b = Estimate(*lik, log);
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_TRUE(a->converged && b->converged) << a->message << " / " << b->message;
+  EXPECT_NEAR(a->loglik, b->loglik, 1e-6 * std::abs(a->loglik));
+  int compared = 0;
+  for (std::size_t i = 0; i < a->parameters.size(); ++i) {
+    const ParameterEstimate& p = a->parameters[i];
+    if (!p.std_error || !b->parameters[i].std_error) continue;
+    ++compared;
+    EXPECT_NEAR(b->parameters[i].estimate, p.estimate, 0.01 * *p.std_error) << p.name;
+    EXPECT_NEAR(*b->parameters[i].std_error, *p.std_error, 1e-3 * *p.std_error) << p.name;
+  }
+  EXPECT_GE(compared, 6);
+}
+
 TEST(Estimate, TheDelayProfileDoesNotDependOnTheNumberOfThreads) {
   // With 2 threads the plain start's two first fits and the two walkers of the delay profile run
   // side by side, each from the same start as on 1 thread: the same numbers, bit for bit.

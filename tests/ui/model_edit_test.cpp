@@ -91,6 +91,28 @@ TEST(ModelEdit, UseEstimatesAsStartSetsTheFreeParametersOnly) {
   EXPECT_EQ(edited->parameters[2].value, 0.002);
 }
 
+TEST(ModelEdit, UseEstimatesAsStartTakesAnotherOptimumWhenAsked) {
+  estimate::EstimateSummary s;
+  for (const auto& [name, value, fixed] :
+       {std::tuple{"a", 0.7, false}, std::tuple{"b", 1.0, true}, std::tuple{"s", 0.002, false}}) {
+    estimate::ParameterEstimate e;
+    e.name = name;
+    e.estimate = value;
+    e.fixed = fixed;
+    s.parameters.push_back(e);
+  }
+  s.optima = {{100.0, 2, true, {0.7, 1.0, 0.002}}, {90.0, 1, true, {1.3, 1.0, 0.004}}};
+  auto second = UseEstimatesAsStart(Model(), s, 1);
+  ASSERT_TRUE(second.ok()) << second.error().message;
+  EXPECT_EQ(second->parameters[0].value, 1.3);
+  EXPECT_EQ(second->parameters[1].value, 1.0);  // fixed: left alone
+  EXPECT_EQ(second->parameters[2].value, 0.004);
+  // An optimum the fit does not have is refused, naming it.
+  auto missing = UseEstimatesAsStart(Model(), s, 2);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().message.find("optimum number 3"), std::string::npos);
+}
+
 TEST(ApplyParameterEdits, ARefusedEditLeavesTheModelAndKeepsTheReason) {
   AppState state;
   state.model = Model();

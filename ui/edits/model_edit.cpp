@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <utility>
 
+#include <fmt/format.h>
+
 #include "core/model/linear_model.h"
 #include "core/model/nonlinear_model.h"
 
@@ -138,13 +140,19 @@ Result<Json> FormulaEditValue(const FormulaEdit& edit) {
 }
 
 Result<model::ModelSpec> UseEstimatesAsStart(const model::ModelSpec& spec,
-                                             const estimate::EstimateSummary& summary) {
+                                             const estimate::EstimateSummary& summary,
+                                             std::size_t optimum) {
+  if (optimum > 0 && (optimum >= summary.optima.size() ||
+                      summary.optima[optimum].theta.size() != summary.parameters.size()))
+    return InputError(fmt::format("the fit has no optimum number {}", optimum + 1));
   model::ModelSpec edited = spec;
-  for (const estimate::ParameterEstimate& e : summary.parameters) {
-    if (e.fixed || !std::isfinite(e.estimate)) continue;
+  for (std::size_t k = 0; k < summary.parameters.size(); ++k) {
+    const estimate::ParameterEstimate& e = summary.parameters[k];
+    const double value = optimum > 0 ? summary.optima[optimum].theta[k] : e.estimate;
+    if (e.fixed || !std::isfinite(value)) continue;
     const int i = edited.ParameterIndex(e.name);
     if (i < 0 || edited.parameters[static_cast<std::size_t>(i)].fixed) continue;
-    if (Status set = model::SetParameter(&edited, e.name, e.estimate); !set) {
+    if (Status set = model::SetParameter(&edited, e.name, value); !set) {
       return InputError(e.name + ": " + set.error().message);
     }
   }

@@ -56,8 +56,10 @@ Result<model::ModelSpec> ApplyFormulaEdit(const model::ModelSpec& spec, const Fo
 Result<Json> FormulaEditValue(const FormulaEdit& edit);
 
 // The model with every free parameter's start value set to its estimate in `summary` (matched
-// by name; fixed parameters and names the fit does not know are left alone).
+// by name; fixed parameters and names the fit does not know are left alone); with `optimum` > 0,
+// to its value at that one of the summary's distinct optima (EstimateSummary::optima) instead.
 Result<model::ModelSpec> UseEstimatesAsStart(const model::ModelSpec& spec,
-                                             const estimate::EstimateSummary& summary);
+                                             const estimate::EstimateSummary& summary,
+                                             std::size_t optimum = 0);
 
 }  // namespace gb::ui

@@ -12,6 +12,8 @@
 #include <cmath>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "ui/format.h"
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
@@ -298,6 +300,63 @@ void DrawPlots(AppState& state, const Trace& trace, const FitResult* result) {
   }
 }
 
+// The distinct optima the fit's starts reached (more than one: a second basin), each with the
+// parameters that differ most from the estimate and a button that makes it the start values.
+void DrawOptima(AppState& state, const FitResult& r) {
+  const estimate::EstimateSummary& s = r.summary;
+  if (s.optima.size() < 2) return;
+  SectionHeading(state, "Distinct optima");
+  ImGui::PushTextWrapPos(0.0f);
+  ImGui::TextDisabled("The starts reached %zu optima. The estimate is the first; another can be "
+                      "made the start values and run again.", s.optima.size());
+  ImGui::PopTextWrapPos();
+  const ImGuiTableFlags flags = ImGuiTableFlags_BordersInnerH | ImGuiTableFlags_RowBg |
+                                ImGuiTableFlags_SizingFixedFit;
+  if (!ImGui::BeginTable("##optima", 4, flags)) return;
+  ImGui::TableSetupColumn("log L");
+  ImGui::TableSetupColumn("Starts");
+  ImGui::TableSetupColumn("Differs most from the estimate in", ImGuiTableColumnFlags_WidthStretch);
+  ImGui::TableSetupColumn("");
+  ImGui::TableHeadersRow();
+  for (std::size_t o = 0; o < s.optima.size(); ++o) {
+    const estimate::Optimum& opt = s.optima[o];
+    ImGui::PushID(static_cast<int>(o));
+    ImGui::TableNextRow();
+    ImGui::TableNextColumn();
+    ImGui::TextUnformatted(FormatFixed(opt.loglik, 3).c_str());
+    ImGui::TableNextColumn();
+    ImGui::Text("%d%s", opt.starts, opt.converged ? "" : " (stopped early)");
+    ImGui::TableNextColumn();
+    if (o == 0) {
+      ImGui::TextDisabled("the estimate");
+    } else if (opt.theta.size() == s.parameters.size()) {
+      // In the estimate's standard errors where it has one, else relative to its size.
+      std::vector<std::pair<double, std::size_t>> differ;
+      for (std::size_t i = 0; i < s.parameters.size(); ++i) {
+        const estimate::ParameterEstimate& p = s.parameters[i];
+        if (p.fixed) continue;
+        const double unit = p.std_error ? *p.std_error : std::max(std::abs(p.estimate), 1e-300);
+        const double d = std::abs(opt.theta[i] - p.estimate) / unit;
+        if (d > 0 && std::isfinite(d)) differ.emplace_back(d, i);
+      }
+      std::stable_sort(differ.begin(), differ.end(),
+                       [](const auto& a, const auto& b) { return a.first > b.first; });
+      std::string most;
+      for (std::size_t t = 0; t < differ.size() && t < 3; ++t)
+        most += fmt::format("{}{} {:.4g}", t ? ", " : "", s.parameters[differ[t].second].name,
+                            opt.theta[differ[t].second]);
+      ImGui::TextUnformatted(most.c_str());
+    }
+    ImGui::TableNextColumn();
+    if (o > 0 && ImGui::SmallButton("Use as start values")) {
+      state.parameters_view.use_estimates_requested = true;
+      state.parameters_view.use_optimum = o;
+    }
+    ImGui::PopID();
+  }
+  ImGui::EndTable();
+}
+
 void DrawReport(AppState& state, const FitResult& r, bool previous) {
   const float s = state.fonts.scale;
   SectionHeading(state, previous ? "Report of the previous run" : "Report");
@@ -369,6 +428,11 @@ void DrawEstimatePanel(AppState& state) {
   if (result && !running) DrawKeyFigures(state, *result);
   ImGui::Spacing();
   DrawPlots(state, running ? e.live_trace : result->trace, running ? nullptr : result);
+  if (result && !running) {
+    DrawOptima(state, *result);
+    // The Parameters view applies such a request when it is drawn; here it may not be.
+    if (state.parameters_view.use_estimates_requested) ApplyParameterEdits(state);
+  }
   if (result) DrawReport(state, *result, running);
 }
 

@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <utility>
 
+#include <fmt/format.h>
+
 #include "ui/format.h"
 
 namespace gb::ui {
@@ -316,7 +318,9 @@ void ApplyParameterEdits(AppState& state) {
   std::vector<ParameterEdit> edits = std::move(v.pending);
   v.pending.clear();
   const bool use_estimates = v.use_estimates_requested;
+  const std::size_t optimum = v.use_optimum;
   v.use_estimates_requested = false;
+  v.use_optimum = 0;
   if (!state.model) return;
   bool changed = false;
   for (const ParameterEdit& edit : edits) {
@@ -338,12 +342,16 @@ void ApplyParameterEdits(AppState& state) {
   }
   if (use_estimates && state.estimation.result) {
     Result<model::ModelSpec> edited =
-        UseEstimatesAsStart(*state.model, state.estimation.result->summary);
+        UseEstimatesAsStart(*state.model, state.estimation.result->summary, optimum);
     if (edited) {
       changed = changed || !SameParameters(*edited, *state.model);
       state.model = std::move(edited).value();
       v.refusal.reset();
-      AddMessage(state, Severity::kInfo, "The estimates are now the start values.");
+      AddMessage(state, Severity::kInfo,
+                 optimum == 0 ? std::string("The estimates are now the start values.")
+                              : fmt::format("The parameters of optimum {} (log L {:.3f}) are now "
+                                            "the start values.", optimum + 1,
+                                            state.estimation.result->summary.optima[optimum].loglik));
     } else {
       AddMessage(state, Severity::kError,
                  "The estimates cannot be used as start values: " + edited.error().message);

@@ -223,6 +223,9 @@ struct ParametersViewState {
   ParameterField editing_field = ParameterField::kValue;
   std::string editing_text;
   bool use_estimates_requested = false;
+  // Which of the last fit's distinct optima (EstimateSummary::optima) the request takes: 0 the
+  // estimate, 1 the second best, ... (the Estimate view's table of optima sets it).
+  std::size_t use_optimum = 0;
   std::optional<ParameterRefusal> refusal;
   std::string profile_plot;  // the parameter whose profile log-likelihood is plotted ("": none)
 };
