@@ -234,6 +234,11 @@ struct EstimateSummary {
   // With EstimateOptions::steady_start: how the start values were moved (printed after the data).
   std::optional<SteadyStartResult> steady_start;
 
+  // The free parameters (indices into `parameters`) whose values at optima[o] differ most from
+  // the estimate, most first, at most n: in the estimate's standard errors where it has one,
+  // else relative to its size.
+  std::vector<std::size_t> DifferMost(std::size_t o, std::size_t n) const;
+
   std::string Report() const;  // readable, in the spirit of CTSM's summary
   Json ToJson() const;         // CONTRACT section 5
 };

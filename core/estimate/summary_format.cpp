@@ -28,6 +28,23 @@ Json OptJson(const std::optional<double>& v) { return v ? Json(*v) : Json(nullpt
 
 }  // namespace
 
+std::vector<std::size_t> EstimateSummary::DifferMost(std::size_t o, std::size_t n) const {
+  if (o >= optima.size() || optima[o].theta.size() != parameters.size()) return {};
+  std::vector<std::pair<double, std::size_t>> differ;
+  for (std::size_t i = 0; i < parameters.size(); ++i) {
+    const ParameterEstimate& p = parameters[i];
+    if (p.fixed) continue;
+    const double unit = p.std_error ? *p.std_error : std::max(std::abs(p.estimate), 1e-300);
+    const double d = std::abs(optima[o].theta[i] - p.estimate) / unit;
+    if (d > 0 && std::isfinite(d)) differ.emplace_back(d, i);
+  }
+  std::stable_sort(differ.begin(), differ.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<std::size_t> most;
+  for (std::size_t t = 0; t < differ.size() && t < n; ++t) most.push_back(differ[t].second);
+  return most;
+}
+
 std::string EstimateSummary::Report() const {
   std::string r;
   auto line = [&r](const std::string& s) { r += s + "\n"; };
@@ -65,8 +82,7 @@ std::string EstimateSummary::Report() const {
                                       : "Multistart",
                      starts_at_best, starts));
   if (optima.size() > 1) {
-    // Each other optimum with the free parameters that differ most from the estimate, in its
-    // standard errors where it has one (else relative to its size).
+    // Each other optimum with the free parameters that differ most from the estimate.
     line(fmt::format("Distinct optima reached ({} of the starts, the estimate's first):",
                      log_posterior ? "log posterior" : "log L"));
     const std::size_t listed = std::min<std::size_t>(optima.size(), kListedOptima);
@@ -75,24 +91,11 @@ std::string EstimateSummary::Report() const {
       std::string text = fmt::format("  {:.6f}  {} start{}{}", opt.loglik, opt.starts,
                                      opt.starts == 1 ? "" : "s",
                                      opt.converged ? "" : " (stopped early)");
-      if (o > 0 && opt.theta.size() == parameters.size()) {
-        std::vector<std::pair<double, std::size_t>> differ;
-        for (std::size_t i = 0; i < parameters.size(); ++i) {
-          const ParameterEstimate& p = parameters[i];
-          if (p.fixed) continue;
-          const double unit = p.std_error ? *p.std_error : std::max(std::abs(p.estimate), 1e-300);
-          const double d = std::abs(opt.theta[i] - p.estimate) / unit;
-          if (d > 0 && std::isfinite(d)) differ.emplace_back(d, i);
-        }
-        std::stable_sort(differ.begin(), differ.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-        std::string most;
-        for (std::size_t t = 0; t < differ.size() && t < 3; ++t) {
-          const ParameterEstimate& p = parameters[differ[t].second];
-          most += fmt::format("{}{} {:.4g} (estimate {:.4g})", t ? ", " : "", p.name,
-                              opt.theta[differ[t].second], p.estimate);
-        }
-        if (!most.empty()) text += "; differs most in " + most;
-      }
+      std::string most;
+      for (const std::size_t i : o > 0 ? DifferMost(o, 3) : std::vector<std::size_t>{})
+        most += fmt::format("{}{} {:.4g} (estimate {:.4g})", most.empty() ? "" : ", ",
+                            parameters[i].name, opt.theta[i], parameters[i].estimate);
+      if (!most.empty()) text += "; differs most in " + most;
       line(text);
     }
     if (optima.size() > listed) line(fmt::format("  ... and {} more", optima.size() - listed));

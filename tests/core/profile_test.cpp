@@ -344,6 +344,27 @@ TEST(Estimate, ListsTheDistinctOptimaBestFirstEachWithItsStartsAndItsLogLikeliho
   EXPECT_EQ(s->Report().find("Distinct optima") != std::string::npos, s->optima.size() > 1);
 }
 
+TEST(EstimateSummary, AnOptimumDiffersMostInTheParametersFarthestInStandardErrors) {
+  EstimateSummary s;
+  // a: 1 ± 0.1, b: 10 (no standard error: relative to its size), c: fixed, d: 5 ± 1.
+  for (const auto& [name, value, se, fixed] :
+       {std::tuple{"a", 1.0, 0.1, false}, std::tuple{"b", 10.0, 0.0, false},
+        std::tuple{"c", 3.0, 0.0, true}, std::tuple{"d", 5.0, 1.0, false}}) {
+    ParameterEstimate e;
+    e.name = name;
+    e.estimate = value;
+    e.fixed = fixed;
+    if (se > 0) e.std_error = se;
+    s.parameters.push_back(e);
+  }
+  s.optima = {{0.0, 1, true, {1.0, 10.0, 3.0, 5.0}}, {-5.0, 1, true, {1.25, 30.0, 99.0, 8.0}}};
+  // Distances: a 2.5 SE, b 2 (relative), c fixed (left out), d 3 SE.
+  EXPECT_EQ(s.DifferMost(1, 3), (std::vector<std::size_t>{3, 0, 1}));
+  EXPECT_EQ(s.DifferMost(1, 1), (std::vector<std::size_t>{3}));
+  EXPECT_TRUE(s.DifferMost(0, 3).empty());  // the estimate itself
+  EXPECT_TRUE(s.DifferMost(2, 3).empty());  // no such optimum
+}
+
 TEST(Estimate, OnALogScaleTheOptimumAndItsStandardErrorsAreTheLinearScalesOnes) {
   // The working scale changes the path, not the answer: the same optimum, and the standard
   // errors of θ (from the Hessian in log θ, with its gradient term, mapped back) agree.

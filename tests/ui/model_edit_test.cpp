@@ -74,7 +74,8 @@ TEST(ModelEdit, FreeingAParameterWhoseValueIsOutsideItsBoundsIsRefused) {
   EXPECT_FALSE(ApplyParameterEdit(*bounded, free).ok());
 }
 
-TEST(ModelEdit, UseEstimatesAsStartSetsTheFreeParametersOnly) {
+// A fit's estimates of a = 0.7, b = 1 (fixed) and s = 0.002.
+estimate::EstimateSummary Estimates() {
   estimate::EstimateSummary s;
   for (const auto& [name, value, fixed] :
        {std::tuple{"a", 0.7, false}, std::tuple{"b", 1.0, true}, std::tuple{"s", 0.002, false}}) {
@@ -84,6 +85,11 @@ TEST(ModelEdit, UseEstimatesAsStartSetsTheFreeParametersOnly) {
     e.fixed = fixed;
     s.parameters.push_back(e);
   }
+  return s;
+}
+
+TEST(ModelEdit, UseEstimatesAsStartSetsTheFreeParametersOnly) {
+  const estimate::EstimateSummary s = Estimates();
   auto edited = UseEstimatesAsStart(Model(), s);
   ASSERT_TRUE(edited.ok()) << edited.error().message;
   EXPECT_EQ(edited->parameters[0].value, 0.7);
@@ -92,15 +98,7 @@ TEST(ModelEdit, UseEstimatesAsStartSetsTheFreeParametersOnly) {
 }
 
 TEST(ModelEdit, UseEstimatesAsStartTakesAnotherOptimumWhenAsked) {
-  estimate::EstimateSummary s;
-  for (const auto& [name, value, fixed] :
-       {std::tuple{"a", 0.7, false}, std::tuple{"b", 1.0, true}, std::tuple{"s", 0.002, false}}) {
-    estimate::ParameterEstimate e;
-    e.name = name;
-    e.estimate = value;
-    e.fixed = fixed;
-    s.parameters.push_back(e);
-  }
+  estimate::EstimateSummary s = Estimates();
   s.optima = {{100.0, 2, true, {0.7, 1.0, 0.002}}, {90.0, 1, true, {1.3, 1.0, 0.004}}};
   auto second = UseEstimatesAsStart(Model(), s, 1);
   ASSERT_TRUE(second.ok()) << second.error().message;

@@ -329,22 +329,11 @@ void DrawOptima(AppState& state, const FitResult& r) {
     ImGui::TableNextColumn();
     if (o == 0) {
       ImGui::TextDisabled("the estimate");
-    } else if (opt.theta.size() == s.parameters.size()) {
-      // In the estimate's standard errors where it has one, else relative to its size.
-      std::vector<std::pair<double, std::size_t>> differ;
-      for (std::size_t i = 0; i < s.parameters.size(); ++i) {
-        const estimate::ParameterEstimate& p = s.parameters[i];
-        if (p.fixed) continue;
-        const double unit = p.std_error ? *p.std_error : std::max(std::abs(p.estimate), 1e-300);
-        const double d = std::abs(opt.theta[i] - p.estimate) / unit;
-        if (d > 0 && std::isfinite(d)) differ.emplace_back(d, i);
-      }
-      std::stable_sort(differ.begin(), differ.end(),
-                       [](const auto& a, const auto& b) { return a.first > b.first; });
+    } else {
       std::string most;
-      for (std::size_t t = 0; t < differ.size() && t < 3; ++t)
-        most += fmt::format("{}{} {:.4g}", t ? ", " : "", s.parameters[differ[t].second].name,
-                            opt.theta[differ[t].second]);
+      for (const std::size_t i : s.DifferMost(o, 3))
+        most += fmt::format("{}{} {:.4g}", most.empty() ? "" : ", ", s.parameters[i].name,
+                            opt.theta[i]);
       ImGui::TextUnformatted(most.c_str());
     }
     ImGui::TableNextColumn();
