@@ -628,156 +628,158 @@ std::vector<Optimum> DistinctOptima(const Fitter& f, std::vector<Reached> reache
   return optima;
 }
 
-}  // namespace
-
-// ---- 5. Estimate -----------------------------------------------------------------------------
-
-Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
-                                 const EstimateOptions& options) {
-  std::string why;
-  if (!options.IsValid(&why)) return InputError("invalid estimation options: " + why);
-  // A copy (it shares the model and data) whose evaluations also watch the cancel flag.
-  filter::Likelihood lik = shared_likelihood;
-  lik.set_cancel(options.cancel);
-  const auto start_time = Clock::now();
-  const model::ModelSpec& spec = lik.spec();
-  const bool any_free = std::any_of(spec.parameters.begin(), spec.parameters.end(),
-                                    [](const model::Parameter& p) { return !p.fixed; });
-  if (!any_free && !spec.HasDelayScan())
-    return InputError(fmt::format(
-        "nothing to estimate: every parameter of the model {} is fixed and no delay is scanned; "
-        "free a parameter (in the Parameters view, or \"fixed\": false in the model file), or "
-        "evaluate the likelihood at these values (greybench-cli loglik)",
-        spec.source.empty() ? spec.name : spec.source));
-  // The start: the model's values, or those with the steady states' parameters moved to the
-  // records' levels.
-  std::optional<SteadyStartResult> steady;
-  if (options.steady_start) {
-    SteadyStartOptions steady_options;
-    steady_options.window_seconds = options.steady_window;
-    auto moved = SteadyStart(lik, spec.Values(), steady_options);
-    if (!moved) return moved.error();
-    steady = std::move(moved).value();
+// One run of Estimate over one state: the likelihood (a copy that watches the cancel flag), the
+// fitter, the best fit so far and its delay, the plain start's fit at the runner-up delay, the
+// fits from the starts and the delay profile. Run() is the list of stages; each stage ends by
+// looking at the cancel flag, which can arrive in any of them.
+class EstimateRun {
+ public:
+  EstimateRun(const filter::Likelihood& shared, const EstimateOptions& options)
+      : lik_(shared), options_(options), spec_(lik_.spec()), start_time_(Clock::now()),
+        threads_(options.threads > 0 ? options.threads : HardwareThreads()) {
+    lik_.set_cancel(options.cancel);
   }
-  const std::vector<double> theta_start = steady ? steady->theta : spec.Values();
-  Fitter fitter(lik, options, theta_start);
-  const int threads = options.threads > 0 ? options.threads : HardwareThreads();
 
-  EstimateSummary s;
-  s.model_name = spec.name;
-  for (const auto& series : lik.series()) s.datasets.push_back(series->source);
-  s.steady_start = std::move(steady);
+  Result<EstimateSummary> Run() {
+    if (Status ready = Prepare(); !ready) return ready.error();
+    if (Cancelled()) return CancelledSummary();
+    FitPlainStart();                                                                  // 1.
+    Settle();
+    reached_ = {{best_.loglik, best_.z, best_.converged, delay_}};
+    if (options_.multistart > 0 && !best_.cancelled) ExtraStarts(options_.multistart, 0);  // 2.
+    if (scanning_ && !best_.cancelled) DelayProfile();                               // 3.
+    RefitPlainStart();                                                                // 4.
+    StartsOnBound();                                                                  // 5.
+    s_.starts = static_cast<int>(reached_.size());
+    if (best_.cancelled || Cancelled()) return CancelledSummary();
+    if (!std::isfinite(best_.loglik))
+      return NumericalError("the log-likelihood could not be evaluated anywhere the optimiser went");
+    Uncertainty u = Uncertainties();                                                  // 6.
+    if (Cancelled()) return CancelledSummary();
+    return Summarise(std::move(u));                                                   // 7.
+  }
 
-  // Cancellation can arrive in any stage; each stage ends by looking at the flag.
-  s.extended = lik.nonlinear() != nullptr;
-  s.ekf = spec.ekf;
-  s.exact_scores = lik.exact_scores() && !options.score_differences;
-  const filter::OdeCounts ode_at_start = lik.ode_counts();
-  auto finish = [&] {
-    s.evaluations = fitter.evaluations();
-    s.iterations = fitter.iterations();
-    s.elapsed_s = std::chrono::duration<double>(Clock::now() - start_time).count();
-    const filter::OdeCounts ode = lik.ode_counts();
-    s.ode.intervals = ode.intervals - ode_at_start.intervals;
-    s.ode.stiff_intervals = ode.stiff_intervals - ode_at_start.stiff_intervals;
-    s.ode.steps = ode.steps - ode_at_start.steps;
-    s.ode.rejected = ode.rejected - ode_at_start.rejected;
-    s.ode.rhs = ode.rhs - ode_at_start.rhs;
-  };
-  auto cancelled_summary = [&] {
-    s.cancelled = true;
-    s.converged = false;
-    s.message = "cancelled";
-    finish();
-    return s;
+ private:
+  struct ProfileValue {
+    std::vector<int> delay;
+    double loglik;
+    bool converged;
+    bool operator<(const ProfileValue& o) const { return delay < o.delay; }
   };
 
-  // The delay to start from: the best of the grid at the start values.
-  const bool scanning = spec.HasDelayScan();
-  std::vector<int> delay, second_delay;
-  double second_loglik = -HUGE_VAL;
-  {
-    auto profile = lik.Profile(theta_start);
-    if (fitter.Cancelled()) return cancelled_summary();
+  bool Cancelled() const { return fitter_ && fitter_->Cancelled(); }
+
+  // What there is to estimate, the start (with the steady-state start, if asked), the summary's
+  // header and the delay to start from: the best of the grid at the start values, and the
+  // runner-up.
+  Status Prepare() {
+    const bool any_free = std::any_of(spec_.parameters.begin(), spec_.parameters.end(),
+                                      [](const model::Parameter& p) { return !p.fixed; });
+    if (!any_free && !spec_.HasDelayScan())
+      return InputError(fmt::format(
+          "nothing to estimate: every parameter of the model {} is fixed and no delay is scanned; "
+          "free a parameter (in the Parameters view, or \"fixed\": false in the model file), or "
+          "evaluate the likelihood at these values (greybench-cli loglik)",
+          spec_.source.empty() ? spec_.name : spec_.source));
+    // The start: the model's values, or those with the steady states' parameters moved to the
+    // records' levels.
+    std::optional<SteadyStartResult> steady;
+    if (options_.steady_start) {
+      SteadyStartOptions steady_options;
+      steady_options.window_seconds = options_.steady_window;
+      auto moved = SteadyStart(lik_, spec_.Values(), steady_options);
+      if (!moved) return moved.error();
+      steady = std::move(moved).value();
+    }
+    const std::vector<double> theta_start = steady ? steady->theta : spec_.Values();
+    fitter_.emplace(lik_, options_, theta_start);
+    s_.model_name = spec_.name;
+    for (const auto& series : lik_.series()) s_.datasets.push_back(series->source);
+    s_.steady_start = std::move(steady);
+    s_.extended = lik_.nonlinear() != nullptr;
+    s_.ekf = spec_.ekf;
+    s_.exact_scores = lik_.exact_scores() && !options_.score_differences;
+    ode_at_start_ = lik_.ode_counts();
+    scanning_ = spec_.HasDelayScan();
+    auto profile = lik_.Profile(theta_start);
+    if (Cancelled()) return Ok{};
     if (!profile) {
       Error e = profile.error();  // the model cannot be evaluated at θ0: say that it is the start
       e.message = "the log-likelihood cannot be evaluated at the start values: " + e.message;
       return e;
     }
-    if (profile->best < 0) {
-      Error e = NumericalError("the log-likelihood cannot be evaluated at the start values: " +
-                               profile->candidates.front().message);
-      return e;
-    }
-    delay = profile->candidates[profile->best].delay;
-    // The runner-up at the start values: the plain start is fitted there too (below).
-    for (std::size_t c = 0; scanning && c < profile->candidates.size(); ++c) {
+    if (profile->best < 0)
+      return NumericalError("the log-likelihood cannot be evaluated at the start values: " +
+                            profile->candidates.front().message);
+    delay_ = profile->candidates[profile->best].delay;
+    // The runner-up at the start values: the plain start is fitted there too (FitPlainStart).
+    double second_loglik = -HUGE_VAL;
+    for (std::size_t c = 0; scanning_ && c < profile->candidates.size(); ++c) {
       const auto& cand = profile->candidates[c];
       if (static_cast<int>(c) == profile->best || !cand.ok) continue;
-      if (second_delay.empty() || cand.loglik > second_loglik)
-        second_delay = cand.delay, second_loglik = cand.loglik;
+      if (second_delay_.empty() || cand.loglik > second_loglik)
+        second_delay_ = cand.delay, second_loglik = cand.loglik;
     }
+    return Ok{};
   }
 
   // 1. The model's start values at the two best delays at the start values, side by side where
   //    there are threads (a misspecified first delay costs a fit from its optimum to the right
   //    one and a plain start's refit there; the runner-up is often the right one); then θ and the
   //    delay in turn until the delay settles (each delay's fit warm-started from the last).
-  const std::vector<double> z_start = fitter.ZStart();
-  std::vector<FitResult> first(second_delay.empty() ? 1 : 2);
-  {
-    const std::vector<std::vector<int>> first_delays = {delay, second_delay};
-    const int jobs = static_cast<int>(first.size());
-    ParallelFor(jobs, threads, [&](int j) {
-      first[j] = fitter.FitAlongside(z_start, first_delays[j], "fitting",
-                                     std::max(1, threads / jobs));
-    });
-  }
-  const int plain_evaluations =  // what a fit from a start costs here
-      fitter.evaluations() / static_cast<int>(first.size());
-  FitResult best = std::move(first[0]);
-  FitResult runner_up;  // the plain start's fit at the other delay, if any
-  if (first.size() == 2) {
-    runner_up = std::move(first[1]);
-    if (runner_up.cancelled || runner_up.loglik > best.loglik) {
-      std::swap(best, runner_up);
-      std::swap(delay, second_delay);
+  void FitPlainStart() {
+    z_start_ = fitter_->ZStart();
+    std::vector<FitResult> first(second_delay_.empty() ? 1 : 2);
+    {
+      const std::vector<std::vector<int>> first_delays = {delay_, second_delay_};
+      const int jobs = static_cast<int>(first.size());
+      ParallelFor(jobs, threads_, [&](int j) {
+        first[j] = fitter_->FitAlongside(z_start_, first_delays[j], "fitting",
+                                       std::max(1, threads_ / jobs));
+      });
     }
+    plain_evaluations_ =  // what a fit from a start costs here
+        fitter_->evaluations() / static_cast<int>(first.size());
+    best_ = std::move(first[0]);
+    if (first.size() == 2) {
+      runner_up_ = std::move(first[1]);
+      if (runner_up_.cancelled || runner_up_.loglik > best_.loglik) {
+        std::swap(best_, runner_up_);
+        std::swap(delay_, second_delay_);
+      }
+    }
+    delay_of_start_ = delay_;
   }
-  std::vector<int> delay_of_start = delay;  // the delay the plain start was last fitted at
-  auto settle = [&] {
-    for (int round = 0; scanning && !best.cancelled && !fitter.Cancelled() && round < 10; ++round) {
-      auto profile = lik.Profile(fitter.Theta(best.z));
+
+  // θ and the delay in turn until the delay settles (each delay's fit warm-started from the last).
+  void Settle() {
+    for (int round = 0; scanning_ && !best_.cancelled && !fitter_->Cancelled() && round < 10; ++round) {
+      auto profile = lik_.Profile(fitter_->Theta(best_.z));
       if (!profile || profile->best < 0) break;
       const auto& next = profile->candidates[profile->best].delay;
-      if (next == delay) break;
-      delay = next;
-      FitResult r = fitter.Fit(best.z, delay, "fitting");
-      if (r.cancelled || r.loglik >= best.loglik) best = r;
+      if (next == delay_) break;
+      delay_ = next;
+      FitResult r = fitter_->Fit(best_.z, delay_, "fitting");
+      if (r.cancelled || r.loglik >= best_.loglik) best_ = r;
     }
-  };
-  settle();
+  }
 
-  // 2. Extra starts (multistart) at that delay. The plain start's fit is one of them, so the
-  //    result is never worse than it.
-  // The fits from the starts: the plain start's and the extra ones (their optima, the delay they
-  // were fitted at), for the count that reached the best and the distinct optima.
-  std::vector<Reached> reached{{best.loglik, best.z, best.converged, delay}};
-  // `explore` > 0: each start is fitted for that many iterations only (side by side where there are
-  // threads), and the best of them is fitted on to convergence; the others count as not reaching
-  // the best optimum.
-  auto extra_starts = [&](int n, int explore) {
-    const auto starts = StartPoints(fitter, n, options.seed);
+  // 2. Extra starts at the estimate's delay; the plain start's fit is one of them, so the result
+  //    is never worse than it. `explore` > 0: each start is fitted for that many iterations only
+  //    (side by side where there are threads), and the best of them are fitted on to
+  //    convergence; the others count as not reaching the best optimum.
+  void ExtraStarts(int n, int explore) {
+    const auto starts = StartPoints(*fitter_, n, options_.seed);
     std::vector<FitResult> fits(starts.size() - 1);
     if (explore > 0) {
-      ParallelFor(static_cast<int>(fits.size()), threads, [&](int i) {
-        fits[i] = fitter.ExploreAlongside(starts[i + 1], delay, explore,
-                                          std::max(1, threads / static_cast<int>(fits.size())));
+      ParallelFor(static_cast<int>(fits.size()), threads_, [&](int i) {
+        fits[i] = fitter_->ExploreAlongside(starts[i + 1], delay_, explore,
+                                          std::max(1, threads_ / static_cast<int>(fits.size())));
       });
       std::vector<int> order;
       for (int i = 0; i < static_cast<int>(fits.size()); ++i) {
         if (fits[i].cancelled) {
-          best = fits[i];
+          best_ = fits[i];
           return;
         }
         if (std::isfinite(fits[i].loglik)) order.push_back(i);
@@ -788,46 +790,38 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
       for (auto& f : fits) f.loglik = -HUGE_VAL;  // stopped early: not an optimum
       // The best ones, fitted on (side by side) within twice the evaluations the plain start's
       // fit took.
-      const int budget = std::max(kMinExtraEvaluations, 2 * plain_evaluations);
+      const int budget = std::max(kMinExtraEvaluations, 2 * plain_evaluations_);
       const int lanes = static_cast<int>(order.size());
-      ParallelFor(lanes, threads, [&](int c) {
+      ParallelFor(lanes, threads_, [&](int c) {
         const int i = order[c];
-        fits[i] = fitter.FitAlongside(fits[i].z, delay, "fitting", std::max(1, threads / lanes), budget);
+        fits[i] = fitter_->FitAlongside(fits[i].z, delay_, "fitting", std::max(1, threads_ / lanes), budget);
       });
     } else {
-      for (std::size_t i = 0; i < fits.size(); ++i) fits[i] = fitter.Fit(starts[i + 1], delay, "fitting");
+      for (std::size_t i = 0; i < fits.size(); ++i) fits[i] = fitter_->Fit(starts[i + 1], delay_, "fitting");
     }
     bool improved = false;
     for (FitResult& r : fits) {
       if (r.cancelled) {
-        best = r;
+        best_ = r;
         return;
       }
-      reached.push_back({r.loglik, r.z, r.converged, delay});
-      if (r.loglik > best.loglik) best = r, improved = true;
+      reached_.push_back({r.loglik, r.z, r.converged, delay_});
+      if (r.loglik > best_.loglik) best_ = r, improved = true;
     }
-    if (improved) settle();
-  };
-  if (options.multistart > 0 && !best.cancelled) extra_starts(options.multistart, 0);
+    if (improved) Settle();
+  }
 
   // 3. The profile: θ re-optimised at every other delay candidate, to convergence, walking
   //    outward from the estimate so that each fit starts from the optimum of its nearest fitted
   //    neighbour. A better delay found on the way becomes the estimate.
-  struct ProfileValue {
-    std::vector<int> delay;
-    double loglik;
-    bool converged;
-    bool operator<(const ProfileValue& o) const { return delay < o.delay; }
-  };
-  std::vector<ProfileValue> profile_points;
-  if (scanning && !best.cancelled) {
-    const std::vector<int> delay_best = delay;
+  void DelayProfile() {
+    const std::vector<int> delay_best = delay_;
     auto distance = [](const std::vector<int>& a, const std::vector<int>& b) {
       int d = 0;
       for (std::size_t i = 0; i < a.size(); ++i) d += std::abs(a[i] - b[i]);
       return d;
     };
-    std::vector<std::vector<int>> grid = lik.DelayGrid();
+    std::vector<std::vector<int>> grid = lik_.DelayGrid();
     std::stable_sort(grid.begin(), grid.end(), [&](const auto& a, const auto& b) {
       return distance(a, delay_best) < distance(b, delay_best);
     });
@@ -837,14 +831,14 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
       std::vector<double> z;
       Eigen::MatrixXd model;
     };
-    std::vector<Fitted> fitted = {{delay_best, best.z, best.model}};
-    profile_points.push_back({delay_best, best.loglik, best.converged});
+    std::vector<Fitted> fitted = {{delay_best, best_.z, best_.model}};
+    profile_points_.push_back({delay_best, best_.loglik, best_.converged});
     // The plain start's fit at the runner-up delay is that delay's profile point.
-    const bool have_runner_up = std::isfinite(runner_up.loglik) && second_delay != delay_best &&
-                                options.full_delay_profile;
+    const bool have_runner_up = std::isfinite(runner_up_.loglik) && second_delay_ != delay_best &&
+                                options_.full_delay_profile;
     if (have_runner_up) {
-      fitted.push_back({second_delay, runner_up.z, runner_up.model});
-      profile_points.push_back({second_delay, runner_up.loglik, runner_up.converged});
+      fitted.push_back({second_delay_, runner_up_.z, runner_up_.model});
+      profile_points_.push_back({second_delay_, runner_up_.loglik, runner_up_.converged});
     }
     auto model_of = [](const Fitted* f) { return f->model.size() > 0 ? &f->model : nullptr; };
     auto nearest_of = [&](const std::vector<int>& candidate, const std::vector<Fitted>& a,
@@ -857,28 +851,28 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
       return start;
     };
     auto record = [&](const std::vector<int>& candidate, const FitResult& r) {
-      if (r.cancelled || fitter.Cancelled()) {
-        best.cancelled = true;
-        best.message = "cancelled";
+      if (r.cancelled || fitter_->Cancelled()) {
+        best_.cancelled = true;
+        best_.message = "cancelled";
         return;
       }
       if (std::isfinite(r.loglik)) fitted.push_back({candidate, r.z, r.model});
-      profile_points.push_back({candidate, r.loglik, r.converged});
-      if (r.loglik > best.loglik) {
-        best = r;
-        delay = candidate;
+      profile_points_.push_back({candidate, r.loglik, r.converged});
+      if (r.loglik > best_.loglik) {
+        best_ = r;
+        delay_ = candidate;
       }
     };
     int scanned_outputs = 0;
-    for (const auto& d : spec.output_delay) scanned_outputs += d.IsScan() ? 1 : 0;
+    for (const auto& d : spec_.output_delay) scanned_outputs += d.IsScan() ? 1 : 0;
     std::size_t next = 0;
-    if (options.full_delay_profile && scanned_outputs == 1) {
+    if (options_.full_delay_profile && scanned_outputs == 1) {
       // One scanned delay: two walkers, down and up from the estimate, side by side where there
       // are threads. Each fit starts from the nearest of the fits made before the walk and the
       // walker's own (its predecessor), so the results do not depend on the number of threads.
       std::vector<std::vector<int>> sides[2];
       for (const auto& candidate : grid) {
-        if (candidate == delay_best || (have_runner_up && candidate == second_delay)) continue;
+        if (candidate == delay_best || (have_runner_up && candidate == second_delay_)) continue;
         sides[candidate < delay_best ? 0 : 1].push_back(candidate);
       }
       std::vector<FitResult> results[2];
@@ -886,237 +880,295 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& shared_likelihood,
       auto walk = [&](int side, int lane_threads) {
         std::vector<Fitted> own;
         for (const auto& candidate : sides[side]) {
-          if (fitter.Cancelled()) break;
+          if (fitter_->Cancelled()) break;
           const Fitted* start = nearest_of(candidate, fitted, own);
-          FitResult r = fitter.FitAlongside(start->z, candidate, "delay profile", lane_threads, 0,
+          FitResult r = fitter_->FitAlongside(start->z, candidate, "delay profile", lane_threads, 0,
                                             model_of(start));
           if (std::isfinite(r.loglik)) own.push_back({candidate, r.z, r.model});
           results[side].push_back(std::move(r));
         }
       };
-      ParallelFor(2, lanes == 1 ? 1 : threads,
-                  [&](int side) { walk(side, std::max(1, threads / lanes)); });
+      ParallelFor(2, lanes == 1 ? 1 : threads_,
+                  [&](int side) { walk(side, std::max(1, threads_ / lanes)); });
       for (int side = 0; side < 2; ++side)
-        for (std::size_t c = 0; c < results[side].size() && !best.cancelled; ++c)
+        for (std::size_t c = 0; c < results[side].size() && !best_.cancelled; ++c)
           record(sides[side][c], results[side][c]);
-      if (fitter.Cancelled()) best.cancelled = true;
+      if (fitter_->Cancelled()) best_.cancelled = true;
       next = grid.size();  // done
     }
     // Otherwise the candidates in waves of equal distance from the estimate; each fit starts
     // from the nearest fit of an earlier wave, so the fits of a wave are independent and run in
     // parallel (each on its share of the threads). The results do not depend on the number of
     // threads.
-    while (next < grid.size() && !best.cancelled) {
+    while (next < grid.size() && !best_.cancelled) {
       std::size_t end = next;
       while (end < grid.size() && distance(grid[end], delay_best) == distance(grid[next], delay_best))
         ++end;
       std::vector<std::vector<int>> wave;
       for (std::size_t c = next; c < end; ++c)
-        if (grid[c] != delay_best && !(have_runner_up && grid[c] == second_delay))
+        if (grid[c] != delay_best && !(have_runner_up && grid[c] == second_delay_))
           wave.push_back(grid[c]);
       next = end;
       if (wave.empty()) continue;
       const int n = static_cast<int>(wave.size());
-      if (!options.full_delay_profile) {
+      if (!options_.full_delay_profile) {
         for (const auto& candidate : wave)
-          profile_points.push_back({candidate, fitter.Objective(best.z, candidate), true});
+          profile_points_.push_back({candidate, fitter_->Objective(best_.z, candidate), true});
         continue;
       }
       std::vector<const Fitted*> starts(n);
       for (int w = 0; w < n; ++w) starts[w] = nearest_of(wave[w], fitted, {});
       std::vector<FitResult> results(n);
-      ParallelFor(n, threads, [&](int w) {
-        results[w] = fitter.FitAlongside(starts[w]->z, wave[w], "delay profile",
-                                         std::max(1, threads / n), 0, model_of(starts[w]));
+      ParallelFor(n, threads_, [&](int w) {
+        results[w] = fitter_->FitAlongside(starts[w]->z, wave[w], "delay profile",
+                                         std::max(1, threads_ / n), 0, model_of(starts[w]));
       });
-      for (int w = 0; w < n && !best.cancelled; ++w) record(wave[w], results[w]);
+      for (int w = 0; w < n && !best_.cancelled; ++w) record(wave[w], results[w]);
     }
   }
+
   // 4. A first delay far from the right one can lead the plain start's fit to a poor optimum
   //    (a saddle, a parameter pinned at a bound) from which the warm-started fits do not recover:
   //    fit the plain start again at the chosen delay.
-  if (scanning && !best.cancelled && !fitter.Cancelled() && delay != delay_of_start) {
-    FitResult r = fitter.Fit(z_start, delay, "fitting");
-    delay_of_start = delay;
-    if (r.cancelled) best.cancelled = true;
-    else if (r.loglik > best.loglik + kSameOptimum) best = r;
+  void RefitPlainStart() {
+    if (scanning_ && !best_.cancelled && !fitter_->Cancelled() && delay_ != delay_of_start_) {
+      FitResult r = fitter_->Fit(z_start_, delay_, "fitting");
+      delay_of_start_ = delay_;
+      if (r.cancelled) best_.cancelled = true;
+      else if (r.loglik > best_.loglik + kSameOptimum) best_ = r;
+    }
   }
+
   // 5. Without multistart, where the estimate has a parameter on a bound: starts_on_bound extra
   //    starts at the chosen delay (checked only now, so that a bound reached at a misspecified
   //    first delay does not cost them).
-  if (options.multistart == 0 && options.starts_on_bound > 0 && !best.cancelled &&
-      !fitter.Cancelled() && std::isfinite(best.loglik) && OnABound(fitter, best.z)) {
-    reached = {{best.loglik, best.z, best.converged, delay}};
-    s.starts_for_bound = true;
-    extra_starts(options.starts_on_bound, kExploreIterations);
+  void StartsOnBound() {
+    if (options_.multistart == 0 && options_.starts_on_bound > 0 && !best_.cancelled &&
+        !fitter_->Cancelled() && std::isfinite(best_.loglik) && OnABound(*fitter_, best_.z)) {
+      reached_ = {{best_.loglik, best_.z, best_.converged, delay_}};
+      s_.starts_for_bound = true;
+      ExtraStarts(options_.starts_on_bound, kExploreIterations);
+    }
   }
-  s.starts = static_cast<int>(reached.size());
-  if (best.cancelled || fitter.Cancelled()) return cancelled_summary();
-  if (!std::isfinite(best.loglik))
-    return NumericalError("the log-likelihood could not be evaluated anywhere the optimiser went");
 
   // 6. Uncertainty at the estimate. Where the Hessian shows negative curvature the fit stopped at
   //    a saddle: step along that direction and fit again (at most kMaxSaddleEscapes times).
-  fitter.Report("standard errors", best.z, best.loglik, delay);
-  Uncertainty u = ComputeUncertainty(fitter, best.z, best.loglik, delay, spec, threads);
-  // Where the exact Hessian promises more than the curvature model the fit stopped on did (a flat
-  // valley, where BHHH's information and its corrections overstate the curvature along it), fit
-  // again starting from the exact Hessian.
-  for (int again = 0; again < kMaxSaddleEscapes && !fitter.Cancelled(); ++again) {
-    std::optional<FitResult> higher;
+  Uncertainty Uncertainties() {
+    fitter_->Report("standard errors", best_.z, best_.loglik, delay_);
+    Uncertainty u = ComputeUncertainty(*fitter_, best_.z, best_.loglik, delay_, spec_, threads_);
+    // Where the exact Hessian promises more than the curvature model the fit stopped on did (a flat
+    // valley, where BHHH's information and its corrections overstate the curvature along it), fit
+    // again starting from the exact Hessian.
+    for (int again = 0; again < kMaxSaddleEscapes && !fitter_->Cancelled(); ++again) {
+      std::optional<FitResult> higher;
+      if (u.uphill) {
+        higher = EscapeSaddle(*fitter_, best_, *u.uphill, delay_);
+      } else if (u.newton_decrement > kNegligibleImprovement && (options_.algorithm == Algorithm::kAuto ||
+                                                                    options_.algorithm == Algorithm::kTrustRegion)) {
+        FitResult r = fitter_->Fit(best_.z, delay_, "fitting", kMaxBhhhIterations, &u.hessian_scaled);
+        if (r.cancelled || r.loglik > best_.loglik) higher = std::move(r);
+      }
+      if (!higher || higher->cancelled) break;
+      best_ = std::move(*higher);
+      fitter_->Report("standard errors", best_.z, best_.loglik, delay_);
+      u = ComputeUncertainty(*fitter_, best_.z, best_.loglik, delay_, spec_, threads_);
+    }
+    // The profile point of the estimate's delay: the final fit's value.
+    if (scanning_) {
+      std::erase_if(profile_points_, [&](const ProfileValue& p) { return p.delay == delay_; });
+      profile_points_.push_back({delay_, best_.loglik, best_.converged});
+      std::sort(profile_points_.begin(), profile_points_.end());
+    }
+    return u;
+  }
+
+  // 7. The summary at the estimate.
+  Result<EstimateSummary> Summarise(Uncertainty u) {
+    s_.converged = best_.converged;
+    s_.message = best_.message;
+    s_.theta = fitter_->Theta(best_.z);
+    s_.optima = DistinctOptima(*fitter_, reached_, best_, delay_);
+    s_.starts_at_best = s_.optima.empty() ? 1 : s_.optima.front().starts;
+    long n_obs = 0;
+    s_.loglik = fitter_->LogLik(best_.z, delay_, &n_obs);
+    s_.n_obs = n_obs;
+    if (fitter_->HasPriors()) s_.log_posterior = best_.loglik;
+    int scanned = 0;
+    for (const auto& d : spec_.output_delay) scanned += d.IsScan() ? 1 : 0;
+    s_.n_free = fitter_->k() + scanned;
+    s_.aic = -2 * s_.loglik + 2 * s_.n_free;
+    s_.bic = -2 * s_.loglik + s_.n_free * std::log(static_cast<double>(s_.n_obs));
+    if (!std::isfinite(s_.loglik))
+      return NumericalError("the log-likelihood cannot be evaluated at the estimate");
+    for (std::size_t i = 0; i < s_.theta.size(); ++i)
+      if (!std::isfinite(s_.theta[i]))
+        return NumericalError(fmt::format("the estimate of {} is not a finite number ({}): the fit "
+                                          "ran off; give the parameter bounds or another start",
+                                          spec_.parameters[i].name, s_.theta[i]));
     if (u.uphill) {
-      higher = EscapeSaddle(fitter, best, *u.uphill, delay);
-    } else if (u.newton_decrement > kNegligibleImprovement && (options.algorithm == Algorithm::kAuto ||
-                                                                  options.algorithm == Algorithm::kTrustRegion)) {
-      FitResult r = fitter.Fit(best.z, delay, "fitting", kMaxBhhhIterations, &u.hessian_scaled);
-      if (r.cancelled || r.loglik > best.loglik) higher = std::move(r);
+      std::string along;
+      for (int i = 0; i < fitter_->k(); ++i)
+        if (std::abs((*u.uphill)(i)) > 0.2)
+          along += (along.empty() ? "" : ", ") + spec_.parameters[fitter_->free()[i]].name;
+      s_.converged = false;
+      s_.message = "the fit ended at a saddle point of the log-likelihood";
+      u.warnings.insert(u.warnings.begin(),
+                        fmt::format("the estimate is a saddle point, not a maximum: the log-likelihood "
+                                    "curves upward along a combination of {}. Try other start values "
+                                    "or --multistart 8", along));
     }
-    if (!higher || higher->cancelled) break;
-    best = std::move(*higher);
-    fitter.Report("standard errors", best.z, best.loglik, delay);
-    u = ComputeUncertainty(fitter, best.z, best.loglik, delay, spec, threads);
-  }
-  if (fitter.Cancelled()) return cancelled_summary();
-  // The profile point of the estimate's delay: the final fit's value.
-  if (scanning) {
-    std::erase_if(profile_points, [&](const ProfileValue& p) { return p.delay == delay; });
-    profile_points.push_back({delay, best.loglik, best.converged});
-    std::sort(profile_points.begin(), profile_points.end());
+    s_.warnings = u.warnings;
+    const double dof = static_cast<double>(std::max<long>(1, s_.n_obs - s_.n_free));
+    const boost::math::students_t t_dist(dof);
+    std::vector<int> free_pos(spec_.parameters.size(), -1);
+    for (int i = 0; i < fitter_->k(); ++i) free_pos[fitter_->free()[i]] = i;
+    for (std::size_t i = 0; i < spec_.parameters.size(); ++i) {
+      const auto& p = spec_.parameters[i];
+      ParameterEstimate e;
+      e.name = p.name;
+      e.estimate = s_.theta[i];
+      e.lower = p.lower;
+      e.upper = p.upper;
+      e.fixed = p.fixed;
+      e.unit = p.unit;
+      const int fi = free_pos[i];
+      if (fi >= 0) {
+        e.at_bound = u.at_bound[fi];
+        if (e.at_bound)
+          s_.warnings.push_back(fmt::format("{} is at its {} bound ({}): its standard error is not "
+                                           "reported", p.name,
+                                           std::abs(e.estimate - p.lower.value_or(NAN)) <
+                                                   std::abs(e.estimate - p.upper.value_or(NAN))
+                                               ? "lower" : "upper",
+                                           e.estimate));
+        if (u.std_error[fi]) {
+          e.std_error = *u.std_error[fi];
+          e.t_value = e.estimate / *e.std_error;
+          e.p_value = 2 * boost::math::cdf(boost::math::complement(t_dist, std::abs(*e.t_value)));
+        }
+      }
+      s_.parameters.push_back(std::move(e));
+    }
+    const int n_se = static_cast<int>(u.with_se.size());
+    s_.covariance = u.covariance;
+    s_.correlation = Eigen::MatrixXd::Identity(n_se, n_se);
+    for (int a = 0; a < n_se; ++a) {
+      s_.correlation_names.push_back(spec_.parameters[fitter_->free()[u.with_se[a]]].name);
+      for (int b = 0; b < n_se; ++b)
+        if (a != b)
+          s_.correlation(a, b) =
+              u.covariance(a, b) / std::sqrt(u.covariance(a, a) * u.covariance(b, b));
+    }
+    for (int a = 0; a < n_se; ++a)
+      for (int b = a + 1; b < n_se; ++b)
+        if (std::abs(s_.correlation(a, b)) > kHighCorrelation)
+          s_.warnings.push_back(fmt::format("{} and {} are correlated (r = {:.3f}): the data barely "
+                                           "separate them", s_.correlation_names[a],
+                                           s_.correlation_names[b], s_.correlation(a, b)));
+
+    for (std::size_t o = 0; o < spec_.outputs.size(); ++o) {
+      DelayEstimate d;
+      d.output = spec_.outputs[o];
+      d.estimate = delay_[o];
+      d.scanned = spec_.output_delay[o].IsScan();
+      if (d.scanned) {
+        // The profile along this output: other outputs at their estimates.
+        for (const auto& point : profile_points_) {
+          const std::vector<int>& candidate = point.delay;
+          bool others_at_estimate = true;
+          for (std::size_t q = 0; q < delay_.size(); ++q)
+            if (q != o && candidate[q] != delay_[q]) others_at_estimate = false;
+          if (!others_at_estimate) continue;
+          DelayProfilePoint pt;
+          pt.delay = candidate[o];
+          pt.converged = point.converged || candidate == delay_;
+          if (std::isfinite(point.loglik)) pt.loglik = candidate == delay_ ? s_.loglik : point.loglik;
+          d.profile.push_back(pt);
+        }
+      }
+      s_.delays.push_back(std::move(d));
+    }
+    if (!s_.converged)
+      s_.warnings.insert(s_.warnings.begin(), "the optimiser did not converge: " + s_.message);
+    for (std::size_t o = 0; o < s_.delays.size(); ++o) {
+      const model::DelaySpec& range = spec_.output_delay[o];
+      if (range.IsScan() && (delay_[o] == range.min || delay_[o] == range.max) && range.min > 0)
+        s_.warnings.push_back(fmt::format("the delay of {} ({} samples) is at the end of its scanned "
+                                         "range [{}, {}]: widen the range", spec_.outputs[o],
+                                         delay_[o], range.min, range.max));
+      else if (range.IsScan() && delay_[o] == range.max)
+        s_.warnings.push_back(fmt::format("the delay of {} ({} samples) is at the top of its scanned "
+                                         "range: widen the range", spec_.outputs[o], delay_[o]));
+    }
+    if (options_.profile_intervals) {
+      fitter_->Report("profile intervals", best_.z, best_.loglik, delay_);
+      auto intervals = ProfileIntervals(lik_, s_, {}, options_.profile_level, options_);
+      if (fitter_->Cancelled()) return CancelledSummary();
+      if (!intervals) return intervals.error();
+      std::size_t w = 0;
+      for (auto& e : s_.parameters) {
+        if (e.fixed) continue;
+        e.profile = std::move((*intervals)[w++]);
+        AddProfileWarnings(e, &s_.warnings);
+      }
+    } else {
+      RecommendProfiles(s_.parameters, &s_.warnings);
+    }
+    Finish();
+    return s_;
   }
 
-  // Summary at the estimate.
-  s.converged = best.converged;
-  s.message = best.message;
-  s.theta = fitter.Theta(best.z);
-  s.optima = DistinctOptima(fitter, reached, best, delay);
-  s.starts_at_best = s.optima.empty() ? 1 : s.optima.front().starts;
-  long n_obs = 0;
-  s.loglik = fitter.LogLik(best.z, delay, &n_obs);
-  s.n_obs = n_obs;
-  if (fitter.HasPriors()) s.log_posterior = best.loglik;
-  int scanned = 0;
-  for (const auto& d : spec.output_delay) scanned += d.IsScan() ? 1 : 0;
-  s.n_free = fitter.k() + scanned;
-  s.aic = -2 * s.loglik + 2 * s.n_free;
-  s.bic = -2 * s.loglik + s.n_free * std::log(static_cast<double>(s.n_obs));
-  if (!std::isfinite(s.loglik))
-    return NumericalError("the log-likelihood cannot be evaluated at the estimate");
-  for (std::size_t i = 0; i < s.theta.size(); ++i)
-    if (!std::isfinite(s.theta[i]))
-      return NumericalError(fmt::format("the estimate of {} is not a finite number ({}): the fit "
-                                        "ran off; give the parameter bounds or another start",
-                                        spec.parameters[i].name, s.theta[i]));
-  if (u.uphill) {
-    std::string along;
-    for (int i = 0; i < fitter.k(); ++i)
-      if (std::abs((*u.uphill)(i)) > 0.2)
-        along += (along.empty() ? "" : ", ") + spec.parameters[fitter.free()[i]].name;
-    s.converged = false;
-    s.message = "the fit ended at a saddle point of the log-likelihood";
-    u.warnings.insert(u.warnings.begin(),
-                      fmt::format("the estimate is a saddle point, not a maximum: the log-likelihood "
-                                  "curves upward along a combination of {}. Try other start values "
-                                  "or --multistart 8", along));
+  // The counts and times of the whole run.
+  void Finish() {
+    s_.evaluations = fitter_ ? fitter_->evaluations() : 0;
+    s_.iterations = fitter_ ? fitter_->iterations() : 0;
+    s_.elapsed_s = std::chrono::duration<double>(Clock::now() - start_time_).count();
+    const filter::OdeCounts ode = lik_.ode_counts();
+    s_.ode.intervals = ode.intervals - ode_at_start_.intervals;
+    s_.ode.stiff_intervals = ode.stiff_intervals - ode_at_start_.stiff_intervals;
+    s_.ode.steps = ode.steps - ode_at_start_.steps;
+    s_.ode.rejected = ode.rejected - ode_at_start_.rejected;
+    s_.ode.rhs = ode.rhs - ode_at_start_.rhs;
   }
-  s.warnings = u.warnings;
-  const double dof = static_cast<double>(std::max<long>(1, s.n_obs - s.n_free));
-  const boost::math::students_t t_dist(dof);
-  std::vector<int> free_pos(spec.parameters.size(), -1);
-  for (int i = 0; i < fitter.k(); ++i) free_pos[fitter.free()[i]] = i;
-  for (std::size_t i = 0; i < spec.parameters.size(); ++i) {
-    const auto& p = spec.parameters[i];
-    ParameterEstimate e;
-    e.name = p.name;
-    e.estimate = s.theta[i];
-    e.lower = p.lower;
-    e.upper = p.upper;
-    e.fixed = p.fixed;
-    e.unit = p.unit;
-    const int fi = free_pos[i];
-    if (fi >= 0) {
-      e.at_bound = u.at_bound[fi];
-      if (e.at_bound)
-        s.warnings.push_back(fmt::format("{} is at its {} bound ({}): its standard error is not "
-                                         "reported", p.name,
-                                         std::abs(e.estimate - p.lower.value_or(NAN)) <
-                                                 std::abs(e.estimate - p.upper.value_or(NAN))
-                                             ? "lower" : "upper",
-                                         e.estimate));
-      if (u.std_error[fi]) {
-        e.std_error = *u.std_error[fi];
-        e.t_value = e.estimate / *e.std_error;
-        e.p_value = 2 * boost::math::cdf(boost::math::complement(t_dist, std::abs(*e.t_value)));
-      }
-    }
-    s.parameters.push_back(std::move(e));
-  }
-  const int n_se = static_cast<int>(u.with_se.size());
-  s.covariance = u.covariance;
-  s.correlation = Eigen::MatrixXd::Identity(n_se, n_se);
-  for (int a = 0; a < n_se; ++a) {
-    s.correlation_names.push_back(spec.parameters[fitter.free()[u.with_se[a]]].name);
-    for (int b = 0; b < n_se; ++b)
-      if (a != b)
-        s.correlation(a, b) =
-            u.covariance(a, b) / std::sqrt(u.covariance(a, a) * u.covariance(b, b));
-  }
-  for (int a = 0; a < n_se; ++a)
-    for (int b = a + 1; b < n_se; ++b)
-      if (std::abs(s.correlation(a, b)) > kHighCorrelation)
-        s.warnings.push_back(fmt::format("{} and {} are correlated (r = {:.3f}): the data barely "
-                                         "separate them", s.correlation_names[a],
-                                         s.correlation_names[b], s.correlation(a, b)));
 
-  for (std::size_t o = 0; o < spec.outputs.size(); ++o) {
-    DelayEstimate d;
-    d.output = spec.outputs[o];
-    d.estimate = delay[o];
-    d.scanned = spec.output_delay[o].IsScan();
-    if (d.scanned) {
-      // The profile along this output: other outputs at their estimates.
-      for (const auto& point : profile_points) {
-        const std::vector<int>& candidate = point.delay;
-        bool others_at_estimate = true;
-        for (std::size_t q = 0; q < delay.size(); ++q)
-          if (q != o && candidate[q] != delay[q]) others_at_estimate = false;
-        if (!others_at_estimate) continue;
-        DelayProfilePoint pt;
-        pt.delay = candidate[o];
-        pt.converged = point.converged || candidate == delay;
-        if (std::isfinite(point.loglik)) pt.loglik = candidate == delay ? s.loglik : point.loglik;
-        d.profile.push_back(pt);
-      }
-    }
-    s.delays.push_back(std::move(d));
+  EstimateSummary CancelledSummary() {
+    s_.cancelled = true;
+    s_.converged = false;
+    s_.message = "cancelled";
+    Finish();
+    return s_;
   }
-  if (!s.converged)
-    s.warnings.insert(s.warnings.begin(), "the optimiser did not converge: " + s.message);
-  for (std::size_t o = 0; o < s.delays.size(); ++o) {
-    const model::DelaySpec& range = spec.output_delay[o];
-    if (range.IsScan() && (delay[o] == range.min || delay[o] == range.max) && range.min > 0)
-      s.warnings.push_back(fmt::format("the delay of {} ({} samples) is at the end of its scanned "
-                                       "range [{}, {}]: widen the range", spec.outputs[o],
-                                       delay[o], range.min, range.max));
-    else if (range.IsScan() && delay[o] == range.max)
-      s.warnings.push_back(fmt::format("the delay of {} ({} samples) is at the top of its scanned "
-                                       "range: widen the range", spec.outputs[o], delay[o]));
-  }
-  if (options.profile_intervals) {
-    fitter.Report("profile intervals", best.z, best.loglik, delay);
-    auto intervals = ProfileIntervals(lik, s, {}, options.profile_level, options);
-    if (fitter.Cancelled()) return cancelled_summary();
-    if (!intervals) return intervals.error();
-    std::size_t w = 0;
-    for (auto& e : s.parameters) {
-      if (e.fixed) continue;
-      e.profile = std::move((*intervals)[w++]);
-      AddProfileWarnings(e, &s.warnings);
-    }
-  } else {
-    RecommendProfiles(s.parameters, &s.warnings);
-  }
-  finish();
-  return s;
+
+  filter::Likelihood lik_;
+  const EstimateOptions& options_;
+  const model::ModelSpec& spec_;
+  const Clock::time_point start_time_;
+  const int threads_;
+  std::optional<Fitter> fitter_;  // from Prepare on
+  filter::OdeCounts ode_at_start_;
+  bool scanning_ = false;          // an output's delay is scanned
+  EstimateSummary s_;
+  std::vector<int> delay_;         // the delay of the best fit
+  std::vector<int> second_delay_;  // the runner-up at the start values (empty: none)
+  std::vector<int> delay_of_start_;  // the delay the plain start was last fitted at
+  std::vector<double> z_start_;
+  int plain_evaluations_ = 0;      // what a fit from a start costs here
+  FitResult best_;
+  FitResult runner_up_;            // the plain start's fit at the other delay, if any
+  std::vector<Reached> reached_;   // the fits from the starts (the plain start's first)
+  std::vector<ProfileValue> profile_points_;
+};
+
+}  // namespace
+
+// ---- 5. Estimate -----------------------------------------------------------------------------
+
+Result<EstimateSummary> Estimate(const filter::Likelihood& likelihood,
+                                 const EstimateOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) return InputError("invalid estimation options: " + why);
+  EstimateRun run(likelihood, options);
+  return run.Run();
 }
 
 // ---- 6. likelihood-ratio test ----------------------------------------------------------------
