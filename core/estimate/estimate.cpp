@@ -1,7 +1,8 @@
-// Sections: 1. options  2. the fitter (scaled free parameters, objective, parallel gradient,
-//           NLopt)  3. start points  4. Hessian and uncertainties  5. Estimate (with delays)
-//           6. likelihood-ratio test
-// The report and JSON forms of the summary are in summary_format.cpp.
+// Sections: 1. options  3. start points  4. Hessian and uncertainties  5. Estimate: the run's
+//           stages (EstimateRun) and the entry point  6. likelihood-ratio test
+// The fitter (section 2: the free parameters on their working scale, the objective, its parallel
+// gradient, the optimisers) is in fitter.h and fitter.cpp; the report and JSON forms of the
+// summary are in summary_format.cpp.
 #include "core/estimate/estimate.h"
 
 #include <algorithm>
@@ -593,6 +594,8 @@ void RecommendProfiles(const std::vector<ParameterEstimate>& parameters,
                                     "(--profile-intervals)", which));
 }
 
+// ---- 5. Estimate -----------------------------------------------------------------------------
+
 // A fit from one start: its optimum (or where it stopped), at `delay`.
 struct Reached {
   double loglik;
@@ -1160,8 +1163,6 @@ class EstimateRun {
 };
 
 }  // namespace
-
-// ---- 5. Estimate -----------------------------------------------------------------------------
 
 Result<EstimateSummary> Estimate(const filter::Likelihood& likelihood,
                                  const EstimateOptions& options) {
