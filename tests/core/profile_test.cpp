@@ -331,7 +331,9 @@ TEST(Estimate, ListsTheDistinctOptimaBestFirstEachWithItsStartsAndItsLogLikeliho
     const Optimum& opt = s->optima[o];
     starts += opt.starts;
     // Distinct: each lies more than 1e-3 below the one before.
-    if (o > 0) EXPECT_LT(opt.loglik, s->optima[o - 1].loglik - 1e-3);
+    if (o > 0) {
+      EXPECT_LT(opt.loglik, s->optima[o - 1].loglik - 1e-3);
+    }
     // Its parameters give its log-likelihood, evaluated afresh.
     const std::vector<int> delay = {s->delays[0].estimate};
     const auto l = lik->Evaluate(opt.theta, delay);
