@@ -298,12 +298,7 @@ FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
       r.message = "cancelled";
       return r;
     }
-    if (options_.max_evaluations > 0 &&
-        evaluations() - evaluations_before > options_.max_evaluations) {
-      r.message = fmt::format("stopped after {} evaluations without converging (raise the "
-                              "evaluation limit)", evaluations() - evaluations_before);
-      return r;
-    }
+    if (OverEvaluationLimit(evaluations_before, &r.message)) return r;
     // BHHH's information is needed where the curvature model starts afresh; the scores at z
     // may be known already from the line search's full step.
     const bool need_info = !bfgs_updates || reset || B.size() == 0;
@@ -339,33 +334,17 @@ FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
       fresh = true;
       // A better first model where one is known (the Hessian from the standard errors): its
       // finite entries replace BHHH's.
-      if (first && first_model)
-        for (int i = 0; i < k(); ++i)
-          for (int j = 0; j < k(); ++j)
-            if (std::isfinite((*first_model)(i, j))) B(i, j) = (*first_model)(i, j);
+      if (first) Overlay(first_model, &B);
     } else if (!z_last.empty()) {
       Eigen::VectorXd step(k());
       for (int i = 0; i < k(); ++i) step(i) = z[i] - z_last[i];
-      const Eigen::VectorXd y = g_last - g;  // change of the gradient of -objective
-      const double sy = step.dot(y);
-      const Eigen::VectorXd Bs = B * step;
-      const double sBs = step.dot(Bs);
-      if (sy > 1e-10 * step.norm() * y.norm() && sBs > 0)
-        B += y * y.transpose() / sy - Bs * Bs.transpose() / sBs;
+      BfgsUpdate(step, g_last - g, &B);
     }
     g_last = g;
     z_last = z;
     std::vector<int> F;
     std::vector<std::pair<int, double>> onto_bound;  // held parameters and their bound
-    for (int i = 0; i < k(); ++i) {
-      // On a bound, or within kNearBound of it (scaled units), with the gradient pointing out:
-      // held, and put on the bound by the step. Without the band a parameter a hair above its
-      // bound stays free, and every step clamps it after a dozen halvings.
-      const bool at_lower = z[i] <= lower_[i] + kNearBound && g(i) <= 0;
-      const bool at_upper = z[i] >= upper_[i] - kNearBound && g(i) >= 0;
-      if (!at_lower && !at_upper) F.push_back(i);
-      else onto_bound.emplace_back(i, at_lower ? lower_[i] : upper_[i]);
-    }
+    SplitAtBounds(z, g, &F, &onto_bound);
     if (F.empty()) {
       r.converged = true;
       r.message = "every free parameter is held at a bound";
@@ -534,6 +513,43 @@ bool Fitter::StartInBox(std::vector<double>* z, const std::vector<int>& delay, F
   return true;
 }
 
+void Fitter::SplitAtBounds(const std::vector<double>& z, const Eigen::VectorXd& g,
+                           std::vector<int>* free_set,
+                           std::vector<std::pair<int, double>>* held) const {
+  for (int i = 0; i < k(); ++i) {
+    // On a bound, or within kNearBound of it (scaled units), with the gradient pointing out:
+    // held, and put on the bound by the step. Without the band a parameter a hair above its
+    // bound stays free, and every step clamps it after a dozen halvings.
+    const bool at_lower = z[i] <= lower_[i] + kNearBound && g(i) <= 0;
+    const bool at_upper = z[i] >= upper_[i] - kNearBound && g(i) >= 0;
+    if (!at_lower && !at_upper) free_set->push_back(i);
+    else held->emplace_back(i, at_lower ? lower_[i] : upper_[i]);
+  }
+}
+
+void Fitter::Overlay(const Eigen::MatrixXd* model, Eigen::MatrixXd* B) {
+  if (!model) return;
+  for (Eigen::Index i = 0; i < B->rows(); ++i)
+    for (Eigen::Index j = 0; j < B->cols(); ++j)
+      if (std::isfinite((*model)(i, j))) (*B)(i, j) = (*model)(i, j);
+}
+
+void Fitter::BfgsUpdate(const Eigen::VectorXd& s, const Eigen::VectorXd& y, Eigen::MatrixXd* B) {
+  const double sy = s.dot(y);
+  const Eigen::VectorXd Bs = *B * s;
+  const double sBs = s.dot(Bs);
+  if (sy > 1e-10 * s.norm() * y.norm() && sBs > 0)
+    *B += y * y.transpose() / sy - Bs * Bs.transpose() / sBs;
+}
+
+bool Fitter::OverEvaluationLimit(int evaluations_before, std::string* message) const {
+  const int used = evaluations() - evaluations_before;
+  if (options_.max_evaluations <= 0 || used <= options_.max_evaluations) return false;
+  *message = fmt::format("stopped after {} evaluations without converging (raise the evaluation "
+                         "limit)", used);
+  return true;
+}
+
 FitResult Fitter::FitTrustRegion(std::vector<double> z, const std::vector<int>& delay,
                                  const std::string& stage, int max_iterations,
                                  const Eigen::MatrixXd* first_model, bool exact_first) {
@@ -549,10 +565,7 @@ FitResult Fitter::FitTrustRegion(std::vector<double> z, const std::vector<int>& 
                             : "the log-likelihood or its score cannot be evaluated at the start";
     return r;
   }
-  if (first_model)
-    for (int i = 0; i < k(); ++i)
-      for (int j = 0; j < k(); ++j)
-        if (std::isfinite((*first_model)(i, j))) B(i, j) = (*first_model)(i, j);
+  Overlay(first_model, &B);
   r.loglik = f;
   Eigen::VectorXd D = Eigen::VectorXd::Zero(k());  // the trust region's scaling, √diag B at most
   double radius = -1;                              // set by the first step
@@ -578,22 +591,13 @@ FitResult Fitter::FitTrustRegion(std::vector<double> z, const std::vector<int>& 
       r.cancelled = true;
       return finish(false, "cancelled");
     }
-    if (options_.max_evaluations > 0 &&
-        evaluations() - evaluations_before > options_.max_evaluations)
-      return finish(false, fmt::format("stopped after {} evaluations without converging (raise "
-                                       "the evaluation limit)", evaluations() - evaluations_before));
+    if (std::string over; OverEvaluationLimit(evaluations_before, &over))
+      return finish(false, std::move(over));
     ++iterations_;
     Report(stage, z, f, delay);
-    // The parameters on a bound (or within kNearBound of it) whose gradient points out are held
-    // there; the others are free to move.
     std::vector<int> F;
-    std::vector<std::pair<int, double>> onto_bound;
-    for (int i = 0; i < k(); ++i) {
-      const bool at_lower = z[i] <= lower_[i] + kNearBound && g(i) <= 0;
-      const bool at_upper = z[i] >= upper_[i] - kNearBound && g(i) >= 0;
-      if (!at_lower && !at_upper) F.push_back(i);
-      else onto_bound.emplace_back(i, at_lower ? lower_[i] : upper_[i]);
-    }
+    std::vector<std::pair<int, double>> onto_bound;  // held parameters and their bound
+    SplitAtBounds(z, g, &F, &onto_bound);
     if (F.empty()) return finish(true, "every free parameter is held at a bound");
     if (!exact_here && (exact_first || since_exact >= std::max(kExactEvery, k()))) {
       exact_first = false;
@@ -668,15 +672,12 @@ FitResult Fitter::FitTrustRegion(std::vector<double> z, const std::vector<int>& 
     }
     // Accepted: the model learns from the gradient's change along the step.
     const Eigen::VectorXd y = g - g_new;  // change of the gradient of -objective
-    const Eigen::VectorXd Bs = B * s;
     if (been_exact) {  // SR1: keeps the curvature's sign, which a saddle needs
-      const Eigen::VectorXd v = y - Bs;
+      const Eigen::VectorXd v = y - B * s;
       const double vs = v.dot(s);
       if (std::abs(vs) > 1e-8 * v.norm() * s.norm()) B += v * v.transpose() / vs;
-    } else {           // BFGS, where the step shows positive curvature
-      const double sy = s.dot(y), sBs = s.dot(Bs);
-      if (sy > 1e-10 * s.norm() * y.norm() && sBs > 0)
-        B += y * y.transpose() / sy - Bs * Bs.transpose() / sBs;
+    } else {
+      BfgsUpdate(s, y, &B);
     }
     const double gain = f_new - f;
     z = std::move(z_new);

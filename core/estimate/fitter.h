@@ -10,6 +10,7 @@
 #include <mutex>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -187,8 +188,8 @@ class Fitter {
                      int max_iterations, bool bfgs_updates, const Eigen::MatrixXd* first_model,
                      bool hand_over, Eigen::MatrixXd& B);
 
-  // Auto's optimiser: a trust-region Newton method on a curvature model B of -objective (scaled
-  // units). B starts as BHHH's information (its finite entries replaced by `first_model`'s) and
+  // The trust-region algorithm's end game: a trust-region Newton method on a curvature model B
+  // of -objective (scaled units). B starts as BHHH's information (its finite entries replaced by `first_model`'s) and
   // learns from the gradient's changes along accepted steps (BFGS updates, SR1 once B has been the
   // exact Hessian, which may be indefinite). Every step solves
   //   max_d  g'd - ½ d'Bd   subject to  ‖D d‖ ≤ Δ
@@ -230,6 +231,22 @@ class Fitter {
   // A fit's start: z clamped into the bounds, and r->z set to it. True when there is nothing to
   // fit (no free parameter): *r is then the result.
   bool StartInBox(std::vector<double>* z, const std::vector<int>& delay, FitResult* r);
+
+  // The free parameters that may move at z (gradient g) into *free_set; those on a bound (or
+  // within kNearBound of it) whose gradient points out into *held, with that bound.
+  void SplitAtBounds(const std::vector<double>& z, const Eigen::VectorXd& g,
+                     std::vector<int>* free_set, std::vector<std::pair<int, double>>* held) const;
+
+  // The finite entries of `model` (if any) replace B's: a better first curvature model.
+  static void Overlay(const Eigen::MatrixXd* model, Eigen::MatrixXd* B);
+
+  // BFGS's update of the curvature model B of -objective from a step s and the change y of the
+  // gradient of -objective along it, where the step shows positive curvature (else B is kept).
+  static void BfgsUpdate(const Eigen::VectorXd& s, const Eigen::VectorXd& y, Eigen::MatrixXd* B);
+
+  // Whether a fit that began at `evaluations_before` has used more than the evaluation limit;
+  // then *message says so.
+  bool OverEvaluationLimit(int evaluations_before, std::string* message) const;
 
   // Runs fit(sub) on a fitter over the same parameters with its own options (threads, evaluation
   // limit, progress passed on under a lock or none), and adds its counts to this one's.
