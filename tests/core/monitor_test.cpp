@@ -335,7 +335,10 @@ Result<Reference> EditedReference(const std::function<void(Json&)>& edit) {
   const Fitted& f = OuReference();
   Json j = f.summary.ToJson();
   edit(j);
-  const std::string path = ::testing::TempDir() + "monitor_edited_reference.json";
+  // One file per test: ctest runs these tests side by side, each in a process of its own.
+  const std::string path = ::testing::TempDir() +
+                           ::testing::UnitTest::GetInstance()->current_test_info()->name() +
+                           "_monitor_edited_reference.json";
   WriteJson(path, j);
   return LoadReference(path, f.problem.spec());
 }
