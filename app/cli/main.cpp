@@ -222,8 +222,10 @@ int Main(int argc, char** argv) {
                     "extra starts spread over the bounds, 0..10000 (default 0)")
       ->check(Number({.lo = 0, .hi = estimate::kMaxStarts, .whole = true}));
   c_est->add_option("--starts-on-bound", est.starts_on_bound,
-                    "without --multistart: extra starts where the fit ends with a parameter on a "
-                    "bound, 0..10000 (default 8; 0: never)")
+                    "without --multistart: where the fit ends with parameters that ran off (onto "
+                    "a bound, towards +-inf, or where the data do not determine them), fits with "
+                    "them put back to their starts, then if needed this many extra starts, "
+                    "0..10000 (default 8; 0: neither)")
       ->check(Number({.lo = 0, .hi = estimate::kMaxStarts, .whole = true}));
   c_est->add_flag("--progress", est.progress,
                   "print the stage, iteration, evaluations and best log L to stderr after every "

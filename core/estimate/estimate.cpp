@@ -652,14 +652,15 @@ class EstimateRun {
     if (options_.multistart > 0 && !best_.cancelled) ExtraStarts(options_.multistart, 0);  // 2.
     if (scanning_ && !best_.cancelled) DelayProfile();                               // 3.
     RefitPlainStart();                                                                // 4.
-    StartsOnBound();                                                                  // 5.
+    ReleaseRunaways();                                                                // 5.
+    StartsOnBound();                                                                  // 6.
     s_.starts = static_cast<int>(reached_.size());
     if (best_.cancelled || Cancelled()) return CancelledSummary();
     if (!std::isfinite(best_.loglik))
       return NumericalError("the log-likelihood could not be evaluated anywhere the optimiser went");
-    Uncertainty u = Uncertainties();                                                  // 6.
+    Uncertainty u = Uncertainties();                                                  // 7.
     if (Cancelled()) return CancelledSummary();
-    return Summarise(std::move(u));                                                   // 7.
+    return Summarise(std::move(u));                                                   // 8.
   }
 
  private:
@@ -768,50 +769,69 @@ class EstimateRun {
   }
 
   // 2. Extra starts at the estimate's delay; the plain start's fit is one of them, so the result
-  //    is never worse than it. `explore` > 0: each start is fitted for that many iterations only
-  //    (side by side where there are threads), and the best of them are fitted on to
-  //    convergence; the others count as not reaching the best optimum.
-  void ExtraStarts(int n, int explore) {
-    const auto starts = StartPoints(*fitter_, n, options_.seed);
-    std::vector<FitResult> fits(starts.size() - 1);
+  //    is never worse than it.
+  bool ExtraStarts(int n, int explore) {
+    auto starts = StartPoints(*fitter_, n, options_.seed);
+    starts.erase(starts.begin());
+    if (FitStarts(starts, explore, "fitting") < 0) return false;
+    Settle();
+    return true;
+  }
+
+  // Fits from `starts` at the estimate's delay, each recorded in reached_; the best becomes the
+  // estimate if it is higher. `explore` > 0: each start is fitted for that many iterations only
+  // (side by side where there are threads), and those that have not converged by then but are
+  // above the estimate already (they left its basin upwards) are fitted on, within twice the
+  // evaluations the plain start's fit took; the others count as not reaching an optimum. (Fitting
+  // on the best two of them instead, as before, cost building 3 two fits of thousands of
+  // iterations from starts a thousand log-L units below the estimate, and never found more.)
+  // Returns the index of the start that became the estimate (-1: none).
+  int FitStarts(const std::vector<std::vector<double>>& starts, int explore, const std::string& stage) {
+    const int n = static_cast<int>(starts.size());
+    std::vector<FitResult> fits(n);
+    // Within twice the evaluations the plain start's fit took (side by side where there are
+    // threads).
+    const int budget = std::max(kMinExtraEvaluations, 2 * plain_evaluations_);
     if (explore > 0) {
-      ParallelFor(static_cast<int>(fits.size()), threads_, [&](int i) {
-        fits[i] = fitter_->ExploreAlongside(starts[i + 1], delay_, explore,
-                                          std::max(1, threads_ / static_cast<int>(fits.size())));
+      ParallelFor(n, threads_, [&](int i) {
+        fits[i] = fitter_->ExploreAlongside(starts[i], delay_, explore, std::max(1, threads_ / n));
       });
       std::vector<int> order;
-      for (int i = 0; i < static_cast<int>(fits.size()); ++i) {
+      for (int i = 0; i < n; ++i) {
         if (fits[i].cancelled) {
-          best_ = fits[i];
-          return;
+          best_.cancelled = true;
+          return -1;
         }
-        if (std::isfinite(fits[i].loglik)) order.push_back(i);
+        if (std::isfinite(fits[i].loglik) && !fits[i].converged) order.push_back(i);
       }
-      std::stable_sort(order.begin(), order.end(),
-                       [&](int a, int b) { return fits[a].loglik > fits[b].loglik; });
-      order.resize(std::min<std::size_t>(order.size(), kContinuedStarts));
-      for (auto& f : fits) f.loglik = -HUGE_VAL;  // stopped early: not an optimum
-      // The best ones, fitted on (side by side) within twice the evaluations the plain start's
-      // fit took.
-      const int budget = std::max(kMinExtraEvaluations, 2 * plain_evaluations_);
+      std::erase_if(order, [&](int i) { return !(fits[i].loglik > best_.loglik + kSameOptimum); });
+      for (int i = 0; i < n; ++i)  // stopped early: not an optimum
+        if (!fits[i].converged && std::find(order.begin(), order.end(), i) == order.end())
+          fits[i].loglik = -HUGE_VAL;
       const int lanes = static_cast<int>(order.size());
       ParallelFor(lanes, threads_, [&](int c) {
         const int i = order[c];
-        fits[i] = fitter_->FitAlongside(fits[i].z, delay_, "fitting", std::max(1, threads_ / lanes), budget);
+        const Eigen::MatrixXd model = fits[i].model;
+        fits[i] = fitter_->FitAlongside(fits[i].z, delay_, stage, std::max(1, threads_ / lanes),
+                                        budget, model.size() > 0 ? &model : nullptr);
       });
     } else {
-      for (std::size_t i = 0; i < fits.size(); ++i) fits[i] = fitter_->Fit(starts[i + 1], delay_, "fitting");
+      for (int i = 0; i < n; ++i) fits[i] = fitter_->Fit(starts[i], delay_, stage);
     }
-    bool improved = false;
-    for (FitResult& r : fits) {
-      if (r.cancelled) {
-        best_ = r;
-        return;
+    int better = -1;
+    for (int i = 0; i < n; ++i) {
+      if (fits[i].cancelled) {
+        best_.cancelled = true;
+        return -1;
       }
-      reached_.push_back({r.loglik, r.z, r.converged, delay_});
-      if (r.loglik > best_.loglik) best_ = r, improved = true;
+      reached_.push_back({fits[i].loglik, fits[i].z, fits[i].converged, delay_});
+      if (fits[i].loglik > (better < 0 ? best_.loglik : fits[better].loglik)) better = i;
     }
-    if (improved) Settle();
+    if (better >= 0) best_ = std::move(fits[better]);
+    landed_in_best_ = std::all_of(fits.begin(), fits.end(), [&](const FitResult& r) {
+      return r.loglik >= best_.loglik - kSameOptimum;
+    });
+    return better;
   }
 
   // 3. The profile: θ re-optimised at every other delay candidate, to convergence, walking
@@ -942,19 +962,98 @@ class EstimateRun {
     }
   }
 
-  // 5. Without multistart, where the estimate has a parameter on a bound: starts_on_bound extra
-  //    starts at the chosen delay (checked only now, so that a bound reached at a misspecified
-  //    first delay does not cost them).
-  void StartsOnBound() {
-    if (options_.multistart == 0 && options_.starts_on_bound > 0 && !best_.cancelled &&
-        !fitter_->Cancelled() && std::isfinite(best_.loglik) && OnABound(*fitter_, best_.z)) {
-      reached_ = {{best_.loglik, best_.z, best_.converged, delay_}};
-      s_.starts_for_bound = true;
-      ExtraStarts(options_.starts_on_bound, kExploreIterations);
+  // 5. Without multistart: the parameters that ran off. A parameter the fit took onto a bound it
+  //    did not start on, or one the data do not determine at the estimate (no standard error, or
+  //    one wider than its range), is often not where the data put it but where the path left it
+  //    (a log-variance that ran towards -inf while the others were still far off, a capacity
+  //    pinned at its bound). Each is put back to its start value with the others at the
+  //    estimate, and all of them together, and fitted from there; a better optimum becomes the
+  //    estimate, and its runaways are released in turn (at most kReleaseRounds times).
+  void ReleaseRunaways() {
+    if (options_.multistart != 0 || options_.starts_on_bound == 0) return;
+    for (int round = 0; round < kReleaseRounds; ++round) {
+      if (best_.cancelled || fitter_->Cancelled() || !std::isfinite(best_.loglik)) return;
+      runaways_ = Runaways();
+      const std::vector<int>& ran = runaways_;
+      if (ran.empty()) return;
+      std::vector<std::vector<double>> starts;
+      for (int i : ran) {
+        starts.push_back(best_.z);
+        starts.back()[i] = z_start_[i];
+      }
+      if (ran.size() > 1) {
+        starts.push_back(best_.z);
+        for (int i : ran) starts.back()[i] = z_start_[i];
+      }
+      const double before = best_.loglik;
+      s_.released_starts += static_cast<int>(starts.size());
+      // From near an optimum: not more iterations than the plain start's fit took evaluations.
+      const int explore = std::clamp(plain_evaluations_, 1, kReleaseIterations);
+      if (FitStarts(starts, explore, "releasing") < 0) {
+        released_into_best_ = landed_in_best_;
+        return;
+      }
+      Settle();
+      if (best_.loglik <= before + kSameOptimum) {  // the same optimum, a little higher
+        released_into_best_ = landed_in_best_;
+        return;
+      }
+      ++s_.releases;
+      // Another round only from another basin: within kNewBasin, the same runaways released from
+      // nearly the same point lead where they led.
+      if (best_.loglik <= before + kNewBasin) {
+        runaways_ = Runaways();
+        return;
+      }
     }
   }
 
-  // 6. Uncertainty at the estimate. Where the Hessian shows negative curvature the fit stopped at
+  // The free parameters that ran off at the best fit (see ReleaseRunaways), in index order.
+  std::vector<int> Runaways() {
+    const Uncertainty u = ComputeUncertainty(*fitter_, best_.z, best_.loglik, delay_, spec_, threads_);
+    std::vector<int> ran;
+    for (int i = 0; i < fitter_->k(); ++i) {
+      const double z = best_.z[i], z0 = z_start_[i];
+      if (std::abs(z - z0) <= kAtBoundTol * std::max({1.0, std::abs(z), std::abs(z0)})) continue;
+      const double range = std::isfinite(fitter_->upper(i) - fitter_->lower(i))
+                               ? fitter_->upper(i) - fitter_->lower(i)
+                               : std::max({1.0, std::abs(z0), std::abs(z - z0)});
+      const double se = u.std_error[i] ? *u.std_error[i] / fitter_->Slope(i, z) : HUGE_VAL;  // scaled units
+      const bool onto_bound = u.at_bound[i] && !AtBound(*fitter_, z_start_, i);
+      // Far out on a scale without bounds: towards ±inf.
+      const bool far = !std::isfinite(fitter_->lower(i)) && !std::isfinite(fitter_->upper(i)) &&
+                       std::abs(z - z0) > kRunaway * std::max(1.0, std::abs(z0));
+      if (onto_bound || far || (!u.at_bound[i] && !(se < range))) ran.push_back(i);
+    }
+    return ran;
+  }
+
+  // 6. Without multistart, where the estimate has a parameter on a bound: starts_on_bound extra
+  //    starts at the chosen delay (checked only now, so that a bound reached at a misspecified
+  //    first delay does not cost them). Where parameters ran off and were released
+  //    (ReleaseRunaways), only if one of them has no bound on a side and the released fits did
+  //    not all come back to the estimate's optimum: spread over a parameter's start range (a
+  //    factor 10 around the start) the starts find what releasing it did not; spread over wide
+  //    bounds, 100 iterations from them end far below (building 3: hundreds to thousands of log L
+  //    below the estimate, never near it), and a bound parameter's release is its own extra start.
+  void StartsOnBound() {
+    if (options_.multistart != 0 || options_.starts_on_bound == 0 || best_.cancelled ||
+        fitter_->Cancelled() || !std::isfinite(best_.loglik))
+      return;
+    bool wanted = OnABound(*fitter_, best_.z);
+    if (!runaways_.empty())
+      wanted = !released_into_best_ &&
+               std::any_of(runaways_.begin(), runaways_.end(), [&](int i) {
+                 return !std::isfinite(fitter_->lower(i)) || !std::isfinite(fitter_->upper(i));
+               });
+    if (wanted) {
+      s_.starts_for_bound = true;
+      // A better optimum from them may have run off in turn.
+      if (ExtraStarts(options_.starts_on_bound, kExploreIterations)) ReleaseRunaways();
+    }
+  }
+
+  // 7. Uncertainty at the estimate. Where the Hessian shows negative curvature the fit stopped at
   //    a saddle: step along that direction and fit again (at most kMaxSaddleEscapes times).
   Uncertainty Uncertainties() {
     fitter_->Report("standard errors", best_.z, best_.loglik, delay_);
@@ -985,7 +1084,7 @@ class EstimateRun {
     return u;
   }
 
-  // 7. The summary at the estimate.
+  // 8. The summary at the estimate.
   Result<EstimateSummary> Summarise(Uncertainty u) {
     s_.converged = best_.converged;
     s_.message = best_.message;
@@ -1159,6 +1258,9 @@ class EstimateRun {
   FitResult best_;
   FitResult runner_up_;            // the plain start's fit at the other delay, if any
   std::vector<Reached> reached_;   // the fits from the starts (the plain start's first)
+  std::vector<int> runaways_;      // the parameters that ran off at the estimate (ReleaseRunaways)
+  bool landed_in_best_ = false;    // FitStarts' last fits all ended at the estimate's optimum
+  bool released_into_best_ = false;  // so did every fit of the released runaways' last round
   std::vector<ProfileValue> profile_points_;
 };
 

@@ -105,9 +105,12 @@ struct EstimateOptions {
   // Extra starts spread over the bounds (Latin hypercube; parameters without both bounds are
   // spread log-uniformly within a factor 10 of their start). 0: only the model's start values.
   int multistart = 0;
-  // Without multistart: where the fit ends with a free parameter on one of its bounds (often the
-  // sign of a local optimum: a variance pinned at zero, an initial state or a time constant at the
-  // end of its range), this many extra starts like multistart's. 0: never.
+  // Without multistart: where the fit ends with free parameters that ran off (onto a bound they
+  // did not start on, towards ±inf on a scale without bounds, or where the data do not determine
+  // them: often the sign of a local optimum, a variance pinned at zero, a time constant at the
+  // end of its range), fits from the estimate with them put back to their start values; then,
+  // where the estimate is on a bound or a runaway without bounds stays, this many extra starts
+  // like multistart's (see ReleaseRunaways and StartsOnBound in estimate.cpp). 0: neither.
   int starts_on_bound = 8;
   std::uint64_t seed = 1;
   // Threads for the score (its parameters shared out) and the Hessian; 0 = all cores.
@@ -221,6 +224,10 @@ struct EstimateSummary {
   int starts = 1;           // start points fitted (the model's and the multistart ones)
   bool starts_for_bound = false;  // the extra starts were starts_on_bound's (not multistart's)
   int starts_at_best = 1;   // of them, those that reached the best optimum (within 1e-3 in log L)
+  // Times a better optimum was found by putting parameters that ran off (onto a bound, or where
+  // the data do not determine them) back to their start values.
+  int releases = 0;
+  int released_starts = 0;  // starts made by putting runaways back (counted in `starts`)
   // The distinct optima the starts reached, best first (the estimate's is the first): more than
   // one is a second basin the user should know of.
   std::vector<Optimum> optima;

@@ -117,9 +117,21 @@ FitResult Fitter::FitAlongside(std::vector<double> z, const std::vector<int>& de
 }
 
 FitResult Fitter::ExploreAlongside(std::vector<double> z, const std::vector<int>& delay,
-                                   int iterations, int threads) {
-  return Alongside(threads, 0, /*report=*/false, [&](Fitter& f) {
-    return f.FitBhhh(std::move(z), delay, "fitting", iterations, /*bfgs_updates=*/true);
+                                   int iterations, int threads,
+                                   const Eigen::MatrixXd* first_model) {
+  return Alongside(threads, kExploreEvaluations * iterations, /*report=*/false, [&](Fitter& f) {
+    FitResult r = f.FitBhhh(std::move(z), delay, "fitting", iterations, /*bfgs_updates=*/true,
+                            first_model);
+    // Stalled before its iterations were up (flat or bound-limited directions, where auto goes on
+    // with L-BFGS): L-BFGS for the rest of the evaluations.
+    if (r.converged || r.cancelled || !std::isfinite(r.loglik) || f.iterations() >= iterations)
+      return r;
+    FitResult on = f.FitNlopt(r.z, delay, "fitting", Algorithm::kLbfgs, options_.ftol_rel);
+    if (on.cancelled || on.loglik >= r.loglik) {
+      on.model = std::move(r.model);  // BHHH's, for the next round
+      return on;
+    }
+    return r;
   });
 }
 

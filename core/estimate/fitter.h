@@ -28,11 +28,23 @@ inline constexpr int kMaxBhhhIterations = 500;
 inline constexpr double kSameOptimum = 1e-3;
 inline constexpr int kMaxSaddleEscapes = 3;
 // Where the estimate is on a bound (starts_on_bound): each extra start is fitted this many
-// iterations, and the best kContinuedStarts of them fitted on, each within twice the evaluations
+// iterations, and those above the estimate by then fitted on, each within twice the evaluations
 // of the plain start's fit (at least kMinExtraEvaluations).
 inline constexpr int kExploreIterations = 100;
 inline constexpr int kMinExtraEvaluations = 200;
-inline constexpr int kContinuedStarts = 2;
+// An explored start's fit stops after kExploreEvaluations times its iterations in evaluations.
+inline constexpr int kExploreEvaluations = 3;
+// Runaway parameters put back to their starts (ReleaseRunaways): at most this many rounds.
+inline constexpr int kReleaseRounds = 3;
+// Each released start is fitted this many iterations (at most as many as the plain start's fit
+// took evaluations); those that end above the estimate are fitted on.
+inline constexpr int kReleaseIterations = 200;
+// A release that raised log L by more than this reached another basin (log L units; one standard
+// error is worth 0.5), whose runaways are released in turn.
+inline constexpr double kNewBasin = 1.0;
+// A parameter without bounds this many times its start's size from its start (scaled units) has
+// run off towards ±inf.
+inline constexpr double kRunaway = 10;
 // The trust-region fit: the exact Hessian replaces the quasi-Newton model after this many
 // accepted steps (at least k) without it; the radius test's thresholds.
 inline constexpr int kExactEvery = 10;
@@ -96,10 +108,11 @@ class Fitter {
                          const std::string& stage, int threads, int max_evaluations = 0,
                          const Eigen::MatrixXd* first_model = nullptr);
 
-  // `iterations` iterations of auto's BHHH with BFGS corrections from z (no L-BFGS finish, no
-  // progress reports), as FitAlongside: a cheap look at where a start leads.
+  // `iterations` iterations of auto's BHHH with BFGS corrections from z (`first_model`: as Fit's),
+  // where it stalls before they are up L-BFGS, within kExploreEvaluations x `iterations`
+  // evaluations; no progress reports; as FitAlongside: a cheap look at where a start leads.
   FitResult ExploreAlongside(std::vector<double> z, const std::vector<int>& delay, int iterations,
-                             int threads);
+                             int threads, const Eigen::MatrixXd* first_model = nullptr);
 
   int k() const { return static_cast<int>(free_.size()); }
   const std::vector<int>& free() const { return free_; }

@@ -78,9 +78,13 @@ std::string EstimateSummary::Report() const {
                      *log_posterior));
   if (starts > 1)
     line(fmt::format("{}: {} of {} starts reached the best optimum", 
-                     starts_for_bound ? "Extra starts (the fit ended with a parameter on a bound)"
-                                      : "Multistart",
+                     starts_for_bound ? "Extra starts (parameters ran off or ended on a bound)"
+                     : released_starts > 0 ? "Starts with the parameters that ran off put back"
+                                           : "Multistart",
                      starts_at_best, starts));
+  if (releases > 0)
+    line(fmt::format("Parameters that ran off, put back to their start values: a better optimum "
+                     "{} time{}", releases, releases == 1 ? "" : "s"));
   if (optima.size() > 1) {
     // Each other optimum with the free parameters that differ most from the estimate.
     line(fmt::format("Distinct optima reached ({} of the starts, the estimate's first):",
@@ -222,7 +226,9 @@ Json EstimateSummary::ToJson() const {
   }
   j["filter"]["scores"] = exact_scores ? "exact" : "differences";
   if (log_posterior) j["log_posterior"] = *log_posterior;
-  j["starts"] = {{"total", starts}, {"at_best", starts_at_best}, {"on_bound", starts_for_bound}};
+  j["starts"] = {{"total", starts}, {"at_best", starts_at_best}, {"on_bound", starts_for_bound},
+                 {"releases", releases},
+                 {"released", released_starts}};
   Json optima_json = Json::array();
   for (const Optimum& opt : optima) {
     Json values = Json::object();

@@ -430,7 +430,7 @@ TEST(Estimate, AnEstimateOnABoundGetsExtraStartsThatNeverMakeItWorse) {
   EXPECT_GE(extra->loglik, plain->loglik - 1e-6);
   EXPECT_EQ(extra->starts, on_bound.starts_on_bound + 1);
   EXPECT_TRUE(extra->starts_for_bound);
-  EXPECT_NE(extra->Report().find("Extra starts (the fit ended with a parameter on a bound)"),
+  EXPECT_NE(extra->Report().find("Extra starts (parameters ran off or ended on a bound)"),
             std::string::npos);
   EXPECT_EQ(extra->ToJson()["starts"]["on_bound"], true);
   // Explicit multistart replaces them.
