@@ -123,7 +123,7 @@ FitResult Fitter::ExploreAlongside(std::vector<double> z, const std::vector<int>
     FitResult r = f.FitBhhh(std::move(z), delay, "fitting", iterations, /*bfgs_updates=*/true,
                             first_model);
     // Stalled before its iterations were up (flat or bound-limited directions, where auto goes on
-    // with L-BFGS): L-BFGS for the rest of the evaluations.
+    // with L-BFGS): L-BFGS, within the same evaluation limit again.
     if (r.converged || r.cancelled || !std::isfinite(r.loglik) || f.iterations() >= iterations)
       return r;
     FitResult on = f.FitNlopt(r.z, delay, "fitting", Algorithm::kLbfgs, options_.ftol_rel);
