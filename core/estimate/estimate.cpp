@@ -971,30 +971,25 @@ class EstimateRun {
   //    estimate, and its runaways are released in turn (at most kReleaseRounds times).
   void ReleaseRunaways() {
     if (options_.multistart != 0 || options_.starts_on_bound == 0) return;
-    for (int round = 0; round < kReleaseRounds; ++round) {
+    for (int round = 0;; ++round) {
       if (best_.cancelled || fitter_->Cancelled() || !std::isfinite(best_.loglik)) return;
-      runaways_ = Runaways();
-      const std::vector<int>& ran = runaways_;
-      if (ran.empty()) return;
+      runaways_ = Runaways();  // at the estimate as it now is
+      if (runaways_.empty() || round == kReleaseRounds) return;
       std::vector<std::vector<double>> starts;
-      for (int i : ran) {
+      for (int i : runaways_) {
         starts.push_back(best_.z);
         starts.back()[i] = z_start_[i];
       }
-      if (ran.size() > 1) {
+      if (runaways_.size() > 1) {
         starts.push_back(best_.z);
-        for (int i : ran) starts.back()[i] = z_start_[i];
+        for (int i : runaways_) starts.back()[i] = z_start_[i];
       }
       const double before = best_.loglik;
       s_.released_starts += static_cast<int>(starts.size());
       // From near an optimum: not more iterations than the plain start's fit took evaluations.
       const int explore = std::clamp(plain_evaluations_, 1, kReleaseIterations);
-      if (FitStarts(starts, explore, "releasing") < 0) {
-        released_into_best_ = landed_in_best_;
-        return;
-      }
-      Settle();
-      if (best_.loglik <= before + kSameOptimum) {  // the same optimum, a little higher
+      if (FitStarts(starts, explore, "releasing") >= 0) Settle();
+      if (best_.loglik <= before + kSameOptimum) {  // the same optimum (a little higher, or not)
         released_into_best_ = landed_in_best_;
         return;
       }
@@ -1008,9 +1003,22 @@ class EstimateRun {
     }
   }
 
+  // The uncertainty at the best fit, computed once for each point and delay it is asked at
+  // (Runaways looks at it, and Uncertainties starts from it: k gradients each time otherwise).
+  Uncertainty AtBest() {
+    if (!at_best_ || at_best_z_ != best_.z || at_best_delay_ != delay_) {
+      Uncertainty u = ComputeUncertainty(*fitter_, best_.z, best_.loglik, delay_, spec_, threads_);
+      if (fitter_->Cancelled()) return u;  // cut short: not kept
+      at_best_ = std::move(u);
+      at_best_z_ = best_.z;
+      at_best_delay_ = delay_;
+    }
+    return *at_best_;
+  }
+
   // The free parameters that ran off at the best fit (see ReleaseRunaways), in index order.
   std::vector<int> Runaways() {
-    const Uncertainty u = ComputeUncertainty(*fitter_, best_.z, best_.loglik, delay_, spec_, threads_);
+    const Uncertainty u = AtBest();
     std::vector<int> ran;
     for (int i = 0; i < fitter_->k(); ++i) {
       const double z = best_.z[i], z0 = z_start_[i];
@@ -1057,7 +1065,7 @@ class EstimateRun {
   //    a saddle: step along that direction and fit again (at most kMaxSaddleEscapes times).
   Uncertainty Uncertainties() {
     fitter_->Report("standard errors", best_.z, best_.loglik, delay_);
-    Uncertainty u = ComputeUncertainty(*fitter_, best_.z, best_.loglik, delay_, spec_, threads_);
+    Uncertainty u = AtBest();
     // Where the exact Hessian promises more than the curvature model the fit stopped on did (a flat
     // valley, where BHHH's information and its corrections overstate the curvature along it), fit
     // again starting from the exact Hessian.
@@ -1073,7 +1081,7 @@ class EstimateRun {
       if (!higher || higher->cancelled) break;
       best_ = std::move(*higher);
       fitter_->Report("standard errors", best_.z, best_.loglik, delay_);
-      u = ComputeUncertainty(*fitter_, best_.z, best_.loglik, delay_, spec_, threads_);
+      u = AtBest();
     }
     // The profile point of the estimate's delay: the final fit's value.
     if (scanning_) {
@@ -1261,6 +1269,9 @@ class EstimateRun {
   std::vector<int> runaways_;      // the parameters that ran off at the estimate (ReleaseRunaways)
   bool landed_in_best_ = false;    // FitStarts' last fits all ended at the estimate's optimum
   bool released_into_best_ = false;  // so did every fit of the released runaways' last round
+  std::optional<Uncertainty> at_best_;  // AtBest()'s, at at_best_z_ and at_best_delay_
+  std::vector<double> at_best_z_;
+  std::vector<int> at_best_delay_;
   std::vector<ProfileValue> profile_points_;
 };
 
