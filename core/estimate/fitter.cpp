@@ -857,4 +857,32 @@ FitResult Fitter::Alongside(int threads, int max_evaluations, bool report,
   return r;
 }
 
+bool Fitter::AnyOnLogScale() const {
+  for (int i = 0; i < k(); ++i)
+    if (!log_[i] && lower_[i] > 0 && std::isfinite(lower_[i])) return true;
+  return false;
+}
+
+FitResult Fitter::FitOnLogScale(const std::vector<double>& z, const std::vector<int>& delay,
+                                const std::string& stage, int max_evaluations) {
+  const std::vector<double> theta = Theta(z);
+  FitResult r = Alongside(threads_, max_evaluations, true, [&](Fitter& f) {
+    for (int i = 0; i < k(); ++i) {
+      if (f.log_[i] || !(lower_[i] > 0) || !std::isfinite(lower_[i])) continue;
+      f.log_[i] = 1;
+      f.lower_[i] = std::log(lower_[i] * scale_[i]);
+      f.upper_[i] = std::isfinite(upper_[i]) ? std::log(upper_[i] * scale_[i]) : HUGE_VAL;
+    }
+    std::vector<double> zl(k());
+    for (int i = 0; i < k(); ++i) zl[i] = f.ZOf(i, theta[free_[i]]);
+    FitResult fl = f.Fit(zl, delay, stage);
+    const std::vector<double> theta_end = f.Theta(fl.z);
+    for (int i = 0; i < k(); ++i)
+      fl.z[i] = std::clamp(ZOf(i, theta_end[free_[i]]), lower_[i], upper_[i]);
+    fl.model.resize(0, 0);
+    return fl;
+  });
+  return r;
+}
+
 }  // namespace gb::estimate::internal

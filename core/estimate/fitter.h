@@ -42,6 +42,9 @@ inline constexpr int kReleaseIterations = 200;
 // A release that raised log L by more than this reached another basin (log L units; one standard
 // error is worth 0.5), whose runaways are released in turn.
 inline constexpr double kNewBasin = 1.0;
+// Where the exact Hessian at the estimate promises more than this (log L units), the fit may have
+// stopped on a curved valley and is fitted on (EstimateRun::Polish).
+inline constexpr double kPolishDecrement = 1e-6;
 // A parameter without bounds this many times its start's size from its start (scaled units) has
 // run off towards ±inf.
 inline constexpr double kRunaway = 10;
@@ -232,6 +235,17 @@ class Fitter {
   FitResult Fit(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
                 int max_iterations = kMaxBhhhIterations,
                 const Eigen::MatrixXd* first_model = nullptr);
+
+  // Fit(z, delay, stage) on the log working scale for the free parameters with a positive lower
+  // bound (z = log θ there, the other parameters as here): where a curved valley runs along
+  // products and ratios of positive parameters it is straighter there. Its iterations and
+  // evaluations are added to this fitter's; the result is in this fitter's scale (no model).
+  // `max_evaluations` > 0: its limit.
+  FitResult FitOnLogScale(const std::vector<double>& z, const std::vector<int>& delay,
+                          const std::string& stage, int max_evaluations);
+
+  // Whether FitOnLogScale would fit any parameter on another scale than this fitter does.
+  bool AnyOnLogScale() const;
 
   // One NLopt run: `algo` is kLbfgs, kSlsqp or kBobyqa.
   FitResult FitNlopt(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
