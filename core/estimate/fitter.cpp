@@ -118,10 +118,23 @@ FitResult Fitter::FitAlongside(std::vector<double> z, const std::vector<int>& de
 
 FitResult Fitter::ExploreAlongside(std::vector<double> z, const std::vector<int>& delay,
                                    int iterations, int threads,
-                                   const Eigen::MatrixXd* first_model) {
+                                   const Eigen::MatrixXd* first_model, double level) {
   return Alongside(threads, kExploreEvaluations * iterations, /*report=*/false, [&](Fitter& f) {
+    const bool watch = std::isfinite(level);
     FitResult r = f.FitBhhh(std::move(z), delay, "fitting", iterations, /*bfgs_updates=*/true,
-                            first_model);
+                            first_model, /*hand_over=*/watch);
+    if (r.crawling) {
+      // Crawling at the level: back at the estimate's optimum, or on its valley. (Below it, a fit
+      // may still be on its way to a better basin: building 3's p22 released from 5929.72 crawls
+      // below that before it climbs to 5930.12.)
+      if (std::abs(r.loglik - level) <= std::max(kSameOptimum, kSameLevel * std::abs(level)))
+        return r;
+      const Eigen::MatrixXd model = r.model;
+      FitResult on = f.FitBhhh(r.z, delay, "fitting", iterations - f.iterations(),
+                               /*bfgs_updates=*/true, &model);
+      if (on.cancelled || on.loglik >= r.loglik) r = std::move(on);
+      r.crawling = false;
+    }
     // Stalled before its iterations were up (flat or bound-limited directions, where auto goes on
     // with L-BFGS): L-BFGS, within the same evaluation limit again.
     if (r.converged || r.cancelled || !std::isfinite(r.loglik) || f.iterations() >= iterations)

@@ -26,6 +26,9 @@ inline constexpr int kMaxBhhhIterations = 500;
 // Fits whose log-likelihoods differ by less than this reached the same optimum (log L units; one
 // standard error is worth 0.5).
 inline constexpr double kSameOptimum = 1e-3;
+// Fits that end within this of each other relative to log L reached the same optimum as far as
+// an estimate's outcome goes (issue 33: the same optimum from starts no one can tell apart).
+inline constexpr double kSameLevel = 1e-6;
 inline constexpr int kMaxSaddleEscapes = 3;
 // Where the estimate is on a bound (starts_on_bound): each extra start is fitted this many
 // iterations, and those above the estimate by then fitted on, each within twice the evaluations
@@ -114,8 +117,12 @@ class Fitter {
   // `iterations` iterations of auto's BHHH with BFGS corrections from z (`first_model`: as Fit's),
   // where it stalls before they are up L-BFGS, within kExploreEvaluations x `iterations`
   // evaluations; no progress reports; as FitAlongside: a cheap look at where a start leads.
+  // With a finite `level` (the estimate's log L), a fit that crawls (FitBhhh's hand_over test)
+  // at that level (within kSameOptimum, or kSameLevel relative) stops there, crawling: it came
+  // back to the estimate's optimum or its valley.
   FitResult ExploreAlongside(std::vector<double> z, const std::vector<int>& delay, int iterations,
-                             int threads, const Eigen::MatrixXd* first_model = nullptr);
+                             int threads, const Eigen::MatrixXd* first_model = nullptr,
+                             double level = HUGE_VAL);
 
   int k() const { return static_cast<int>(free_.size()); }
   const std::vector<int>& free() const { return free_; }
