@@ -783,10 +783,10 @@ class EstimateRun {
   // estimate if it is higher. `explore` > 0: each start is fitted for that many iterations only
   // (side by side where there are threads), or until it crawls at the estimate's level (back in
   // its basin or on its valley: it counts as reaching it, where it stopped); those that have not
-  // converged by then but are above the estimate already (they left its basin upwards) are fitted
-  // on, within twice the evaluations the plain start's fit took; the others count as not reaching
-  // an optimum. (Building 3 from the neutral start: 1218 iterations in all instead of 1747, when the
-  // released starts ran their 200 iterations crawling along the estimate's valley.) (Fitting
+  // converged by then but are above the estimate already (they left its basin upwards) are
+  // fitted on, within twice the evaluations the plain start's fit took; the others count as not
+  // reaching an optimum. (Building 3 from the neutral start: 1218 iterations in all instead of
+  // 1747, when the released starts crawled along the estimate's valley for 200 each.) (Fitting
   // on the best two of them instead, as before, cost building 3 two fits of thousands of
   // iterations from starts a thousand log-L units below the estimate, and never found more.)
   // Returns the index of the start that became the estimate (-1: none).
@@ -1074,18 +1074,19 @@ class EstimateRun {
   //    valley, where the quadratic model understates what is left (building 3: promised 7.5e-5
   //    where 0.0014 was left, along a ridge of Ci, Cs and Ris that ends on Cs's bound; the
   //    straight line between its two ends dips 27 log-L units; elsewhere on it, Cs and Ris not
-  //    separated at all, 0.0077 below the optimum). It
-  //    is fitted on from there on the log working scale of the positive parameters
-  //    (Fitter::FitOnLogScale), where such a valley of capacities and resistances is straighter:
-  //    building 3's took 106 iterations there and 249 on the fitter's own scale. Kept where it
-  //    is higher; within the evaluations a fit from the start took.
+  //    separated at all, 0.0077 below the optimum). It is fitted on from there on the log working
+  //    scale of the positive parameters (Fitter::FitOnLogScale), where such a valley of
+  //    capacities and resistances is straighter: building 3's took 106 iterations there and 249
+  //    on the fitter's own scale. Kept where it is higher; within the evaluations a fit from the
+  //    start took (a higher point where that ran out is as converged as the estimate was).
   void Polish() {
     if (best_.cancelled || Cancelled() || !std::isfinite(best_.loglik) ||
         !fitter_->AnyOnLogScale() ||
         (options_.algorithm != Algorithm::kAuto && options_.algorithm != Algorithm::kTrustRegion))
       return;
     const Uncertainty u = AtBest();
-    bool flat = false;  // a free parameter off its bounds without a standard error: a flat direction
+    // A free parameter off its bounds without a standard error: a flat direction.
+    bool flat = false;
     for (int i = 0; i < fitter_->k(); ++i) flat = flat || (!u.at_bound[i] && !u.std_error[i]);
     if (Cancelled() || u.uphill || !(flat || u.newton_decrement > kPolishDecrement)) return;
     FitResult r = fitter_->FitOnLogScale(best_.z, delay_, "fitting",
@@ -1095,9 +1096,14 @@ class EstimateRun {
       return;
     }
     if (!(r.loglik > best_.loglik)) return;
+    if (!r.converged) {
+      r.converged = best_.converged;
+      r.message = best_.message;
+    }
     // The starts that stopped where the estimate did reached the optimum it went on to.
+    const double same = std::max(kSameOptimum, kSameLevel * std::abs(best_.loglik));
     for (Reached& reached : reached_)
-      if (reached.delay == delay_ && reached.loglik >= best_.loglik - kSameOptimum)
+      if (reached.delay == delay_ && reached.loglik >= best_.loglik - same)
         reached.loglik = r.loglik, reached.z = r.z, reached.converged = r.converged;
     best_ = std::move(r);
   }

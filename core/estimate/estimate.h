@@ -24,6 +24,12 @@
 //     for) or its line search fails, a trust-region Newton method whose curvature model is the
 //     exact Hessian from forward differences of the exact gradient, refreshed every k steps
 //     (Fitter::FitTrustRegion). Selectable for measurement (docs/benchmarks.md, issue 33).
+//   - auto and trust-region, at the end: where the exact Hessian at the estimate still promises
+//     an increase above 1e-6, or is singular in a direction off the bounds, the fit may have
+//     stopped crawling along a curved valley, where the quadratic model understates what is left;
+//     it goes on from the estimate with the parameters that have a positive lower bound on a log
+//     scale, where a valley of capacities and resistances is straighter, and is kept where it is
+//     higher (Fitter::FitOnLogScale; building 3: from 0.0077 below the optimum to it).
 //
 // Output delays with a range [min, max] (CONTRACT section 1) are estimated by profile likelihood:
 // the delay to start at is the best of the grid at the start values; the fit alternates between

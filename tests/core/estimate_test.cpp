@@ -428,7 +428,8 @@ TEST(Estimate, TwoRecordsGivenInEitherOrderReachTheSameOptimum) {
     const auto& a = fits[0].parameters[i];
     const auto& b = fits[1].parameters[i];
     // Within a hundredth of a standard error (or 1e-6 relative where there is none).
-    const double tol = a.std_error ? 0.01 * *a.std_error : 1e-6 * std::max(1.0, std::abs(a.estimate));
+    const double tol =
+        a.std_error ? 0.01 * *a.std_error : 1e-6 * std::max(1.0, std::abs(a.estimate));
     EXPECT_NEAR(b.estimate, a.estimate, tol) << a.name;
   }
 }
