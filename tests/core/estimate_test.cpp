@@ -402,6 +402,9 @@ TEST(Estimate, TwoRecordsGivenInEitherOrderReachTheSameOptimum) {
   // Issue 33: the outcome may not turn on the order the datasets are given in (the sum of their
   // log-likelihoods rounds differently). The fuel film from generic starts on f1 and f7, where
   // a variance ends on its bound and is released: the whole default job, delay profile included.
+  // Not under the sanitizers (156 s there): the stages it runs run there in the Ornstein pair's
+  // generic starts and the fuel film's estimates.
+  if (kSanitized) GTEST_SKIP() << "the release suite's: see the comment";
   const std::string assets = std::string(GREYBENCH_SOURCE_DIR) + "/";
   const std::vector<std::string> files = {assets + "assets/data/fuel_f1.csv",
                                           assets + "assets/data/fuel_f7.csv"};
