@@ -837,7 +837,7 @@ class EstimateRun {
     }
     if (better >= 0) best_ = std::move(fits[better]);
     landed_in_best_ = std::all_of(fits.begin(), fits.end(), [&](const FitResult& r) {
-      return r.loglik >= best_.loglik - std::max(kSameOptimum, kSameLevel * std::abs(best_.loglik));
+      return r.loglik >= best_.loglik - SameLevel(best_.loglik);
     });
     return better;
   }
@@ -1101,7 +1101,7 @@ class EstimateRun {
       r.message = best_.message;
     }
     // The starts that stopped where the estimate did reached the optimum it went on to.
-    const double same = std::max(kSameOptimum, kSameLevel * std::abs(best_.loglik));
+    const double same = SameLevel(best_.loglik);
     for (Reached& reached : reached_)
       if (reached.delay == delay_ && reached.loglik >= best_.loglik - same)
         reached.loglik = r.loglik, reached.z = r.z, reached.converged = r.converged;

@@ -127,8 +127,7 @@ FitResult Fitter::ExploreAlongside(std::vector<double> z, const std::vector<int>
       // Crawling at the level: back at the estimate's optimum, or on its valley. (Below it, a fit
       // may still be on its way to a better basin: building 3's p22 released from 5929.72 crawls
       // below that before it climbs to 5930.12.)
-      if (std::abs(r.loglik - level) <= std::max(kSameOptimum, kSameLevel * std::abs(level)))
-        return r;
+      if (std::abs(r.loglik - level) <= SameLevel(level)) return r;
       const Eigen::MatrixXd model = r.model;
       FitResult on = f.FitBhhh(r.z, delay, "fitting", iterations - f.iterations(),
                                /*bfgs_updates=*/true, &model);
@@ -872,7 +871,7 @@ FitResult Fitter::Alongside(int threads, int max_evaluations, bool report,
 
 bool Fitter::AnyOnLogScale() const {
   for (int i = 0; i < k(); ++i)
-    if (!log_[i] && lower_[i] > 0 && std::isfinite(lower_[i])) return true;
+    if (OnLogScaleThere(i)) return true;
   return false;
 }
 
@@ -881,7 +880,7 @@ FitResult Fitter::FitOnLogScale(const std::vector<double>& z, const std::vector<
   const std::vector<double> theta = Theta(z);
   FitResult r = Alongside(threads_, max_evaluations, true, [&](Fitter& f) {
     for (int i = 0; i < k(); ++i) {
-      if (f.log_[i] || !(lower_[i] > 0) || !std::isfinite(lower_[i])) continue;
+      if (!OnLogScaleThere(i)) continue;
       f.log_[i] = 1;
       f.lower_[i] = std::log(lower_[i] * scale_[i]);
       f.upper_[i] = std::isfinite(upper_[i]) ? std::log(upper_[i] * scale_[i]) : HUGE_VAL;

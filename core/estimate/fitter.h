@@ -3,6 +3,7 @@
 // BHHH information, and the optimisers (estimate.h describes them).
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <functional>
@@ -29,6 +30,11 @@ inline constexpr double kSameOptimum = 1e-3;
 // Fits that end within this of each other relative to log L reached the same optimum as far as
 // an estimate's outcome goes (issue 33: the same optimum from starts no one can tell apart).
 inline constexpr double kSameLevel = 1e-6;
+// How far below (or above) `loglik` a fit still ended at its level: kSameOptimum, or kSameLevel
+// relative where that is more.
+inline double SameLevel(double loglik) {
+  return std::max(kSameOptimum, kSameLevel * std::abs(loglik));
+}
 inline constexpr int kMaxSaddleEscapes = 3;
 // Where the estimate is on a bound (starts_on_bound): each extra start is fitted this many
 // iterations, and those above the estimate by then fitted on, each within twice the evaluations
@@ -253,6 +259,10 @@ class Fitter {
 
   // Whether FitOnLogScale would fit any parameter on another scale than this fitter does.
   bool AnyOnLogScale() const;
+  // Whether free parameter i is on a linear scale here and goes on a log one in FitOnLogScale.
+  bool OnLogScaleThere(int i) const {
+    return !log_[i] && lower_[i] > 0 && std::isfinite(lower_[i]);
+  }
 
   // One NLopt run: `algo` is kLbfgs, kSlsqp or kBobyqa.
   FitResult FitNlopt(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
