@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/data/dataset.h"
+#include "core/data/import.h"
 #include "core/filter/kalman.h"
 #include "core/filter/likelihood.h"
 #include "core/filter/predict.h"
@@ -35,8 +36,38 @@ int GuardOutputs(const std::vector<FileRole>& inputs, const std::vector<FileRole
 // The data files of a command as inputs for GuardOutputs.
 std::vector<FileRole> DataFiles(const std::vector<std::string>& paths);
 
+// What a command's positional MODEL DATA... name: a model file and data files (CSV read in the
+// default form), or a project file in the model's place: its model (a file or inline) and its
+// datasets with their keys and roles (core/data/import.h). Data files given after a project
+// replace its datasets.
+struct CommandInputs {
+  std::string model_path;    // "" when the project holds the model inline
+  Json inline_model;         // the project's inline model
+  std::string project_path;  // "" without a project
+  std::vector<data::DatasetSpec> datasets;  // every dataset, in order
+
+  // The model file, or the project file for an inline model (for messages).
+  const std::string& ModelSource() const { return model_path.empty() ? project_path : model_path; }
+  // The datasets of `role`.
+  std::vector<data::DatasetSpec> OfRole(data::Role role) const;
+  // The files read, as inputs for GuardOutputs.
+  std::vector<FileRole> Files() const;
+};
+// `first` is a project when it is a JSON object with "greybench_project". Without a project,
+// `data` must not be empty ("give DATA files"); a project without datasets needs `data`.
+Result<CommandInputs> ResolveInputs(const std::string& first, const std::vector<std::string>& data);
+// The datasets a fit uses (role estimation); an input error when there are none.
+Result<std::vector<data::DatasetSpec>> FittedDatasets(const CommandInputs& in);
+// The one dataset `predict` and `diagnose` work on: `choice` is its 1-based number in the
+// project, its name or its file's name; "" picks the only one (several: an input error that lists
+// them).
+Result<data::DatasetSpec> ChooseDataset(const CommandInputs& in, const std::string& choice);
+
 // Reads the model file and applies every `NAME=VALUE` of --set.
 Result<model::ModelSpec> LoadModelWithOverrides(const std::string& path,
+                                                const std::vector<std::string>& sets);
+// The same for a command's model (a file, or a project's inline model).
+Result<model::ModelSpec> LoadModelWithOverrides(const CommandInputs& in,
                                                 const std::vector<std::string>& sets);
 
 // The model (with --set applied) and its data as a likelihood, and θ at the model's values:
@@ -47,8 +78,8 @@ struct LoadedLikelihood {
 };
 // With `start_result`: the free parameters' values from that result file's estimates (those not
 // set by `sets`; the model's fixed parameters keep theirs).
-Result<LoadedLikelihood> LoadLikelihood(const std::string& model_path,
-                                        const std::vector<std::string>& data_paths,
+// The datasets used are FittedDatasets(in).
+Result<LoadedLikelihood> LoadLikelihood(const CommandInputs& in,
                                         const std::vector<std::string>& sets,
                                         const std::string& start_result = "");
 
@@ -216,8 +247,8 @@ struct EvaluatedSeries {
   filter::FilterSettings settings;   // with the chosen delay per output
   std::string delay_source;          // "model file", "result file" or "profile likelihood ..."
 };
-Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
-                                            const std::string& data_path,
+Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
+                                            const data::DatasetSpec& dataset,
                                             const std::vector<std::string>& sets,
                                             const std::string& result_path);
 // Comment lines for output files: the tool, the files, the parameter values and the delays.
@@ -231,8 +262,9 @@ Result<filter::SmoothedStates> SmoothStates(const EvaluatedSeries& e,
                                             const filter::FilterTrace& trace);
 
 struct PredictArgs {
-  std::string model;
-  std::string data;
+  std::string model;  // or a project
+  std::string data;   // "" with a project: its dataset chosen by `dataset`
+  std::string dataset;
   std::vector<std::string> sets;
   std::string result;
   std::string out;
@@ -246,8 +278,9 @@ struct PredictArgs {
 int RunPredict(const PredictArgs& args);
 
 struct DiagnoseArgs {
-  std::string model;
-  std::string data;
+  std::string model;  // or a project
+  std::string data;   // "" with a project: its dataset chosen by `dataset`
+  std::string dataset;
   std::vector<std::string> sets;
   std::string result;
   std::string out;

@@ -1,6 +1,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <set>
 
 #include <fmt/format.h>
@@ -28,10 +29,9 @@ std::vector<FileRole> DataFiles(const std::vector<std::string>& paths) {
   return files;
 }
 
-Result<model::ModelSpec> LoadModelWithOverrides(const std::string& path,
-                                                const std::vector<std::string>& sets) {
-  auto spec = model::LoadModelFile(path);
-  if (!spec) return spec.error();
+namespace {
+
+Result<model::ModelSpec> ApplySets(model::ModelSpec spec, const std::vector<std::string>& sets) {
   for (const auto& s : sets) {
     const auto eq = s.find('=');
     if (eq == std::string::npos || eq == 0)
@@ -45,16 +45,133 @@ Result<model::ModelSpec> LoadModelWithOverrides(const std::string& path,
       return InputError(fmt::format("--set {}: '{}' is out of the range of a double", name, text));
     if (ec != std::errc() || ptr != end || text.empty())
       return InputError(fmt::format("--set {}: '{}' is not a number", name, text));
-    if (auto st = model::SetParameter(&*spec, name, value); !st) return st.error();
+    if (auto st = model::SetParameter(&spec, name, value); !st) return st.error();
   }
   return spec;
 }
 
-Result<LoadedLikelihood> LoadLikelihood(const std::string& model_path,
-                                        const std::vector<std::string>& data_paths,
+}  // namespace
+
+std::vector<data::DatasetSpec> CommandInputs::OfRole(data::Role role) const {
+  std::vector<data::DatasetSpec> out;
+  for (const data::DatasetSpec& d : datasets)
+    if (d.role == role) out.push_back(d);
+  return out;
+}
+
+std::vector<FileRole> CommandInputs::Files() const {
+  std::vector<FileRole> files;
+  if (!project_path.empty()) files.push_back({project_path, "the project file"});
+  if (!model_path.empty()) files.push_back({model_path, "the model file"});
+  for (const data::DatasetSpec& d : datasets) files.push_back({d.file, "the data file"});
+  return files;
+}
+
+namespace {
+
+// Whether `path` holds a project: a JSON object with "greybench_project" (what is not JSON, or
+// not readable, is left to the model's reader to report).
+bool IsProjectFile(const std::string& path) {
+  auto j = project::ReadJsonFile(path);
+  return j && j->is_object() && j->contains("greybench_project");
+}
+
+}  // namespace
+
+Result<CommandInputs> ResolveInputs(const std::string& first, const std::vector<std::string>& data) {
+  CommandInputs in;
+  if (!IsProjectFile(first)) {
+    if (data.empty()) {
+      return InputError(fmt::format(
+          "{} is a model file: give the data files after it (or a project file in its place)",
+          first));
+    }
+    in.model_path = first;
+    in.datasets = project::PlainDatasets(data);
+    return in;
+  }
+  auto p = project::LoadProject(first);
+  if (!p) return p.error();
+  in.project_path = first;
+  in.model_path = p->model_path;
+  if (p->model_path.empty()) in.inline_model = p->model_json;
+  in.datasets = data.empty() ? p->datasets : project::PlainDatasets(data);
+  if (in.datasets.empty()) {
+    Error e = InputError("the project lists no datasets: add some, or give data files after it");
+    e.file = first;
+    e.path = "datasets";
+    return e;
+  }
+  return in;
+}
+
+Result<std::vector<data::DatasetSpec>> FittedDatasets(const CommandInputs& in) {
+  std::vector<data::DatasetSpec> fitted = in.OfRole(data::Role::kEstimation);
+  if (fitted.empty()) {
+    Error e = InputError(
+        "every dataset of the project has the role \"validation\": none is left to fit (give "
+        "one \"role\": \"estimation\")");
+    e.file = in.project_path;
+    e.path = "datasets";
+    return e;
+  }
+  return fitted;
+}
+
+Result<data::DatasetSpec> ChooseDataset(const CommandInputs& in, const std::string& choice) {
+  const auto list = [&] {
+    std::string out;
+    for (std::size_t i = 0; i < in.datasets.size(); ++i)
+      out += fmt::format("{}{} {} ({})", i ? ", " : "", i + 1, in.datasets[i].DisplayName(),
+                         data::RoleName(in.datasets[i].role));
+    return out;
+  };
+  if (choice.empty()) {
+    if (in.datasets.size() == 1) return in.datasets.front();
+    return InputError(fmt::format("the project has {} datasets: choose one with --dataset (its "
+                                  "number, name or file name): {}",
+                                  in.datasets.size(), list()));
+  }
+  int number = 0;
+  const auto [ptr, ec] = std::from_chars(choice.data(), choice.data() + choice.size(), number);
+  if (ec == std::errc() && ptr == choice.data() + choice.size()) {
+    if (number >= 1 && number <= static_cast<int>(in.datasets.size()))
+      return in.datasets[static_cast<std::size_t>(number - 1)];
+  }
+  for (const data::DatasetSpec& d : in.datasets) {
+    if (d.DisplayName() == choice || d.name == choice ||
+        std::filesystem::path(d.file).filename().string() == choice || d.file == choice)
+      return d;
+  }
+  return InputError(fmt::format("--dataset {}: no such dataset; the datasets are: {}", choice, list()));
+}
+
+Result<model::ModelSpec> LoadModelWithOverrides(const CommandInputs& in,
+                                                const std::vector<std::string>& sets) {
+  if (!in.model_path.empty()) return LoadModelWithOverrides(in.model_path, sets);
+  auto spec = model::ParseModel(in.inline_model, in.project_path);
+  if (!spec) {
+    Error e = spec.error();
+    e.path = e.path.empty() ? "model" : "model." + e.path;
+    return e;
+  }
+  return ApplySets(std::move(*spec), sets);
+}
+
+Result<model::ModelSpec> LoadModelWithOverrides(const std::string& path,
+                                                const std::vector<std::string>& sets) {
+  auto spec = model::LoadModelFile(path);
+  if (!spec) return spec.error();
+  return ApplySets(std::move(*spec), sets);
+}
+
+
+Result<LoadedLikelihood> LoadLikelihood(const CommandInputs& in,
                                         const std::vector<std::string>& sets,
                                         const std::string& start_result) {
-  auto spec = LoadModelWithOverrides(model_path, sets);
+  auto fitted = FittedDatasets(in);
+  if (!fitted) return fitted.error();
+  auto spec = LoadModelWithOverrides(in, sets);
   if (!spec) return spec.error();
   if (!start_result.empty()) {
     std::set<std::string> set_names;
@@ -63,7 +180,7 @@ Result<LoadedLikelihood> LoadLikelihood(const std::string& model_path,
       return d.error();
   }
   std::vector<double> theta = spec->Values();
-  auto problem = project::LoadProblem(std::move(*spec), data_paths);
+  auto problem = project::LoadProblem(std::move(*spec), *fitted);
   if (!problem) return problem.error();
   auto lik = project::MakeLikelihood(*problem);
   if (!lik) return lik.error();

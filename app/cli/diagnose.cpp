@@ -66,16 +66,19 @@ Json DiagnosticsJson(const diagnose::ResidualDiagnostics& d) {
 }  // namespace
 
 int RunDiagnose(const DiagnoseArgs& args) {
-  if (int s = GuardOutputs({{args.model, "the model file"},
-                            {args.data, "the data file"},
-                            {args.result, "the --result file"}},
-                           {{args.out, "--out"}}))
-    return s;
+  auto in = ResolveInputs(args.model, args.data.empty() ? std::vector<std::string>{}
+                                                        : std::vector<std::string>{args.data});
+  if (!in) return Fail(in.error());
+  std::vector<FileRole> files = in->Files();
+  files.push_back({args.result, "the --result file"});
+  if (int s = GuardOutputs(files, {{args.out, "--out"}})) return s;
+  auto dataset = ChooseDataset(*in, args.dataset);
+  if (!dataset) return Fail(dataset.error());
   diagnose::DiagnoseOptions options;
   options.max_lag = args.max_lag;
   options.ljung_box_lags = args.ljung_box_lags;
   if (std::string why; !options.IsValid(&why)) return Fail(InputError(why));
-  auto e = LoadEvaluatedSeries(args.model, args.data, args.sets, args.result);
+  auto e = LoadEvaluatedSeries(*in, *dataset, args.sets, args.result);
   if (!e) return Fail(e.error());
   auto pred = PredictOneStep(*e);
   if (!pred) return Fail(pred.error());

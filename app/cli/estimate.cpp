@@ -18,16 +18,18 @@
 namespace gb::cli {
 
 int RunEstimate(const EstimateArgs& args) {
-  std::vector<FileRole> inputs = DataFiles(args.data);
-  inputs.push_back({args.model, "the model file"});
+  auto in = ResolveInputs(args.model, args.data);
+  if (!in) return Fail(in.error());
+  std::vector<FileRole> inputs = in->Files();
   inputs.push_back({args.start, "the --start result file"});
   if (int s = GuardOutputs(inputs, {{args.out, "--out"}, {args.checkpoint, "--checkpoint"}}))
     return s;
-  auto loaded = LoadLikelihood(args.model, args.data, args.sets, args.start);
+  auto loaded = LoadLikelihood(*in, args.sets, args.start);
   if (!loaded) return Fail(loaded.error());
   // What the data were, byte for byte, as read: `compare` refuses fits to other data.
   Json fingerprints = Json::array();
-  for (const std::string& d : args.data) fingerprints.push_back(FileFingerprint(d));
+  for (const data::DatasetSpec& d : *FittedDatasets(*in))
+    fingerprints.push_back(FileFingerprint(d.file));
   // A fit may take minutes: a result file that cannot be written is reported before it.
   if (!args.out.empty())
     if (auto st = project::CheckWritable(args.out); !st) return Fail(st.error());
@@ -95,8 +97,12 @@ int RunEstimate(const EstimateArgs& args) {
     namespace fs = std::filesystem;
     std::error_code ec;
     const fs::path dir = fs::absolute(fs::path(args.out), ec).parent_path();
-    const fs::path rel = fs::absolute(fs::path(args.model), ec).lexically_relative(dir);
-    j["model_file"] = rel.empty() ? args.model : rel.generic_string();
+    const auto relative = [&](const std::string& p) {
+      const fs::path rel = fs::absolute(fs::path(p), ec).lexically_relative(dir);
+      return rel.empty() ? p : rel.generic_string();
+    };
+    if (!in->model_path.empty()) j["model_file"] = relative(in->model_path);
+    if (!in->project_path.empty()) j["project_file"] = relative(in->project_path);
     j["data_fingerprints"] = fingerprints;
     if (auto st = project::WriteFileAtomic(args.out, j.dump(1) + "\n"); !st)
       return Fail(st.error());

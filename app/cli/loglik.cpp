@@ -8,7 +8,9 @@
 namespace gb::cli {
 
 int RunLoglik(const LoglikArgs& args) {
-  auto loaded = LoadLikelihood(args.model, args.data, args.sets);
+  auto in = ResolveInputs(args.model, args.data);
+  if (!in) return Fail(in.error());
+  auto loaded = LoadLikelihood(*in, args.sets);
   if (!loaded) return Fail(loaded.error());
   const filter::Likelihood* lik = &loaded->likelihood;
   const std::vector<double>& theta = loaded->theta;
@@ -61,7 +63,9 @@ int RunLoglik(const LoglikArgs& args) {
 }
 
 int RunBench(const BenchArgs& args) {
-  auto loaded = LoadLikelihood(args.model, args.data, args.sets);
+  auto in = ResolveInputs(args.model, args.data);
+  if (!in) return Fail(in.error());
+  auto loaded = LoadLikelihood(*in, args.sets);
   if (!loaded) return Fail(loaded.error());
   const filter::Likelihood* lik = &loaded->likelihood;
   const std::vector<double>& theta = loaded->theta;

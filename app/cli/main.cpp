@@ -144,9 +144,10 @@ int Main(int argc, char** argv) {
 
   LoglikArgs loglik;
   auto* c_loglik = app.add_subcommand("loglik", "log-likelihood at the model's parameter values");
-  c_loglik->add_option("model", loglik.model, "model file (JSON)")->required();
-  c_loglik->add_option("data", loglik.data, "data files (CSV); their log-likelihoods add up")
-      ->required();
+  c_loglik->add_option("model", loglik.model, "model file (JSON), or a project file")->required();
+  c_loglik->add_option("data", loglik.data,
+                       "data files (CSV); their log-likelihoods add up (with a project: its "
+                       "estimation datasets unless given)");
   c_loglik->add_option("--set", loglik.sets, "NAME=VALUE: override a parameter's value");
   c_loglik->add_flag("--gradient", loglik.gradient,
                      "also print the exact gradient over the free parameters (natural scale)");
@@ -154,8 +155,8 @@ int Main(int argc, char** argv) {
 
   BenchArgs bench;
   auto* c_bench = app.add_subcommand("bench", "time one log-likelihood evaluation (median)");
-  c_bench->add_option("model", bench.model, "model file (JSON)")->required();
-  c_bench->add_option("data", bench.data, "data files (CSV)")->required();
+  c_bench->add_option("model", bench.model, "model file (JSON), or a project file")->required();
+  c_bench->add_option("data", bench.data, "data files (CSV; with a project: its estimation datasets unless given)");
   c_bench->add_option("--set", bench.sets, "NAME=VALUE: override a parameter's value");
   c_bench->add_option("--repeat", bench.repeat, "timed evaluations (default 21; 1..10000)")
       ->check(Number({.lo = 1, .hi = 10000, .whole = true}));
@@ -199,8 +200,10 @@ int Main(int argc, char** argv) {
 
   EstimateArgs est;
   auto* c_est = app.add_subcommand("estimate", "maximum-likelihood estimates with standard errors");
-  c_est->add_option("model", est.model, "model file (JSON)")->required();
-  c_est->add_option("data", est.data, "data files (CSV), fitted jointly")->required();
+  c_est->add_option("model", est.model, "model file (JSON), or a project file")->required();
+  c_est->add_option("data", est.data,
+                    "data files (CSV), fitted jointly (with a project: its estimation datasets "
+                    "unless given)");
   c_est->add_option("--set", est.sets, "NAME=VALUE: override a start (or fixed) value");
   c_est->add_option("--out", est.out, "result file (JSON, CONTRACT section 5)");
   c_est->add_option("--start", est.start,
@@ -262,8 +265,10 @@ int Main(int argc, char** argv) {
 
   PredictArgs predict;
   auto* c_pred = app.add_subcommand("predict", "one-step predictions with standard deviations");
-  c_pred->add_option("model", predict.model, "model file (JSON)")->required();
-  c_pred->add_option("data", predict.data, "data file (CSV)")->required();
+  c_pred->add_option("model", predict.model, "model file (JSON), or a project file")->required();
+  c_pred->add_option("data", predict.data, "data file (CSV; with a project: one of its datasets)");
+  c_pred->add_option("--dataset", predict.dataset,
+                  "with a project: the dataset (its number from 1, name or file name)");
   c_pred->add_option("--set", predict.sets, "NAME=VALUE: override a parameter's value");
   c_pred->add_option("--result", predict.result, "take the estimates (and delays) from a result file");
   c_pred->add_option("--out", predict.out, "output CSV: t, then o, o_pred, o_sd, o_residual")
@@ -281,8 +286,10 @@ int Main(int argc, char** argv) {
 
   DiagnoseArgs diag;
   auto* c_diag = app.add_subcommand("diagnose", "residual diagnostics: ACF, PACF, CCF, periodogram, tests");
-  c_diag->add_option("model", diag.model, "model file (JSON)")->required();
-  c_diag->add_option("data", diag.data, "data file (CSV)")->required();
+  c_diag->add_option("model", diag.model, "model file (JSON), or a project file")->required();
+  c_diag->add_option("data", diag.data, "data file (CSV; with a project: one of its datasets)");
+  c_diag->add_option("--dataset", diag.dataset,
+                  "with a project: the dataset (its number from 1, name or file name)");
   c_diag->add_option("--set", diag.sets, "NAME=VALUE: override a parameter's value");
   c_diag->add_option("--result", diag.result, "take the estimates (and delays) from a result file");
   c_diag->add_option("--max-lag", diag.max_lag, "lags of ACF, PACF and CCF, >= 1 (default min(40, n/4))")
@@ -435,9 +442,10 @@ int Main(int argc, char** argv) {
 
   SweepArgs sweep;
   auto* c_sweep = app.add_subcommand("sweep", "estimate one model on many operating points");
-  c_sweep->add_option("model", sweep.model, "model file (JSON)")->required();
-  c_sweep->add_option("data", sweep.data, "data files, each tagged with its operating point")
-      ->required();
+  c_sweep->add_option("model", sweep.model, "model file (JSON), or a project file")->required();
+  c_sweep->add_option("data", sweep.data,
+                      "data files, each tagged with its operating point (with a project: its "
+                      "estimation datasets unless given)");
   c_sweep->add_option("--set", sweep.sets, "NAME=VALUE: override a start (or fixed) value");
   c_sweep->add_option("--out-csv", sweep.out_csv, "table of estimates (CSV)");
   c_sweep->add_option("--out-md", sweep.out_md, "table of estimates (Markdown)");

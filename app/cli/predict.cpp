@@ -57,11 +57,11 @@ Status WriteStates(const std::string& path, const EvaluatedSeries& e,
 
 }  // namespace
 
-Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
-                                            const std::string& data_path,
+Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
+                                            const data::DatasetSpec& dataset,
                                             const std::vector<std::string>& sets,
                                             const std::string& result_path) {
-  auto spec = LoadModelWithOverrides(model_path, sets);
+  auto spec = LoadModelWithOverrides(in, sets);
   if (!spec) return spec.error();
   std::vector<int> result_delay(spec->outputs.size(), -1);
   if (!result_path.empty()) {
@@ -73,7 +73,7 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const std::string& model_path,
   }
   EvaluatedSeries out;
   out.theta = spec->Values();
-  auto problem = project::LoadProblem(std::move(*spec), {data_path});
+  auto problem = project::LoadProblem(std::move(*spec), std::vector{dataset});
   if (!problem) return problem.error();
   auto lik = project::MakeLikelihood(*problem);
   if (!lik) return lik.error();
@@ -150,12 +150,15 @@ std::vector<std::string> DescribeEvaluation(const EvaluatedSeries& e, const std:
 }
 
 int RunPredict(const PredictArgs& args) {
-  if (int s = GuardOutputs({{args.model, "the model file"},
-                            {args.data, "the data file"},
-                            {args.result, "the --result file"}},
-                           {{args.out, "--out"}, {args.states, "--states"}}))
-    return s;
-  auto e = LoadEvaluatedSeries(args.model, args.data, args.sets, args.result);
+  auto in = ResolveInputs(args.model, args.data.empty() ? std::vector<std::string>{}
+                                                        : std::vector<std::string>{args.data});
+  if (!in) return Fail(in.error());
+  std::vector<FileRole> inputs = in->Files();
+  inputs.push_back({args.result, "the --result file"});
+  if (int s = GuardOutputs(inputs, {{args.out, "--out"}, {args.states, "--states"}})) return s;
+  auto dataset = ChooseDataset(*in, args.dataset);
+  if (!dataset) return Fail(dataset.error());
+  auto e = LoadEvaluatedSeries(*in, *dataset, args.sets, args.result);
   if (!e) return Fail(e.error());
   const std::shared_ptr<const data::Series> original = e->series;  // e->series may be masked
   const data::Series& s = *original;

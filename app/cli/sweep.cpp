@@ -10,11 +10,13 @@
 namespace gb::cli {
 
 int RunSweep(const SweepArgs& args) {
-  std::vector<FileRole> inputs = DataFiles(args.data);
-  inputs.push_back({args.model, "the model file"});
-  if (int s = GuardOutputs(inputs, {{args.out_csv, "--out-csv"}, {args.out_md, "--out-md"}}))
+  auto in = ResolveInputs(args.model, args.data);
+  if (!in) return Fail(in.error());
+  if (int s = GuardOutputs(in->Files(), {{args.out_csv, "--out-csv"}, {args.out_md, "--out-md"}}))
     return s;
-  auto spec = LoadModelWithOverrides(args.model, args.sets);
+  auto datasets = FittedDatasets(*in);
+  if (!datasets) return Fail(datasets.error());
+  auto spec = LoadModelWithOverrides(*in, args.sets);
   if (!spec) return Fail(spec.error());
   estimate::SweepOptions options;
   options.parallel = args.parallel.value_or(0);
@@ -35,13 +37,14 @@ int RunSweep(const SweepArgs& args) {
     for (const auto& p : spec->parameters)
       if (!p.fixed) free.push_back(p.name);
     return fmt::format("{}: '{}' is {} of the model {} (its free parameters: {})", option, name,
-                       i < 0 ? "not a parameter" : "a fixed parameter", args.model,
+                       i < 0 ? "not a parameter" : "a fixed parameter", in->ModelSource(),
                        fmt::join(free, ", "));
   };
   if (args.trend) {
     if (auto why = free_parameter("--trend", options.trend_parameter); !why.empty())
       return Fail(InputError(why));
-    for (const std::string& d : args.data) {
+    for (const data::DatasetSpec& dataset : *datasets) {
+      const std::string& d = dataset.file;
       auto point = estimate::ReadOperatingPoint(d);
       if (!point) return Fail(point.error());
       if (!point->values.count(options.trend_tag)) {
@@ -62,7 +65,7 @@ int RunSweep(const SweepArgs& args) {
   for (const std::string* out : {&args.out_md, &args.out_csv})
     if (!out->empty())
       if (auto st = project::CheckWritable(*out); !st) return Fail(st.error());
-  auto result = estimate::Sweep(*spec, args.data, options);
+  auto result = estimate::Sweep(*spec, *datasets, options);
   if (!result) return Fail(result.error());
   const std::string md = result->Markdown();
   std::printf("%s", md.c_str());

@@ -31,7 +31,7 @@ std::string ColumnList(const Dataset& data) {
     if (!out.empty()) out += ", ";
     out += name.empty() ? std::string("\"\"") : name;
   };
-  bool time_listed = false;
+  bool time_listed = data.time_field == 0;  // rows timed by a sample time: no time column
   for (const Column& c : data.columns) {
     if (!time_listed && c.field > data.time_field) {
       append(data.time_name);
@@ -63,7 +63,7 @@ Result<const Column*> FindColumn(const Dataset& data, const std::string& name, c
                                  "header, as fields {}",
                                  name, role, fmt::join(fields, ", ")));
   }
-  if (name == data.time_name) {
+  if (data.time_field > 0 && name == data.time_name) {
     return DataError(
         data, data.header_line, data.time_field,
         fmt::format("column '{}' is the time column; it cannot be an {} of the model", name, role));
@@ -133,7 +133,7 @@ Result<std::shared_ptr<const Series>> Bind(const Dataset& data, std::span<const 
     if (c.bad_line != 0) {
       return DataError(data, c.bad_line, c.field,
                        fmt::format("in column '{}' (an {} of the model), {}", c.name, b.role,
-                                   NotANumberReason(c.bad_text)));
+                                   NotANumberReason(c.bad_text, data.decimal)));
     }
   }
 

@@ -67,10 +67,18 @@ bool IsUnderflow(std::string_view s) {
 
 }  // namespace
 
-Cell internal::ParseCell(std::string_view s, double* value) {
+Cell internal::ParseCell(std::string_view s, double* value, char decimal) {
   if (IsMissingMarker(s)) {
     *value = kNaN;
     return Cell::kMissing;
+  }
+  // A decimal comma: the cell with its comma read as a point (a point in it is no number).
+  char buffer[64];
+  if (decimal == ',' && s.find_first_of(",.") != std::string_view::npos) {
+    if (s.find('.') != std::string_view::npos || s.size() > sizeof buffer) return Cell::kNotANumber;
+    std::copy(s.begin(), s.end(), buffer);
+    std::replace(buffer, buffer + s.size(), ',', '.');
+    s = std::string_view(buffer, s.size());
   }
   std::string_view digits = s;
   // from_chars takes '-' but not '+'; "+-1" must stay invalid.
@@ -230,41 +238,166 @@ std::string JoinNames(const std::vector<std::string_view>& names) {
   return out;
 }
 
+std::string LowerAscii(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c;
+  return out;
+}
+
+// `name` split into a base and a unit: `time [ms]`, `time(ms)`, `t_ms`; false when it has none.
+bool SplitUnit(std::string_view name, std::string_view* base, std::string_view* unit) {
+  const auto trim = [](std::string_view v) {
+    while (!v.empty() && v.front() == ' ') v.remove_prefix(1);
+    while (!v.empty() && v.back() == ' ') v.remove_suffix(1);
+    return v;
+  };
+  name = trim(name);
+  if (!name.empty() && (name.back() == ']' || name.back() == ')')) {
+    const char open = name.back() == ']' ? '[' : '(';
+    const std::size_t at = name.rfind(open);
+    if (at == std::string_view::npos || at == 0) return false;
+    *base = trim(name.substr(0, at));
+    *unit = trim(name.substr(at + 1, name.size() - at - 2));
+    return !base->empty() && !unit->empty();
+  }
+  const std::size_t at = name.rfind('_');
+  if (at == std::string_view::npos || at == 0 || at + 1 == name.size()) return false;
+  *base = name.substr(0, at);
+  *unit = name.substr(at + 1);
+  return true;
+}
+
+std::optional<double> UnitScale(std::string_view unit) {
+  const std::string u = LowerAscii(unit);
+  if (u == "s" || u == "sec") return 1.0;
+  if (u == "ms") return 1e-3;
+  if (u == "us" || u == "\xC2\xB5s" || u == "\xCE\xBCs") return 1e-6;  // us, micro sign, mu
+  if (u == "ns") return 1e-9;
+  if (u == "min") return 60.0;
+  if (u == "h") return 3600.0;
+  return std::nullopt;
+}
+
+bool IsTimeWord(std::string_view name) {
+  const std::string n = LowerAscii(name);
+  return n == "t" || n == "time" || n == "zeit";
+}
+
+// Names the columns of `d` (every field but the time column) from `names` (the header's, or
+// those a headerless file is given), and finds the time column as `format` says.
+Status NameColumns(const std::vector<std::string_view>& names, int line_no,
+                   const CsvFormat& format, Dataset* d) {
+  int time_index = -1;
+  if (format.sample_time > 0) {
+    // No time column: every field is a column.
+  } else if (!format.time.empty()) {
+    for (std::size_t i = 0; i < names.size() && time_index < 0; ++i)
+      if (names[i] == format.time) time_index = static_cast<int>(i);
+    if (time_index < 0) {
+      return FileError(d->source, line_no, 0,
+                       fmt::format("no column named '{}' (the time column asked for); the columns "
+                                   "are: {}",
+                                   format.time, JoinNames(names)));
+    }
+  } else {
+    // The contract's names first, so a file that read before reads the same.
+    for (std::size_t i = 0; i < names.size() && time_index < 0; ++i)
+      if (EqualsIgnoringCase(names[i], "t") || EqualsIgnoringCase(names[i], "time"))
+        time_index = static_cast<int>(i);
+    // A time name with a unit that is not one of time is taken, to be refused with its unit.
+    for (std::size_t i = 0; i < names.size() && time_index < 0; ++i) {
+      std::string unknown;
+      if (TimeUnitScale(names[i], &unknown) || !unknown.empty()) time_index = static_cast<int>(i);
+    }
+    if (time_index < 0) {
+      return FileError(
+          d->source, line_no, 0,
+          "no time column: the header needs a column named 't' or 'time' (a unit may follow, as "
+          "in 'time [ms]' or 't_s'); it has: " +
+              JoinNames(names));
+    }
+  }
+  if (time_index >= 0) {
+    const std::string_view name = names[static_cast<std::size_t>(time_index)];
+    std::string unknown;
+    std::string_view base, unit;
+    if (const std::optional<double> scale = TimeUnitScale(name, &unknown)) {
+      d->time_scale = *scale;
+    } else if (!unknown.empty()) {
+      return FileError(d->source, line_no, time_index + 1,
+                       fmt::format("the time column '{}' has the unit '{}', which is not a unit "
+                                   "of time (s, ms, us, ns, min, h)",
+                                   name, unknown));
+    } else if (SplitUnit(name, &base, &unit) && UnitScale(unit)) {
+      d->time_scale = *UnitScale(unit);  // a column named by `time`, such as `stamp_ms`
+    }
+    d->time_name = std::string(name);
+    d->time_field = time_index + 1;
+  }
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (static_cast<int>(i) == time_index) continue;
+    Column& c = d->columns.emplace_back();
+    c.name = std::string(names[i]);
+    c.field = static_cast<int>(i) + 1;
+  }
+  return Ok{};
+}
+
+// The names of a line of `n_fields` fields: format.columns (which must have that many), or
+// the header's (`header`, may be empty for a headerless file: c1, c2, ...).
+Result<std::vector<std::string>> FieldNames(const std::vector<std::string_view>& header,
+                                            std::size_t n_fields, const CsvFormat& format,
+                                            const std::string& source, int line_no) {
+  std::vector<std::string> names;
+  if (!format.columns.empty()) {
+    if (format.columns.size() != n_fields) {
+      return FileError(source, line_no, 0,
+                       fmt::format("{} column names are given, but line {} has {} field{}",
+                                   format.columns.size(), line_no, n_fields,
+                                   n_fields == 1 ? "" : "s"));
+    }
+    names = format.columns;
+  } else if (!header.empty()) {
+    names.assign(header.begin(), header.end());
+  } else {
+    for (std::size_t i = 0; i < n_fields; ++i) names.push_back(fmt::format("c{}", i + 1));
+  }
+  return names;
+}
+
 }  // namespace
 
+std::optional<double> TimeUnitScale(std::string_view name, std::string* unknown_unit) {
+  if (IsTimeWord(name)) return 1.0;
+  std::string_view base, unit;
+  if (!SplitUnit(name, &base, &unit) || !IsTimeWord(base)) return std::nullopt;
+  const std::optional<double> scale = UnitScale(unit);
+  if (!scale && unknown_unit != nullptr) *unknown_unit = std::string(unit);
+  return scale;
+}
+
 Status internal::ReadHeader(FieldSplitter& splitter, std::string_view line, int line_no,
-                            Dataset* d) {
+                            Dataset* d, const CsvFormat& format) {
   int bad_field = 0;
   std::string problem;
   if (!splitter.Split(line, &bad_field, &problem)) {
     return FileError(d->source, line_no, bad_field, "in the header, " + problem);
   }
-  const std::vector<std::string_view>& names = splitter.fields();
+  const std::vector<std::string_view>& fields = splitter.fields();
   d->header_line = line_no;
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    const int field = static_cast<int>(i) + 1;
-    if (d->time_field == 0 &&
-        (EqualsIgnoringCase(names[i], "t") || EqualsIgnoringCase(names[i], "time"))) {
-      d->time_name = std::string(names[i]);
-      d->time_field = field;
-    } else {
-      Column& c = d->columns.emplace_back();
-      c.name = std::string(names[i]);
-      c.field = field;
-    }
-  }
-  if (d->time_field == 0) {
-    return FileError(d->source, line_no, 0,
-                     "no time column: the header needs a column named 't' or 'time'; it has: " +
-                         JoinNames(names));
-  }
-  return Ok{};
+  Result<std::vector<std::string>> names =
+      FieldNames(fields, fields.size(), format, d->source, line_no);
+  if (!names) return names.error();
+  const std::vector<std::string_view> views(names->begin(), names->end());
+  return NameColumns(views, line_no, format, d);
 }
 
 // ---------------------------------------------------------------------------------------------
 // Rows
 
-std::string NotANumberReason(std::string_view text) {
+std::string NotANumberReason(std::string_view text, char decimal) {
+  if (decimal == ',' && text.find('.') != std::string_view::npos)
+    return fmt::format("'{}' is not a number (the decimal mark must be ',')", text);
   std::string_view digits = text;
   if (!digits.empty() && (digits.front() == '+' || digits.front() == '-')) digits.remove_prefix(1);
   double v = 0;
@@ -272,6 +405,7 @@ std::string NotANumberReason(std::string_view text) {
   const auto [ptr, ec] = std::from_chars(digits.data(), end, v, std::chars_format::general);
   const bool reads_as_number = !digits.empty() && digits.front() != '-' && ptr == end;
   if (reads_as_number) return fmt::format("'{}' is not finite", text);
+  if (decimal == ',') return fmt::format("'{}' is not a number", text);
   return fmt::format(
       "'{}' is not a number{}", text,
       text.find(',') != std::string_view::npos ? " (the decimal point must be '.')" : "");
@@ -286,22 +420,25 @@ Status internal::SplitRow(FieldSplitter& splitter, std::string_view line, int li
     return FileError(header.source, line_no, bad_field, problem);
   }
   const std::vector<std::string_view>& fields = splitter.fields();
-  const std::size_t n_fields = header.columns.size() + 1;
+  const std::size_t n_fields = header.columns.size() + (header.time_field > 0 ? 1 : 0);
   if (fields.size() != n_fields) {
     return FileError(header.source, line_no,
                      static_cast<int>(std::min(fields.size(), n_fields)) + 1,
-                     fmt::format("line {} has {} field{}, the header has {}", line_no,
-                                 fields.size(), fields.size() == 1 ? "" : "s", n_fields));
+                     fmt::format("line {} has {} field{}, the {} has {}", line_no, fields.size(),
+                                 fields.size() == 1 ? "" : "s",
+                                 header.header_line > 0 ? "header" : "first row", n_fields));
   }
+  if (header.time_field == 0) return Ok{};
   const std::string_view time = fields[static_cast<std::size_t>(header.time_field - 1)];
-  switch (ParseCell(time, t)) {
+  switch (ParseCell(time, t, header.decimal)) {
     case Cell::kNumber:
       break;
     case Cell::kMissing:
       return FileError(header.source, line_no, header.time_field,
                        "the time is missing (every row needs a time)");
     case Cell::kNotANumber:
-      return FileError(header.source, line_no, header.time_field, "time " + NotANumberReason(time));
+      return FileError(header.source, line_no, header.time_field,
+                       "time " + NotANumberReason(time, header.decimal));
   }
   if (previous_line > 0 && !(*t > previous_time)) {
     return FileError(header.source, line_no, header.time_field,
@@ -311,23 +448,61 @@ Status internal::SplitRow(FieldSplitter& splitter, std::string_view line, int li
   return Ok{};
 }
 
-Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::string source) {
+namespace {
+
+// A time of the time column in seconds. A unit below a second divides by a whole number (100 ms
+// is 0.1 s to the last bit, which 100 * 0.001 is not).
+double Seconds(const Dataset& d, double t) {
+  if (d.time_scale == 1) return t;
+  const double per_second = std::round(1 / d.time_scale);
+  const bool divide = d.time_scale < 1 && std::abs(per_second * d.time_scale - 1) < 1e-12;
+  return divide ? t / per_second : t * d.time_scale;
+}
+
+}  // namespace
+
+Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::string source,
+                                                const CsvFormat& format) {
   auto d = std::make_shared<Dataset>();
   d->source = std::move(source);
+  d->decimal = format.decimal;
   if (text.starts_with(kByteOrderMark)) text.remove_prefix(kByteOrderMark.size());
+  if (format.decimal == ',' && format.separator == ',') {
+    return FileError(d->source, 0, 0, "a decimal comma needs another separator than ','");
+  }
 
   LineReader lines(text);
   std::string_view line;
-  bool found_header = false;
-  while (!found_header && lines.Next(&line)) found_header = !IsSkipped(line);
-  if (!found_header) {
+  bool found_first = false;
+  while (!found_first && lines.Next(&line)) found_first = !IsSkipped(line);
+  if (!found_first) {
     return FileError(d->source, 0, 0,
                      text.find_first_not_of(" \t\r\n") == std::string_view::npos
                          ? "the file is empty"
-                         : "the file has no header: it holds only comments and blank lines");
+                         : format.header
+                               ? "the file has no header: it holds only comments and blank lines"
+                               : "the file has no rows: it holds only comments and blank lines");
   }
-  FieldSplitter splitter(DetectSeparator(line));
-  if (Status s = ReadHeader(splitter, line, lines.number(), d.get()); !s) return s.error();
+  char separator = format.separator != 0 ? format.separator : DetectSeparator(line);
+  if (format.decimal == ',' && separator == ',') separator = ';';
+  FieldSplitter splitter(separator);
+  // A headerless file: the first line is data, and it names nothing but its count of fields.
+  bool first_is_data = false;
+  if (format.header) {
+    if (Status s = ReadHeader(splitter, line, lines.number(), d.get(), format); !s)
+      return s.error();
+  } else {
+    int bad_field = 0;
+    std::string problem;
+    if (!splitter.Split(line, &bad_field, &problem))
+      return FileError(d->source, lines.number(), bad_field, problem);
+    Result<std::vector<std::string>> names =
+        FieldNames({}, splitter.fields().size(), format, d->source, lines.number());
+    if (!names) return names.error();
+    const std::vector<std::string_view> views(names->begin(), names->end());
+    if (Status s = NameColumns(views, lines.number(), format, d.get()); !s) return s.error();
+    first_is_data = true;
+  }
 
   // Reserving for every remaining line avoids regrowing the columns (most lines are rows). A row
   // of n fields takes at least n bytes (separators and line end), which bounds the reservation
@@ -338,15 +513,21 @@ Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::stri
   d->row_line.reserve(max_rows);
   for (Column& c : d->columns) c.values.reserve(max_rows);
 
-  while (lines.Next(&line)) {
-    if (IsSkipped(line)) continue;
-    const int line_no = lines.number();
+  // The last row read (kept or not): times must increase over every row of the file.
+  int previous_line = 0;
+  double previous_time = 0;
+  std::size_t row_count = 0;
+  const auto read_row = [&](std::string_view row, int line_no) -> Status {
     double t = 0;
-    const int previous_line = d->time.empty() ? 0 : d->row_line.back();
-    const double previous_time = d->time.empty() ? 0.0 : d->time.back();
-    if (Status s = SplitRow(splitter, line, line_no, *d, previous_line, previous_time, &t); !s) {
+    if (Status s = SplitRow(splitter, row, line_no, *d, previous_line, previous_time, &t); !s) {
       return s.error();
     }
+    if (d->time_field == 0) t = static_cast<double>(row_count) * format.sample_time;
+    ++row_count;
+    previous_line = line_no;
+    previous_time = t;
+    t = Seconds(*d, t);
+    if (format.range && (t < (*format.range)[0] || t > (*format.range)[1])) return Ok{};
     const std::vector<std::string_view>& fields = splitter.fields();
     d->time.push_back(t);
     d->row_line.push_back(line_no);
@@ -354,7 +535,7 @@ Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::stri
     for (Column& c : d->columns) {
       const std::string_view cell = fields[static_cast<std::size_t>(c.field - 1)];
       double v = 0;
-      switch (ParseCell(cell, &v)) {
+      switch (ParseCell(cell, &v, d->decimal)) {
         case Cell::kNumber:
           break;
         case Cell::kMissing:
@@ -370,19 +551,102 @@ Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::stri
       }
       c.values.push_back(v);
     }
+    return Ok{};
+  };
+  if (first_is_data)
+    if (Status s = read_row(line, lines.number()); !s) return s.error();
+  while (lines.Next(&line)) {
+    if (IsSkipped(line)) continue;
+    if (Status s = read_row(line, lines.number()); !s) return s.error();
   }
-  if (d->time.empty()) {
+  if (row_count == 0) {
     return FileError(d->source, d->header_line, 0, "the file has a header but no data rows");
   }
+  if (format.range && d->time.size() < 2) {
+    return FileError(d->source, 0, 0,
+                     fmt::format("range [{:g}, {:g}] holds {} row{} of the record; at least 2 "
+                                 "are needed",
+                                 (*format.range)[0], (*format.range)[1], d->time.size(),
+                                 d->time.size() == 1 ? "" : "s"));
+  }
+  for (std::size_t k = 1; k < d->time.size(); ++k) {
+    if (!(d->time[k] > d->time[k - 1])) {  // two times a unit apart that round to one in seconds
+      return FileError(d->source, d->row_line[k], d->time_field,
+                       "the time does not increase once converted to seconds");
+    }
+  }
   return std::shared_ptr<const Dataset>(std::move(d));
+}
+
+CsvFormat SniffCsv(std::string_view text) {
+  CsvFormat format;
+  if (text.starts_with(kByteOrderMark)) text.remove_prefix(kByteOrderMark.size());
+  constexpr int kLines = 50;
+  std::vector<std::string_view> sample;
+  LineReader lines(text);
+  std::string_view line;
+  while (static_cast<int>(sample.size()) < kLines && lines.Next(&line))
+    if (!IsSkipped(line)) sample.push_back(line);
+  if (sample.empty()) return format;
+
+  const auto count_outside_quotes = [](std::string_view l, char c) {
+    int n = 0;
+    bool quoted = false;
+    for (char x : l) {
+      if (x == '"') quoted = !quoted;
+      n += !quoted && x == c;
+    }
+    return n;
+  };
+  for (char candidate : {';', '\t', ','}) {
+    const int n = count_outside_quotes(sample.front(), candidate);
+    bool consistent = n > 0;
+    for (std::string_view l : sample) consistent = consistent && count_outside_quotes(l, candidate) == n;
+    if (consistent) {
+      format.separator = candidate;
+      break;
+    }
+  }
+  if (format.separator == 0) format.separator = DetectSeparator(sample.front());
+
+  FieldSplitter splitter(format.separator);
+  int bad_field = 0;
+  std::string problem;
+  if (format.separator != ',') {
+    int with_point = 0, with_comma = 0;
+    for (std::string_view l : sample) {
+      if (!splitter.Split(l, &bad_field, &problem)) continue;
+      for (std::string_view f : splitter.fields()) {
+        double v = 0;
+        if (f.find('.') != std::string_view::npos && ParseCell(f, &v, '.') == Cell::kNumber)
+          ++with_point;
+        if (f.find(',') != std::string_view::npos && ParseCell(f, &v, ',') == Cell::kNumber)
+          ++with_comma;
+      }
+    }
+    if (with_comma > 0 && with_point == 0) format.decimal = ',';
+  }
+  if (splitter.Split(sample.front(), &bad_field, &problem)) {
+    bool all_numbers = !splitter.fields().empty();
+    for (std::string_view f : splitter.fields()) {
+      double v = 0;
+      all_numbers = all_numbers && ParseCell(f, &v, format.decimal) == Cell::kNumber;
+    }
+    format.header = !all_numbers;
+  }
+  return format;
 }
 
 // ---------------------------------------------------------------------------------------------
 // Files
 
-Result<std::shared_ptr<const Dataset>> ReadCsvFile(const std::string& path) {
-  // Data files are read whole; 4 GiB is some 100 million rows of a few columns.
-  constexpr std::uintmax_t kMaxCsvBytes = std::uintmax_t{4} << 30;
+namespace {
+
+// Data files are read whole; 4 GiB is some 100 million rows of a few columns.
+constexpr std::uintmax_t kMaxCsvBytes = std::uintmax_t{4} << 30;
+
+// Reads `path` into *text (not zero-filled first: fread writes it once) and its size.
+Status ReadWhole(const std::string& path, std::unique_ptr<char[]>* text, std::size_t* got) {
   std::uintmax_t size = 0;
   if (const std::string why = WhyNotReadable(path, kMaxCsvBytes, &size); !why.empty())
     return FileError(path, 0, 0, why);
@@ -390,16 +654,32 @@ Result<std::shared_ptr<const Dataset>> ReadCsvFile(const std::string& path) {
   if (f == nullptr) {
     return FileError(path, 0, 0, "cannot open the file: " + std::generic_category().message(errno));
   }
-  // Not zero-filled: the buffer is written once, by fread.
-  const auto text = std::make_unique_for_overwrite<char[]>(static_cast<std::size_t>(size));
-  const std::size_t got = std::fread(text.get(), 1, static_cast<std::size_t>(size), f);
+  *text = std::make_unique_for_overwrite<char[]>(static_cast<std::size_t>(size));
+  *got = std::fread(text->get(), 1, static_cast<std::size_t>(size), f);
   const bool failed = std::ferror(f) != 0;
   const int error = errno;
   std::fclose(f);
   if (failed) {
     return FileError(path, 0, 0, "cannot read the file: " + std::generic_category().message(error));
   }
-  return ParseCsv(std::string_view(text.get(), got), path);
+  return Ok{};
+}
+
+}  // namespace
+
+Result<std::shared_ptr<const Dataset>> ReadCsvFile(const std::string& path,
+                                                   const CsvFormat& format) {
+  std::unique_ptr<char[]> text;
+  std::size_t size = 0;
+  if (Status s = ReadWhole(path, &text, &size); !s) return s.error();
+  return ParseCsv(std::string_view(text.get(), size), path, format);
+}
+
+Result<std::string> ReadTextFile(const std::string& path) {
+  std::unique_ptr<char[]> text;
+  std::size_t size = 0;
+  if (Status s = ReadWhole(path, &text, &size); !s) return s.error();
+  return std::string(text.get(), size);
 }
 
 int Dataset::Find(std::string_view name) const {

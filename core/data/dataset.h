@@ -21,9 +21,16 @@
 //   - Duplicated column names are recorded; binding a duplicated name is an error.
 // Errors name the file, the 1-based line and 1-based column (field number) and what is wrong,
 // e.g. `run1.csv:14:1: time 0.25 does not increase (previous row, line 13, has 0.25)`.
+//
+// Other forms (a project's dataset keys, core/data/import.h) are read with a CsvFormat: no header
+// (the first line is data; the columns named by `columns`, else c1, c2, ...), a given separator,
+// a decimal comma, a named time column, a time column with a unit in its name (`time [ms]`,
+// `t_ms`, `Zeit [s]`: converted to seconds), or no time column at all (row k at k * sample_time).
 #pragma once
 
+#include <array>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -50,10 +57,13 @@ struct Column {
 // Immutable once read.
 struct Dataset {
   std::string source;              // the path as the user gave it (used in messages)
-  int header_line = 0;             // 1-based line of the header
-  std::string time_name;           // as written in the header
+  int header_line = 0;             // 1-based line of the header; 0 for a file without one
+  std::string time_name;           // as written in the header; "" when the rows are timed by
+                                   // a sample time (time_field 0)
   int time_field = 0;
-  std::vector<double> time;        // strictly increasing
+  double time_scale = 1;           // seconds per unit of the time column (`time [ms]`: 0.001)
+  char decimal = '.';              // the decimal mark the cells were read with
+  std::vector<double> time;        // strictly increasing, in seconds when the column had a unit
   std::vector<int> row_line;       // 1-based file line of each row
   std::vector<Column> columns;     // every column except the time column, in file order
 
@@ -62,16 +72,52 @@ struct Dataset {
   int Find(std::string_view name) const;
 };
 
+// How a CSV file is laid out, where it is not the default form above. The default CsvFormat
+// reads exactly as described there.
+struct CsvFormat {
+  bool header = true;              // false: the first line that is not a comment is data
+  char separator = 0;              // ',', ';' or '\t'; 0: detected from the first line
+  char decimal = '.';              // '.' or ',' (then the separator cannot be ',')
+  // The fields' names in file order: required to match the fields' count. Without a header they
+  // name the columns (default c1, c2, ...); with one they replace the header's names.
+  std::vector<std::string> columns;
+  // The time column's name; "": the first named t or time, else the first such name with a unit
+  // (time_unit.h's names: `time [ms]`, `t_s`, `Zeit (min)`).
+  std::string time;
+  double sample_time = 0;          // > 0: there is no time column; row k is at k * sample_time
+  // Only the rows with range[0] <= t <= range[1] (seconds) are kept; every row is still
+  // checked. Fewer than 2 rows kept is an Error whose message starts with "range".
+  std::optional<std::array<double, 2>> range;
+};
+
+// The format of `text` as far as it can be told from its first lines: the separator that splits
+// every line into the same number of fields (';', then TAB, then ','), a decimal comma when no
+// field is a number with a point and some is one with a comma (and the separator is not ','),
+// and no header when every field of the first line is a number. Used where a format is not
+// given (a dataset object without those keys, the import dialog's first guess).
+CsvFormat SniffCsv(std::string_view text);
+
 // Reads a CSV file in one go; `path` names it in messages and becomes `Dataset::source`.
 // A file that cannot be read is an Error with `file` set and no line.
-Result<std::shared_ptr<const Dataset>> ReadCsvFile(const std::string& path);
+Result<std::shared_ptr<const Dataset>> ReadCsvFile(const std::string& path,
+                                                   const CsvFormat& format = {});
 // Parses CSV text already in memory; `source` is used in messages.
-Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::string source);
+Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::string source,
+                                                const CsvFormat& format = {});
+// The text of a file, whole, with ReadCsvFile's checks and messages (not a regular file, too
+// large, unreadable).
+Result<std::string> ReadTextFile(const std::string& path);
+
+// Seconds per unit of a time column named `name`: `t`, `time`, `zeit` (any case) alone, or with
+// a unit in brackets or parentheses or after '_' (`time [ms]`, `Zeit (s)`, `t_us`); units s,
+// sec, ms, us, µs, ns, min, h. nullopt for another name; an unknown unit on a time name
+// (`time [deg]`) is nullopt too, with *unknown_unit set to it when given.
+std::optional<double> TimeUnitScale(std::string_view name, std::string* unknown_unit = nullptr);
 
 // Why a cell that is neither a number nor a missing marker (Column::bad_text) was refused, in
 // words: "'abc' is not a number", "'inf' is not finite",
 // "'1,5' is not a number (the decimal point must be '.')".
-std::string NotANumberReason(std::string_view text);
+std::string NotANumberReason(std::string_view text, char decimal = '.');
 
 // Sample intervals grouped so each distinct interval is discretised once.
 // Intervals whose relative difference is below kIntervalRelTol belong to one group; the group's

@@ -23,8 +23,9 @@ Error FileError(const std::string& file, int line, int col, std::string message)
 enum class Cell { kNumber, kMissing, kNotANumber };
 
 // `s` is a trimmed field. Only a complete finite decimal number is a number (in *value); an empty
-// cell, `NA` or `NaN` is missing (*value = NaN); anything else is not a number.
-Cell ParseCell(std::string_view s, double* value);
+// cell, `NA` or `NaN` is missing (*value = NaN); anything else is not a number. With decimal ','
+// the number's decimal mark is a comma, and a point makes it not a number.
+Cell ParseCell(std::string_view s, double* value, char decimal = '.');
 
 // Blank lines and comment lines ('#' after optional spaces) carry no data.
 bool IsSkipped(std::string_view line);
@@ -58,14 +59,18 @@ class FieldSplitter {
 };
 
 // Reads the header `line` (line `line_no` of `d->source`, split by `splitter`) into d's
-// header_line, time_name, time_field and columns (names and fields; no values).
+// header_line, time_name, time_field, time_scale and columns (names and fields; no values), as
+// `format` says (its columns, time and sample_time; format.header must be true).
 // An Error when a quote is malformed or there is no time column.
-Status ReadHeader(FieldSplitter& splitter, std::string_view line, int line_no, Dataset* d);
+Status ReadHeader(FieldSplitter& splitter, std::string_view line, int line_no, Dataset* d,
+                  const CsvFormat& format = {});
 
 // What every reader checks of a data row: splits `line` (line `line_no`) into the splitter's
 // fields, checks that there are as many as `header` has, and reads the time into *t, which must
 // be finite and greater than `previous_time`, the time of line `previous_line` (0: no previous
-// row). The Error names `header.source`, the line and the field.
+// row); without a time column (header.time_field 0) *t is left alone. The time is in the
+// column's own unit (not yet scaled by header.time_scale). The Error names `header.source`, the
+// line and the field.
 Status SplitRow(FieldSplitter& splitter, std::string_view line, int line_no, const Dataset& header,
                 int previous_line, double previous_time, double* t);
 

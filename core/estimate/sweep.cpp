@@ -93,7 +93,7 @@ Result<OperatingPoint> ReadOperatingPoint(const std::string& path) {
   return point;
 }
 
-Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<std::string>& datasets,
+Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<data::DatasetSpec>& datasets,
                           const SweepOptions& options) {
   SweepResult result;
   result.rows.resize(datasets.size());
@@ -103,7 +103,7 @@ Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<std::s
   auto cancelled = [cancel] { return cancel && cancel->load(); };
   const int parallel = options.parallel > 0 ? options.parallel : HardwareThreads();
   auto fit_one = [&](int i) {
-    auto point = ReadOperatingPoint(datasets[i]);
+    auto point = ReadOperatingPoint(datasets[i].file);
     if (!point) {
       errors[i] = point.error();
       return;
@@ -128,7 +128,7 @@ Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<std::s
     if (summary->cancelled) return;
     const auto& t = problem->series[0]->time;
     const double interval = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
-    result.rows[i] = {datasets[i], std::move(*point), interval, std::move(*summary)};
+    result.rows[i] = {datasets[i].file, std::move(*point), interval, std::move(*summary)};
     fitted[i] = 1;
   };
   ParallelFor(static_cast<int>(datasets.size()), parallel, [&](int i) {

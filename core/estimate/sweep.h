@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "core/data/import.h"
 #include "core/estimate/estimate.h"
 #include "core/model/model.h"
 
@@ -84,7 +85,7 @@ struct SweepOptions {
 
 // Fits `spec` to every dataset. A dataset that cannot be read or fitted fails the sweep with
 // its name in the message (unless the sweep was cancelled: then the result says so).
-Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<std::string>& datasets,
+Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<data::DatasetSpec>& datasets,
                           const SweepOptions& options);
 
 // y = a + b x by ordinary least squares (with_intercept), or y = b x through the origin; the

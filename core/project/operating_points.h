@@ -67,7 +67,7 @@ struct LinearisedSpec {
 };
 
 struct OperatingPointsSpec {
-  std::vector<std::string> datasets;   // resolved paths
+  std::vector<data::DatasetSpec> datasets;  // files resolved
   bool datasets_from_project = false;  // `datasets` was absent: these are the project's
   std::string model;                   // resolved path; "": the project's model
   std::string delay_parameter;         // "": the output delay in samples

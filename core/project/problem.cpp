@@ -21,14 +21,24 @@ Result<Problem> MakeProblem(model::ModelSpec spec,
   return p;
 }
 
-Result<Problem> LoadProblem(model::ModelSpec spec, const std::vector<std::string>& data_paths) {
+Result<Problem> LoadProblem(model::ModelSpec spec, const std::vector<data::DatasetSpec>& data) {
   std::vector<std::shared_ptr<const data::Dataset>> datasets;
-  for (const auto& path : data_paths) {
-    auto d = data::ReadCsvFile(path);
-    if (!d) return d.error();
-    datasets.push_back(*d);
+  for (const data::DatasetSpec& d : data) {
+    auto read = data::ReadDataset(d);
+    if (!read) return read.error();
+    datasets.push_back(*read);
   }
   return MakeProblem(std::move(spec), std::move(datasets));
+}
+
+Result<Problem> LoadProblem(model::ModelSpec spec, const std::vector<std::string>& data_paths) {
+  return LoadProblem(std::move(spec), PlainDatasets(data_paths));
+}
+
+std::vector<data::DatasetSpec> PlainDatasets(const std::vector<std::string>& paths) {
+  std::vector<data::DatasetSpec> out(paths.size());
+  for (std::size_t i = 0; i < paths.size(); ++i) out[i].file = paths[i];
+  return out;
 }
 
 Result<filter::Likelihood> MakeLikelihood(const Problem& problem) {

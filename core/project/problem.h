@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/data/dataset.h"
+#include "core/data/import.h"
 #include "core/filter/likelihood.h"
 #include "core/model/linear_model.h"
 #include "core/model/nonlinear_model.h"
@@ -25,8 +26,14 @@ struct Problem {
   const model::ModelSpec& spec() const { return model ? model->spec() : nonlinear->spec(); }
 };
 
-// Compiles the model (linear when it is, else for the EKF), reads and binds every data file.
+// Compiles the model (linear when it is, else for the EKF), reads, prepares and binds every
+// dataset (whatever its role: the caller picks the ones to fit).
+Result<Problem> LoadProblem(model::ModelSpec spec, const std::vector<data::DatasetSpec>& data);
+// The same for CSV files read in the default form.
 Result<Problem> LoadProblem(model::ModelSpec spec, const std::vector<std::string>& data_paths);
+
+// Files as datasets read in the default form (plain entries).
+std::vector<data::DatasetSpec> PlainDatasets(const std::vector<std::string>& paths);
 
 // Binds already-read datasets.
 Result<Problem> MakeProblem(model::ModelSpec spec,

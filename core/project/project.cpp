@@ -238,9 +238,11 @@ Result<Project> LoadProject(const std::string& path) {
     const auto& d = j["datasets"];
     if (!d.is_array()) return FileError(path, "expected a list of data file names", "datasets");
     for (std::size_t i = 0; i < d.size(); ++i) {
-      if (!d[i].is_string())
-        return FileError(path, "expected a file name (a string)", fmt::format("datasets[{}]", i));
-      p.datasets.push_back(ResolvePath(p.base_dir, d[i].get<std::string>()));
+      Result<data::DatasetSpec> spec =
+          data::ParseDatasetSpec(d[i], path, fmt::format("datasets[{}]", i));
+      if (!spec) return spec.error();
+      spec->file = ResolvePath(p.base_dir, spec->file);
+      p.datasets.push_back(std::move(*spec));
     }
   }
   if (j.contains(kEstimationKey)) {
@@ -271,6 +273,13 @@ Result<Project> LoadProject(const std::string& path) {
   return p;
 }
 
+std::vector<data::DatasetSpec> DatasetsOf(const Project& p, data::Role role) {
+  std::vector<data::DatasetSpec> out;
+  for (const data::DatasetSpec& d : p.datasets)
+    if (d.role == role) out.push_back(d);
+  return out;
+}
+
 EstimationDefaults ReadEstimationDefaults(const Project& project) {
   EstimationDefaults d;
   if (!project.extra.is_object() || !project.extra.contains(kEstimationKey)) return d;
@@ -294,7 +303,8 @@ Json ProjectToJson(const Project& p, const std::string& path, bool relative_path
     j["model"] = p.model_json;
   }
   Json datasets = Json::array();
-  for (const std::string& d : p.datasets) datasets.push_back(PathForFile(d, dir, relative_paths));
+  for (const data::DatasetSpec& d : p.datasets)
+    datasets.push_back(data::DatasetSpecToJson(d, PathForFile(d.file, dir, relative_paths)));
   j["datasets"] = std::move(datasets);
   if (p.extra.is_object()) {
     for (auto it = p.extra.begin(); it != p.extra.end(); ++it) j[it.key()] = it.value();
@@ -306,7 +316,7 @@ std::vector<FileRole> ProjectFiles(const Project& p) {
   std::vector<FileRole> files;
   if (!p.path.empty()) files.push_back({p.path, "the project file"});
   if (!p.model_path.empty()) files.push_back({p.model_path, "the project's model file"});
-  for (const std::string& d : p.datasets) files.push_back({d, "a dataset of the project"});
+  for (const data::DatasetSpec& d : p.datasets) files.push_back({d.file, "a dataset of the project"});
   if (p.extra.is_object() && p.extra.contains("diagram") && p.extra["diagram"].is_string())
     files.push_back({ResolvePath(p.base_dir, p.extra["diagram"].get<std::string>()),
                      "the project's diagram file"});

@@ -3,14 +3,17 @@
 //
 //   {"greybench_project": 1, "name": "Fuel film f1",
 //    "model": "models/fuel_film.json" | { inline model },
-//    "datasets": ["data/f1.csv", ...],
+//    "datasets": ["data/f1.csv", {"file": "data/f2.csv", "role": "validation"}, ...],
 //    ... other keys are kept untouched in `extra` (views, layout, diagram) }
+// A dataset entry is a file name or an object with how to read and prepare it
+// (core/data/import.h).
 #pragma once
 
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "core/data/import.h"
 #include "core/util/json.h"
 #include "core/util/output_guard.h"
 #include "core/util/result.h"
@@ -27,7 +30,7 @@ struct Project {
   std::string name;
   std::string model_path;             // resolved path of the model file; "" when inline
   Json model_json;                    // the model object (read from model_path, or inline)
-  std::vector<std::string> datasets;  // resolved paths
+  std::vector<data::DatasetSpec> datasets;  // with their files' paths resolved
   Json extra;                         // every other top-level key, preserved on save
 };
 
@@ -44,9 +47,13 @@ inline constexpr const char* kEstimationKey = "estimation";
 EstimationDefaults ReadEstimationDefaults(const Project& project);
 
 // Reads a project file and the model file it names (the model is only read as JSON here;
-// core/model validates it). Errors name the file and JSON path, e.g.
-// `case.json: datasets[1]: expected a file name (a string)`.
+// core/model validates it), and checks its dataset entries' keys (the recordings are read by
+// data::ReadDataset). Errors name the file and JSON path, e.g.
+// `case.json: datasets[1].decimal: expected "." or ","`.
 Result<Project> LoadProject(const std::string& path);
+
+// The datasets of `role`, in the project's order.
+std::vector<data::DatasetSpec> DatasetsOf(const Project& p, data::Role role);
 
 // Every file the project is made of, as inputs for the output guard (core/util/output_guard.h):
 // the project file, its model file, its datasets and its diagram file, each with its role.
@@ -62,7 +69,7 @@ Result<Json> ReadJsonFile(const std::string& path);
 //   "name"     p.name;
 //   "model"    when p.model_path is set, that file's path (the caller has checked that it holds
 //              the model to save); otherwise p.model_json inline;
-//   "datasets" p.datasets;
+//   "datasets" p.datasets (data::DatasetSpecToJson);
 //   every key of p.extra, untouched (diagrams, layout).
 // With `relative_paths`, model and dataset paths are written relative to the directory of
 // `path` (as LoadProject resolves them); otherwise absolute (e.g. for a recovery file kept

@@ -244,7 +244,8 @@ TEST(Csv, RejectsHeaderWithoutTimeColumn) {
   EXPECT_EQ(e.line, 2);
   EXPECT_EQ(e.col, 0);
   EXPECT_EQ(e.message,
-            "no time column: the header needs a column named 't' or 'time'; it has: a, b");
+            "no time column: the header needs a column named 't' or 'time' (a unit may follow, as "
+            "in 'time [ms]' or 't_s'); it has: a, b");
 }
 
 TEST(Csv, RejectsMissingTime) {

@@ -518,7 +518,8 @@ TEST(EngineCase, TheLinearisationAtTheSixPointsFromTheBundledFit) {
   auto points = project::ReadOperatingPoints(*project);
   ASSERT_TRUE(points.ok() && points->has_value());
   const project::OperatingPointsSpec& op = **points;
-  auto sweep = project::LineariseAtPoints(*op.linearised, project->model_path, op.datasets);
+  auto sweep = project::LineariseAtPoints(*op.linearised, project->model_path,
+                                          data::Files(op.datasets));
   ASSERT_TRUE(sweep.ok()) << sweep.error().ToString();
   ASSERT_EQ(sweep->points.size(), 6u);
   const sim::EngineTruth truth;

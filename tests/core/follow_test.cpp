@@ -394,7 +394,8 @@ TEST(Follow, AHeaderThatCannotBeBoundIsFatalAndNothingMoreIsRead) {
        "fields 2, 4"},
       {"a,u,y",
        {"u"},
-       "run.csv:2: no time column: the header needs a column named 't' or 'time'; it has: a, u, y"},
+       "run.csv:2: no time column: the header needs a column named 't' or 'time' (a unit may "
+       "follow, as in 'time [ms]' or 't_s'); it has: a, u, y"},
       {"t,u,\"y",
        {"u"},
        "run.csv:2:3: in the header, field 3 opens a quote that is not closed on this line"},

@@ -56,8 +56,8 @@ TEST(OperatingPoints, ReadsEveryMemberAndResolvesPathsAgainstTheProject) {
   ASSERT_TRUE(spec->has_value());
   const OperatingPointsSpec& s = **spec;
   ASSERT_EQ(s.datasets.size(), 2u);
-  EXPECT_EQ(s.datasets[0], (fs::path(file.dir()) / "data/p1.csv").string());
-  EXPECT_EQ(s.datasets[1], "/abs/p2.csv");
+  EXPECT_EQ(s.datasets[0].file, (fs::path(file.dir()) / "data/p1.csv").string());
+  EXPECT_EQ(s.datasets[1].file, "/abs/p2.csv");
   EXPECT_FALSE(s.datasets_from_project);
   EXPECT_EQ(s.speed_tag, "speed");
   EXPECT_EQ(s.trend_parameter, "tau");

@@ -79,7 +79,7 @@ TEST(SaveProject, RoundTripsAnEditedInlineModelTheDataAndUnknownKeys) {
   EXPECT_EQ(back->name, "edited");
   EXPECT_TRUE(back->model_path.empty());
   ASSERT_EQ(back->datasets.size(), 1u);
-  EXPECT_TRUE(fs::equivalent(back->datasets[0], kUiData + "/f1.csv"));
+  EXPECT_TRUE(fs::equivalent(back->datasets[0].file, kUiData + "/f1.csv"));
   EXPECT_EQ(back->extra, p.extra);
 
   // The dataset is written relative to the saved file, as LoadProject resolves it.
@@ -93,14 +93,14 @@ TEST(SaveProject, RoundTripsAnEditedInlineModelTheDataAndUnknownKeys) {
   EXPECT_EQ(model::ToJson(*spec_back), model::ToJson(*spec));
   EXPECT_EQ(spec_back->parameters[spec_back->ParameterIndex("tau_fv")].value, 0.11);
 
-  const double original = LogLik(*spec, loaded->datasets);
-  const double reread = LogLik(*spec_back, back->datasets);
+  const double original = LogLik(*spec, data::Files(loaded->datasets));
+  const double reread = LogLik(*spec_back, data::Files(back->datasets));
   EXPECT_TRUE(std::isfinite(original));
   EXPECT_EQ(reread, original);
   // And the edit matters: the file's own model scores the data differently.
   auto file_spec = model::LoadModelFile(kUiData + "/fuel_film.json");
   ASSERT_TRUE(file_spec.ok());
-  EXPECT_NE(LogLik(*file_spec, loaded->datasets), original);
+  EXPECT_NE(LogLik(*file_spec, data::Files(loaded->datasets)), original);
 }
 
 TEST(SaveProject, KeepsAReferencedModelFileAsARelativePath) {

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <thread>
 
+#include "core/project/problem.h"
 #include "core/sim/dyno.h"
 #include "tests/shortened_data.h"
 
@@ -32,7 +33,7 @@ TEST(Sweep, RecoversEveryOperatingPointOfTable2FromTheBundledDynoData) {
   for (std::size_t i = 0; i < points.size(); ++i)
     files.push_back(kRoot + "/assets/data/fuel_" + points[i].name + ".csv");
   SweepOptions options;
-  auto result = Sweep(*spec, files, options);
+  auto result = Sweep(*spec, project::PlainDatasets(files), options);
   ASSERT_TRUE(result.ok()) << result.error().ToString();
   ASSERT_EQ(result->rows.size(), files.size());
   for (const auto& row : result->rows) {
@@ -94,7 +95,7 @@ TEST(Sweep, ACancelSetBeforehandStartsNoFit) {
   options.estimate.cancel = &cancel;
   int reports = 0;
   options.progress = [&](const SweepProgress&) { ++reports; };
-  auto result = Sweep(*spec, BundledFuelFiles(), options);
+  auto result = Sweep(*spec, project::PlainDatasets(BundledFuelFiles()), options);
   ASSERT_TRUE(result.ok()) << result.error().ToString();
   EXPECT_TRUE(result->cancelled);
   EXPECT_TRUE(result->rows.empty());
@@ -129,7 +130,7 @@ TEST(Sweep, CancelStopsTheFitsUnderWayWithin100msAndKeepsTheFinishedPoints) {
     cancelled_at = std::chrono::steady_clock::now();
     cancel = true;
   });
-  auto result = Sweep(*spec, files, options);
+  auto result = Sweep(*spec, project::PlainDatasets(files), options);
   const auto returned_at = std::chrono::steady_clock::now();
   canceller.join();
   ASSERT_TRUE(result.ok()) << result.error().ToString();

@@ -3,8 +3,9 @@
 // Each input is written to project.json in a private temporary directory that also holds a valid
 // model (model.json), block diagram (diagram.json) and data file (data.csv), so relative names in
 // a fuzzed project reach real files. Then, as the workbench and `greybench-cli export-model` do:
-// LoadProject -> ParseModel of its model -> LinearModel; the datasets inside the directory are
-// read and bound (LoadProblem); the project's diagram (inline or a file) is read, written back
+// LoadProject -> ParseModel of its model -> LinearModel; the datasets' keys are written back
+// (DatasetSpecToJson must reproduce them), and the datasets inside the directory are read,
+// prepared and bound (LoadProblem); the project's diagram (inline or a file) is read, written back
 // (ToJson/FromJson must reproduce it) and compiled; an equations model is turned into a diagram
 // (FromModel) and compiled back.
 // Files outside the temporary directory are never read (a fuzzed path could name /dev/zero).
@@ -119,9 +120,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     auto diagram = gb::diagram::FromModel(*spec);
     if (diagram.ok()) CheckDiagram(*diagram, p.path);
   }
-  std::vector<std::string> datasets;
-  for (const std::string& d : p.datasets)
-    if (Inside(f.dir, d)) datasets.push_back(d);
+  // A dataset's keys are written back as they were read (ProjectToJson's entries).
+  std::vector<gb::data::DatasetSpec> datasets;
+  for (const gb::data::DatasetSpec& d : p.datasets) {
+    const Json written = gb::data::DatasetSpecToJson(d, d.file);
+    auto again = gb::data::ParseDatasetSpec(written, p.path, d.origin_path);
+    FUZZ_CHECK(again.ok());
+    FUZZ_CHECK(gb::data::DatasetSpecToJson(*again, again->file).dump() == written.dump());
+    if (Inside(f.dir, d.file)) datasets.push_back(d);
+  }
   auto problem = gb::project::LoadProblem(*spec, datasets);
   if (problem.ok() && !problem->series.empty()) {
     auto likelihood = gb::project::MakeLikelihood(*problem);

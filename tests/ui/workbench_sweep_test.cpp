@@ -17,6 +17,7 @@
 #include "core/online/estimator.h"
 #include "core/online/monitor.h"
 #include "core/project/linearised.h"
+#include "core/project/problem.h"
 #include "tests/shortened_data.h"
 #include "tests/ui/workbench_driver.h"
 #include "ui/format.h"
@@ -71,7 +72,7 @@ estimate::SweepResult SweepDirectly() {
   options.estimate.full_delay_profile = !kSanitized;
   if (kSanitized) options.estimate.starts_on_bound = 0;
   auto result =
-      estimate::Sweep(*spec, {kData + "p1.csv", kData + "p2.csv", kData + "p3.csv"}, options);
+      estimate::Sweep(*spec, project::PlainDatasets({kData + "p1.csv", kData + "p2.csv", kData + "p3.csv"}), options);
   EXPECT_TRUE(result.ok()) << result.error().ToString();
   return *result;
 }
@@ -183,7 +184,7 @@ TEST(WorkbenchSweep, CancelStopsTheSweepWithin100msAndKeepsThePreviousTable) {
   // A long sweep (the six full-length case-study datasets), cancelled while it fits.
   d.state.sweep.spec->datasets.clear();
   for (const char* point : {"f1", "f2", "f3", "f4", "f7", "f8"})
-    d.state.sweep.spec->datasets.push_back(kSource + "/assets/data/fuel_" + point + ".csv");
+    d.state.sweep.spec->datasets.push_back({.file = kSource + "/assets/data/fuel_" + point + ".csv"});
   const std::optional<ImVec2> run = FindButton(d, "Run");
   ASSERT_TRUE(run);
   d.Click(*run);
@@ -233,14 +234,14 @@ TEST(WorkbenchSweep, AFailedSweepNamesTheFileAndKeepsThePreviousTable) {
   d.Open(kSweepProject);
   ASSERT_TRUE(d.state.sweep.spec) << d.state.sweep.spec_error;
   // Under the sanitizers the first 400 rows of each record (the point is the failure's path).
-  for (std::string& file : d.state.sweep.spec->datasets)
-    file = gb::testing::ShortenedUnderSanitizers(file, 400);
+  for (data::DatasetSpec& dataset : d.state.sweep.spec->datasets)
+    dataset.file = gb::testing::ShortenedUnderSanitizers(dataset.file, 400);
   ASSERT_TRUE(StartSweep(d.state));
   WaitForJobs(d.state);
   ASSERT_TRUE(d.state.sweep.result) << d.state.sweep.last_failure;
   const double loglik = d.state.sweep.result->result.rows[0].summary.loglik;
 
-  d.state.sweep.spec->datasets.push_back(kData + "no_such_point.csv");
+  d.state.sweep.spec->datasets.push_back({.file = kData + "no_such_point.csv"});
   std::string why;
   ASSERT_TRUE(StartSweep(d.state, &why)) << why;
   WaitForJobs(d.state);
@@ -259,14 +260,14 @@ TEST(WorkbenchSweep, AProjectWithoutTheKeyCanSweepItsOwnDatasets) {
   d.Open(kNoSweepProject);
   ASSERT_TRUE(d.state.project);
   // Two tagged datasets in the project (as if it listed them).
-  d.state.project->datasets = {kData + "p1.csv", kData + "p3.csv"};
+  d.state.project->datasets = project::PlainDatasets({kData + "p1.csv", kData + "p3.csv"});
   d.state.view = View::kOperatingPoints;
   d.Frame();
   EXPECT_NE(d.Text().find("Sweep the project's 2 datasets"), std::string::npos);
   SweepProjectDatasets(d.state);  // what the button does
   ASSERT_TRUE(d.state.sweep.spec);
   EXPECT_TRUE(d.state.sweep.spec->datasets_from_project);
-  EXPECT_EQ(d.state.sweep.spec->datasets, d.state.project->datasets);
+  EXPECT_EQ(data::Files(d.state.sweep.spec->datasets), data::Files(d.state.project->datasets));
   std::string why;
   ASSERT_TRUE(StartSweep(d.state, &why)) << why;
   WaitForJobs(d.state);
@@ -340,8 +341,8 @@ TEST(WorkbenchSweep, ALinearisedNonlinearFitIsShownBesideThePerPointFits) {
   ASSERT_TRUE(d.state.model) << d.state.model_error;
   ASSERT_TRUE(d.state.sweep.spec && d.state.sweep.spec->linearised) << d.state.sweep.spec_error;
   // Under the sanitizers the first 800 rows of each record (the point there is the code path).
-  for (std::string& file : d.state.sweep.spec->datasets)
-    file = gb::testing::ShortenedUnderSanitizers(file, 800);
+  for (data::DatasetSpec& dataset : d.state.sweep.spec->datasets)
+    dataset.file = gb::testing::ShortenedUnderSanitizers(dataset.file, 800);
   d.state.view = View::kOperatingPoints;
   d.Frame();
   // Before the sweep the view says what Run will do, naming both models' files.
@@ -358,7 +359,7 @@ TEST(WorkbenchSweep, ALinearisedNonlinearFitIsShownBesideThePerPointFits) {
   ASSERT_EQ(f.result.rows.size(), 3u);
 
   // The same linearisation from the files, by core alone.
-  const std::vector<std::string> files = d.state.sweep.spec->datasets;
+  const std::vector<std::string> files = data::Files(d.state.sweep.spec->datasets);
   auto direct = project::LineariseAtPoints(*d.state.sweep.spec->linearised,
                                            kSource + "/assets/models/engine_mvem.json", files);
   ASSERT_TRUE(direct.ok()) << direct.error().ToString();

@@ -50,6 +50,7 @@ enum class AnalysisSource { kFit, kCurrentValues };
 // restarts the job only when the request it would make changes.
 struct AnalysisRequest {
   int project_generation = 0;  // AppState::project_generation
+  int datasets_revision = 0;   // AppState::datasets_revision
   int model_revision = 0;      // AppState::model_revision
   AnalysisSource source = AnalysisSource::kCurrentValues;
   std::vector<double> theta;          // every parameter, in model order

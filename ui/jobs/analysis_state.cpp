@@ -47,12 +47,16 @@ void InstallAnalysis(AppState& state, AnalysisRun run) {
   a.running.reset();
   const bool by_user = a.cancel_requested;
   a.cancel_requested = false;
-  if (!request || request->project_generation != state.project_generation) return;
+  if (!request || request->project_generation != state.project_generation ||
+      request->datasets_revision != state.datasets_revision)
+    return;
   if (run.analysis) {
-    // Same project: the time axes and lags are those of before, so a zoom is kept; the
-    // residuals' distribution moves with θ.
-    const bool same_data = a.result && a.result->request.project_generation ==
-                                           run.analysis->request.project_generation;
+    // Same project and datasets: the time axes and lags are those of before, so a zoom is kept;
+    // the residuals' distribution moves with θ.
+    const bool same_data =
+        a.result &&
+        a.result->request.project_generation == run.analysis->request.project_generation &&
+        a.result->request.datasets_revision == run.analysis->request.datasets_revision;
     a.result = std::move(run.analysis);
     a.last_failure.clear();
     if (same_data) {
@@ -105,6 +109,7 @@ std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state, std::st
   const model::ModelSpec& m = *state.model;
   AnalysisRequest r;
   r.project_generation = state.project_generation;
+  r.datasets_revision = state.datasets_revision;
   r.model_revision = state.model_revision;
   r.horizon = std::clamp(a.horizon, 1, kMaxHorizon);
   r.preview_theta = m.Values();

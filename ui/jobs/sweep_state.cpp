@@ -147,7 +147,8 @@ bool StartSweep(AppState& state, std::string* why) {
   input.points = *s.spec;
   if (input.points.linearised && state.model) input.project_model = *state.model;
   s.status = std::make_shared<SweepStatus>(static_cast<int>(input.points.datasets.size()));
-  s.running_datasets = input.points.datasets;
+  s.running_datasets.clear();
+  for (const data::DatasetSpec& d : input.points.datasets) s.running_datasets.push_back(d.file);
   s.started = std::chrono::steady_clock::now();
   s.started_revision = state.model_revision;
   s.started_generation = state.project_generation;

@@ -57,6 +57,12 @@ std::string FileList(const std::vector<std::string>& files, std::size_t shown) {
   return out;
 }
 
+std::string FileList(const std::vector<data::DatasetSpec>& datasets, std::size_t shown) {
+  std::vector<std::string> files;
+  for (const data::DatasetSpec& d : datasets) files.push_back(d.file);
+  return FileList(files, shown);
+}
+
 // The label of a tag with its unit, for axes and choices.
 std::string TagText(const project::OperatingPointsSpec& points, const std::string& tag) {
   const project::TagLabel l = points.Label(tag);

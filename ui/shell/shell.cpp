@@ -269,10 +269,12 @@ void InstallDataset(AppState& state, DatasetRead read) {
   d.path = read.path;
   d.data = std::move(read.data);
   d.summary = std::move(read.summary);
-  state.project->datasets.push_back(d.path);
+  d.spec.file = d.path;
+  state.project->datasets.push_back(d.spec);
   state.datasets.push_back(std::move(d));
   state.data_view.x_ranges.push_back(plot::LinkedRange{});
   ++state.layout_revision;
+  ++state.datasets_revision;  // the predictions are computed for it too
   AddMessage(state, Severity::kInfo,
              "Added " + Basename(read.path) + " to the project (" +
                  GroupedCount(static_cast<long long>(state.datasets.back().summary.rows)) +
@@ -530,7 +532,8 @@ void CreateProject(AppState& state) {
       f.error = d + ": there is no such file.";
       return;
     }
-    p.datasets.push_back(Absolute(d));
+    p.datasets.emplace_back();
+    p.datasets.back().file = Absolute(d);
   }
   if (Status st = CheckOutputs(project::ProjectFiles(p), {{project_path, "the project file"}});
       !st) {

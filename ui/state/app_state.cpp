@@ -46,12 +46,13 @@ ProjectLoad LoadProjectAndData(const std::string& path, JobControl& control) {
       out.error = project.error().ToString();
       return out;
     }
-    const std::vector<std::string>& files = project->datasets;
-    for (std::size_t i = 0; i < files.size() && !control.cancel; ++i) {
-      control.progress = static_cast<float>(i) / static_cast<float>(files.size());
+    const std::vector<data::DatasetSpec>& specs = project->datasets;
+    for (std::size_t i = 0; i < specs.size() && !control.cancel; ++i) {
+      control.progress = static_cast<float>(i) / static_cast<float>(specs.size());
       LoadedDataset d;
-      d.path = files[i];
-      Result<std::shared_ptr<const data::Dataset>> read = data::ReadCsvFile(files[i]);
+      d.path = specs[i].file;
+      d.spec = specs[i];
+      Result<std::shared_ptr<const data::Dataset>> read = data::ReadDataset(specs[i]);
       if (read.ok()) {
         d.data = std::move(read).value();
         d.summary = Summarize(*d.data);
@@ -289,9 +290,12 @@ bool StartEstimation(AppState& state, std::string* why) {
   input.spec = *state.model;
   input.settings = state.estimation.settings;
   for (const LoadedDataset& d : state.datasets) {
+    if (d.spec.role != data::Role::kEstimation) continue;  // validation records are not fitted
     if (!d.data) return refuse(FileName(d.path) + " could not be read: " + d.error);
     input.datasets.push_back(d.data);
   }
+  if (input.datasets.empty())
+    return refuse("every dataset is a validation record: give one the role estimation");
   std::string invalid;
   estimate::EstimateOptions check;
   check.multistart = input.settings.multistart;
@@ -312,6 +316,64 @@ bool StartEstimation(AppState& state, std::string* why) {
 }
 
 void CancelEstimation(AppState& state) { state.estimation.job.RequestCancel(); }
+
+namespace {
+
+// Why the datasets cannot be changed now ("" when they can).
+std::string DatasetsLocked(const AppState& state, std::size_t index) {
+  if (!state.project) return "no project is open";
+  if (index >= state.datasets.size()) return "there is no such dataset";
+  if (EstimationRunning(state)) return "an estimation is under way";
+  if (SweepRunning(state)) return "a sweep is under way";
+  return "";
+}
+
+void DatasetsChanged(AppState& state) {
+  ++state.datasets_revision;
+  ++state.layout_revision;  // what Save writes changed
+}
+
+}  // namespace
+
+bool SetDatasetRole(AppState& state, std::size_t index, data::Role role, std::string* why) {
+  if (std::string locked = DatasetsLocked(state, index); !locked.empty()) {
+    if (why) *why = std::move(locked);
+    return false;
+  }
+  LoadedDataset& d = state.datasets[index];
+  if (d.spec.role == role) return true;
+  d.spec.role = role;
+  d.spec.plain = false;  // a role is a key: the entry becomes an object
+  for (data::DatasetSpec& entry : state.project->datasets)
+    if (entry.file == d.spec.file && entry.origin_path == d.spec.origin_path) entry = d.spec;
+  DatasetsChanged(state);
+  AddMessage(state, Severity::kInfo,
+             d.spec.DisplayName() +
+                 (role == data::Role::kValidation
+                      ? " is a validation record: it is not fitted, and is shown at the estimates."
+                      : " is fitted again (estimation record)."));
+  return true;
+}
+
+bool RemoveDataset(AppState& state, std::size_t index, std::string* why) {
+  if (std::string locked = DatasetsLocked(state, index); !locked.empty()) {
+    if (why) *why = std::move(locked);
+    return false;
+  }
+  const std::string name = state.datasets[index].spec.DisplayName();
+  const auto at = static_cast<std::ptrdiff_t>(index);
+  state.datasets.erase(state.datasets.begin() + at);
+  if (index < state.project->datasets.size())
+    state.project->datasets.erase(state.project->datasets.begin() + at);
+  if (index < state.data_view.x_ranges.size())
+    state.data_view.x_ranges.erase(state.data_view.x_ranges.begin() + at);
+  AnalysisState& a = state.analysis;
+  if (a.dataset >= static_cast<int>(index) && a.dataset > 0) --a.dataset;
+  DatasetsChanged(state);
+  AddMessage(state, Severity::kInfo,
+             "Removed " + name + " from the project (the file itself is untouched).");
+  return true;
+}
 
 void ApplyParameterEdits(AppState& state) {
   ParametersViewState& v = state.parameters_view;

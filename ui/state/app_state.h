@@ -87,7 +87,8 @@ float CanvasZoomFor(float editor_zoom);
 
 // One dataset file of the project, as read by the loading job.
 struct LoadedDataset {
-  std::string path;
+  std::string path;             // spec.file
+  data::DatasetSpec spec;       // the project's entry: how the file is read, and its role
   std::shared_ptr<const data::Dataset> data;  // null when the file could not be read
   std::string error;                          // why `data` is null
   DatasetSummary summary;
@@ -253,6 +254,9 @@ struct AppState {
   Job<ProjectLoad> load_job;
   std::string loading_path;
   int project_generation = 0;  // counts the projects installed (a late result can tell)
+  // Counts the changes of the open project's datasets (added, removed, role changed): the
+  // predictions are computed again, and the project has unsaved changes.
+  int datasets_revision = 0;
 
   // The model the views work on: parsed from the project, then edited in the Parameters view.
   std::optional<model::ModelSpec> model;
@@ -288,6 +292,13 @@ struct AppState {
 };
 
 void AddMessage(AppState& state, Severity severity, std::string text);
+
+// The sidebar's dataset edits. Each changes the project's entry and the loaded dataset together,
+// counts as an unsaved change, and makes the predictions be computed again; a fit already made
+// is kept (its estimates stay what the views show). Refused (false, with *why) while an
+// estimation or a sweep runs, and for an index out of range.
+bool SetDatasetRole(AppState& state, std::size_t index, data::Role role, std::string* why = nullptr);
+bool RemoveDataset(AppState& state, std::size_t index, std::string* why = nullptr);
 
 // Starts reading the project and its datasets in the loading job (ignored while one runs).
 void OpenProject(AppState& state, std::string path);
