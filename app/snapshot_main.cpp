@@ -105,6 +105,7 @@ struct Options {
   std::optional<double> live_forgetting;
   std::string live_csv;        // "": the dyno
   std::string live_reference;  // "": the session's estimate
+  int dataset = 0;             // the Predictions and Residuals views' dataset, from 1 (0: the first)
 };
 
 constexpr const char* kUsage =
@@ -112,13 +113,14 @@ constexpr const char* kUsage =
     "                          [--view VIEW --out OUT.png ...]\n"
     "                          [--width W] [--height H] [--estimate] [--dialog DIALOG]\n"
     "                          [--time T0:T1] [--profile PARAMETER]\n"
-    "                          [--overlays ahead,simulation,smoothed]\n"
+    "                          [--overlays ahead,simulation,smoothed] [--dataset N]\n"
     "                          [--live-until T [--live-fault TIME:PARAMETER*FACTOR[/RAMP] ...]\n"
     "                           [--live-point NAME] [--live-seed N] [--live-forgetting L]\n"
     "                           [--live-csv FILE] [--live-reference RESULT.json]]\n"
     "VIEW: data diagram equations estimate predictions residuals parameters operating-points\n"
     "      live\n"
-    "DIALOG: open-project save-project-as new-project keyboard-shortcuts unsaved-changes\n";
+    "DIALOG: open-project save-project-as new-project keyboard-shortcuts unsaved-changes\n"
+    "        import-dataset\n";
 
 int Fail(int status, const std::string& message) {
   std::fprintf(stderr, "greybench-snapshot: error: %s\n", message.c_str());
@@ -146,7 +148,7 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
         arg == "--height" || arg == "--dialog" || arg == "--time" || arg == "--profile" ||
         arg == "--overlays" || arg == "--live-until" || arg == "--live-fault" ||
         arg == "--live-point" || arg == "--live-seed" || arg == "--live-forgetting" ||
-        arg == "--live-csv" || arg == "--live-reference";
+        arg == "--live-csv" || arg == "--live-reference" || arg == "--dataset";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
@@ -199,6 +201,12 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       gb::Result<gb::sim::TimedFuelFault> f = gb::sim::ParseFuelFault(value, "--live-fault");
       if (!f) return f.error().message;
       o->live_faults.push_back(std::move(f).value());
+    } else if (arg == "--dataset") {
+      char* end = nullptr;
+      const long n = std::strtol(value.c_str(), &end, 10);
+      if (value.empty() || *end != '\0' || n < 1 || n > 100000)
+        return "--dataset '" + value + "': expected the dataset's number, from 1";
+      o->dataset = static_cast<int>(n);
     } else if (arg == "--live-csv") {
       o->live_csv = value;
     } else if (arg == "--live-reference") {
@@ -280,6 +288,15 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
     return Fail(kExitBadInput, st.error().ToString());
   for (const ui::LoadedDataset& d : state.datasets) {
     if (!d.data) return Fail(kExitBadInput, d.error);
+  }
+  if (options.dataset > static_cast<int>(state.datasets.size())) {
+    return Fail(kExitBadInput, "--dataset " + std::to_string(options.dataset) + ": the project has " +
+                                   std::to_string(state.datasets.size()) + " datasets");
+  }
+  if (options.dataset > 0) {
+    state.analysis.dataset = options.dataset - 1;
+    state.analysis.RequestFit();
+    ui::OpenTimeWindow(state.analysis);
   }
   int status = 0;
   if (options.estimate && Shows(options, ui::View::kOperatingPoints)) {

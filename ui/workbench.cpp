@@ -12,7 +12,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string>
+#include <utility>
 
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
@@ -102,18 +104,57 @@ void DrawSidebar(AppState& state) {
   ImGui::Spacing();
   SidebarCaption("DATASETS");
   if (state.datasets.empty()) ImGui::TextDisabled("none");
-  for (const LoadedDataset& d : state.datasets) {
-    const std::string name = FileName(d.path);
+  // One row per dataset: its name, "validation" for a record that is not fitted, its rows; a
+  // right click (or the row's menu key) changes its role or removes it from the project.
+  std::optional<std::pair<std::size_t, data::Role>> set_role;
+  std::optional<std::size_t> remove;
+  for (std::size_t i = 0; i < state.datasets.size(); ++i) {
+    const LoadedDataset& d = state.datasets[i];
+    const std::string name = d.spec.DisplayName();
+    const bool validation = d.spec.role == data::Role::kValidation;
+    ImGui::PushID(static_cast<int>(i));
+    const ImVec2 row_min = ImGui::GetCursorScreenPos();
+    ImGui::Selectable("##dataset", false, ImGuiSelectableFlags_AllowItemOverlap,
+                      ImVec2(0, ImGui::GetTextLineHeight()));
+    const bool hovered = ImGui::IsItemHovered();
+    if (ImGui::BeginPopupContextItem("dataset-menu")) {
+      ImGui::TextDisabled("%s", name.c_str());
+      ImGui::Separator();
+      if (ImGui::MenuItem("Fit it (estimation record)", nullptr, !validation))
+        set_role = {i, data::Role::kEstimation};
+      if (ImGui::MenuItem("Validate on it (not fitted)", nullptr, validation))
+        set_role = {i, data::Role::kValidation};
+      ImGui::Separator();
+      if (ImGui::MenuItem("Remove from the project")) remove = i;
+      ImGui::EndPopup();
+    }
+    ImGui::SetCursorScreenPos(row_min);
     if (d.data) {
-      ImGui::TextUnformatted(name.c_str());
-      const std::string rows = GroupedCount(static_cast<long long>(d.summary.rows));
-      ImGui::SameLine(ImGui::GetContentRegionMax().x - ImGui::CalcTextSize(rows.c_str()).x);
-      ImGui::TextDisabled("%s", rows.c_str());
+      std::string right = GroupedCount(static_cast<long long>(d.summary.rows));
+      if (validation) right = "validation \xC2\xB7 " + right;
+      const float right_w = ImGui::CalcTextSize(right.c_str()).x;
+      const float name_w = ImGui::GetContentRegionMax().x - ImGui::GetCursorPosX() - right_w -
+                           ImGui::GetFontSize() * 0.5f;
+      ImGui::TextUnformatted(FitToWidth(name, name_w).c_str());
+      ImGui::SameLine(ImGui::GetContentRegionMax().x - right_w);
+      ImGui::TextDisabled("%s", right.c_str());
     } else {
       ImGui::TextColored(SeverityColor(Severity::kError), "%s (unreadable)", name.c_str());
-      if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", d.error.c_str());
     }
+    if (hovered) {
+      ImGui::SetTooltip("%s\n%s%s\nRight-click: fit it, validate on it, or remove it",
+                        d.path.c_str(),
+                        validation ? "validation record: not fitted, shown at the estimates"
+                                   : "estimation record: fitted",
+                        d.data ? "" : ("\n" + d.error).c_str());
+    }
+    ImGui::PopID();
   }
+  std::string why;
+  if (set_role && !SetDatasetRole(state, set_role->first, set_role->second, &why))
+    AddMessage(state, Severity::kWarning, "The dataset's role was not changed: " + why);
+  if (remove && !RemoveDataset(state, *remove, &why))
+    AddMessage(state, Severity::kWarning, "The dataset was not removed: " + why);
 }
 
 // ---------------------------------------------------------------------------------------------

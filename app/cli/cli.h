@@ -246,6 +246,7 @@ struct EvaluatedSeries {
   model::StateSpace ss;
   filter::FilterSettings settings;   // with the chosen delay per output
   std::string delay_source;          // "model file", "result file" or "profile likelihood ..."
+  int initial_samples = 0;  // a validation record: the rows its own initial state is from
 };
 Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
                                             const data::DatasetSpec& dataset,

@@ -8,6 +8,7 @@
 
 #include "app/cli/cli.h"
 #include "core/filter/ekf_predict.h"
+#include "core/filter/initial_state.h"
 #include "core/data/write_csv.h"
 #include "core/filter/predict.h"
 #include "core/project/problem.h"
@@ -114,6 +115,19 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
     out.settings.delay = profile->candidates[best].delay;
     out.delay_source = "profile likelihood at these parameter values";
   }
+  // A validation record starts at its own initial state, from its first samples (as the
+  // workbench's Predictions view does).
+  if (dataset.role == data::Role::kValidation) {
+    const int n = filter::InitialStateSamples(static_cast<int>(out.series->size()));
+    Result<filter::InitialStateEstimate> start =
+        out.nonlinear
+            ? filter::EkfEstimateInitialState(*out.nonlinear, out.theta, *out.series, out.settings, n)
+            : filter::EstimateInitialState(out.ss, *out.series, out.settings, n);
+    if (!start) return start.error();
+    out.settings.x0 = start->x0;
+    out.settings.P0 = start->P0;
+    out.initial_samples = start->samples;
+  }
   return out;
 }
 
@@ -146,6 +160,11 @@ std::vector<std::string> DescribeEvaluation(const EvaluatedSeries& e, const std:
   for (std::size_t o = 0; o < m.outputs.size(); ++o)
     delays += fmt::format("{}{}={}", o ? " " : "", m.outputs[o], e.settings.delay[o]);
   lines.push_back(fmt::format("output delay (samples): {} (from the {})", delays, e.delay_source));
+  if (e.initial_samples > 0) {
+    lines.push_back(fmt::format("initial state: a validation record's own, from its first {} "
+                                "rows (smoothed back to its start)",
+                                e.initial_samples));
+  }
   return lines;
 }
 

@@ -40,6 +40,7 @@ Result<Loglik> Run::operator()() const {
   Eigen::VectorXd x;
   Eigen::MatrixXd P;
   if (auto s = propagator.Initial(settings.initial_covariance, &x, &P); !s) return s.error();
+  settings.OverrideInitial(&x, &P);
 
   if (trace) {
     constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();

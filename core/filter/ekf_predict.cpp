@@ -72,6 +72,7 @@ Result<HorizonPredictions> EkfPredictAhead(const model::NonlinearModel& model,
   Eigen::VectorXd x;
   Eigen::MatrixXd P;
   if (auto s = propagator.Initial(settings.initial_covariance, &x, &P); !s) return s.error();
+  settings.OverrideInitial(&x, &P);
   for (int j = 0; j < std::min(horizon, N); ++j) {
     if (auto s = Store(propagator, series, delay, j, x, P, meas, &out); !s) return s.error();
     if (j + 1 < N) {
@@ -103,6 +104,7 @@ Result<HorizonPredictions> EkfOpenLoop(const model::NonlinearModel& model,
   Eigen::VectorXd x;
   Eigen::MatrixXd P;
   if (auto s = propagator.Initial(settings.initial_covariance, &x, &P); !s) return s.error();
+  settings.OverrideInitial(&x, &P);
   for (int j = 0; j < N; ++j) {
     if (auto s = Store(propagator, series, delay, j, x, P, meas, &out); !s) return s.error();
     if (j + 1 < N) {

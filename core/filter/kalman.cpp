@@ -96,6 +96,7 @@ Result<Eigen::MatrixXd> InitialCovarianceFrom(const model::StateSpace& ss,
 
 Result<Eigen::MatrixXd> InitialCovariance(const model::StateSpace& ss, const data::Series& series,
                                           const FilterSettings& settings) {
+  if (settings.P0.size() > 0) return settings.P0;
   return InitialCovarianceFrom(ss, series, settings, nullptr);
 }
 
@@ -162,7 +163,7 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
   const Eigen::MatrixXd& D = ss.D;
   const bool has_D = has_inputs && D.cwiseAbs().maxCoeff() != 0.0;
 
-  Vec x = ss.x0;
+  Vec x = ctx.settings.x0.size() > 0 ? Vec(ctx.settings.x0) : Vec(ss.x0);
   Mat P = ctx.P0;
   Vec PCt, x_next;
   Mat PhiP;
@@ -352,7 +353,8 @@ Result<Loglik> Run(const model::StateSpace& ss, const data::Series& series,
   if (!window) return window.error();
   const auto disc = DiscretizeIntervals(ss, series, settings.hold);
   if (!disc) return disc.error();
-  auto P0 = InitialCovarianceFrom(ss, series, settings, &*disc);
+  auto P0 = settings.P0.size() > 0 ? Result<Eigen::MatrixXd>(settings.P0)
+                                    : InitialCovarianceFrom(ss, series, settings, &*disc);
   if (!P0) return P0.error();
   if (terms) terms->assign(series.size(), 0.0);
   const Context ctx{

@@ -59,9 +59,20 @@ struct FilterSettings {
   // When set to true (from any thread), the filter stops within a few thousand samples and
   // returns an Error with kind kNumerical and message "cancelled".
   const std::atomic<bool>* cancel = nullptr;
+  // The initial state's mean and covariance in place of the model's x0 and P0: a validation
+  // record's own, from its first samples (initial_state.h). Empty: the model's. Honoured by the
+  // filters (this header, ekf.h), their predictions and smoothers, and the simulations
+  // (core/sim); not by the scores (score.h, ekf_score.h), which differentiate the model's.
+  Eigen::VectorXd x0;
+  Eigen::MatrixXd P0;
 
   // Hold, P0 and Huber from the model; each output's delay at its `min`.
   static FilterSettings FromModel(const model::ModelSpec& spec);
+  // *x and *P, the model's initial state, replaced by x0 and P0 where they are set.
+  void OverrideInitial(Eigen::VectorXd* x, Eigen::MatrixXd* P) const {
+    if (x0.size() > 0) *x = x0;
+    if (P0.size() > 0 && P != nullptr) *P = P0;
+  }
 };
 
 struct Loglik {

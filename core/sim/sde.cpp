@@ -45,6 +45,7 @@ Result<Simulation> SamplePath(const model::NonlinearModel& model, std::span<cons
   {
     filter::MomentPropagator propagator(model, theta, series, settings.hold);
     if (auto s = propagator.Initial(settings.initial_covariance, &x, &P0); !s) return s.error();
+    settings.OverrideInitial(&x, &P0);
   }
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(P0);
   const Eigen::MatrixXd factor =

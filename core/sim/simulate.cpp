@@ -51,7 +51,7 @@ Result<Simulation> Simulate(const model::StateSpace& ss, const data::Series& ser
   Simulation sim;
   sim.X.resize(n, N);
   sim.Y.setConstant(p, N, std::numeric_limits<double>::quiet_NaN());
-  Eigen::VectorXd x = ss.x0;
+  Eigen::VectorXd x = settings.x0.size() > 0 ? settings.x0 : ss.x0;
   if (options.random_initial_state) {
     auto P0 = filter::InitialCovariance(ss, series, settings);
     if (!P0) return P0.error();

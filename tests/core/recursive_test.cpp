@@ -18,10 +18,10 @@
 namespace gb::online {
 namespace {
 
-const std::string kAssets = std::string(GREYBENCH_SOURCE_DIR) + "/assets/";
+const std::string kRecursiveAssets = std::string(GREYBENCH_SOURCE_DIR) + "/assets/";
 
 
-struct Fitted {
+struct FittedReference {
   project::Problem problem;
   estimate::EstimateSummary summary;
 };
@@ -31,11 +31,11 @@ struct Fitted {
 TEST(Recursive, HeldAtThetaItsTermsAndScoresSumToTheBatchLikelihoodAndGradient) {
   for (const char* name : {"models/fuel_film.json", "models/crankshaft.json"}) {
     SCOPED_TRACE(name);
-    auto spec = model::LoadModelFile(kAssets + name);
+    auto spec = model::LoadModelFile(kRecursiveAssets + name);
     ASSERT_TRUE(spec) << spec.error().ToString();
     const bool fuel = std::string(name).find("fuel") != std::string::npos;
     auto problem = project::LoadProblem(
-        std::move(*spec), {kAssets + (fuel ? "data/fuel_f1.csv" : "data/crankshaft.csv")});
+        std::move(*spec), {kRecursiveAssets + (fuel ? "data/fuel_f1.csv" : "data/crankshaft.csv")});
     ASSERT_TRUE(problem) << problem.error().ToString();
     const model::LinearModel& model = *problem->model;
     const data::Series& series = *problem->series[0];
@@ -90,14 +90,14 @@ std::shared_ptr<const data::Dataset> Record(const sim::Record& r) {
 void EndsWithinTwoBatchStandardErrors(const std::string& model_file,
                                       const sim::Record& reference_record,
                                       const sim::Record& record, std::size_t tracked) {
-  auto spec = model::LoadModelFile(kAssets + model_file);
+  auto spec = model::LoadModelFile(kRecursiveAssets + model_file);
   ASSERT_TRUE(spec);
   // Under the sanitizers a delay scan is held at the delay the full fits find (the fuel film's
   // 5), and no extra starts are made (their own tests cover both).
   if (kSanitized && spec->output_delay[0].IsScan()) spec->output_delay[0] = {5, 5};
   estimate::EstimateOptions fit_options;
   if (kSanitized) fit_options.starts_on_bound = 0;
-  Fitted ref_fit;
+  FittedReference ref_fit;
   {
     auto p = project::MakeProblem(*spec, {Record(reference_record)});
     ASSERT_TRUE(p) << p.error().ToString();
@@ -105,7 +105,7 @@ void EndsWithinTwoBatchStandardErrors(const std::string& model_file,
     ASSERT_TRUE(l) << l.error().ToString();
     auto s = estimate::Estimate(*l, fit_options);
     ASSERT_TRUE(s && s->converged);
-    ref_fit = Fitted{std::move(*p), std::move(*s)};
+    ref_fit = FittedReference{std::move(*p), std::move(*s)};
   }
   auto problem = project::MakeProblem(std::move(*spec), {Record(record)});
   ASSERT_TRUE(problem) << problem.error().ToString();

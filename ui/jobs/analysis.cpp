@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "core/filter/ekf_predict.h"
+#include "core/filter/initial_state.h"
 #include "core/filter/likelihood.h"
 #include "core/filter/predict.h"
 #include "core/model/linear_model.h"
@@ -143,6 +144,30 @@ struct Preview {
   std::optional<ModelAt> model;
 };
 
+// The simulation's RMS error and fit % over the rows the likelihood uses (a finite standardised
+// residual), leaving out the first `skip` rows; NaN with fewer than 2 rows or a constant y.
+void SimulationFigures(const OutputAnalysis& o, int skip, OutputAnalysis* out) {
+  double sum_y = 0;
+  int n = 0;
+  for (std::size_t k = static_cast<std::size_t>(std::max(skip, 0)); k < o.measured.size(); ++k) {
+    if (!std::isfinite(o.standardized[k]) || !std::isfinite(o.simulated[k])) continue;
+    sum_y += o.measured[k];
+    ++n;
+  }
+  out->n_simulated = n;
+  out->simulation_rms = out->fit_percent = kNaN;
+  if (n < 2) return;
+  const double mean = sum_y / n;
+  double error = 0, spread = 0;
+  for (std::size_t k = static_cast<std::size_t>(std::max(skip, 0)); k < o.measured.size(); ++k) {
+    if (!std::isfinite(o.standardized[k]) || !std::isfinite(o.simulated[k])) continue;
+    error += (o.measured[k] - o.simulated[k]) * (o.measured[k] - o.simulated[k]);
+    spread += (o.measured[k] - mean) * (o.measured[k] - mean);
+  }
+  out->simulation_rms = std::sqrt(error / n);
+  if (spread > 0) out->fit_percent = 100 * (1 - std::sqrt(error / spread));
+}
+
 // One dataset at θ. Returns false when cancelled.
 bool AnalyseSeries(const ModelAt& at, const Preview& preview, const data::Series& series,
                    const filter::FilterSettings& settings, const Analysis& a, DatasetAnalysis* out,
@@ -233,7 +258,10 @@ bool AnalyseSeries(const ModelAt& at, const Preview& preview, const data::Series
     } else {
       oa.smoothed_error = smoothed.error().ToString();
     }
-    if (simulated) oa.simulated = Row(simulated->Y, r);
+    if (simulated) {
+      oa.simulated = Row(simulated->Y, r);
+      SimulationFigures(oa, out->initial_samples, &oa);
+    }
     if (preview.same_as_theta) {
       oa.preview = oa.simulated;
     } else if (previewed && previewed->ok()) {
@@ -292,6 +320,7 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
   for (std::size_t i = 0; i < input.datasets.size(); ++i) {
     DatasetAnalysis d;
     d.name = i < input.names.size() ? input.names[i] : "";
+    d.validation = i < input.validation.size() && input.validation[i];
     if (!input.datasets[i]) {
       d.error = i < input.read_errors.size() ? input.read_errors[i] : "it could not be read";
     } else {
@@ -371,7 +400,27 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
                 std::to_string(series.size()) + " rows";
       continue;
     }
-    if (!AnalyseSeries(*at, preview, series, settings, a, &d, control)) {
+    // A validation record starts where its own first samples place it.
+    filter::FilterSettings own = settings;
+    if (d.validation) {
+      const int n_first = filter::InitialStateSamples(static_cast<int>(series.size()));
+      Result<filter::InitialStateEstimate> start =
+          at->ss ? filter::EstimateInitialState(*at->ss, series, settings, n_first)
+                 : filter::EkfEstimateInitialState(*at->nonlinear, at->theta, series, settings,
+                                                    n_first);
+      if (control.cancel) {
+        run.cancelled = true;
+        return run;
+      }
+      if (start) {
+        own.x0 = start->x0;
+        own.P0 = start->P0;
+        d.initial_samples = start->samples;
+      } else {
+        d.initial_error = start.error().ToString();
+      }
+    }
+    if (!AnalyseSeries(*at, preview, series, own, a, &d, control)) {
       run.cancelled = true;
       return run;
     }

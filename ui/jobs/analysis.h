@@ -16,6 +16,12 @@
 //                observation: Rauch-Tung-Striebel, or its extended form for the EKF), band ± 2 sd
 //                of that output (without the measurement noise)
 //   simulated    the deterministic response from x0 (core/sim/response.h): no data assimilated
+//   fit figures  the simulation's RMS error and fit % = 100 (1 - ||y - ŷ_sim|| / ||y - ȳ||)
+//                over the rows the likelihood uses (y observed, k >= the largest delay)
+//
+// A validation record (not fitted) starts at its own initial state, from its first samples
+// (core/filter/initial_state.h), and its fit figures leave those samples out; an estimation
+// record starts at the model's x0, which the fit estimated.
 //   preview      the same at the model's current values (the Data view's overlay), whatever θ is
 //   rms          sqrt(mean ε²) over the n_observed observations the likelihood uses (k >= the
 //                output's largest delay, y observed)
@@ -70,6 +76,7 @@ struct AnalysisInput {
   std::vector<std::shared_ptr<const data::Dataset>> datasets;
   std::vector<std::string> names;        // file names for the view
   std::vector<std::string> read_errors;  // per dataset, why it is null
+  std::vector<bool> validation;          // per dataset: a validation record (empty: none is)
 };
 
 // A correlogram as plot arrays: stems at `lag`, and the band ±`band` over the lag range.
@@ -108,12 +115,20 @@ struct OutputAnalysis {
   std::vector<double> preview;  // empty when the model's values cannot be evaluated
   int n_observed = 0;
   double rms = 0.0;  // NaN when n_observed = 0
+  // The simulation against the measurements (NaN when there is no simulation or fewer than 2
+  // rows to judge it on): its RMS error and fit %, over n_simulated rows.
+  double simulation_rms = 0.0;
+  double fit_percent = 0.0;
+  int n_simulated = 0;
   std::optional<DiagnosticsPlot> diagnostics;
   std::string diagnose_error;  // why `diagnostics` is absent (e.g. too few residuals)
 };
 
 struct DatasetAnalysis {
   std::string name;   // file name
+  bool validation = false;
+  int initial_samples = 0;  // a validation record: the rows its initial state is taken from
+  std::string initial_error;  // why it starts at the model's x0 after all
   std::string error;  // why there is nothing else (unreadable, does not fit the model, ...)
   std::string time_name;
   std::vector<double> time;

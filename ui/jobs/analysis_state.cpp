@@ -30,8 +30,10 @@ void StartAnalysis(AppState& state, AnalysisRequest request) {
   input.spec = *state.model;
   for (const LoadedDataset& d : state.datasets) {
     input.datasets.push_back(d.data);
-    input.names.push_back(FileName(d.path));
+    input.names.push_back(d.spec.DisplayName() +
+                          (d.spec.role == data::Role::kValidation ? " (validation)" : ""));
     input.read_errors.push_back(d.error);
+    input.validation.push_back(d.spec.role == data::Role::kValidation);
   }
   AnalysisState& a = state.analysis;
   a.running = request;

@@ -40,11 +40,15 @@ void DrawDatasetSelector(AppState& state, const Analysis* r) {
   ImGui::TextDisabled("Dataset");
   ImGui::SameLine();
   ImGui::SetNextItemWidth(kDatasetComboWidth * state.fonts.scale);
-  const std::string current = FileName(state.datasets[static_cast<std::size_t>(a.dataset)].path);
+  const auto label_of = [&](std::size_t k) {
+    const data::DatasetSpec& spec = state.datasets[k].spec;
+    return spec.DisplayName() + (spec.role == data::Role::kValidation ? " (validation)" : "");
+  };
+  const std::string current = label_of(static_cast<std::size_t>(a.dataset));
   if (ImGui::BeginCombo("##dataset", current.c_str())) {
     for (int i = 0; i < n; ++i) {
       const auto k = static_cast<std::size_t>(i);
-      std::string label = FileName(state.datasets[k].path);
+      std::string label = label_of(k);
       if (r && k < r->datasets.size() && !r->datasets[k].error.empty())
         label += "  (cannot be used)";
       label += "###" + std::to_string(i);
@@ -153,11 +157,31 @@ const DatasetAnalysis* DrawAnalysisHeader(AppState& state, bool (*view_controls)
     return nullptr;
   }
   const auto k = static_cast<std::size_t>(a.dataset);
-  if (k >= r->datasets.size()) return nullptr;  // the project changed; the next run follows
+  if (k >= r->datasets.size()) {  // added since: its run follows
+    DrawNotice(state, "Computing the predictions",
+               "This dataset was added after the predictions shown for the others were "
+               "computed; they are being computed for it.");
+    return nullptr;
+  }
   const DatasetAnalysis& d = r->datasets[k];
   if (!d.error.empty()) {
     DrawNotice(state, "This dataset cannot be used", d.error, Severity::kError);
     return nullptr;
+  }
+  if (d.validation) {
+    ImGui::PushTextWrapPos(0.0f);
+    if (d.initial_error.empty()) {
+      ImGui::TextDisabled(
+          "Validation record: not fitted. It starts at its own initial state, from its first %s "
+          "(smoothed back to its start), which the simulation's figures leave out.",
+          SamplesText(d.initial_samples).c_str());
+    } else {
+      ImGui::TextColored(SeverityColor(Severity::kWarning),
+                         "Validation record: its own initial state could not be found (%s); it "
+                         "starts at the model's.",
+                         d.initial_error.c_str());
+    }
+    ImGui::PopTextWrapPos();
   }
   return &d;
 }

@@ -120,6 +120,19 @@ ImVec4 SeverityColor(Severity severity) {
   return ImVec4(0.18f, 0.44f, 0.86f, 1.0f);
 }
 
+std::string FitToWidth(const std::string& text, float width) {
+  if (ImGui::CalcTextSize(text.c_str()).x <= width) return text;
+  constexpr const char* kEllipsis = "\xE2\x80\xA6";
+  std::string cut = text;
+  while (!cut.empty()) {
+    // Drop one UTF-8 character: its continuation bytes (10xxxxxx), then its first byte.
+    while (!cut.empty() && (static_cast<unsigned char>(cut.back()) & 0xC0) == 0x80) cut.pop_back();
+    if (!cut.empty()) cut.pop_back();
+    if (ImGui::CalcTextSize((cut + kEllipsis).c_str()).x <= width) break;
+  }
+  return cut + kEllipsis;
+}
+
 std::string FileName(const std::string& path) {
   return std::filesystem::path(path).filename().string();
 }

@@ -7,6 +7,7 @@
 // The numbers come from AppState::analysis (ui/jobs/analysis.h), computed in the background; this
 // panel only reads the installed result.
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "ui/format.h"
@@ -50,10 +51,65 @@ bool DrawOverlayControls(AppState& state) {
 }
 
 std::string PlotTitle(const OutputAnalysis& o) {
-  std::string title = o.name + "    RMS of residuals " + FormatSig(o.rms, 4) + "  \xC2\xB7  " +
-                      GroupedCount(o.n_observed) + " observed  \xC2\xB7  delay " +
-                      SamplesText(o.delay);
-  return title;
+  // The simulation's RMS is in the table of every record's figures (and the fit % says it
+  // relative to the output's spread).
+  std::string title = o.name + "    one-step RMS " + FormatSig(o.rms, 4) + "  \xC2\xB7  ";
+  if (std::isfinite(o.fit_percent)) title += "fit " + FormatFixed(o.fit_percent, 1) + " %  \xC2\xB7  ";
+  return title + GroupedCount(o.n_observed) + " observed  \xC2\xB7  delay " + SamplesText(o.delay);
+}
+
+// Every record's figures side by side: one-step RMS, simulation RMS and fit % per output,
+// estimation and validation records alike (collapsed at first for a single record, whose plot
+// titles carry its one-step RMS and fit %).
+void DrawFitFigures(AppState& state, const Analysis& r) {
+  if (!ImGui::CollapsingHeader("Fit figures: one-step RMS, simulation RMS and fit % of every record",
+                               r.datasets.size() > 1 ? ImGuiTreeNodeFlags_DefaultOpen : 0))
+    return;
+  constexpr ImGuiTableFlags kFlags = ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_RowBg |
+                                     ImGuiTableFlags_BordersInnerH | ImGuiTableFlags_ScrollY;
+  const float row_h = ImGui::GetTextLineHeightWithSpacing();
+  std::size_t rows = 0;
+  for (const DatasetAnalysis& d : r.datasets) rows += std::max<std::size_t>(1, d.outputs.size());
+  const float height = row_h * (static_cast<float>(std::min<std::size_t>(rows, 6)) + 1.4f);
+  if (!ImGui::BeginTable("##fit-figures", 6, kFlags, ImVec2(0, height))) return;
+  ImGui::TableSetupScrollFreeze(0, 1);
+  for (const char* c : {"Record", "Role", "Output", "One-step RMS", "Simulation RMS", "Fit"})
+    ImGui::TableSetupColumn(c);
+  ImGui::TableHeadersRow();
+  for (std::size_t k = 0; k < r.datasets.size(); ++k) {
+    const DatasetAnalysis& d = r.datasets[k];
+    const auto cells = [&](const char* output, const std::string& rms, const std::string& sim,
+                           const std::string& fit) {
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      const bool selected = static_cast<int>(k) == state.analysis.dataset;
+      if (ImGui::Selectable((d.name + "##" + std::to_string(k) + output).c_str(), selected,
+                            ImGuiSelectableFlags_SpanAllColumns) &&
+          !selected) {
+        state.analysis.dataset = static_cast<int>(k);
+        state.analysis.RequestFit();
+        OpenTimeWindow(state.analysis);
+      }
+      ImGui::TableNextColumn();
+      ImGui::TextDisabled("%s", d.validation ? "validation" : "estimation");
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(output);
+      for (const std::string* v : {&rms, &sim, &fit}) {
+        ImGui::TableNextColumn();
+        ImGui::TextUnformatted(v->c_str());
+      }
+    };
+    if (!d.error.empty() || d.outputs.empty()) {
+      cells("", "cannot be used", "", "");
+      continue;
+    }
+    for (const OutputAnalysis& o : d.outputs) {
+      cells(o.name.c_str(), FormatSig(o.rms, 4),
+            std::isfinite(o.simulation_rms) ? FormatSig(o.simulation_rms, 4) : "\xE2\x80\x94",
+            std::isfinite(o.fit_percent) ? FormatFixed(o.fit_percent, 1) + " %" : "\xE2\x80\x94");
+    }
+  }
+  ImGui::EndTable();
 }
 
 void DrawOutputPlot(AppState& state, const DatasetAnalysis& d, const OutputAnalysis& o, ImVec2 size,
@@ -108,6 +164,7 @@ void DrawOutputPlot(AppState& state, const DatasetAnalysis& d, const OutputAnaly
 void DrawPredictionsPanel(AppState& state) {
   const DatasetAnalysis* d = DrawAnalysisHeader(state, DrawOverlayControls);
   if (!d) return;
+  DrawFitFigures(state, *state.analysis.result);
   for (const OutputAnalysis& o : d->outputs) {
     if (state.analysis.show_ahead && !o.ahead_error.empty()) {
       ImGui::TextColored(SeverityColor(Severity::kWarning), "No %s-ahead predictions for %s: %s",

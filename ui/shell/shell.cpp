@@ -9,6 +9,7 @@
 //   6. The File menu
 //   7. Dialogs: browser, save changes?, recovery, new project, keyboard shortcuts
 #include "ui/shell/shell.h"
+#include "ui/shell/import_dialog.h"
 
 #include <imgui.h>
 #include <imgui_stdlib.h>
@@ -269,6 +270,7 @@ void InstallDataset(AppState& state, DatasetRead read) {
   d.path = read.path;
   d.data = std::move(read.data);
   d.summary = std::move(read.summary);
+  d.spec = std::move(read.spec);
   d.spec.file = d.path;
   state.project->datasets.push_back(d.spec);
   state.datasets.push_back(std::move(d));
@@ -376,7 +378,7 @@ void UseBrowsedFile(AppState& state, BrowsePurpose purpose, const std::string& p
         AddMessage(state, Severity::kError, "Could not open the model: " + st.error().ToString());
       break;
     case BrowsePurpose::kAddDataset:
-      AddDataset(state, path);
+      OpenImportDialog(state, path);
       break;
     case BrowsePurpose::kNewModel:
       form.model = path;
@@ -755,13 +757,22 @@ Status ReplaceModel(AppState& state, const std::string& path) {
 }
 
 void AddDataset(AppState& state, const std::string& path) {
+  data::DatasetSpec spec;
+  spec.file = path;
+  AddDataset(state, std::move(spec));
+}
+
+void AddDataset(AppState& state, data::DatasetSpec spec) {
   if (!state.project || state.shell.dataset_job.active()) return;
   state.shell.dataset_generation = state.project_generation;
-  state.shell.dataset_job.Start([path = Absolute(path)](JobControl&) {
+  spec.file = Absolute(spec.file);
+  state.shell.dataset_job.Start([spec = std::move(spec)](JobControl&) {
     DatasetRead out;
-    out.path = path;
+    out.path = spec.file;
+    out.spec = spec;
+    const std::string& path = spec.file;
     try {
-      Result<std::shared_ptr<const data::Dataset>> read = data::ReadCsvFile(path);
+      Result<std::shared_ptr<const data::Dataset>> read = data::ReadDataset(spec);
       if (read) {
         out.data = std::move(read).value();
         out.summary = Summarize(*out.data);
@@ -865,6 +876,10 @@ bool OpenDialogByName(AppState& state, std::string_view name) {
     state.shell.new_dialog_requested = true;
   } else if (name == "keyboard-shortcuts") {
     state.shell.show_shortcuts = true;
+  } else if (name == "import-dataset") {
+    // On the project's last dataset's file, as File > Add dataset… would open it.
+    if (state.datasets.empty()) return false;
+    OpenImportDialog(state, state.datasets.back().path);
   } else if (name == "unsaved-changes") {
     state.shell.pending = PendingAction{};
     state.shell.unsaved_error.clear();
@@ -962,6 +977,7 @@ void DrawShellDialogs(AppState& state) {
   DrawUnsavedPrompt(state);
   DrawRecoveryPrompt(state);
   DrawNewProjectDialog(state);
+  DrawImportDialog(state);
   DrawShortcutsWindow(state);
 }
 

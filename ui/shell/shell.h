@@ -67,6 +67,8 @@ void RequestOpenProject(AppState& state, const std::string& path);
 Status ReplaceModel(AppState& state, const std::string& path);
 // Starts reading a CSV file that UpdateShell appends to the project's datasets.
 void AddDataset(AppState& state, const std::string& path);
+// The same for a dataset entry with keys (the import dialog's).
+void AddDataset(AppState& state, data::DatasetSpec spec);
 
 // The recovery file of `project_path` (see above), and writing it now.
 std::string RecoveryPath(const AppState& state, const std::string& project_path);
@@ -79,11 +81,12 @@ void AddRecent(AppState& state, const std::string& path);
 void RemoveRecent(AppState& state, const std::string& path);
 
 // Opens a dialog by name, as its menu item does: "open-project", "save-project-as",
-// "new-project", "keyboard-shortcuts", "unsaved-changes" (greybench-snapshot --dialog).
-// False for an unknown name (kDialogNames lists them).
+// "new-project", "keyboard-shortcuts", "unsaved-changes", "import-dataset" (on the project's
+// last dataset's file) (greybench-snapshot --dialog). False for an unknown name (kDialogNames
+// lists them), and for import-dataset in a project without datasets.
 bool OpenDialogByName(AppState& state, std::string_view name);
 inline constexpr const char* kDialogNames =
-    "open-project save-project-as new-project keyboard-shortcuts unsaved-changes";
+    "open-project save-project-as new-project keyboard-shortcuts unsaved-changes import-dataset";
 
 void UpdateShell(AppState& state);
 void DrawFileMenu(AppState& state);

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/data/dataset.h"
+#include "core/data/import.h"
 #include "ui/jobs/job.h"
 #include "ui/state/data_summary.h"
 #include "ui/widgets/file_browser.h"
@@ -39,9 +40,40 @@ struct PendingAction {
 // A dataset file read off the UI thread for File > Add dataset.
 struct DatasetRead {
   std::string path;
+  data::DatasetSpec spec;  // the entry read (file = path)
   std::shared_ptr<const data::Dataset> data;  // null when the file could not be read
   std::string error;
   DatasetSummary summary;
+};
+
+// The import dialog's form (ui/shell/import_dialog.h).
+struct ImportForm {
+  bool requested = false;   // opens the dialog at the next frame
+  std::string path;         // the recording
+  std::string preview;      // its first 64 KB, cut at a line end
+  bool truncated = false;   // the file is longer than the preview
+  std::string read_error;   // why there is no preview
+
+  bool header = true;
+  int separator = 0;  // 0 ',', 1 ';', 2 TAB
+  int decimal = 0;    // 0 '.', 1 ','
+  std::vector<std::string> names;  // the fields' names, as edited (empty: the header's, c1, ...)
+  int time = 0;                    // 0: no time column (rows sample_time apart); k: field k
+  double sample_time = 0.1;
+  std::vector<std::string> map;    // per model input, then output: "" = the column of its name
+  std::string name;
+  bool validation = false;
+
+  // What the check found (CheckImport), and the form it checked.
+  std::string checked;  // the entry's JSON when last checked
+  struct Field {
+    std::string name;
+    std::vector<double> values;  // the first rows
+  };
+  std::vector<Field> fields;
+  std::string fields_error;  // why the fields could not be read
+  std::string check;         // in words: the rows read and bound, or what is wrong
+  bool check_ok = false;
 };
 
 struct NewProjectForm {
@@ -92,6 +124,7 @@ struct ShellState {
   NewProjectForm new_form;
 
   Job<DatasetRead> dataset_job;  // File > Add dataset
+  ImportForm import;              // its dialog
   int dataset_generation = 0;    // AppState::project_generation it was started for
 
   bool show_shortcuts = false;  // Help > Keyboard shortcuts

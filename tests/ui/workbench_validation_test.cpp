@@ -1,0 +1,294 @@
+// Datasets of the user's own in the workbench (issue 34): the import dialog reads a recording
+// without header or time as the project's keys do; a dataset with the role "validation" is not
+// fitted, is predicted from its own initial state with its fit figures beside the estimation
+// record's; and the sidebar changes a dataset's role or removes it (the project file then says
+// so when saved).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "core/estimate/estimate.h"
+#include "core/filter/initial_state.h"
+#include "core/model/model.h"
+#include "core/project/problem.h"
+#include "core/project/project.h"
+#include "tests/ui/workbench_driver.h"
+#include "ui/shell/import_dialog.h"
+#include "ui/shell/shell.h"
+
+namespace gb::ui {
+namespace {
+
+using testing::kSource;
+using testing::WorkbenchDriver;
+
+class ValidationRecords : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("greybench-validation-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir_);
+    std::filesystem::copy_file(kSource + "/tests/data/ui/fuel_film.json", dir_ / "model.json",
+                               std::filesystem::copy_options::overwrite_existing);
+    std::filesystem::copy_file(kSource + "/tests/data/ui/f1.csv", dir_ / "f1.csv",
+                               std::filesystem::copy_options::overwrite_existing);
+    // One record cut in two: the first half fitted, the second (which starts where the model's
+    // x0 says nothing about) validated on.
+    std::ofstream(dir_ / "project.json") << R"({"greybench_project": 1, "name": "halves",
+        "model": "model.json",
+        "datasets": [{"file": "f1.csv", "range": [0, 4.99]},
+                     {"file": "f1.csv", "range": [5, 10], "role": "validation",
+                      "name": "second half"}]})";
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::string Path(const char* name) const { return (dir_ / name).string(); }
+  std::filesystem::path dir_;
+};
+
+// The sidebar row of dataset `index` (PushID(index) then "##dataset" in the sidebar).
+std::optional<ImVec2> FindDatasetRow(WorkbenchDriver& d, int index) {
+  ImGuiWindow* sidebar = WorkbenchDriver::FindWindow("##workbench/##sidebar");
+  if (!sidebar) return std::nullopt;
+  const ImGuiID id = ImHashStr("##dataset", 0, ImHashData(&index, sizeof index, sidebar->ID));
+  return d.Find(sidebar, id);
+}
+
+void RightClick(WorkbenchDriver& d, ImVec2 p) {
+  d.MouseTo(p);
+  ImGui::GetIO().MouseDown[1] = true;
+  d.Frame();
+  ImGui::GetIO().MouseDown[1] = false;
+  d.Frame();  // the release opens the menu
+  d.Frame();  // which is drawn from this frame on
+}
+
+// Clicks the menu item `label` of the open popup.
+bool ClickMenuItem(WorkbenchDriver& d, const char* label) {
+  ImGuiWindow* popup = nullptr;
+  for (ImGuiWindow* w : GImGui->Windows)
+    if (w->Active && std::strncmp(w->Name, "##Popup", 7) == 0) popup = w;
+  if (!popup) {
+    ADD_FAILURE() << "no menu is open";
+    return false;
+  }
+  const std::optional<ImVec2> at = d.Find(popup, popup->GetID(label));
+  if (!at) return false;
+  d.Click(*at);
+  return true;
+}
+
+TEST_F(ValidationRecords, AreNotFittedAndArePredictedFromTheirOwnStart) {
+  WorkbenchDriver d;
+  d.Open(Path("project.json"));
+  ASSERT_TRUE(d.state.project) << d.state.open_error;
+  ASSERT_EQ(d.state.datasets.size(), 2u);
+  EXPECT_EQ(d.state.datasets[1].spec.role, data::Role::kValidation);
+  WaitForJobs(d.state);
+  d.state.estimation.settings.threads = 1;
+  std::string why;
+  ASSERT_TRUE(StartEstimation(d.state, &why)) << why;
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.estimation.result) << d.state.estimation.last_failure;
+
+  // The fit is the first half's alone, as core fits it.
+  project::Project p = *project::LoadProject(Path("project.json"));
+  auto spec = model::ParseModel(p.model_json, p.model_path);
+  ASSERT_TRUE(spec.ok());
+  auto problem = project::LoadProblem(*spec, project::DatasetsOf(p, data::Role::kEstimation));
+  ASSERT_TRUE(problem.ok()) << problem.error().ToString();
+  auto likelihood = project::MakeLikelihood(*problem);
+  ASSERT_TRUE(likelihood.ok());
+  estimate::EstimateOptions options;
+  options.threads = 1;
+  auto direct = estimate::Estimate(*likelihood, options);
+  ASSERT_TRUE(direct.ok());
+  EXPECT_EQ(d.state.estimation.result->summary.n_obs, direct->n_obs);
+  EXPECT_NEAR(d.state.estimation.result->summary.loglik, direct->loglik,
+              1e-9 * std::abs(direct->loglik));
+
+  // Both records are predicted; the validation record from its own first samples.
+  ASSERT_TRUE(d.state.analysis.result) << d.state.analysis.last_failure;
+  const Analysis& a = *d.state.analysis.result;
+  ASSERT_EQ(a.datasets.size(), 2u);
+  EXPECT_FALSE(a.datasets[0].validation);
+  const DatasetAnalysis& v = a.datasets[1];
+  EXPECT_TRUE(v.validation);
+  EXPECT_TRUE(v.initial_error.empty()) << v.initial_error;
+  EXPECT_EQ(v.initial_samples, filter::InitialStateSamples(static_cast<int>(v.time.size())));
+  const OutputAnalysis& fitted = a.datasets[0].outputs[0];
+  const OutputAnalysis& validated = v.outputs[0];
+  ASSERT_TRUE(std::isfinite(fitted.fit_percent) && std::isfinite(validated.fit_percent));
+  // One process, two halves: the model validates about as well as it fits.
+  EXPECT_GT(validated.fit_percent, fitted.fit_percent - 15) << validated.fit_percent;
+  // Its figures leave out the rows its start was taken from.
+  int judged = 0;
+  for (std::size_t k = static_cast<std::size_t>(v.initial_samples); k < validated.standardized.size();
+       ++k)
+    judged += std::isfinite(validated.standardized[k]) ? 1 : 0;
+  EXPECT_EQ(validated.n_simulated, judged);
+  // Its first residual is an ordinary one (from the model's x0 it would be far out).
+  const auto first = static_cast<std::size_t>(
+      std::find_if(validated.standardized.begin(), validated.standardized.end(),
+                   [](double z) { return std::isfinite(z); }) -
+      validated.standardized.begin());
+  ASSERT_LT(first, validated.standardized.size());
+  EXPECT_LT(std::abs(validated.standardized[first]), 4) << "row " << first;
+
+  d.state.view = View::kPredictions;
+  d.state.analysis.dataset = 1;
+  d.Frame();
+  const std::string log = d.Text();
+  EXPECT_NE(log.find("Validation record: not fitted"), std::string::npos) << log;
+  EXPECT_NE(log.find("second half (validation)"), std::string::npos) << log;
+  EXPECT_NE(log.find("Fit figures"), std::string::npos) << log;
+  EXPECT_EQ(log.find("nan"), std::string::npos) << log;
+}
+
+TEST_F(ValidationRecords, TheSidebarChangesARoleAndRemovesADatasetAndSaveKeepsIt) {
+  WorkbenchDriver d;
+  d.Open(Path("project.json"));
+  ASSERT_TRUE(d.state.project) << d.state.open_error;
+  WaitForJobs(d.state);
+  const int revision = d.state.datasets_revision;
+
+  // Right-click the second record: it becomes an estimation record.
+  const std::optional<ImVec2> row = FindDatasetRow(d, 1);
+  ASSERT_TRUE(row);
+  RightClick(d, *row);
+  ASSERT_TRUE(ClickMenuItem(d, "Fit it (estimation record)"));
+  EXPECT_EQ(d.state.datasets[1].spec.role, data::Role::kEstimation);
+  EXPECT_EQ(d.state.project->datasets[1].role, data::Role::kEstimation);
+  EXPECT_GT(d.state.datasets_revision, revision);
+  EXPECT_TRUE(HasUnsavedChanges(d.state));
+  // The predictions are computed again for the new roles.
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.analysis.result);
+  EXPECT_EQ(d.state.analysis.result->request.datasets_revision, d.state.datasets_revision);
+  EXPECT_FALSE(d.state.analysis.result->datasets[1].validation);
+
+  // And back, then the first record removed.
+  RightClick(d, *FindDatasetRow(d, 1));
+  ASSERT_TRUE(ClickMenuItem(d, "Validate on it (not fitted)"));
+  EXPECT_EQ(d.state.datasets[1].spec.role, data::Role::kValidation);
+  RightClick(d, *FindDatasetRow(d, 0));
+  ASSERT_TRUE(ClickMenuItem(d, "Remove from the project"));
+  ASSERT_EQ(d.state.datasets.size(), 1u);
+  ASSERT_EQ(d.state.project->datasets.size(), 1u);
+  EXPECT_EQ(d.state.datasets[0].spec.DisplayName(), "second half");
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.analysis.result);
+  EXPECT_EQ(d.state.analysis.result->datasets.size(), 1u);
+  // Nothing is left to fit: the estimation says why.
+  std::string why;
+  EXPECT_FALSE(StartEstimation(d.state, &why));
+  EXPECT_NE(why.find("every dataset is a validation record"), std::string::npos) << why;
+
+  // Saved, the project keeps the keys and the role; the data file is untouched.
+  const std::string saved = Path("saved.json");
+  ASSERT_TRUE(project::SaveProject(*d.state.project, saved).ok());
+  project::Project back = *project::LoadProject(saved);
+  ASSERT_EQ(back.datasets.size(), 1u);
+  EXPECT_EQ(back.datasets[0].role, data::Role::kValidation);
+  EXPECT_EQ(back.datasets[0].name, "second half");
+  ASSERT_TRUE(back.datasets[0].range);
+  EXPECT_EQ((*back.datasets[0].range)[0], 5);
+}
+
+// The recording of tests/data/ui/import: 13 fields, no header, no time, 10 Hz.
+const std::string kImportDir = kSource + "/tests/data/ui/import";
+
+TEST(ImportDialog, AHeaderlessTimelessRecordingFitsAsTheProjectsKeysFitIt) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("greybench-import-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::filesystem::copy_file(kImportDir + "/model.json", dir / "model.json",
+                             std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy_file(kImportDir + "/headerless.csv", dir / "headerless.csv",
+                             std::filesystem::copy_options::overwrite_existing);
+  std::ofstream(dir / "empty.json")
+      << R"({"greybench_project": 1, "name": "empty", "model": "model.json", "datasets": []})";
+  WorkbenchDriver d;
+  d.Open((dir / "empty.json").string());
+  ASSERT_TRUE(d.state.project) << d.state.open_error;
+
+  // File > Add dataset… chose the file: the dialog tells what it can.
+  OpenImportDialog(d.state, (dir / "headerless.csv").string());
+  ImportForm& f = d.state.shell.import;
+  EXPECT_FALSE(f.header);
+  EXPECT_EQ(f.separator, 0);
+  EXPECT_EQ(f.decimal, 0);
+  EXPECT_EQ(f.time, 0);  // no time column: rows a sample time apart
+  ASSERT_EQ(f.names.size(), 13u);
+  EXPECT_EQ(f.names[0], "c1");
+  EXPECT_FALSE(f.check_ok);  // the model's n is not a column yet
+  EXPECT_NE(f.check.find("column 'n' (an input of the model) is not in the file"), std::string::npos)
+      << f.check;
+  // The user maps the model's inputs and output to fields 1, 2 and 12.
+  ASSERT_EQ(f.map.size(), 3u);
+  f.map = {"c1", "c2", "c12"};
+  f.sample_time = 0.1;
+  CheckImport(&f, &*d.state.model);
+  ASSERT_TRUE(f.check_ok) << f.check;
+  // The first 64 KB are previewed and checked; the whole file is read when it is added.
+  EXPECT_NE(f.check.find("rows previewed, t = 0 \xE2\x80\xA6"), std::string::npos) << f.check;
+  EXPECT_NE(f.check.find("they bind to the model's inputs and outputs"), std::string::npos)
+      << f.check;
+
+  // Its Add button: read in the background, installed with its keys.
+  d.Frame();  // opens the popup
+  d.Frame();  // draws it
+  ImGuiWindow* popup = WorkbenchDriver::FindWindow("Import a dataset");
+  ASSERT_TRUE(popup);
+  const std::optional<ImVec2> add = d.Find(popup, popup->GetID("Add to the project"));
+  ASSERT_TRUE(add);
+  d.Click(*add);
+  ASSERT_TRUE(d.FramesUntil([&] { return !d.state.datasets.empty(); }, std::chrono::seconds(20)));
+  ASSERT_EQ(d.state.datasets.size(), 1u);
+  EXPECT_EQ(d.state.datasets[0].summary.rows, 400u);
+  ASSERT_TRUE(d.state.datasets[0].data) << d.state.datasets[0].error;
+  const data::DatasetSpec& spec = d.state.datasets[0].spec;
+  EXPECT_EQ(spec.header, false);
+  EXPECT_EQ(spec.sample_time, 0.1);
+  EXPECT_EQ(spec.map.size(), 3u);
+  EXPECT_TRUE(HasUnsavedChanges(d.state));
+
+  d.state.estimation.settings.threads = 1;
+  std::string why;
+  ASSERT_TRUE(StartEstimation(d.state, &why)) << why;
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.estimation.result) << d.state.estimation.last_failure;
+
+  // The bundled project names the fields by `columns` instead: the same fit.
+  project::Project keys = *project::LoadProject(kImportDir + "/project.json");
+  auto model = model::ParseModel(keys.model_json, keys.model_path);
+  ASSERT_TRUE(model.ok());
+  auto problem = project::LoadProblem(*model, keys.datasets);
+  ASSERT_TRUE(problem.ok()) << problem.error().ToString();
+  auto likelihood = project::MakeLikelihood(*problem);
+  ASSERT_TRUE(likelihood.ok());
+  estimate::EstimateOptions options;
+  options.threads = 1;
+  auto direct = estimate::Estimate(*likelihood, options);
+  ASSERT_TRUE(direct.ok());
+  const estimate::EstimateSummary& gui = d.state.estimation.result->summary;
+  EXPECT_EQ(gui.n_obs, direct->n_obs);
+  EXPECT_EQ(gui.loglik, direct->loglik);
+  ASSERT_EQ(gui.theta.size(), direct->theta.size());
+  for (std::size_t i = 0; i < gui.theta.size(); ++i) EXPECT_EQ(gui.theta[i], direct->theta[i]) << i;
+
+  // Saved, the project keeps the dialog's keys.
+  ASSERT_TRUE(SaveCurrentProject(d.state).ok());
+  project::Project back = *project::LoadProject((dir / "empty.json").string());
+  ASSERT_EQ(back.datasets.size(), 1u);
+  EXPECT_EQ(back.datasets[0].map, spec.map);
+  EXPECT_EQ(back.datasets[0].sample_time, 0.1);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace gb::ui
