@@ -201,20 +201,34 @@ int RunPredict(const PredictArgs& args) {
   if (args.simulate_after > 0) {
     Json rms = Json::object();
     for (std::size_t o = 0; o < m.outputs.size(); ++o) {
-      double sum = 0.0;
+      const auto row = static_cast<Eigen::Index>(o);
+      double sum = 0.0, sum_y = 0.0;
       long count = 0;
       for (int k = args.simulate_after; k < N; ++k) {
-        const double r = pred->residual(static_cast<Eigen::Index>(o), k);
+        const double r = pred->residual(row, k);
         if (std::isnan(r)) continue;
         sum += r * r;
+        sum_y += s.Y(row, k);
         ++count;
       }
+      // fit % = 100 (1 - ||y - ŷ|| / ||y - ȳ||) over the same rows (the benchmark's NRMSE fit).
+      double spread = 0.0;
+      for (int k = args.simulate_after; k < N && count > 0; ++k) {
+        if (std::isnan(pred->residual(row, k))) continue;
+        const double d = s.Y(row, k) - sum_y / static_cast<double>(count);
+        spread += d * d;
+      }
       const double value = count ? std::sqrt(sum / count) : std::nan("");
-      rms[m.outputs[o]] = {{"rms", value}, {"n", count}};
+      const double fit = count > 1 && spread > 0 ? 100 * (1 - std::sqrt(sum / spread)) : std::nan("");
+      Json figures = {{"rms", value}, {"n", count}};
+      if (std::isfinite(fit)) figures["fit_percent"] = fit;
+      rms[m.outputs[o]] = figures;
       rms_lines.push_back(fmt::format("simulation of {} from row {} on (state from the first {} "
-                                      "rows): RMS error {:.6g} over {} rows",
+                                      "rows): RMS error {:.6g}{} over {} rows",
                                       m.outputs[o], args.simulate_after + 1, args.simulate_after,
-                                      value, count));
+                                      value,
+                                      std::isfinite(fit) ? fmt::format(", fit {:.1f} %", fit) : "",
+                                      count));
     }
     std::printf("%s\n", Json{{"simulate_after", args.simulate_after}, {"outputs", rms}}.dump().c_str());
   }

@@ -289,7 +289,8 @@ Status NameColumns(const std::vector<std::string_view>& names, int line_no,
                    const CsvFormat& format, Dataset* d) {
   int time_index = -1;
   if (format.sample_time > 0) {
-    // No time column: every field is a column.
+    // No time column: every field is a column; the time is called t.
+    d->time_name = "t";
   } else if (!format.time.empty()) {
     for (std::size_t i = 0; i < names.size() && time_index < 0; ++i)
       if (names[i] == format.time) time_index = static_cast<int>(i);

@@ -58,8 +58,8 @@ struct Column {
 struct Dataset {
   std::string source;              // the path as the user gave it (used in messages)
   int header_line = 0;             // 1-based line of the header; 0 for a file without one
-  std::string time_name;           // as written in the header; "" when the rows are timed by
-                                   // a sample time (time_field 0)
+  std::string time_name;           // as written in the header; "t" when the rows are timed by
+                                   // a sample time (time_field 0: no column)
   int time_field = 0;
   double time_scale = 1;           // seconds per unit of the time column (`time [ms]`: 0.001)
   char decimal = '.';              // the decimal mark the cells were read with

@@ -77,6 +77,17 @@ project validation_only.json '[{"file": "german.csv", "role": "validation"}]'
 expect 2 'validation_only.json: datasets: every dataset of the project has the role "validation"' -- \
   estimate "$tmp/validation_only.json"
 
+# The simulation's fit % against the CSV it writes: 100 (1 - ||y - ŷ|| / ||y - ȳ||) over rows > N.
+"$cli" predict "$tmp/two.json" --dataset 1 --result "$tmp/fit.json" --simulate-after 10 \
+  --out "$tmp/sim.csv" >"$tmp/sim.json" 2>&1
+fit=$(sed 's/.*"fit_percent":\([^,}]*\).*/\1/' "$tmp/sim.json")
+check "predict --simulate-after prints the fit %: $fit" \
+  awk -F, -v fit="$fit" '/^#/ { next } !header { header = 1; next } k++ < 10 { next }
+    $5 != "NA" && $5 != "" { y[++n] = $2; r2 += $5 * $5; s += $2 }
+    END { m = s / n; for (i = 1; i <= n; i++) v += (y[i] - m) ^ 2
+          f = 100 * (1 - sqrt(r2 / v)); d = f - fit; if (d < 0) d = -d; exit !(n > 10 && d < 1e-9) }' \
+  "$tmp/sim.csv"
+
 # 5. Bad keys and values: the project file and the JSON path.
 bad() {  # bad PATTERN DATASETS-JSON
   project bad.json "$2"
