@@ -38,6 +38,7 @@ const char* RoleName(Role role) {
 
 std::vector<std::string> Files(const std::vector<DatasetSpec>& datasets) {
   std::vector<std::string> files;
+  files.reserve(datasets.size());
   for (const DatasetSpec& d : datasets) files.push_back(d.file);
   return files;
 }

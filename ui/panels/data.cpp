@@ -265,7 +265,8 @@ void DrawDataPanel(AppState& state) {
   for (std::size_t i = 0; i < state.datasets.size(); ++i) {
     const LoadedDataset& d = state.datasets[i];
     const std::string label =
-        FileName(d.path) + (d.data ? "" : "  (unreadable)") + "###" + std::to_string(i);
+        d.spec.DisplayName() + (d.spec.role == data::Role::kValidation ? " (validation)" : "") +
+        (d.data ? "" : "  (unreadable)") + "###" + std::to_string(i);
     if (ImGui::BeginTabItem(label.c_str())) {
       DrawDataset(state, i);
       ImGui::EndTabItem();
