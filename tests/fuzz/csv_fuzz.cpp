@@ -5,6 +5,11 @@
 // Properties checked beyond "no crash, no sanitizer report": a Dataset keeps its documented
 // invariants (finite, strictly increasing time; one value per row in every column), and a bound
 // Series has finite inputs and the shape of the model.
+//
+// The same text is also read in the other forms a project's dataset keys give (import.h): the
+// format SniffCsv tells, headerless with a sample time and a decimal comma, and prepared with a
+// map, a range, a detrend and a resample; each result keeps the same invariants.
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -14,6 +19,7 @@
 #include <vector>
 
 #include "core/data/dataset.h"
+#include "core/data/import.h"
 #include "core/filter/likelihood.h"
 #include "core/model/linear_model.h"
 #include "core/model/model.h"
@@ -57,10 +63,45 @@ void CheckDataset(const gb::data::Dataset& d) {
   for (const gb::data::Column& c : d.columns) FUZZ_CHECK(c.values.size() == d.rows());
 }
 
+// The text read as the dataset keys would read it, prepared; every result a valid Dataset.
+void CheckOtherForms(std::string_view text) {
+  gb::data::CsvFormat sniffed = gb::data::SniffCsv(text);
+  gb::data::CsvFormat headerless = sniffed;
+  headerless.header = false;
+  headerless.sample_time = 0.1;
+  headerless.decimal = ',';
+  headerless.separator = ';';
+  gb::data::CsvFormat ranged = sniffed;
+  ranged.range = std::array<double, 2>{0.05, 1e6};
+  for (const gb::data::CsvFormat& format : {sniffed, headerless, ranged}) {
+    auto read = gb::data::ParseCsv(text, "fuzz.csv", format);
+    if (!read.ok()) {
+      FUZZ_CHECK(!read.error().ToString().empty());
+      continue;
+    }
+    CheckDataset(**read);
+    const gb::data::Dataset& d = **read;
+    if (d.columns.empty() || d.rows() < 2) continue;
+    gb::data::DatasetSpec spec;
+    spec.plain = false;
+    const std::string& first = d.columns.front().name;
+    spec.map = {{"mapped", first}, {"ratio", "1/(" + std::string("c1") + ")"}};
+    spec.detrend = {{"", gb::data::Detrend::kLinear}};
+    spec.resample = 0.25;
+    auto prepared = gb::data::Prepare(*read, spec);
+    if (!prepared.ok()) {
+      FUZZ_CHECK(!prepared.error().ToString().empty());
+      continue;
+    }
+    CheckDataset(**prepared);
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
+  CheckOtherForms(text);
   auto read = gb::data::ParseCsv(text, "fuzz.csv");
   if (!read.ok()) {
     FUZZ_CHECK(!read.error().ToString().empty());
