@@ -75,7 +75,7 @@ std::string WriteCase(const fs::path& dir, std::string* why) {
   project::Project p;
   p.name = "Frame benchmark: 200 000 samples";
   p.model_path = root + "/bench/models/fuel_film_f1.json";
-  p.datasets = {gb::data::DatasetSpec{.file = csv}};
+  p.datasets = {gb::data::PlainDataset(csv)};
   const std::string file = (dir / "frame_bench.json").string();
   if (auto st = project::SaveProject(p, file); !st) return *why = st.error().ToString(), "";
   return file;

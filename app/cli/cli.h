@@ -48,8 +48,6 @@ struct CommandInputs {
 
   // The model file, or the project file for an inline model (for messages).
   const std::string& ModelSource() const { return model_path.empty() ? project_path : model_path; }
-  // The datasets of `role`.
-  std::vector<data::DatasetSpec> OfRole(data::Role role) const;
   // The files read, as inputs for GuardOutputs.
   std::vector<FileRole> Files() const;
 };

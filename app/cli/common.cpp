@@ -52,13 +52,6 @@ Result<model::ModelSpec> ApplySets(model::ModelSpec spec, const std::vector<std:
 
 }  // namespace
 
-std::vector<data::DatasetSpec> CommandInputs::OfRole(data::Role role) const {
-  std::vector<data::DatasetSpec> out;
-  for (const data::DatasetSpec& d : datasets)
-    if (d.role == role) out.push_back(d);
-  return out;
-}
-
 std::vector<FileRole> CommandInputs::Files() const {
   std::vector<FileRole> files;
   if (!project_path.empty()) files.push_back({project_path, "the project file"});
@@ -106,7 +99,7 @@ Result<CommandInputs> ResolveInputs(const std::string& first, const std::vector<
 }
 
 Result<std::vector<data::DatasetSpec>> FittedDatasets(const CommandInputs& in) {
-  std::vector<data::DatasetSpec> fitted = in.OfRole(data::Role::kEstimation);
+  std::vector<data::DatasetSpec> fitted = data::WithRole(in.datasets, data::Role::kEstimation);
   if (fitted.empty()) {
     Error e = InputError(
         "every dataset of the project has the role \"validation\": none is left to fit (give "

@@ -28,7 +28,7 @@ int RunEstimate(const EstimateArgs& args) {
   if (!loaded) return Fail(loaded.error());
   // What the data were, byte for byte, as read: `compare` refuses fits to other data.
   Json fingerprints = Json::array();
-  for (const data::DatasetSpec& d : *FittedDatasets(*in))
+  for (const data::DatasetSpec& d : data::WithRole(in->datasets, data::Role::kEstimation))
     fingerprints.push_back(FileFingerprint(d.file));
   // A fit may take minutes: a result file that cannot be written is reported before it.
   if (!args.out.empty())

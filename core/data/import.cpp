@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iterator>
 #include <numbers>
 #include <set>
 
@@ -28,12 +29,16 @@ Error KeyError(const DatasetSpec& spec, const std::string& key, std::string mess
   return e;
 }
 
-std::string SeparatorName(char c) { return c == '\t' ? "\\t" : std::string(1, c); }
-
 }  // namespace
 
 const char* RoleName(Role role) {
   return role == Role::kValidation ? "validation" : "estimation";
+}
+
+DatasetSpec PlainDataset(std::string file) {
+  DatasetSpec spec;
+  spec.file = std::move(file);
+  return spec;
 }
 
 std::vector<std::string> Files(const std::vector<DatasetSpec>& datasets) {
@@ -41,6 +46,13 @@ std::vector<std::string> Files(const std::vector<DatasetSpec>& datasets) {
   files.reserve(datasets.size());
   for (const DatasetSpec& d : datasets) files.push_back(d.file);
   return files;
+}
+
+std::vector<DatasetSpec> WithRole(const std::vector<DatasetSpec>& datasets, Role role) {
+  std::vector<DatasetSpec> out;
+  std::copy_if(datasets.begin(), datasets.end(), std::back_inserter(out),
+               [role](const DatasetSpec& d) { return d.role == role; });
+  return out;
 }
 
 std::string DatasetSpec::DisplayName() const {

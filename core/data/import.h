@@ -69,8 +69,13 @@ struct DatasetSpec {
   std::string DisplayName() const;
 };
 
+// A dataset read in the default form: a plain file name.
+DatasetSpec PlainDataset(std::string file);
+
 // The files of `datasets`, in order.
 std::vector<std::string> Files(const std::vector<DatasetSpec>& datasets);
+// The datasets of `role`, in order.
+std::vector<DatasetSpec> WithRole(const std::vector<DatasetSpec>& datasets, Role role);
 
 // A `datasets` entry (a string or an object) of project file `origin_file` at JSON path
 // `origin_path`. Errors name both, with the key: `case.json: datasets[1].decimal: expected "."

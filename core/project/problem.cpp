@@ -36,8 +36,9 @@ Result<Problem> LoadProblem(model::ModelSpec spec, const std::vector<std::string
 }
 
 std::vector<data::DatasetSpec> PlainDatasets(const std::vector<std::string>& paths) {
-  std::vector<data::DatasetSpec> out(paths.size());
-  for (std::size_t i = 0; i < paths.size(); ++i) out[i].file = paths[i];
+  std::vector<data::DatasetSpec> out;
+  out.reserve(paths.size());
+  for (const std::string& p : paths) out.push_back(data::PlainDataset(p));
   return out;
 }
 

@@ -273,13 +273,6 @@ Result<Project> LoadProject(const std::string& path) {
   return p;
 }
 
-std::vector<data::DatasetSpec> DatasetsOf(const Project& p, data::Role role) {
-  std::vector<data::DatasetSpec> out;
-  for (const data::DatasetSpec& d : p.datasets)
-    if (d.role == role) out.push_back(d);
-  return out;
-}
-
 EstimationDefaults ReadEstimationDefaults(const Project& project) {
   EstimationDefaults d;
   if (!project.extra.is_object() || !project.extra.contains(kEstimationKey)) return d;

@@ -52,8 +52,6 @@ EstimationDefaults ReadEstimationDefaults(const Project& project);
 // `case.json: datasets[1].decimal: expected "." or ","`.
 Result<Project> LoadProject(const std::string& path);
 
-// The datasets of `role`, in the project's order.
-std::vector<data::DatasetSpec> DatasetsOf(const Project& p, data::Role role);
 
 // Every file the project is made of, as inputs for the output guard (core/util/output_guard.h):
 // the project file, its model file, its datasets and its diagram file, each with its role.

@@ -184,7 +184,8 @@ TEST(WorkbenchSweep, CancelStopsTheSweepWithin100msAndKeepsThePreviousTable) {
   // A long sweep (the six full-length case-study datasets), cancelled while it fits.
   d.state.sweep.spec->datasets.clear();
   for (const char* point : {"f1", "f2", "f3", "f4", "f7", "f8"})
-    d.state.sweep.spec->datasets.push_back({.file = kSource + "/assets/data/fuel_" + point + ".csv"});
+    d.state.sweep.spec->datasets.push_back(
+        data::PlainDataset(kSource + "/assets/data/fuel_" + point + ".csv"));
   const std::optional<ImVec2> run = FindButton(d, "Run");
   ASSERT_TRUE(run);
   d.Click(*run);
@@ -241,7 +242,7 @@ TEST(WorkbenchSweep, AFailedSweepNamesTheFileAndKeepsThePreviousTable) {
   ASSERT_TRUE(d.state.sweep.result) << d.state.sweep.last_failure;
   const double loglik = d.state.sweep.result->result.rows[0].summary.loglik;
 
-  d.state.sweep.spec->datasets.push_back({.file = kData + "no_such_point.csv"});
+  d.state.sweep.spec->datasets.push_back(data::PlainDataset(kData + "no_such_point.csv"));
   std::string why;
   ASSERT_TRUE(StartSweep(d.state, &why)) << why;
   WaitForJobs(d.state);

@@ -58,6 +58,21 @@ std::optional<ImVec2> FindDatasetRow(WorkbenchDriver& d, int index) {
   return d.Find(sidebar, id);
 }
 
+// The fit core makes of a project's datasets of role estimation, on one thread (as the
+// workbench's tests run it).
+Result<estimate::EstimateSummary> DirectFit(const project::Project& p) {
+  auto spec = model::ParseModel(p.model_json, p.model_path);
+  if (!spec) return spec.error();
+  auto problem =
+      project::LoadProblem(*spec, data::WithRole(p.datasets, data::Role::kEstimation));
+  if (!problem) return problem.error();
+  auto likelihood = project::MakeLikelihood(*problem);
+  if (!likelihood) return likelihood.error();
+  estimate::EstimateOptions options;
+  options.threads = 1;
+  return estimate::Estimate(*likelihood, options);
+}
+
 void RightClick(WorkbenchDriver& d, ImVec2 p) {
   d.MouseTo(p);
   ImGui::GetIO().MouseDown[1] = true;
@@ -96,17 +111,8 @@ TEST_F(ValidationRecords, AreNotFittedAndArePredictedFromTheirOwnStart) {
   ASSERT_TRUE(d.state.estimation.result) << d.state.estimation.last_failure;
 
   // The fit is the first half's alone, as core fits it.
-  project::Project p = *project::LoadProject(Path("project.json"));
-  auto spec = model::ParseModel(p.model_json, p.model_path);
-  ASSERT_TRUE(spec.ok());
-  auto problem = project::LoadProblem(*spec, project::DatasetsOf(p, data::Role::kEstimation));
-  ASSERT_TRUE(problem.ok()) << problem.error().ToString();
-  auto likelihood = project::MakeLikelihood(*problem);
-  ASSERT_TRUE(likelihood.ok());
-  estimate::EstimateOptions options;
-  options.threads = 1;
-  auto direct = estimate::Estimate(*likelihood, options);
-  ASSERT_TRUE(direct.ok());
+  auto direct = DirectFit(*project::LoadProject(Path("project.json")));
+  ASSERT_TRUE(direct.ok()) << direct.error().ToString();
   EXPECT_EQ(d.state.estimation.result->summary.n_obs, direct->n_obs);
   EXPECT_NEAR(d.state.estimation.result->summary.loglik, direct->loglik,
               1e-9 * std::abs(direct->loglik));
@@ -264,17 +270,8 @@ TEST(ImportDialog, AHeaderlessTimelessRecordingFitsAsTheProjectsKeysFitIt) {
   ASSERT_TRUE(d.state.estimation.result) << d.state.estimation.last_failure;
 
   // The bundled project names the fields by `columns` instead: the same fit.
-  project::Project keys = *project::LoadProject(kImportDir + "/project.json");
-  auto model = model::ParseModel(keys.model_json, keys.model_path);
-  ASSERT_TRUE(model.ok());
-  auto problem = project::LoadProblem(*model, keys.datasets);
-  ASSERT_TRUE(problem.ok()) << problem.error().ToString();
-  auto likelihood = project::MakeLikelihood(*problem);
-  ASSERT_TRUE(likelihood.ok());
-  estimate::EstimateOptions options;
-  options.threads = 1;
-  auto direct = estimate::Estimate(*likelihood, options);
-  ASSERT_TRUE(direct.ok());
+  auto direct = DirectFit(*project::LoadProject(kImportDir + "/project.json"));
+  ASSERT_TRUE(direct.ok()) << direct.error().ToString();
   const estimate::EstimateSummary& gui = d.state.estimation.result->summary;
   EXPECT_EQ(gui.n_obs, direct->n_obs);
   EXPECT_EQ(gui.loglik, direct->loglik);
