@@ -344,8 +344,9 @@ bool SetDatasetRole(AppState& state, std::size_t index, data::Role role, std::st
   if (d.spec.role == role) return true;
   d.spec.role = role;
   d.spec.plain = false;  // a role is a key: the entry becomes an object
-  for (data::DatasetSpec& entry : state.project->datasets)
-    if (entry.file == d.spec.file && entry.origin_path == d.spec.origin_path) entry = d.spec;
+  // The project's entries and the loaded datasets are kept in one order (opened, added and
+  // removed together).
+  if (index < state.project->datasets.size()) state.project->datasets[index] = d.spec;
   DatasetsChanged(state);
   AddMessage(state, Severity::kInfo,
              d.spec.DisplayName() +
