@@ -104,6 +104,22 @@ TEST_F(ValidationRecords, AreNotFittedAndArePredictedFromTheirOwnStart) {
   ASSERT_EQ(d.state.datasets.size(), 2u);
   EXPECT_EQ(d.state.datasets[1].spec.role, data::Role::kValidation);
   WaitForJobs(d.state);
+  // Before a fit, the scanned delay is the one the estimation record's profile prefers.
+  {
+    ASSERT_TRUE(d.state.analysis.result) << d.state.analysis.last_failure;
+    project::Project p = *project::LoadProject(Path("project.json"));
+    auto spec = model::ParseModel(p.model_json, p.model_path);
+    ASSERT_TRUE(spec.ok() && spec->HasDelayScan());
+    auto problem = project::LoadProblem(*spec, data::WithRole(p.datasets, data::Role::kEstimation));
+    ASSERT_TRUE(problem.ok());
+    auto likelihood = project::MakeLikelihood(*problem);
+    ASSERT_TRUE(likelihood.ok());
+    auto profile = likelihood->Profile(spec->Values());
+    ASSERT_TRUE(profile.ok() && profile->best >= 0);
+    EXPECT_EQ(d.state.analysis.result->delay,
+              profile->candidates[static_cast<std::size_t>(profile->best)].delay);
+    EXPECT_EQ(d.state.analysis.result->delay_source, "profile likelihood at these values");
+  }
   d.state.estimation.settings.threads = 1;
   std::string why;
   ASSERT_TRUE(StartEstimation(d.state, &why)) << why;

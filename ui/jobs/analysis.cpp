@@ -365,7 +365,24 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
       a.preview_error = p.error().ToString();
     }
   }
-  Result<std::vector<int>> delay = ChooseDelays(request, m, *likelihood, &a.delay_source);
+  // A scanned delay is chosen on the records that are fitted, not on the validation records
+  // (all of them when every record is a validation record).
+  std::vector<std::shared_ptr<const data::Series>> fitted;
+  for (std::size_t b = 0; b < bound.size(); ++b)
+    if (!a.datasets[static_cast<std::size_t>(bound_index[b])].validation) fitted.push_back(bound[b]);
+  std::optional<Result<filter::Likelihood>> fitted_likelihood;
+  if (!fitted.empty() && fitted.size() < bound.size() && request.delay.empty() &&
+      m.HasDelayScan()) {
+    fitted_likelihood =
+        lm ? filter::Likelihood::Create(lm, fitted) : filter::Likelihood::Create(nm, fitted);
+    if (!*fitted_likelihood) {
+      run.error = fitted_likelihood->error().ToString();
+      return run;
+    }
+    (**fitted_likelihood).set_cancel(&control.cancel);
+  }
+  Result<std::vector<int>> delay = ChooseDelays(
+      request, m, fitted_likelihood ? **fitted_likelihood : *likelihood, &a.delay_source);
   if (control.cancel) {
     run.cancelled = true;
     return run;

@@ -29,7 +29,8 @@
 //                with every input of the model (Diagnose's default lags and bins)
 //
 // Delays: the fit's estimates; without a fit the model's fixed delay, or for a scanned range the
-// delay that maximises the log-likelihood at θ over all datasets (as greybench-cli predict).
+// delay that maximises the log-likelihood at θ over the estimation records (all datasets when
+// every one is a validation record; as greybench-cli predict).
 // Observations before each output's largest delay are scored by no candidate, so they carry
 // no residual (CONTRACT section 1).
 //
