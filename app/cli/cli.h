@@ -33,8 +33,6 @@ int Fail(const Error& e);
 // for writing: 0 when no output would destroy an input or another output, otherwise the refusal
 // printed and its exit status (2).
 int GuardOutputs(const std::vector<FileRole>& inputs, const std::vector<FileRole>& outputs);
-// The data files of a command as inputs for GuardOutputs.
-std::vector<FileRole> DataFiles(const std::vector<std::string>& paths);
 
 // What a command's positional MODEL DATA... name: a model file and data files (CSV read in the
 // default form), or a project file in the model's place: its model (a file or inline) and its

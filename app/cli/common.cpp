@@ -23,12 +23,6 @@ int GuardOutputs(const std::vector<FileRole>& inputs, const std::vector<FileRole
   return 0;
 }
 
-std::vector<FileRole> DataFiles(const std::vector<std::string>& paths) {
-  std::vector<FileRole> files;
-  for (const std::string& p : paths) files.push_back({p, "the data file"});
-  return files;
-}
-
 namespace {
 
 Result<model::ModelSpec> ApplySets(model::ModelSpec spec, const std::vector<std::string>& sets) {

@@ -238,12 +238,6 @@ std::string JoinNames(const std::vector<std::string_view>& names) {
   return out;
 }
 
-std::string LowerAscii(std::string_view s) {
-  std::string out(s);
-  for (char& c : out) c = c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c;
-  return out;
-}
-
 // `name` split into a base and a unit: `time [ms]`, `time(ms)`, `t_ms`; false when it has none.
 bool SplitUnit(std::string_view name, std::string_view* base, std::string_view* unit) {
   const auto trim = [](std::string_view v) {
@@ -267,20 +261,20 @@ bool SplitUnit(std::string_view name, std::string_view* base, std::string_view* 
   return true;
 }
 
-std::optional<double> UnitScale(std::string_view unit) {
-  const std::string u = LowerAscii(unit);
-  if (u == "s" || u == "sec") return 1.0;
-  if (u == "ms") return 1e-3;
-  if (u == "us" || u == "\xC2\xB5s" || u == "\xCE\xBCs") return 1e-6;  // us, micro sign, mu
-  if (u == "ns") return 1e-9;
-  if (u == "min") return 60.0;
-  if (u == "h") return 3600.0;
+std::optional<double> UnitScale(std::string_view u) {
+  const auto is = [u](std::string_view name) { return EqualsIgnoringCase(u, name); };
+  if (is("s") || is("sec")) return 1.0;
+  if (is("ms")) return 1e-3;
+  if (is("us") || u == "\xC2\xB5s" || u == "\xCE\xBCs") return 1e-6;  // us, micro sign, mu
+  if (is("ns")) return 1e-9;
+  if (is("min")) return 60.0;
+  if (is("h")) return 3600.0;
   return std::nullopt;
 }
 
 bool IsTimeWord(std::string_view name) {
-  const std::string n = LowerAscii(name);
-  return n == "t" || n == "time" || n == "zeit";
+  return EqualsIgnoringCase(name, "t") || EqualsIgnoringCase(name, "time") ||
+         EqualsIgnoringCase(name, "zeit");
 }
 
 // Names the columns of `d` (every field but the time column) from `names` (the header's, or
@@ -412,6 +406,19 @@ std::string NotANumberReason(std::string_view text, char decimal) {
       text.find(',') != std::string_view::npos ? " (the decimal point must be '.')" : "");
 }
 
+namespace {
+
+// A time of the time column in seconds. A unit below a second divides by a whole number (100 ms
+// is 0.1 s to the last bit, which 100 * 0.001 is not).
+double Seconds(const Dataset& d, double t) {
+  if (d.time_scale == 1) return t;
+  const double per_second = std::round(1 / d.time_scale);
+  const bool divide = d.time_scale < 1 && std::abs(per_second * d.time_scale - 1) < 1e-12;
+  return divide ? t / per_second : t * d.time_scale;
+}
+
+}  // namespace
+
 Status internal::SplitRow(FieldSplitter& splitter, std::string_view line, int line_no,
                           const Dataset& header, int previous_line, double previous_time,
                           double* t) {
@@ -441,26 +448,21 @@ Status internal::SplitRow(FieldSplitter& splitter, std::string_view line, int li
       return FileError(header.source, line_no, header.time_field,
                        "time " + NotANumberReason(time, header.decimal));
   }
+  const double raw = *t;
+  *t = Seconds(header, raw);
   if (previous_line > 0 && !(*t > previous_time)) {
+    if (header.time_scale == 1) {
+      return FileError(header.source, line_no, header.time_field,
+                       fmt::format("time {} does not increase (previous row, line {}, has {})",
+                                   *t, previous_line, previous_time));
+    }
     return FileError(header.source, line_no, header.time_field,
-                     fmt::format("time {} does not increase (previous row, line {}, has {})", *t,
-                                 previous_line, previous_time));
+                     fmt::format("time {} ({} s) does not increase (previous row, line {}, is at "
+                                 "{} s)",
+                                 raw, *t, previous_line, previous_time));
   }
   return Ok{};
 }
-
-namespace {
-
-// A time of the time column in seconds. A unit below a second divides by a whole number (100 ms
-// is 0.1 s to the last bit, which 100 * 0.001 is not).
-double Seconds(const Dataset& d, double t) {
-  if (d.time_scale == 1) return t;
-  const double per_second = std::round(1 / d.time_scale);
-  const bool divide = d.time_scale < 1 && std::abs(per_second * d.time_scale - 1) < 1e-12;
-  return divide ? t / per_second : t * d.time_scale;
-}
-
-}  // namespace
 
 Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::string source,
                                                 const CsvFormat& format) {
@@ -527,7 +529,6 @@ Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::stri
     ++row_count;
     previous_line = line_no;
     previous_time = t;
-    t = Seconds(*d, t);
     if (format.range && (t < (*format.range)[0] || t > (*format.range)[1])) return Ok{};
     const std::vector<std::string_view>& fields = splitter.fields();
     d->time.push_back(t);
@@ -562,19 +563,6 @@ Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::stri
   }
   if (row_count == 0) {
     return FileError(d->source, d->header_line, 0, "the file has a header but no data rows");
-  }
-  if (format.range && d->time.size() < 2) {
-    return FileError(d->source, 0, 0,
-                     fmt::format("range [{:g}, {:g}] holds {} row{} of the record; at least 2 "
-                                 "are needed",
-                                 (*format.range)[0], (*format.range)[1], d->time.size(),
-                                 d->time.size() == 1 ? "" : "s"));
-  }
-  for (std::size_t k = 1; k < d->time.size(); ++k) {
-    if (!(d->time[k] > d->time[k - 1])) {  // two times a unit apart that round to one in seconds
-      return FileError(d->source, d->row_line[k], d->time_field,
-                       "the time does not increase once converted to seconds");
-    }
   }
   return std::shared_ptr<const Dataset>(std::move(d));
 }
@@ -646,11 +634,15 @@ namespace {
 // Data files are read whole; 4 GiB is some 100 million rows of a few columns.
 constexpr std::uintmax_t kMaxCsvBytes = std::uintmax_t{4} << 30;
 
-// Reads `path` into *text (not zero-filled first: fread writes it once) and its size.
-Status ReadWhole(const std::string& path, std::unique_ptr<char[]>* text, std::size_t* got) {
+// Reads the first `max_bytes` of `path` (all of it when shorter) into *text (not zero-filled
+// first: fread writes it once); *got the bytes read, *size the file's.
+Status ReadWhole(const std::string& path, std::unique_ptr<char[]>* text, std::size_t* got,
+                 std::uintmax_t max_bytes = kMaxCsvBytes, std::uintmax_t* file_size = nullptr) {
   std::uintmax_t size = 0;
   if (const std::string why = WhyNotReadable(path, kMaxCsvBytes, &size); !why.empty())
     return FileError(path, 0, 0, why);
+  if (file_size != nullptr) *file_size = size;
+  size = std::min(size, max_bytes);
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (f == nullptr) {
     return FileError(path, 0, 0, "cannot open the file: " + std::generic_category().message(errno));
@@ -670,16 +662,24 @@ Status ReadWhole(const std::string& path, std::unique_ptr<char[]>* text, std::si
 
 Result<std::shared_ptr<const Dataset>> ReadCsvFile(const std::string& path,
                                                    const CsvFormat& format) {
-  std::unique_ptr<char[]> text;
-  std::size_t size = 0;
-  if (Status s = ReadWhole(path, &text, &size); !s) return s.error();
-  return ParseCsv(std::string_view(text.get(), size), path, format);
+  return ReadCsvFile(path, [&format](std::string_view) { return format; });
 }
 
-Result<std::string> ReadTextFile(const std::string& path) {
+Result<std::shared_ptr<const Dataset>> ReadCsvFile(
+    const std::string& path, const std::function<CsvFormat(std::string_view text)>& format_of) {
   std::unique_ptr<char[]> text;
   std::size_t size = 0;
   if (Status s = ReadWhole(path, &text, &size); !s) return s.error();
+  const std::string_view view(text.get(), size);
+  return ParseCsv(view, path, format_of(view));
+}
+
+Result<std::string> ReadFileHead(const std::string& path, std::size_t max_bytes, bool* truncated) {
+  std::unique_ptr<char[]> text;
+  std::size_t size = 0;
+  std::uintmax_t file_size = 0;
+  if (Status s = ReadWhole(path, &text, &size, max_bytes, &file_size); !s) return s.error();
+  *truncated = file_size > size;
   return std::string(text.get(), size);
 }
 

@@ -29,6 +29,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -85,8 +86,8 @@ struct CsvFormat {
   // (time_unit.h's names: `time [ms]`, `t_s`, `Zeit (min)`).
   std::string time;
   double sample_time = 0;          // > 0: there is no time column; row k is at k * sample_time
-  // Only the rows with range[0] <= t <= range[1] (seconds) are kept; every row is still
-  // checked. Fewer than 2 rows kept is an Error whose message starts with "range".
+  // Only the rows with range[0] <= t <= range[1] (seconds) are kept (maybe none); every row is
+  // still checked.
   std::optional<std::array<double, 2>> range;
 };
 
@@ -101,12 +102,15 @@ CsvFormat SniffCsv(std::string_view text);
 // A file that cannot be read is an Error with `file` set and no line.
 Result<std::shared_ptr<const Dataset>> ReadCsvFile(const std::string& path,
                                                    const CsvFormat& format = {});
+// The same, with the format told from the file's text (a dataset entry's keys and SniffCsv).
+Result<std::shared_ptr<const Dataset>> ReadCsvFile(
+    const std::string& path, const std::function<CsvFormat(std::string_view text)>& format_of);
 // Parses CSV text already in memory; `source` is used in messages.
 Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::string source,
                                                 const CsvFormat& format = {});
-// The text of a file, whole, with ReadCsvFile's checks and messages (not a regular file, too
-// large, unreadable).
-Result<std::string> ReadTextFile(const std::string& path);
+// The first `max_bytes` of a file (all of it when shorter; *truncated says which), with
+// ReadCsvFile's checks and messages (not a regular file, too large, unreadable): a preview.
+Result<std::string> ReadFileHead(const std::string& path, std::size_t max_bytes, bool* truncated);
 
 // Seconds per unit of a time column named `name`: `t`, `time`, `zeit` (any case) alone, or with
 // a unit in brackets or parentheses or after '_' (`time [ms]`, `Zeit (s)`, `t_us`); units s,

@@ -228,12 +228,10 @@ Json DatasetSpecToJson(const DatasetSpec& spec, const std::string& file) {
 // ---------------------------------------------------------------------------------------------
 // Reading
 
-Result<std::shared_ptr<const Dataset>> ReadDataset(const DatasetSpec& spec) {
-  if (spec.plain) return ReadCsvFile(spec.file);
-  Result<std::string> text = ReadTextFile(spec.file);
-  if (!text) return text.error();
+CsvFormat FormatOf(const DatasetSpec& spec, std::string_view text) {
   // What is not given is told from the text; what is given wins.
-  CsvFormat format = SniffCsv(*text);
+  CsvFormat format;
+  if (!spec.header || !spec.separator || !spec.decimal) format = SniffCsv(text);
   if (spec.header) format.header = *spec.header;
   if (spec.separator) format.separator = *spec.separator;
   if (spec.decimal) format.decimal = *spec.decimal;
@@ -246,14 +244,19 @@ Result<std::shared_ptr<const Dataset>> ReadDataset(const DatasetSpec& spec) {
   format.time = spec.time;
   format.sample_time = spec.sample_time;
   format.range = spec.range;
-  Result<std::shared_ptr<const Dataset>> read = ParseCsv(*text, spec.file, format);
-  if (!read) {
-    // The rows of a range: said at the key, not the file.
-    if (spec.range && read.error().message.starts_with("range")) {
-      Error e = KeyError(spec, "range", read.error().message.substr(6));
-      return e;
-    }
-    return read.error();
+  return format;
+}
+
+Result<std::shared_ptr<const Dataset>> ReadDataset(const DatasetSpec& spec) {
+  if (spec.plain) return ReadCsvFile(spec.file);
+  Result<std::shared_ptr<const Dataset>> read =
+      ReadCsvFile(spec.file, [&spec](std::string_view text) { return FormatOf(spec, text); });
+  if (!read) return read.error();
+  if (spec.range && (*read)->rows() < 2) {
+    const std::size_t n = (*read)->rows();
+    return KeyError(spec, "range",
+                    fmt::format("[{:g}, {:g}] holds {} row{} of the record; at least 2 are needed",
+                                (*spec.range)[0], (*spec.range)[1], n, n == 1 ? "" : "s"));
   }
   return Prepare(std::move(*read), spec);
 }
@@ -275,14 +278,13 @@ Status Map(const DatasetSpec& spec, Dataset* d) {
   for (const auto& [target, text] : spec.map) {
     const std::string key = "map." + target;
     Column out;
-    out.name = target;
     if (const int index = d->Find(text); index >= 0) {  // a column's name, whatever it holds
-      const Column& from = d->columns[static_cast<std::size_t>(index)];
-      out = from;
+      out = d->columns[static_cast<std::size_t>(index)];
       out.name = target;
       mapped.push_back(std::move(out));
       continue;
     }
+    out.name = target;
     Result<expr::ExprPtr> e = expr::Parse(text);
     if (!e) {
       Error err = KeyError(spec, key, e.error().message);

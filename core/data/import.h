@@ -87,6 +87,10 @@ Result<DatasetSpec> ParseDatasetSpec(const Json& entry, const std::string& origi
 // object with the keys that are set. ParseDatasetSpec(DatasetSpecToJson(s, f)) gives s back.
 Json DatasetSpecToJson(const DatasetSpec& spec, const std::string& file);
 
+// How the entry's file is read: its header, separator and decimal keys where given, what SniffCsv
+// tells from `text` where not; its columns, time, sample time and range.
+CsvFormat FormatOf(const DatasetSpec& spec, std::string_view text);
+
 // Reads and prepares the recording. A plain spec reads exactly as ReadCsvFile(spec.file).
 // Errors in the file name the file and line; errors of a key name the project file and the key's
 // JSON path (`case.json: datasets[0].map.ilambda: column 'Lamda' is not in the file; ...`).

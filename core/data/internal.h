@@ -68,8 +68,9 @@ Status ReadHeader(FieldSplitter& splitter, std::string_view line, int line_no, D
 // What every reader checks of a data row: splits `line` (line `line_no`) into the splitter's
 // fields, checks that there are as many as `header` has, and reads the time into *t, which must
 // be finite and greater than `previous_time`, the time of line `previous_line` (0: no previous
-// row); without a time column (header.time_field 0) *t is left alone. The time is in the
-// column's own unit (not yet scaled by header.time_scale). The Error names `header.source`, the
+// row); without a time column (header.time_field 0) *t is left alone. The time and
+// `previous_time` are in seconds (the column's unit converted by header.time_scale), so a file
+// read whole and one read as it grows convert it alike. The Error names `header.source`, the
 // line and the field.
 Status SplitRow(FieldSplitter& splitter, std::string_view line, int line_no, const Dataset& header,
                 int previous_line, double previous_time, double* t);

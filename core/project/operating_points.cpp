@@ -73,10 +73,8 @@ Result<std::optional<OperatingPointsSpec>> ReadOperatingPoints(const Project& pr
   if (j.contains("datasets")) {
     std::vector<std::string> files;
     if (auto e = r.Strings(j["datasets"], root + ".datasets", "data file name", &files)) return *e;
-    for (const std::string& f : files) {
-      spec.datasets.emplace_back();
-      spec.datasets.back().file = ResolvePath(project.base_dir, f);
-    }
+    for (const std::string& f : files)
+      spec.datasets.push_back(data::PlainDataset(ResolvePath(project.base_dir, f)));
   } else {
     spec.datasets = project.datasets;
     spec.datasets_from_project = true;

@@ -167,6 +167,22 @@ TEST(Follow, ByteAtATimeFeedingGivesWhatParseCsvAndBindGive) {
   ExpectSample(read.samples[5], 2.5, {1e-3}, {-0.125}, 10);
 }
 
+TEST(Follow, ATimeColumnWithAUnitIsInSecondsAsParseCsvReadsIt) {
+  const std::string text = "time [ms],u,y\n0,1,2\n250,3,4\n500,5,6\n";
+  const Read read = ReadByteAtATime(text);
+  Result<std::shared_ptr<const data::Dataset>> d = data::ParseCsv(text, "run.csv");
+  ASSERT_TRUE(d.ok()) << d.error().ToString();
+  EXPECT_EQ((*d)->time, (std::vector<double>{0, 0.25, 0.5}));
+  ASSERT_EQ(read.samples.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) EXPECT_EQ(read.samples[k].t, (*d)->time[k]) << k;
+  // A time that does not increase says both the unit's value and the seconds.
+  const Read bad = ReadByteAtATime("time [ms],u,y\n0,1,2\n250,3,4\n250,5,6\n");
+  ASSERT_EQ(bad.problems.size(), 1u);
+  EXPECT_NE(bad.problems[0].ToString().find("time 250 (0.25 s) does not increase"),
+            std::string::npos)
+      << bad.problems[0].ToString();
+}
+
 TEST(Follow, EverySplitPointGivesTheSameSamples) {
   for (const std::string& text : {kRigText, kMixedEndsText}) {
     const Read whole = ReadWhole(text);

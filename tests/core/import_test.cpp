@@ -228,9 +228,20 @@ TEST(Formats, ARangeKeepsItsRowsAndStillChecksTheOthers) {
   // A row outside the range is still checked: the time must increase.
   EXPECT_NE(ParseError("t,u\n0,1\n5,2\n4,3\n", f).find("run.csv:4:1: time 4 does not increase"),
             std::string::npos);
+  // The reader keeps what the range holds; a dataset entry needs 2 rows, said at its key.
   f.range = std::array<double, 2>{0.15, 0.2};
-  EXPECT_NE(ParseError(kPlain, f).find("range [0.15, 0.2] holds 1 row of the record"),
-            std::string::npos);
+  const auto one = Parse(kPlain, f);
+  ASSERT_TRUE(one);
+  EXPECT_EQ(one->rows(), 1u);
+  TempDir dir;
+  DatasetSpec spec = SpecOf(R"({"file": "run.csv", "range": [0.15, 0.2]})");
+  spec.file = dir.Write("run.csv", std::string(kPlain));
+  Result<std::shared_ptr<const Dataset>> read = ReadDataset(spec);
+  ASSERT_FALSE(read.ok());
+  EXPECT_NE(read.error().ToString().find(
+                "case.json: datasets[0].range: [0.15, 0.2] holds 1 row of the record"),
+            std::string::npos)
+      << read.error().ToString();
 }
 
 // ---------------------------------------------------------------------------------------------

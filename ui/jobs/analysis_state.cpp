@@ -30,8 +30,7 @@ void StartAnalysis(AppState& state, AnalysisRequest request) {
   input.spec = *state.model;
   for (const LoadedDataset& d : state.datasets) {
     input.datasets.push_back(d.data);
-    input.names.push_back(d.spec.DisplayName() +
-                          (d.spec.role == data::Role::kValidation ? " (validation)" : ""));
+    input.names.push_back(DatasetLabel(d.spec));
     input.read_errors.push_back(d.error);
     input.validation.push_back(d.spec.role == data::Role::kValidation);
   }

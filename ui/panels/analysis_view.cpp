@@ -40,15 +40,11 @@ void DrawDatasetSelector(AppState& state, const Analysis* r) {
   ImGui::TextDisabled("Dataset");
   ImGui::SameLine();
   ImGui::SetNextItemWidth(kDatasetComboWidth * state.fonts.scale);
-  const auto label_of = [&](std::size_t k) {
-    const data::DatasetSpec& spec = state.datasets[k].spec;
-    return spec.DisplayName() + (spec.role == data::Role::kValidation ? " (validation)" : "");
-  };
-  const std::string current = label_of(static_cast<std::size_t>(a.dataset));
+  const std::string current = DatasetLabel(state.datasets[static_cast<std::size_t>(a.dataset)].spec);
   if (ImGui::BeginCombo("##dataset", current.c_str())) {
     for (int i = 0; i < n; ++i) {
       const auto k = static_cast<std::size_t>(i);
-      std::string label = label_of(k);
+      std::string label = DatasetLabel(state.datasets[k].spec);
       if (r && k < r->datasets.size() && !r->datasets[k].error.empty())
         label += "  (cannot be used)";
       label += "###" + std::to_string(i);

@@ -120,6 +120,10 @@ ImVec4 SeverityColor(Severity severity) {
   return ImVec4(0.18f, 0.44f, 0.86f, 1.0f);
 }
 
+std::string DatasetLabel(const data::DatasetSpec& spec) {
+  return spec.DisplayName() + (spec.role == data::Role::kValidation ? " (validation)" : "");
+}
+
 std::string FitToWidth(const std::string& text, float width) {
   if (ImGui::CalcTextSize(text.c_str()).x <= width) return text;
   constexpr const char* kEllipsis = "\xE2\x80\xA6";

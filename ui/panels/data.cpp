@@ -265,8 +265,7 @@ void DrawDataPanel(AppState& state) {
   for (std::size_t i = 0; i < state.datasets.size(); ++i) {
     const LoadedDataset& d = state.datasets[i];
     const std::string label =
-        d.spec.DisplayName() + (d.spec.role == data::Role::kValidation ? " (validation)" : "") +
-        (d.data ? "" : "  (unreadable)") + "###" + std::to_string(i);
+        DatasetLabel(d.spec) + (d.data ? "" : "  (unreadable)") + "###" + std::to_string(i);
     if (ImGui::BeginTabItem(label.c_str())) {
       DrawDataset(state, i);
       ImGui::EndTabItem();

@@ -104,14 +104,8 @@ void CheckImport(ImportForm* f, const model::ModelSpec* model) {
 
   // The entry's rows, mapped and bound.
   const data::DatasetSpec spec = ImportSpecOf(*f, model);
-  data::CsvFormat format;
-  format.header = *spec.header;
-  format.separator = *spec.separator;
-  format.decimal = *spec.decimal;
-  format.columns = spec.columns;
-  format.time = spec.time;
-  format.sample_time = spec.sample_time;
-  Result<std::shared_ptr<const data::Dataset>> read = data::ParseCsv(f->preview, f->path, format);
+  Result<std::shared_ptr<const data::Dataset>> read =
+      data::ParseCsv(f->preview, f->path, data::FormatOf(spec, f->preview));
   if (read) read = data::Prepare(*read, spec);
   if (!read) {
     f->check = read.error().ToString();
@@ -141,12 +135,11 @@ void OpenImportDialog(AppState& state, const std::string& path) {
   ImportForm f;
   f.requested = true;
   f.path = path;  // as the browser gave it (absolute); AddDataset makes it so in any case
-  Result<std::string> text = data::ReadTextFile(f.path);
+  Result<std::string> text = data::ReadFileHead(f.path, kPreviewBytes, &f.truncated);
   if (!text) {
     f.read_error = text.error().ToString();
   } else {
-    f.truncated = text->size() > kPreviewBytes;
-    f.preview = text->substr(0, kPreviewBytes);
+    f.preview = std::move(*text);
     if (f.truncated) f.preview.erase(f.preview.find_last_of('\n') + 1);
     const data::CsvFormat sniffed = data::SniffCsv(f.preview);
     f.header = sniffed.header;

@@ -270,8 +270,7 @@ void InstallDataset(AppState& state, DatasetRead read) {
   d.path = read.path;
   d.data = std::move(read.data);
   d.summary = std::move(read.summary);
-  d.spec = std::move(read.spec);
-  d.spec.file = d.path;
+  d.spec = std::move(read.spec);  // its file is read.path
   state.project->datasets.push_back(d.spec);
   state.datasets.push_back(std::move(d));
   state.data_view.x_ranges.push_back(plot::LinkedRange{});
@@ -534,8 +533,7 @@ void CreateProject(AppState& state) {
       f.error = d + ": there is no such file.";
       return;
     }
-    p.datasets.emplace_back();
-    p.datasets.back().file = Absolute(d);
+    p.datasets.push_back(data::PlainDataset(Absolute(d)));
   }
   if (Status st = CheckOutputs(project::ProjectFiles(p), {{project_path, "the project file"}});
       !st) {
@@ -757,9 +755,7 @@ Status ReplaceModel(AppState& state, const std::string& path) {
 }
 
 void AddDataset(AppState& state, const std::string& path) {
-  data::DatasetSpec spec;
-  spec.file = path;
-  AddDataset(state, std::move(spec));
+  AddDataset(state, data::PlainDataset(path));
 }
 
 void AddDataset(AppState& state, data::DatasetSpec spec) {
