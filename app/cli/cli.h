@@ -17,6 +17,7 @@
 #include "core/model/linear_model.h"
 #include "core/model/model.h"
 #include "core/model/nonlinear_model.h"
+#include "core/project/problem.h"
 #include "core/util/output_guard.h"
 #include "core/util/result.h"
 
@@ -43,6 +44,9 @@ struct CommandInputs {
   Json inline_model;         // the project's inline model
   std::string project_path;  // "" without a project
   std::vector<data::DatasetSpec> datasets;  // every dataset, in order
+  // Several fitted records each from its own initial state (the project's
+  // "estimation": {"initial_states": "per_record"}, or --initial-states).
+  bool per_record_initial_states = false;
 
   // The model file, or the project file for an inline model (for messages).
   const std::string& ModelSource() const { return model_path.empty() ? project_path : model_path; }
@@ -51,13 +55,21 @@ struct CommandInputs {
 };
 // `first` is a project when it is a JSON object with "greybench_project". Without a project,
 // `data` must not be empty ("give DATA files"); a project without datasets needs `data`.
-Result<CommandInputs> ResolveInputs(const std::string& first, const std::vector<std::string>& data);
+// `initial_states` is --initial-states: "shared" or "per_record" overrides the project's
+// "estimation": {"initial_states": ...}; "" keeps it (shared without a project).
+Result<CommandInputs> ResolveInputs(const std::string& first, const std::vector<std::string>& data,
+                                    const std::string& initial_states = "");
 // The datasets a fit uses (role estimation); an input error when there are none.
 Result<std::vector<data::DatasetSpec>> FittedDatasets(const CommandInputs& in);
 // The one dataset `predict` and `diagnose` work on: `choice` is its 1-based number in the
 // project, its name or its file's name; "" picks the only one (several: an input error that lists
 // them).
 Result<data::DatasetSpec> ChooseDataset(const CommandInputs& in, const std::string& choice);
+
+// The model as a fit of `in` sees it: with each fitted record's copies of the initial state's
+// parameters (project::PerRecordInitialStates) when the records start from their own initial
+// states and two or more are fitted; else `spec` itself (no index rows).
+Result<project::RecordInitialStates> FittedModel(const CommandInputs& in, model::ModelSpec spec);
 
 // Reads the model file and applies every `NAME=VALUE` of --set.
 Result<model::ModelSpec> LoadModelWithOverrides(const std::string& path,
@@ -80,6 +92,7 @@ Result<LoadedLikelihood> LoadLikelihood(const CommandInputs& in,
                                         const std::string& start_result = "");
 
 struct LoglikArgs {
+  std::string initial_states;  // --initial-states ("" = the project's)
   std::string model;
   std::vector<std::string> data;
   std::vector<std::string> sets;
@@ -118,6 +131,7 @@ struct PrbsArgs {
 int RunPrbs(const PrbsArgs& args);
 
 struct EstimateArgs {
+  std::string initial_states;  // --initial-states ("" = the project's)
   bool steady_start = false;  // EstimateOptions::steady_start
   double steady_window = 5.0;
   std::string model;
@@ -259,6 +273,7 @@ Result<filter::SmoothedStates> SmoothStates(const EvaluatedSeries& e,
                                             const filter::FilterTrace& trace);
 
 struct PredictArgs {
+  std::string initial_states;  // --initial-states ("" = the project's)
   std::string model;  // or a project
   std::string data;   // "" with a project: its dataset chosen by `dataset`
   std::string dataset;
@@ -275,6 +290,7 @@ struct PredictArgs {
 int RunPredict(const PredictArgs& args);
 
 struct DiagnoseArgs {
+  std::string initial_states;  // --initial-states ("" = the project's)
   std::string model;  // or a project
   std::string data;   // "" with a project: its dataset chosen by `dataset`
   std::string dataset;

@@ -65,7 +65,9 @@ bool IsProjectFile(const std::string& path) {
 
 }  // namespace
 
-Result<CommandInputs> ResolveInputs(const std::string& first, const std::vector<std::string>& data) {
+namespace {
+
+Result<CommandInputs> ResolveFiles(const std::string& first, const std::vector<std::string>& data) {
   CommandInputs in;
   if (!IsProjectFile(first)) {
     if (data.empty()) {
@@ -83,6 +85,8 @@ Result<CommandInputs> ResolveInputs(const std::string& first, const std::vector<
   in.model_path = p->model_path;
   if (p->model_path.empty()) in.inline_model = p->model_json;
   in.datasets = data.empty() ? p->datasets : project::PlainDatasets(data);
+  in.per_record_initial_states =
+      project::ReadEstimationDefaults(*p).per_record_initial_states.value_or(false);
   if (in.datasets.empty()) {
     Error e = InputError("the project lists no datasets: add some, or give data files after it");
     e.file = first;
@@ -90,6 +94,16 @@ Result<CommandInputs> ResolveInputs(const std::string& first, const std::vector<
     return e;
   }
   return in;
+}
+
+}  // namespace
+
+Result<CommandInputs> ResolveInputs(const std::string& first, const std::vector<std::string>& data,
+                                    const std::string& initial_states) {
+  auto resolved = ResolveFiles(first, data);
+  if (resolved && !initial_states.empty())
+    resolved->per_record_initial_states = initial_states == "per_record";
+  return resolved;
 }
 
 Result<std::vector<data::DatasetSpec>> FittedDatasets(const CommandInputs& in) {
@@ -133,6 +147,16 @@ Result<data::DatasetSpec> ChooseDataset(const CommandInputs& in, const std::stri
   return InputError(fmt::format("--dataset {}: no such dataset; the datasets are: {}", choice, list()));
 }
 
+Result<project::RecordInitialStates> FittedModel(const CommandInputs& in, model::ModelSpec spec) {
+  const std::size_t fitted = data::WithRole(in.datasets, data::Role::kEstimation).size();
+  if (!in.per_record_initial_states || fitted < 2) {
+    project::RecordInitialStates same;
+    same.spec = std::move(spec);
+    return same;
+  }
+  return project::PerRecordInitialStates(std::move(spec), static_cast<int>(fitted));
+}
+
 Result<model::ModelSpec> LoadModelWithOverrides(const CommandInputs& in,
                                                 const std::vector<std::string>& sets) {
   if (!in.model_path.empty()) return LoadModelWithOverrides(in.model_path, sets);
@@ -160,17 +184,23 @@ Result<LoadedLikelihood> LoadLikelihood(const CommandInputs& in,
   if (!fitted) return fitted.error();
   auto spec = LoadModelWithOverrides(in, sets);
   if (!spec) return spec.error();
+  const auto initial = in.per_record_initial_states ? project::InitialStates::kPerRecord
+                                                    : project::InitialStates::kShared;
   if (!start_result.empty()) {
+    // A result of a fit per record holds every record's copies: the model takes them first.
+    auto model = FittedModel(in, std::move(*spec));
+    if (!model) return model.error();
+    spec = std::move(model->spec);
     std::set<std::string> set_names;
     for (const auto& s : sets) set_names.insert(s.substr(0, s.find('=')));
     if (auto d = project::ApplyResultFile(start_result, set_names, &*spec, /*free_only=*/true); !d)
       return d.error();
   }
-  std::vector<double> theta = spec->Values();
-  auto problem = project::LoadProblem(std::move(*spec), *fitted);
+  auto problem = project::LoadProblem(std::move(*spec), *fitted, initial);
   if (!problem) return problem.error();
   auto lik = project::MakeLikelihood(*problem);
   if (!lik) return lik.error();
+  std::vector<double> theta = problem->spec().Values();  // with the copies' starts
   return LoadedLikelihood{std::move(*lik), std::move(theta)};
 }
 

@@ -18,7 +18,7 @@
 namespace gb::cli {
 
 int RunEstimate(const EstimateArgs& args) {
-  auto in = ResolveInputs(args.model, args.data);
+  auto in = ResolveInputs(args.model, args.data, args.initial_states);
   if (!in) return Fail(in.error());
   std::vector<FileRole> inputs = in->Files();
   inputs.push_back({args.start, "the --start result file"});

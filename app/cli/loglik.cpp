@@ -8,7 +8,7 @@
 namespace gb::cli {
 
 int RunLoglik(const LoglikArgs& args) {
-  auto in = ResolveInputs(args.model, args.data);
+  auto in = ResolveInputs(args.model, args.data, args.initial_states);
   if (!in) return Fail(in.error());
   auto loaded = LoadLikelihood(*in, args.sets);
   if (!loaded) return Fail(loaded.error());

@@ -137,6 +137,17 @@ const Allowed kPrbsOrder{.lo = design::kMinPrbsOrder, .hi = design::kMaxPrbsOrde
 
 }  // namespace
 
+// --initial-states on the commands that fit or evaluate records of a project.
+void AddInitialStates(CLI::App* command, std::string* value) {
+  command
+      ->add_option("--initial-states", *value,
+                   "shared: every fitted record from the model's initial state; per_record: "
+                   "each from its own (copies of the initial state's parameters, named "
+                   "NAME_r2, NAME_r3, ...); default: the project's estimation.initial_states, "
+                   "else shared")
+      ->check(CLI::IsMember({"shared", "per_record"}));
+}
+
 int Main(int argc, char** argv) {
   CLI::App app{"greybench-cli: identify continuous-time stochastic grey-box models"};
   app.require_subcommand(1);
@@ -151,6 +162,7 @@ int Main(int argc, char** argv) {
   c_loglik->add_option("--set", loglik.sets, "NAME=VALUE: override a parameter's value");
   c_loglik->add_flag("--gradient", loglik.gradient,
                      "also print the exact gradient over the free parameters (natural scale)");
+  AddInitialStates(c_loglik, &loglik.initial_states);
   c_loglik->callback([&] { run = [&] { return RunLoglik(loglik); }; });
 
   BenchArgs bench;
@@ -206,6 +218,7 @@ int Main(int argc, char** argv) {
                     "unless given)");
   c_est->add_option("--set", est.sets, "NAME=VALUE: override a start (or fixed) value");
   c_est->add_option("--out", est.out, "result file (JSON, CONTRACT section 5)");
+  AddInitialStates(c_est, &est.initial_states);
   c_est->add_option("--start", est.start,
                     "start the free parameters at a result file's estimates (--set overrides)");
   auto* steady = c_est->add_flag(
@@ -269,6 +282,7 @@ int Main(int argc, char** argv) {
   c_pred->add_option("data", predict.data, "data file (CSV; with a project: one of its datasets)");
   c_pred->add_option("--dataset", predict.dataset,
                   "with a project: the dataset (its number from 1, name or file name)");
+  AddInitialStates(c_pred, &predict.initial_states);
   c_pred->add_option("--set", predict.sets, "NAME=VALUE: override a parameter's value");
   c_pred->add_option("--result", predict.result, "take the estimates (and delays) from a result file");
   c_pred->add_option("--out", predict.out, "output CSV: t, then o, o_pred, o_sd, o_residual")
@@ -290,6 +304,7 @@ int Main(int argc, char** argv) {
   c_diag->add_option("data", diag.data, "data file (CSV; with a project: one of its datasets)");
   c_diag->add_option("--dataset", diag.dataset,
                   "with a project: the dataset (its number from 1, name or file name)");
+  AddInitialStates(c_diag, &diag.initial_states);
   c_diag->add_option("--set", diag.sets, "NAME=VALUE: override a parameter's value");
   c_diag->add_option("--result", diag.result, "take the estimates (and delays) from a result file");
   c_diag->add_option("--max-lag", diag.max_lag, "lags of ACF, PACF and CCF, >= 1 (default min(40, n/4))")

@@ -62,8 +62,19 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
                                             const data::DatasetSpec& dataset,
                                             const std::vector<std::string>& sets,
                                             const std::string& result_path) {
-  auto spec = LoadModelWithOverrides(in, sets);
-  if (!spec) return spec.error();
+  auto loaded = LoadModelWithOverrides(in, sets);
+  if (!loaded) return loaded.error();
+  // A fitted record of a fit per record starts from its own copies of the initial state's
+  // parameters (record 1 from the originals).
+  auto fitted_model = FittedModel(in, std::move(*loaded));
+  if (!fitted_model) return fitted_model.error();
+  model::ModelSpec* spec = &fitted_model->spec;
+  int record = -1;  // the dataset's place among the fitted records
+  if (!fitted_model->index.empty() && dataset.role == data::Role::kEstimation) {
+    const auto fitted = data::WithRole(in.datasets, data::Role::kEstimation);
+    for (std::size_t r = 0; r < fitted.size(); ++r)
+      if (fitted[r].file == dataset.file && fitted[r].name == dataset.name) record = static_cast<int>(r);
+  }
   std::vector<int> result_delay(spec->outputs.size(), -1);
   if (!result_path.empty()) {
     std::set<std::string> set_names;
@@ -74,6 +85,12 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
   }
   EvaluatedSeries out;
   out.theta = spec->Values();
+  if (record > 0) {
+    const std::vector<int>& index = fitted_model->index[static_cast<std::size_t>(record)];
+    const std::vector<double> all = out.theta;
+    for (std::size_t i = 0; i < index.size(); ++i)
+      if (index[i] >= 0) out.theta[i] = all[static_cast<std::size_t>(index[i])];
+  }
   auto problem = project::LoadProblem(std::move(*spec), std::vector{dataset});
   if (!problem) return problem.error();
   auto lik = project::MakeLikelihood(*problem);
@@ -169,8 +186,10 @@ std::vector<std::string> DescribeEvaluation(const EvaluatedSeries& e, const std:
 }
 
 int RunPredict(const PredictArgs& args) {
-  auto in = ResolveInputs(args.model, args.data.empty() ? std::vector<std::string>{}
-                                                        : std::vector<std::string>{args.data});
+  auto in = ResolveInputs(args.model,
+                          args.data.empty() ? std::vector<std::string>{}
+                                            : std::vector<std::string>{args.data},
+                          args.initial_states);
   if (!in) return Fail(in.error());
   std::vector<FileRole> inputs = in->Files();
   inputs.push_back({args.result, "the --result file"});

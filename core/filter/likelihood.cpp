@@ -114,8 +114,8 @@ Result<Loglik> Likelihood::SumOverSeries(std::span<const int> delay, std::vector
   Loglik total;
   std::vector<double> series_terms;
   if (terms) terms->clear();
-  for (const auto& s : series_) {
-    auto l = one(*s, settings, terms ? &series_terms : nullptr);
+  for (std::size_t i = 0; i < series_.size(); ++i) {
+    auto l = one(i, *series_[i], settings, terms ? &series_terms : nullptr);
     if (!l) return l.error();
     if (terms) terms->insert(terms->end(), series_terms.begin(), series_terms.end());
     total.loglik += l->loglik;
@@ -124,21 +124,72 @@ Result<Loglik> Likelihood::SumOverSeries(std::span<const int> delay, std::vector
   return total;
 }
 
-Result<Loglik> Likelihood::EvaluateAt(const model::StateSpace& ss, std::span<const int> delay,
+void Likelihood::set_series_parameters(std::vector<std::vector<int>> index) {
+  assert(index.empty() || index.size() == series_.size());
+  for ([[maybe_unused]] const auto& row : index)
+    assert(row.empty() || row.size() == spec().parameters.size());
+  series_parameters_ = std::move(index);
+}
+
+std::vector<double> Likelihood::SeriesTheta(std::span<const double> theta, std::size_t s) const {
+  std::vector<double> own(theta.begin(), theta.end());
+  if (s < series_parameters_.size())
+    for (std::size_t i = 0; i < series_parameters_[s].size(); ++i)
+      if (series_parameters_[s][i] >= 0) own[i] = theta[series_parameters_[s][i]];
+  return own;
+}
+
+Likelihood::SeriesFree Likelihood::FreeOf(std::span<const int> free, std::size_t s) const {
+  SeriesFree out;
+  const std::vector<int>* index =
+      s < series_parameters_.size() && !series_parameters_[s].empty() ? &series_parameters_[s]
+                                                                        : nullptr;
+  for (std::size_t f = 0; f < free.size(); ++f) {
+    if (!index) {
+      out.params.push_back(free[f]);
+      out.columns.push_back(static_cast<Eigen::Index>(f));
+      continue;
+    }
+    for (std::size_t i = 0; i < index->size(); ++i) {
+      if ((*index)[i] == free[f]) {
+        out.params.push_back(static_cast<int>(i));
+        out.columns.push_back(static_cast<Eigen::Index>(f));
+      }
+    }
+  }
+  return out;
+}
+
+Result<std::vector<model::StateSpace>> Likelihood::LinearAt(std::span<const double> theta) const {
+  std::vector<model::StateSpace> out;
+  const std::size_t n = series_parameters_.empty() ? 1 : series_.size();
+  for (std::size_t s = 0; s < n; ++s) {
+    auto ss = series_parameters_.empty() ? linear_->Evaluate(theta)
+                                         : linear_->Evaluate(SeriesTheta(theta, s));
+    if (!ss) return ss.error();
+    out.push_back(std::move(*ss));
+  }
+  return out;
+}
+
+Result<Loglik> Likelihood::EvaluateAt(const std::vector<model::StateSpace>& ss,
+                                      std::span<const int> delay,
                                       std::vector<double>* terms) const {
-  return SumOverSeries(delay, terms, [&](const data::Series& s, const FilterSettings& settings,
-                                         std::vector<double>* t) {
-    return LogLikelihood(ss, s, settings, t);
+  return SumOverSeries(delay, terms, [&](std::size_t i, const data::Series& s,
+                                         const FilterSettings& settings, std::vector<double>* t) {
+    return LogLikelihood(ss[ss.size() == 1 ? 0 : i], s, settings, t);
   });
 }
 
 Result<Loglik> Likelihood::EvaluateEkf(std::span<const double> theta, std::span<const int> delay,
                                        std::vector<double>* terms) const {
   OdeCounts counts;
-  auto total = SumOverSeries(delay, terms, [&](const data::Series& s,
+  auto total = SumOverSeries(delay, terms, [&](std::size_t i, const data::Series& s,
                                                const FilterSettings& settings,
                                                std::vector<double>* t) {
-    return EkfLogLikelihood(*nonlinear_, theta, s, settings, t, &counts);
+    if (series_parameters_.empty())
+      return EkfLogLikelihood(*nonlinear_, theta, s, settings, t, &counts);
+    return EkfLogLikelihood(*nonlinear_, SeriesTheta(theta, i), s, settings, t, &counts);
   });
   counts_->Add(counts);
   return total;
@@ -197,12 +248,14 @@ Result<Loglik> Likelihood::EkfScore(std::span<const double> theta, std::span<con
 Result<Loglik> Likelihood::Evaluate(std::span<const double> theta, std::span<const int> delay,
                                     std::vector<double>* terms) const {
   if (nonlinear_) return EvaluateEkf(theta, delay, terms);
-  auto ss = linear_->Evaluate(theta);
+  auto ss = LinearAt(theta);
   if (!ss) return ss.error();
   return EvaluateAt(*ss, delay, terms);
 }
 
 // The scores of every series summed, and their per-term rows stacked series after series.
+// one(s, series, settings, params, g, J) differentiates series s in θ_s's `params`; the columns
+// are gathered onto `free` (FreeOf).
 template <class One>
 Result<Loglik> Likelihood::ScoreOverSeries(std::span<const int> delay, std::span<const int> free,
                                            Eigen::VectorXd* gradient,
@@ -214,22 +267,32 @@ Result<Loglik> Likelihood::ScoreOverSeries(std::span<const int> delay, std::span
   gradient->setZero(k);
   Eigen::VectorXd one_gradient;
   std::vector<Eigen::MatrixXd> J_per_series;
-  for (const auto& s : series_) {
+  std::vector<SeriesFree> free_per_series;
+  for (std::size_t s = 0; s < series_.size(); ++s) {
+    SeriesFree own = FreeOf(free, s);
     Eigen::MatrixXd one_J;
-    auto l = one(*s, settings, &one_gradient, J_terms_theta ? &one_J : nullptr);
+    auto l = one(s, *series_[s], settings, std::span<const int>(own.params), &one_gradient,
+                 J_terms_theta ? &one_J : nullptr);
     if (!l) return l.error();
     total.loglik += l->loglik;
     total.n_obs += l->n_obs;
-    *gradient += one_gradient;
-    if (J_terms_theta) J_per_series.push_back(std::move(one_J));
+    for (std::size_t c = 0; c < own.columns.size(); ++c)
+      (*gradient)(own.columns[c]) += one_gradient(static_cast<Eigen::Index>(c));
+    if (J_terms_theta) {
+      J_per_series.push_back(std::move(one_J));
+      free_per_series.push_back(std::move(own));
+    }
   }
   if (J_terms_theta) {
     Eigen::Index rows = 0;
     for (const auto& J : J_per_series) rows += J.rows();
-    J_terms_theta->resize(rows, k);
+    J_terms_theta->setZero(rows, k);
     Eigen::Index at = 0;
-    for (const auto& J : J_per_series) {
-      J_terms_theta->middleRows(at, J.rows()) = J;
+    for (std::size_t s = 0; s < J_per_series.size(); ++s) {
+      const Eigen::MatrixXd& J = J_per_series[s];
+      const std::vector<Eigen::Index>& columns = free_per_series[s].columns;
+      for (std::size_t c = 0; c < columns.size(); ++c)
+        J_terms_theta->block(at, columns[c], J.rows(), 1) += J.col(static_cast<Eigen::Index>(c));
       at += J.rows();
     }
   }
@@ -244,32 +307,48 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
   if (nonlinear_ && !exact_scores()) return EkfScore(theta, delay, free, gradient, J_terms_theta);
   if (nonlinear_) {
     OdeCounts counts;
-    auto total = ScoreOverSeries(delay, free, gradient, J_terms_theta,
-                                 [&](const data::Series& s, const FilterSettings& settings,
-                                     Eigen::VectorXd* g, Eigen::MatrixXd* J) {
-                                   return EkfLogLikelihoodWithScore(*nonlinear_, *sensitivity_,
-                                                                    theta, s, settings, free, g, J,
-                                                                    &counts);
-                                 });
+    auto total = ScoreOverSeries(
+        delay, free, gradient, J_terms_theta,
+        [&](std::size_t i, const data::Series& s, const FilterSettings& settings,
+            std::span<const int> params, Eigen::VectorXd* g, Eigen::MatrixXd* J) {
+          if (series_parameters_.empty())
+            return EkfLogLikelihoodWithScore(*nonlinear_, *sensitivity_, theta, s, settings,
+                                             params, g, J, &counts);
+          return EkfLogLikelihoodWithScore(*nonlinear_, *sensitivity_, SeriesTheta(theta, i), s,
+                                           settings, params, g, J, &counts);
+        });
     counts_->Add(counts);
     return total;
   }
-  auto ss = linear_->Evaluate(theta);
-  if (!ss) return ss.error();
-  auto dss = linear_->EvaluateJacobian(theta, free);
-  if (!dss) return dss.error();
-  return ScoreOverSeries(delay, free, gradient, J_terms_theta,
-                         [&](const data::Series& s, const FilterSettings& settings,
-                             Eigen::VectorXd* g, Eigen::MatrixXd* J) {
-                           return LogLikelihoodScore(*ss, *dss, s, settings, g, J);
-                         });
+  if (series_parameters_.empty()) {
+    auto ss = linear_->Evaluate(theta);
+    if (!ss) return ss.error();
+    auto dss = linear_->EvaluateJacobian(theta, free);
+    if (!dss) return dss.error();
+    return ScoreOverSeries(delay, free, gradient, J_terms_theta,
+                           [&](std::size_t, const data::Series& s, const FilterSettings& settings,
+                               std::span<const int>, Eigen::VectorXd* g, Eigen::MatrixXd* J) {
+                             return LogLikelihoodScore(*ss, *dss, s, settings, g, J);
+                           });
+  }
+  return ScoreOverSeries(
+      delay, free, gradient, J_terms_theta,
+      [&](std::size_t i, const data::Series& s, const FilterSettings& settings,
+          std::span<const int> params, Eigen::VectorXd* g, Eigen::MatrixXd* J) -> Result<Loglik> {
+        const std::vector<double> own = SeriesTheta(theta, i);
+        auto ss = linear_->Evaluate(own);
+        if (!ss) return ss.error();
+        auto dss = linear_->EvaluateJacobian(own, params);
+        if (!dss) return dss.error();
+        return LogLikelihoodScore(*ss, *dss, s, settings, g, J);
+      });
 }
 
 
 Result<DelayProfile> Likelihood::Profile(std::span<const double> theta) const {
-  std::optional<model::StateSpace> ss;
+  std::optional<std::vector<model::StateSpace>> ss;
   if (linear_) {
-    auto evaluated = linear_->Evaluate(theta);
+    auto evaluated = LinearAt(theta);
     if (!evaluated) return evaluated.error();
     ss = std::move(*evaluated);
   }

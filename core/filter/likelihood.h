@@ -97,9 +97,29 @@ class Likelihood {
   // Evaluations stop early (with an Error) once *cancel is true; nullptr: never.
   void set_cancel(const std::atomic<bool>* cancel) { settings_.cancel = cancel; }
 
+  // Parameters of a series' own (several records fitted jointly, each from its own initial
+  // state: core/project/problem.h's PerRecordInitialStates). Series s is evaluated at θ_s:
+  // θ_s[i] = θ[index[s][i]], or θ[i] where index[s][i] is -1 (a parameter series s does not
+  // use: another record's copy); an empty row (or no rows) is θ itself. The derivatives are
+  // gathered back onto θ: ∂ log L/∂θ_j = Σ_s Σ_{i: index[s][i] = j} ∂ log L_s/∂θ_s,i.
+  // Precondition: one row per series, each empty or of the model's parameter count.
+  void set_series_parameters(std::vector<std::vector<int>> index);
+  // θ_s of series s (θ itself without series parameters).
+  std::vector<double> SeriesTheta(std::span<const double> theta, std::size_t s) const;
+  const std::vector<std::vector<int>>& series_parameters() const { return series_parameters_; }
+
  private:
   static Result<Likelihood> CreateFor(const model::ModelSpec& spec,
                                       std::vector<std::shared_ptr<const data::Series>> series);
+  // The parameters to differentiate series s in (indices into θ_s) and the column of `free` each
+  // one's derivative belongs to.
+  struct SeriesFree {
+    std::vector<int> params;
+    std::vector<Eigen::Index> columns;
+  };
+  SeriesFree FreeOf(std::span<const int> free, std::size_t s) const;
+  // The linear model at each series' parameters: one entry when every series uses θ itself.
+  Result<std::vector<model::StateSpace>> LinearAt(std::span<const double> theta) const;
   template <class One>
   Result<Loglik> ScoreOverSeries(std::span<const int> delay, std::span<const int> free,
                                  Eigen::VectorXd* gradient, Eigen::MatrixXd* J_terms_theta,
@@ -107,7 +127,7 @@ class Likelihood {
   template <class One>
   Result<Loglik> SumOverSeries(std::span<const int> delay, std::vector<double>* terms,
                                One&& one) const;
-  Result<Loglik> EvaluateAt(const model::StateSpace& ss, std::span<const int> delay,
+  Result<Loglik> EvaluateAt(const std::vector<model::StateSpace>& ss, std::span<const int> delay,
                             std::vector<double>* terms = nullptr) const;
   Result<Loglik> EvaluateEkf(std::span<const double> theta, std::span<const int> delay,
                              std::vector<double>* terms = nullptr) const;
@@ -122,6 +142,7 @@ class Likelihood {
   std::shared_ptr<Counts> counts_;  // the ODE work, shared by copies
   std::vector<std::shared_ptr<const data::Series>> series_;
   FilterSettings settings_;  // first_obs = each output's max delay
+  std::vector<std::vector<int>> series_parameters_;  // see set_series_parameters
 };
 
 }  // namespace gb::filter

@@ -258,8 +258,16 @@ Result<Project> LoadProject(const std::string& path) {
         if (!it.value().is_number() || !(it.value().get<double>() > 0))
           return FileError(path, "expected a number of time units greater than 0",
                            root + ".steady_window");
+      } else if (it.key() == "initial_states") {
+        if (!it.value().is_string() ||
+            (it.value() != "shared" && it.value() != "per_record"))
+          return FileError(path,
+                           "expected \"shared\" (every record from the model's initial state) "
+                           "or \"per_record\" (each from its own)",
+                           root + ".initial_states");
       } else {
-        return FileError(path, "unknown member (expected steady_start or steady_window)",
+        return FileError(path,
+                         "unknown member (expected steady_start, steady_window or initial_states)",
                          root + "." + it.key());
       }
     }
@@ -282,6 +290,8 @@ EstimationDefaults ReadEstimationDefaults(const Project& project) {
     d.steady_start = it->get<bool>();
   if (auto it = e.find("steady_window"); it != e.end() && it->is_number() && it->get<double>() > 0)
     d.steady_window = it->get<double>();
+  if (auto it = e.find("initial_states"); it != e.end() && it->is_string())
+    d.per_record_initial_states = *it == "per_record";
   return d;
 }
 

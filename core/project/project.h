@@ -36,10 +36,13 @@ struct Project {
 
 // The project's "estimation" object: options of the Estimate view kept with the project
 // (docs/user-guide.md, section 7). An absent member leaves the view's default.
-//   "estimation": {"steady_start": true, "steady_window": 5}
+//   "estimation": {"steady_start": true, "steady_window": 5, "initial_states": "per_record"}
 struct EstimationDefaults {
   std::optional<bool> steady_start;     // EstimateOptions::steady_start
   std::optional<double> steady_window;  // EstimateOptions::steady_window (> 0)
+  // "initial_states": "per_record" (true) or "shared": several records fitted each from its own
+  // initial state (problem.h's PerRecordInitialStates) or all from the model's.
+  std::optional<bool> per_record_initial_states;
 };
 inline constexpr const char* kEstimationKey = "estimation";
 // LoadProject checks the object (errors name the file and JSON path, e.g. `engine.json:
