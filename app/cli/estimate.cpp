@@ -104,6 +104,8 @@ int RunEstimate(const EstimateArgs& args) {
     if (!in->model_path.empty()) j["model_file"] = relative(in->model_path);
     if (!in->project_path.empty()) j["project_file"] = relative(in->project_path);
     j["data_fingerprints"] = fingerprints;
+    // How the records started: predict and diagnose read a result of a fit per record so.
+    if (!lik->series_parameters().empty()) j["initial_states"] = "per_record";
     if (auto st = project::WriteFileAtomic(args.out, j.dump(1) + "\n"); !st)
       return Fail(st.error());
   }

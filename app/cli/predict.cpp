@@ -66,7 +66,14 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
   if (!loaded) return loaded.error();
   // A fitted record of a fit per record starts from its own copies of the initial state's
   // parameters (record 1 from the originals).
-  auto fitted_model = FittedModel(in, std::move(*loaded));
+  // A result of a fit per record says so: its records start from their own copies here too.
+  CommandInputs as_fitted = in;
+  if (!result_path.empty()) {
+    auto result = project::ReadJsonFile(result_path);
+    if (result && result->is_object() && result->value("initial_states", "") == "per_record")
+      as_fitted.per_record_initial_states = true;
+  }
+  auto fitted_model = FittedModel(as_fitted, std::move(*loaded));
   if (!fitted_model) return fitted_model.error();
   model::ModelSpec* spec = &fitted_model->spec;
   int record = -1;  // the dataset's place among the fitted records

@@ -88,6 +88,33 @@ check "predict --simulate-after prints the fit %: $fit" \
           f = 100 * (1 - sqrt(r2 / v)); d = f - fit; if (d < 0) d = -d; exit !(n > 10 && d < 1e-9) }' \
   "$tmp/sim.csv"
 
+# 4a. Two records fitted jointly, each from its own initial state (estimation.initial_states or
+# --initial-states): the initial state's own parameters get a copy per record (NAME_r2), the
+# result says so, and predict starts record 2 from its copies.
+sed -e 's/"initial_state": {"mfv": "0", "mff": "0"}/"initial_state": {"mfv": "v0", "mff": "f0"}/' \
+  -e 's/"s2":     {"value": 1.257e-4, "lower": 0}/&, "v0": 0.0, "f0": 0.0/' \
+  "$tmp/model.json" >"$tmp/model_x0.json"
+printf '{"greybench_project": 1, "model": "model_x0.json", "datasets": ["%s", {"file": "german.csv"}], "estimation": {"initial_states": "per_record"}}\n' \
+  "$csv" >"$tmp/records.json"
+sed 's/model_x0.json/model.json/' "$tmp/records.json" >"$tmp/records_no_x0.json"
+"$cli" estimate "$tmp/records.json" --out "$tmp/records_fit.json" >"$tmp/records.txt" 2>&1
+check "per record: a copy of each initial-state parameter for record 2" \
+  grep -q '^f0_r2 ' "$tmp/records.txt"
+check "per record: the result says how the records started" \
+  grep -q '"initial_states": "per_record"' "$tmp/records_fit.json"
+"$cli" estimate "$tmp/records.json" --initial-states shared >"$tmp/shared.txt" 2>&1
+check "--initial-states shared: no copies" bash -c "! grep -q '_r2 ' '$tmp/shared.txt'"
+logl() { sed -n 's/^Log-likelihood: *\([^ ]*\).*/\1/p' "$1"; }
+check "per record: a log L at least the shared fit's ($(logl "$tmp/records.txt") >= $(logl "$tmp/shared.txt"))" \
+  awk -v a="$(logl "$tmp/records.txt")" -v b="$(logl "$tmp/shared.txt")" 'BEGIN { exit !(a != "" && a >= b - 1e-6) }'
+check "per record: predict starts record 2 from its copies" \
+  quiet "$cli" predict "$tmp/records.json" --dataset 2 --result "$tmp/records_fit.json" --out "$tmp/r2.csv"
+expect 2 'model.json: initial_state: each record from its own initial state needs a free parameter' -- \
+  estimate "$tmp/records_no_x0.json" --initial-states per_record
+printf '{"greybench_project": 1, "model": "model.json", "datasets": ["german.csv"], "estimation": {"initial_states": "each"}}\n' >"$tmp/bad_states.json"
+expect 2 'bad_states.json: estimation.initial_states: expected "shared"' -- \
+  loglik "$tmp/bad_states.json"
+
 # 5. Bad keys and values: the project file and the JSON path.
 bad() {  # bad PATTERN DATASETS-JSON
   project bad.json "$2"

@@ -224,6 +224,67 @@ TEST_F(ValidationRecords, TheSidebarChangesARoleAndRemovesADatasetAndSaveKeepsIt
 // The recording of tests/data/ui/import: 13 fields, no header, no time, 10 Hz.
 const std::string kImportDir = kSource + "/tests/data/ui/import";
 
+// Two records fitted jointly, each from its own initial state: the project's
+// "initial_states": "per_record" ticks the Estimate view's box, the fit holds the copies (as core
+// fits them), the Parameters view lists them, and record 2 is predicted from its own copy.
+TEST_F(ValidationRecords, JointFitsGiveEachRecordItsOwnInitialState) {
+  Json model = Json::parse(std::ifstream(dir_ / "model.json"));
+  model["initial_state"] = {{"mfv", "v0"}, {"mff", "f0"}};
+  model["parameters"]["v0"] = {{"value", 0.0}, {"lower", -1}, {"upper", 1}};
+  model["parameters"]["f0"] = {{"value", 0.0}, {"lower", -1}, {"upper", 1}};
+  std::ofstream(dir_ / "model.json") << model.dump(1);
+  std::ofstream(dir_ / "project.json") << R"({"greybench_project": 1, "name": "halves",
+      "model": "model.json", "estimation": {"initial_states": "per_record"},
+      "datasets": [{"file": "f1.csv", "range": [0, 4.99]},
+                   {"file": "f1.csv", "range": [5, 10], "name": "second half"}]})";
+  WorkbenchDriver d;
+  d.Open(Path("project.json"));
+  ASSERT_TRUE(d.state.project) << d.state.open_error;
+  EXPECT_TRUE(d.state.estimation.settings.per_record_initial_states);
+  d.state.view = View::kEstimate;
+  d.Frame();
+  EXPECT_NE(d.Text().find("Initial state per record"), std::string::npos);
+  d.state.estimation.settings.threads = 1;
+  std::string why;
+  ASSERT_TRUE(StartEstimation(d.state, &why)) << why;
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.estimation.result) << d.state.estimation.last_failure;
+  const FitResult& fit = *d.state.estimation.result;
+  ASSERT_EQ(fit.series_parameters.size(), 2u);
+  std::vector<std::string> names;
+  for (const auto& p : fit.summary.parameters) names.push_back(p.name);
+  EXPECT_NE(std::find(names.begin(), names.end(), "f0_r2"), names.end());
+
+  // As core fits it.
+  project::Project p = *project::LoadProject(Path("project.json"));
+  auto spec = model::ParseModel(p.model_json, p.model_path);
+  ASSERT_TRUE(spec.ok());
+  auto problem = project::LoadProblem(*spec, p.datasets, project::InitialStates::kPerRecord);
+  ASSERT_TRUE(problem.ok()) << problem.error().ToString();
+  auto likelihood = project::MakeLikelihood(*problem);
+  ASSERT_TRUE(likelihood.ok());
+  estimate::EstimateOptions options;
+  options.threads = 1;
+  auto direct = estimate::Estimate(*likelihood, options);
+  ASSERT_TRUE(direct.ok());
+  EXPECT_NEAR(fit.summary.loglik, direct->loglik, 1e-9 * std::abs(direct->loglik));
+
+  // Record 2 is predicted from its own copies: its first residual is an ordinary one.
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.analysis.result) << d.state.analysis.last_failure;
+  const Analysis& a = *d.state.analysis.result;
+  EXPECT_EQ(a.request.source, AnalysisSource::kFit);
+  ASSERT_EQ(a.request.record_theta.size(), 2u);
+  const std::vector<double>& z = a.datasets[1].outputs[0].standardized;
+  const auto first = std::find_if(z.begin(), z.end(), [](double v) { return std::isfinite(v); });
+  ASSERT_NE(first, z.end());
+  EXPECT_LT(std::abs(*first), 4);
+
+  d.state.view = View::kParameters;
+  d.Frame();
+  EXPECT_NE(d.Text().find("f0_r2"), std::string::npos);
+}
+
 TEST(ImportDialog, AHeaderlessTimelessRecordingFitsAsTheProjectsKeysFitIt) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() /
                                     ("greybench-import-" + std::to_string(::getpid()));

@@ -402,10 +402,25 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
     settings.first_obs[o] = std::max(settings.first_obs[o], a.delay[o]);
   settings.cancel = &control.cancel;
 
+  // Each fitted record's place among the estimation datasets (its own θ in a fit per record).
+  std::vector<int> record(input.datasets.size(), -1);
+  for (std::size_t i = 0, k = 0; i < input.datasets.size(); ++i)
+    if (!a.datasets[i].validation) record[i] = static_cast<int>(k++);
   for (std::size_t b = 0; b < bound.size(); ++b) {
     control.progress = static_cast<float>(b) / static_cast<float>(bound.size());
     const data::Series& series = *bound[b];
     DatasetAnalysis& d = a.datasets[static_cast<std::size_t>(bound_index[b])];
+    const int k = record[static_cast<std::size_t>(bound_index[b])];
+    std::optional<ModelAt> own_at;  // a fitted record's own initial state
+    if (k >= 0 && k < static_cast<int>(request.record_theta.size()) &&
+        request.record_theta[static_cast<std::size_t>(k)] != request.theta) {
+      Result<ModelAt> at_k = At(lm, nm.get(), request.record_theta[static_cast<std::size_t>(k)]);
+      if (!at_k) {
+        d.error = at_k.error().ToString();
+        continue;
+      }
+      own_at = std::move(at_k).value();
+    }
     d.time = series.time;
     d.sample_interval =
         series.intervals.distinct.size() == 1 ? series.intervals.distinct.front() : 0.0;
@@ -437,7 +452,7 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
         d.initial_error = start.error().ToString();
       }
     }
-    if (!AnalyseSeries(*at, preview, series, own, a, &d, control)) {
+    if (!AnalyseSeries(own_at ? *own_at : *at, preview, series, own, a, &d, control)) {
       run.cancelled = true;
       return run;
     }

@@ -64,6 +64,9 @@ struct AnalysisRequest {
   std::vector<int> delay;             // per output (the fit's); empty: chosen as described above
   int horizon = 1;                    // h of the h-step predictions, >= 1
   std::vector<double> preview_theta;  // the model's current values, for `preview`
+  // A fit with initial states per record: fitted record k's own θ (model order), for the k-th
+  // estimation dataset in project order; empty: every record at `theta`.
+  std::vector<std::vector<double>> record_theta;
   bool operator==(const AnalysisRequest&) const = default;
 };
 

@@ -11,9 +11,15 @@ namespace {
 
 // The fit's θ and delays belong to a model with the same parameters and outputs (an edit in
 // the Parameters view changes values and bounds, never the names).
-bool FitMatchesModel(const estimate::EstimateSummary& s, const model::ModelSpec& m) {
-  if (s.theta.size() != m.parameters.size() || s.parameters.size() != m.parameters.size())
+// The fit is of this model: its parameters are the model's, in order (followed by the records'
+// copies in a fit with initial states per record), and so are its outputs.
+bool FitMatchesModel(const FitResult& fit, const model::ModelSpec& m) {
+  const estimate::EstimateSummary& s = fit.summary;
+  const std::size_t copies = fit.series_parameters.empty() ? 0 : s.parameters.size() - std::min(s.parameters.size(), m.parameters.size());
+  if (s.theta.size() != s.parameters.size() || s.parameters.size() != m.parameters.size() + copies)
     return false;
+  for (const std::vector<int>& row : fit.series_parameters)
+    if (row.size() != s.parameters.size()) return false;
   for (std::size_t i = 0; i < m.parameters.size(); ++i) {
     if (s.parameters[i].name != m.parameters[i].name) return false;
   }
@@ -115,9 +121,16 @@ std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state, std::st
   r.horizon = std::clamp(a.horizon, 1, kMaxHorizon);
   r.preview_theta = m.Values();
   const FitResult* fit = state.estimation.result ? &*state.estimation.result : nullptr;
-  if (fit && !a.use_current_values && FitMatchesModel(fit->summary, m)) {
+  if (fit && !a.use_current_values && FitMatchesModel(*fit, m)) {
     r.source = AnalysisSource::kFit;
-    r.theta = fit->summary.theta;
+    const std::vector<double>& all = fit->summary.theta;
+    r.theta.assign(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(m.parameters.size()));
+    for (const std::vector<int>& row : fit->series_parameters) {
+      std::vector<double> own = r.theta;
+      for (std::size_t i = 0; i < own.size(); ++i)
+        if (row[i] >= 0) own[i] = all[static_cast<std::size_t>(row[i])];
+      r.record_theta.push_back(std::move(own));
+    }
     for (const estimate::DelayEstimate& d : fit->summary.delays) r.delay.push_back(d.estimate);
   } else {
     r.source = AnalysisSource::kCurrentValues;

@@ -96,7 +96,10 @@ EstimationRun RunEstimation(const EstimationInput& input, EstimationProgress& pr
                             JobControl& control) {
   EstimationRun run;
   try {
-    Result<project::Problem> problem = project::MakeProblem(input.spec, input.datasets);
+    Result<project::Problem> problem = project::MakeProblem(
+        input.spec, input.datasets,
+        input.settings.per_record_initial_states ? project::InitialStates::kPerRecord
+                                                 : project::InitialStates::kShared);
     if (!problem) {
       run.error = problem.error().ToString();
       return run;
@@ -121,6 +124,7 @@ EstimationRun RunEstimation(const EstimationInput& input, EstimationProgress& pr
       return run;
     }
     run.summary = std::move(summary).value();
+    run.series_parameters = problem->series_parameters;
   } catch (const std::exception& e) {  // e.g. out of memory; never into the UI loop
     run.summary.reset();
     run.error = std::string("the estimation stopped: ") + e.what();

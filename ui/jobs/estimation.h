@@ -35,6 +35,9 @@ struct EstimationSettings {
   bool profile_intervals = false;  // likelihood-ratio intervals of every free parameter (95 %)
   bool steady_start = false;       // EstimateOptions::steady_start
   double steady_window = 5.0;      // ... its windows' length (the project's "estimation" key)
+  // Several records each from its own initial state (project::PerRecordInitialStates; the
+  // project's "estimation": {"initial_states": "per_record"}).
+  bool per_record_initial_states = false;
 };
 inline constexpr int kMaxMultistart = 1000;
 inline constexpr int kMaxThreads = 256;
@@ -118,6 +121,8 @@ struct EstimationRun {
   // it, the start values cannot be evaluated); a cancelled run has a summary with cancelled set.
   std::optional<estimate::EstimateSummary> summary;
   std::string error;  // why `summary` is absent
+  // With initial states per record: each record's parameters (Problem::series_parameters).
+  std::vector<std::vector<int>> series_parameters;
 };
 
 // The job's work: binds the data, builds the likelihood and estimates, reporting to `progress`
@@ -143,6 +148,10 @@ struct FitResult {
   Trace trace;
   std::vector<DelayProfilePlot> profiles;
   std::vector<double> correlation;  // summary.correlation, row-major
+  // A fit with initial states per record: its parameters are the model's followed by the
+  // records' copies, and row k maps fitted record k's parameters onto them
+  // (filter::Likelihood::set_series_parameters). Empty for a shared initial state.
+  std::vector<std::vector<int>> series_parameters;
 };
 
 // Prepares a summary for drawing. With `deterministic` (greybench-snapshot) the elapsed time

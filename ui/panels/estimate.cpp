@@ -128,6 +128,30 @@ void DrawToolbar(AppState& state) {
                       "nonlinear models whose start values are far off. The report says what "
                       "moved. Saved with the project.",
                       e.settings.steady_window);
+  // Several fitted records: each from its own initial state, or all from the model's.
+  int fitted = 0;
+  for (const LoadedDataset& d : state.datasets) fitted += d.spec.role == data::Role::kEstimation;
+  if (fitted >= 2) {
+    constexpr const char* kPerRecordLabel = "Initial state per record";
+    const float width = ImGui::GetFrameHeight() + ImGui::GetStyle().ItemInnerSpacing.x +
+                        ImGui::CalcTextSize(kPerRecordLabel).x;
+    if (ImGui::GetItemRectMax().x + gap + width <=
+        ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x)
+      ImGui::SameLine(0, gap);
+    if (ImGui::Checkbox(kPerRecordLabel, &e.settings.per_record_initial_states) &&
+        state.project) {
+      state.project->extra[project::kEstimationKey]["initial_states"] =
+          e.settings.per_record_initial_states ? "per_record" : "shared";
+      ++state.layout_revision;
+    }
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("Each of the %d fitted records starts from its own initial state: the "
+                        "parameters only the model's initial state uses get a copy per record "
+                        "(NAME_r2, NAME_r3, ...), started from the record's first samples. "
+                        "Off: every record starts from the model's one initial state. Saved "
+                        "with the project.",
+                        fitted);
+  }
   ImGui::EndDisabled();
 }
 

@@ -332,6 +332,42 @@ void DrawTable(AppState& state, const FitResult* result) {
     }
     ImGui::PopID();
   }
+  // A fit with initial states per record: the records' copies, estimated but not the model's
+  // (their starts come from the records' first samples, their bounds from the originals).
+  if (with_fit && !result->series_parameters.empty()) {
+    for (std::size_t k = m.parameters.size(); k < result->summary.parameters.size(); ++k) {
+      const estimate::ParameterEstimate& e = result->summary.parameters[k];
+      ImGui::PushID(static_cast<int>(k));
+      ImGui::TableNextRow(ImGuiTableRowFlags_None, row_h);
+      ImGui::TableNextColumn();
+      ImGui::AlignTextToFramePadding();
+      ImGui::PushFont(state.fonts.mono);
+      ImGui::TextUnformatted(e.name.c_str());
+      ImGui::PopFont();
+      if (ImGui::IsItemHovered())
+        ImGui::SetTooltip("A record's own initial state (Estimate view: Initial state per "
+                          "record): a copy of a parameter of the model's initial state, started "
+                          "from the record's first samples");
+      ImGui::TableNextColumn();
+      ImGui::AlignTextToFramePadding();
+      if (e.unit.empty()) {
+        ImGui::TextDisabled("%s", kDash);
+      } else {
+        ImGui::TextUnformatted(e.unit.c_str());
+      }
+      ImGui::TableNextColumn();
+      ImGui::AlignTextToFramePadding();
+      TextRight("(record)", /*dim=*/true);
+      ImGui::TableNextColumn();
+      TextRight(CellText(e.lower), /*dim=*/true);
+      ImGui::TableNextColumn();
+      TextRight(CellText(e.upper), /*dim=*/true);
+      ImGui::TableNextColumn();  // never fixed
+      EstimateCells(&e, !with_profiles);
+      if (with_profiles) ProfileCell(state, &e);
+      ImGui::PopID();
+    }
+  }
   ImGui::EndTable();
   ImGui::PopStyleVar();
 }

@@ -114,6 +114,8 @@ void InstallProject(AppState& state, ProjectLoad load) {
     const project::EstimationDefaults d = project::ReadEstimationDefaults(*state.project);
     state.estimation.settings.steady_start = d.steady_start.value_or(false);
     state.estimation.settings.steady_window = d.steady_window.value_or(5.0);
+    state.estimation.settings.per_record_initial_states =
+        d.per_record_initial_states.value_or(false);
   }
   ResetSweep(state);
   InstallDiagram(state);  // a project's diagram that compiles supplies the model
@@ -178,6 +180,7 @@ void InstallEstimation(AppState& state, EstimationRun run) {
   e.live_trace = Trace{};
   e.result = MakeFitResult(std::move(run.summary).value(), std::move(trace), e.settings,
                            e.started_revision, state.deterministic);
+  e.result->series_parameters = std::move(run.series_parameters);
   e.profile_x.assign(e.result->profiles.size(), plot::LinkedRange{});
 }
 
