@@ -95,8 +95,8 @@ struct Options {
   std::string profile;  // --profile NAME: with --estimate, profile intervals and NAME's plot
   std::optional<gb::ui::plot::Range> time;  // --time: the time axes' range (else the whole record)
   std::string dialog;  // a dialog of the shell drawn over the view (ui/shell/shell.h)
-  // --overlays: the predictions view's checkboxes to tick (ahead, simulation, smoothed).
-  bool ahead = false, simulation = false, smoothed = false;
+  // --overlays: the predictions view's checkboxes to tick (ahead, simulation, smoothed, compare).
+  bool ahead = false, simulation = false, smoothed = false, compare = false;
   // The live view: run to this many seconds of data (absent: not started), with these faults.
   std::optional<double> live_until;
   std::vector<gb::sim::TimedFuelFault> live_faults;  // as given; scheduled in Prepare
@@ -113,7 +113,7 @@ constexpr const char* kUsage =
     "                          [--view VIEW --out OUT.png ...]\n"
     "                          [--width W] [--height H] [--estimate] [--dialog DIALOG]\n"
     "                          [--time T0:T1] [--profile PARAMETER]\n"
-    "                          [--overlays ahead,simulation,smoothed] [--dataset N]\n"
+    "                          [--overlays ahead,simulation,smoothed,compare] [--dataset N]\n"
     "                          [--live-until T [--live-fault TIME:PARAMETER*FACTOR[/RAMP] ...]\n"
     "                           [--live-point NAME] [--live-seed N] [--live-forgetting L]\n"
     "                           [--live-csv FILE] [--live-reference RESULT.json]]\n"
@@ -183,9 +183,11 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
           o->simulation = true;
         } else if (name == "smoothed") {
           o->smoothed = true;
+        } else if (name == "compare") {
+          o->compare = true;
         } else {
           return "--overlays '" + value + "': unknown overlay '" + name +
-                 "' (expected a comma-separated list of ahead, simulation, smoothed)";
+                 "' (expected a comma-separated list of ahead, simulation, smoothed, compare)";
         }
         begin = end + 1;
       }
@@ -272,6 +274,7 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
   state.analysis.show_ahead = options.ahead;
   state.analysis.show_simulation = options.simulation;
   state.analysis.show_smoothed = options.smoothed;
+  state.analysis.show_compare = options.compare;
   state.analysis.enabled = Shows(options, ui::View::kData) ||
                            Shows(options, ui::View::kPredictions) ||
                            Shows(options, ui::View::kResiduals);

@@ -169,6 +169,19 @@ TEST_F(ValidationRecords, AreNotFittedAndArePredictedFromTheirOwnStart) {
   EXPECT_NE(log.find("second half (validation)"), std::string::npos) << log;
   EXPECT_NE(log.find("Fit figures"), std::string::npos) << log;
   EXPECT_EQ(log.find("nan"), std::string::npos) << log;
+
+  // Compare: every record at once, each titled with its role and fit %.
+  d.state.analysis.show_compare = true;
+  d.Frame();
+  const std::string compare = d.Text();
+  const auto titled = [&](const std::string& name, double fit) {
+    char figure[32];
+    std::snprintf(figure, sizeof figure, "fit %.1f %%", fit);
+    return compare.find(name + "    ilambda    " + figure) != std::string::npos;
+  };
+  EXPECT_TRUE(titled(a.datasets[0].name + " (estimation)", fitted.fit_percent)) << compare;
+  EXPECT_TRUE(titled("second half (validation)", validated.fit_percent)) << compare;
+  EXPECT_EQ(compare.find("Showing t ="), std::string::npos) << compare;
 }
 
 TEST_F(ValidationRecords, TheSidebarChangesARoleAndRemovesADatasetAndSaveKeepsIt) {

@@ -123,13 +123,16 @@ const DatasetAnalysis* DrawAnalysisHeader(AppState& state, bool (*view_controls)
   const bool running = AnalysisRunning(state);
 
   DrawDatasetSelector(state, r);
-  if (r && view_controls && view_controls(state)) ImGui::SameLine(0, 1.6f * ImGui::GetFontSize());
+  if (r && view_controls && view_controls(state))
+    SameLineIfFits(CheckboxWidth("At the model's values"), 1.6f * ImGui::GetFontSize());
   DrawControls(state);
   if (r) {
     ImGui::PushTextWrapPos(0.0f);
     ImGui::TextDisabled("%s", SourceText(state, *r).c_str());
     ImGui::PopTextWrapPos();
-    DrawWindowHint(state, *r);
+    // Compare shows whole records, not the linked time window.
+    if (!(state.view == View::kPredictions && a.show_compare && state.datasets.size() >= 2))
+      DrawWindowHint(state, *r);
   }
   if (!running && !a.last_failure.empty()) {
     std::string text = a.last_failure;

@@ -124,6 +124,17 @@ std::string DatasetLabel(const data::DatasetSpec& spec) {
   return spec.DisplayName() + (spec.role == data::Role::kValidation ? " (validation)" : "");
 }
 
+void SameLineIfFits(float width, float spacing) {
+  if (ImGui::GetItemRectMax().x + spacing + width <=
+      ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x)
+    ImGui::SameLine(0, spacing);
+}
+
+float CheckboxWidth(const char* label) {
+  return ImGui::GetFrameHeight() + ImGui::GetStyle().ItemInnerSpacing.x +
+         ImGui::CalcTextSize(label, nullptr, true).x;
+}
+
 std::string FitToWidth(const std::string& text, float width) {
   if (ImGui::CalcTextSize(text.c_str()).x <= width) return text;
   constexpr const char* kEllipsis = "\xE2\x80\xA6";

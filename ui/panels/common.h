@@ -38,4 +38,10 @@ std::string DatasetLabel(const data::DatasetSpec& spec);
 std::string FitToWidth(const std::string& text, float width);
 std::string GroupedCount(long long n);  // 2400 -> "2,400"
 
+// A toolbar's next item on this line `spacing` after the last when its `width` still fits in the
+// window, else at the start of the next line (narrow windows, 1024 x 768).
+void SameLineIfFits(float width, float spacing);
+// The width of ImGui::Checkbox(label).
+float CheckboxWidth(const char* label);
+
 }  // namespace gb::ui

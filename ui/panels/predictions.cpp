@@ -3,6 +3,10 @@
 // predictions, the simulation (the deterministic response, no data assimilated) and the
 // smoothed output (conditioned on every measurement); the plots are stacked with their time axes
 // linked, each titled with the output's RMS of residuals, the observations used and the delay.
+// *Compare* shows every record instead, estimation and validation alike: for each record and
+// output the measurements and the simulation from the record's own initial state, titled with
+// the record's role and fit % (as System Identification Toolbox's `compare` shows a model
+// against several data sets).
 //
 // The numbers come from AppState::analysis (ui/jobs/analysis.h), computed in the background; this
 // panel only reads the installed result.
@@ -34,19 +38,27 @@ bool DrawOverlayControls(AppState& state) {
   ImGui::SameLine();
   ImGui::AlignTextToFramePadding();
   ImGui::TextUnformatted("samples ahead");
-  ImGui::SameLine(0, 1.6f * ImGui::GetFontSize());
+  const float gap = 1.6f * ImGui::GetFontSize();
+  SameLineIfFits(CheckboxWidth("Simulation"), gap);
   ImGui::Checkbox("Simulation", &a.show_simulation);
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "The deterministic response of the model to the measured inputs from its "
         "initial state: no measurement is assimilated");
-  ImGui::SameLine(0, 1.6f * ImGui::GetFontSize());
+  SameLineIfFits(CheckboxWidth("Smoothed"), gap);
   ImGui::Checkbox("Smoothed", &a.show_smoothed);
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "The output at the smoothed state, which every measurement informs, earlier and "
         "later (Rauch-Tung-Striebel; extended for a nonlinear model), \xC2\xB1 2 sd without "
         "the measurement noise");
+  if (state.datasets.size() < 2) return true;  // one record: the plots are the comparison
+  SameLineIfFits(CheckboxWidth("Compare records"), gap);
+  ImGui::Checkbox("Compare records", &a.show_compare);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "Every record at once, estimation and validation: its measurements and the model's "
+        "simulation from the record's own initial state, with the fit %%");
   return true;
 }
 
@@ -159,12 +171,79 @@ void DrawOutputPlot(AppState& state, const DatasetAnalysis& d, const OutputAnaly
   plot::EndPlot(state.plots);
 }
 
+// One record's output in the Compare overlay: measurements and simulation on the record's own
+// time axis.
+void DrawComparePlot(AppState& state, const DatasetAnalysis& d, const OutputAnalysis& o,
+                     ImVec2 size) {
+  // The name says "(validation)" already (DatasetLabel).
+  std::string title = d.name + (d.validation ? "" : " (estimation)") + "    " + o.name + "    ";
+  title += std::isfinite(o.fit_percent) ? "fit " + FormatFixed(o.fit_percent, 1) + " %"
+                                        : "no simulation";
+  if (std::isfinite(o.simulation_rms)) title += "  \xC2\xB7  simulation RMS " + FormatSig(o.simulation_rms, 4);
+  plot::PlotOptions options;
+  options.title = title.c_str();
+  options.x_label = d.time_name.c_str();
+  options.x_title = true;
+  options.y_label = o.name.c_str();
+  options.legend = plot::Legend::kShow;
+  if (!plot::BeginPlot(state.plots, "##compare", size, options)) return;
+  const int n = static_cast<int>(d.time.size());
+  plot::ItemStyle measured;
+  measured.color = kMeasuredColor;
+  measured.marker_radius = 1.5f;
+  plot::PlotMarkers(state.plots, "measured", d.time.data(), o.measured.data(), n, measured);
+  if (o.simulated.size() == d.time.size()) {
+    plot::ItemStyle sim;
+    sim.color = kSimulationColor;
+    plot::PlotLine(state.plots, "simulation", d.time.data(), o.simulated.data(), n, sim);
+  }
+  plot::EndPlot(state.plots);
+}
+
+// Every record's outputs, one plot each, in project order (the records that cannot be used say
+// why in one line).
+void DrawCompare(AppState& state, const Analysis& r) {
+  const float s = state.fonts.scale;
+  const float spacing = 4.0f * s;
+  std::size_t plots = 0;
+  for (const DatasetAnalysis& d : r.datasets)
+    if (d.error.empty()) plots += d.outputs.size();
+  const float avail = ImGui::GetContentRegionAvail().y;
+  const float n = static_cast<float>(std::max<std::size_t>(1, plots));
+  const float height = std::max(kMinPlotHeight * s, (avail - spacing * (n - 1.0f)) / n - 1.0f);
+  const bool scrolls = height * n + spacing * (n - 1.0f) > avail;
+  ImGui::BeginChild("##compare", ImVec2(0, 0), false,
+                    scrolls ? ImGuiWindowFlags_None : ImGuiWindowFlags_NoScrollbar);
+  ImGui::PushStyleVar(ImGuiStyleVar_ItemSpacing, ImVec2(0, spacing));
+  for (std::size_t k = 0; k < r.datasets.size(); ++k) {
+    const DatasetAnalysis& d = r.datasets[k];
+    ImGui::PushID(static_cast<int>(k));
+    if (!d.error.empty()) {
+      ImGui::TextColored(SeverityColor(Severity::kError), "%s cannot be used: %s", d.name.c_str(),
+                         d.error.c_str());
+    } else {
+      for (std::size_t o = 0; o < d.outputs.size(); ++o) {
+        ImGui::PushID(static_cast<int>(o));
+        DrawComparePlot(state, d, d.outputs[o], ImVec2(-1, height));
+        ImGui::PopID();
+      }
+    }
+    ImGui::PopID();
+  }
+  ImGui::PopStyleVar();
+  ImGui::EndChild();
+}
+
 }  // namespace
 
 void DrawPredictionsPanel(AppState& state) {
   const DatasetAnalysis* d = DrawAnalysisHeader(state, DrawOverlayControls);
   if (!d) return;
   DrawFitFigures(state, *state.analysis.result);
+  if (state.analysis.show_compare && state.datasets.size() >= 2) {
+    DrawCompare(state, *state.analysis.result);
+    return;
+  }
   for (const OutputAnalysis& o : d->outputs) {
     if (state.analysis.show_ahead && !o.ahead_error.empty()) {
       ImGui::TextColored(SeverityColor(Severity::kWarning), "No %s-ahead predictions for %s: %s",

@@ -154,6 +154,9 @@ struct AnalysisState {
   bool show_ahead = false;
   bool show_simulation = false;
   bool show_smoothed = false;
+  // The Predictions view's Compare: every record's measured and simulated outputs side by side
+  // (estimation and validation records), each titled with its fit %, instead of one record.
+  bool show_compare = false;
   bool show_raw_ccf = false;  // also the CCF with the input as measured
   int dataset = 0;            // shown in both views
   int output = 0;             // the Residuals view's output
