@@ -234,6 +234,46 @@ TEST_F(ValidationRecords, TheSidebarChangesARoleAndRemovesADatasetAndSaveKeepsIt
   EXPECT_EQ((*back.datasets[0].range)[0], 5);
 }
 
+// The time span the Data view shows becomes the dataset's estimation range (its "range" key),
+// and "Whole record" takes it back; Save keeps it.
+TEST_F(ValidationRecords, TheDataViewsShownSpanBecomesTheEstimationRange) {
+  WorkbenchDriver d;
+  d.Open(Path("project.json"));
+  ASSERT_TRUE(d.state.project) << d.state.open_error;
+  WaitForJobs(d.state);
+  d.state.view = View::kData;
+  d.Frame();
+  ASSERT_EQ(d.state.data_view.x_ranges.size(), 2u);
+  plot::LinkedRange& x = d.state.data_view.x_ranges[0];
+  x.range = {1.0, 3.0};
+  x.fit_request_frame = plot::LinkedRange::kNoFit;
+  d.Frame();
+  EXPECT_NE(d.Text().find("Use t = 1 \xE2\x80\xA6 3 only"), std::string::npos) << d.Text();
+  const std::size_t rows = d.state.datasets[0].data->rows();
+  std::string why;
+  ASSERT_TRUE(SetDatasetRange(d.state, 0, std::array<double, 2>{1.0, 3.0}, &why)) << why;
+  const data::Dataset& ranged = *d.state.datasets[0].data;
+  EXPECT_LT(ranged.rows(), rows);
+  EXPECT_GE(ranged.time.front(), 1.0);
+  EXPECT_LE(ranged.time.back(), 3.0);
+  ASSERT_TRUE(d.state.project->datasets[0].range);
+  EXPECT_TRUE(HasUnsavedChanges(d.state));
+  d.Frame();
+  EXPECT_NE(d.Text().find("Whole record"), std::string::npos);
+  // The predictions follow the range.
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.analysis.result);
+  EXPECT_EQ(d.state.analysis.result->datasets[0].time.size(), ranged.rows());
+  const std::string saved = Path("ranged.json");
+  ASSERT_TRUE(project::SaveProject(*d.state.project, saved).ok());
+  ASSERT_TRUE(project::LoadProject(saved)->datasets[0].range);
+  EXPECT_EQ((*project::LoadProject(saved)->datasets[0].range)[1], 3.0);
+  // And back: the whole file (the project's first range, [0, 4.99], was replaced).
+  ASSERT_TRUE(SetDatasetRange(d.state, 0, std::nullopt, &why)) << why;
+  EXPECT_FALSE(d.state.project->datasets[0].range);
+  EXPECT_GT(d.state.datasets[0].data->rows(), rows);
+}
+
 // The recording of tests/data/ui/import: 13 fields, no header, no time, 10 Hz.
 const std::string kImportDir = kSource + "/tests/data/ui/import";
 

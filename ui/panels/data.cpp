@@ -229,6 +229,42 @@ void DrawColumnPlots(AppState& state, std::size_t index) {
   ImGui::EndChild();
 }
 
+// The record's estimation range: the time span the plots show becomes the dataset's `range`
+// key (its other rows are left out of the fit and the views); "Whole record" takes it back.
+void DrawRangeControls(AppState& state, std::size_t index) {
+  const LoadedDataset& d = state.datasets[index];
+  const data::Dataset& data = *d.data;
+  if (data.rows() < 2) return;
+  const plot::Range& x = state.data_view.x_ranges[index].range;
+  const double lo = std::max(x.min, data.time.front());
+  const double hi = std::min(x.max, data.time.back());
+  const auto first = std::lower_bound(data.time.begin(), data.time.end(), lo);
+  const auto last = std::upper_bound(data.time.begin(), data.time.end(), hi);
+  const bool part = (lo > data.time.front() || hi < data.time.back()) && last - first >= 2;
+  std::string why;
+  if (part) {
+    const std::string label = "Use " + data.time_name + " = " + plot::FormatValue(lo) +
+                              " \xE2\x80\xA6 " + plot::FormatValue(hi) + " only";
+    if (ImGui::Button(label.c_str()) && !SetDatasetRange(state, index, {{lo, hi}}, &why))
+      AddMessage(state, Severity::kWarning, "The range was not applied: " + why);
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("Keep only the rows the plots show (%lld of %zu) for the fit, the "
+                        "predictions and the residuals: the dataset's \"range\" key, saved "
+                        "with the project; the file is not changed",
+                        static_cast<long long>(last - first), data.rows());
+  }
+  if (d.spec.range) {
+    if (part) ImGui::SameLine();
+    ImGui::AlignTextToFramePadding();
+    ImGui::TextDisabled("Range %s = %s \xE2\x80\xA6 %s of the file", data.time_name.c_str(),
+                        plot::FormatValue((*d.spec.range)[0]).c_str(),
+                        plot::FormatValue((*d.spec.range)[1]).c_str());
+    ImGui::SameLine();
+    if (ImGui::Button("Whole record") && !SetDatasetRange(state, index, std::nullopt, &why))
+      AddMessage(state, Severity::kWarning, "The whole record could not be read: " + why);
+  }
+}
+
 void DrawDataset(AppState& state, std::size_t index) {
   const LoadedDataset& d = state.datasets[index];
   if (!d.data) {
@@ -240,6 +276,7 @@ void DrawDataset(AppState& state, std::size_t index) {
   DrawColumnTable(state, d);
   ImGui::Spacing();
   DrawPreviewToggle(state);
+  DrawRangeControls(state, index);
   ImGui::TextDisabled(
       "Wheel: zoom time \xC2\xB7 drag: pan \xC2\xB7 right-drag: zoom to box \xC2\xB7 "
       "double-click: fit \xC2\xB7 over the y axis, wheel and drag act on y \xC2\xB7 "

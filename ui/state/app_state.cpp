@@ -359,6 +359,37 @@ bool SetDatasetRole(AppState& state, std::size_t index, data::Role role, std::st
   return true;
 }
 
+bool SetDatasetRange(AppState& state, std::size_t index,
+                     std::optional<std::array<double, 2>> range, std::string* why) {
+  if (std::string locked = DatasetsLocked(state, index); !locked.empty()) {
+    if (why) *why = std::move(locked);
+    return false;
+  }
+  LoadedDataset& d = state.datasets[index];
+  data::DatasetSpec spec = d.spec;
+  spec.range = range;
+  spec.plain = false;  // a range is a key
+  // A local file read once already: read again here rather than in a job, so that the view
+  // never shows a range the data do not have.
+  Result<std::shared_ptr<const data::Dataset>> read = data::ReadDataset(spec);
+  if (!read) {
+    if (why) *why = read.error().ToString();
+    return false;
+  }
+  d.spec = std::move(spec);
+  d.data = std::move(read).value();
+  d.error.clear();
+  d.summary = Summarize(*d.data);
+  if (index < state.project->datasets.size()) state.project->datasets[index] = d.spec;
+  if (index < state.data_view.x_ranges.size()) state.data_view.x_ranges[index].RequestFit();
+  DatasetsChanged(state);
+  AddMessage(state, Severity::kInfo,
+             range ? fmt::format("{} is used from t = {:g} to {:g} ({} rows).",
+                                 d.spec.DisplayName(), (*range)[0], (*range)[1], d.data->rows())
+                   : d.spec.DisplayName() + " is used whole.");
+  return true;
+}
+
 bool RemoveDataset(AppState& state, std::size_t index, std::string* why) {
   if (std::string locked = DatasetsLocked(state, index); !locked.empty()) {
     if (why) *why = std::move(locked);

@@ -302,6 +302,10 @@ void AddMessage(AppState& state, Severity severity, std::string text);
 // estimation or a sweep runs, and for an index out of range.
 bool SetDatasetRole(AppState& state, std::size_t index, data::Role role, std::string* why = nullptr);
 bool RemoveDataset(AppState& state, std::size_t index, std::string* why = nullptr);
+// The dataset's `range` key (its rows with t0 <= t <= t1, in seconds; nullopt: the whole
+// record): the file is read again with it (a read that fails changes nothing and says why).
+bool SetDatasetRange(AppState& state, std::size_t index,
+                     std::optional<std::array<double, 2>> range, std::string* why = nullptr);
 
 // Starts reading the project and its datasets in the loading job (ignored while one runs).
 void OpenProject(AppState& state, std::string path);
