@@ -417,5 +417,56 @@ TEST(ImportDialog, AHeaderlessTimelessRecordingFitsAsTheProjectsKeysFitIt) {
   std::filesystem::remove_all(dir);
 }
 
+// The dialog's preparation: a range, means removed and a new sample time become the entry's keys
+// and read as the project's keys read them (core's Prepare on the whole file); a range beyond the
+// previewed rows is left to the whole file, and an empty one is refused as typed.
+TEST(ImportDialog, ARangeADetrendAndAResampleBecomeTheEntrysKeys) {
+  WorkbenchDriver d;
+  d.Open(kImportDir + "/project.json");
+  ASSERT_TRUE(d.state.project) << d.state.open_error;
+  OpenImportDialog(d.state, kImportDir + "/headerless.csv");
+  ImportForm& f = d.state.shell.import;
+  f.map = {"c1", "c2", "c12"};
+  f.sample_time = 0.1;
+  f.use_range = true;
+  f.range_from = 5;
+  f.range_to = 30;
+  f.detrend = 1;
+  f.resample = 0.5;
+  CheckImport(&f, &*d.state.model);
+  ASSERT_TRUE(f.check_ok) << f.check;
+  const data::DatasetSpec spec = ImportSpecOf(f, &*d.state.model);
+  ASSERT_TRUE(spec.range);
+  EXPECT_EQ((*spec.range)[0], 5);
+  ASSERT_EQ(spec.detrend.size(), 1u);
+  EXPECT_EQ(spec.detrend[0].second, data::Detrend::kMean);
+  EXPECT_EQ(spec.resample, 0.5);
+  auto read = data::ReadDataset(spec);
+  ASSERT_TRUE(read.ok()) << read.error().ToString();
+  EXPECT_NEAR((*read)->time.front(), 5.0, 1e-9);
+  EXPECT_EQ((*read)->rows(), 51u);  // 5, 5.5, ..., 30
+  // The means are removed before the decimation: zero at the record's own sample time.
+  data::DatasetSpec kept = spec;
+  kept.resample = 0;
+  auto detrended = data::ReadDataset(kept);
+  ASSERT_TRUE(detrended.ok());
+  double mean = 0;
+  for (double v : (*detrended)->columns[0].values) mean += v;
+  EXPECT_LT(std::abs(mean / static_cast<double>((*detrended)->rows())), 1e-9);
+  // The same keys through the project file's reader.
+  auto parsed = data::ParseDatasetSpec(data::DatasetSpecToJson(spec, "headerless.csv"), "p.json", "datasets[0]");
+  ASSERT_TRUE(parsed.ok()) << parsed.error().ToString();
+  EXPECT_EQ(parsed->resample, 0.5);
+  // An empty range is refused as typed (the whole file is previewed when it is short).
+  if (!f.truncated) {
+    f.range_from = 30;
+    f.range_to = 5;
+    CheckImport(&f, &*d.state.model);
+    EXPECT_FALSE(f.check_ok);
+  } else {
+    EXPECT_NE(f.check.find("is applied to the whole file"), std::string::npos) << f.check;
+  }
+}
+
 }  // namespace
 }  // namespace gb::ui

@@ -63,6 +63,10 @@ data::DatasetSpec ImportSpecOf(const ImportForm& f, const model::ModelSpec* mode
   const std::vector<std::string> names = ModelNames(model);
   for (std::size_t i = 0; i < names.size() && i < f.map.size(); ++i)
     if (!f.map[i].empty()) spec.map.emplace_back(names[i], f.map[i]);
+  if (f.use_range) spec.range = std::array<double, 2>{f.range_from, f.range_to};
+  if (f.detrend > 0)
+    spec.detrend.emplace_back("", f.detrend == 1 ? data::Detrend::kMean : data::Detrend::kLinear);
+  spec.resample = f.resample;
   spec.role = f.validation ? data::Role::kValidation : data::Role::kEstimation;
   return spec;
 }
@@ -103,7 +107,10 @@ void CheckImport(ImportForm* f, const model::ModelSpec* model) {
   if (f->time > static_cast<int>(f->names.size())) f->time = 0;
 
   // The entry's rows, mapped and bound.
-  const data::DatasetSpec spec = ImportSpecOf(*f, model);
+  data::DatasetSpec spec = ImportSpecOf(*f, model);
+  // A range beyond the preview's rows is checked on the whole file when it is added.
+  const bool range_later = f->truncated && spec.range.has_value();
+  if (range_later) spec.range.reset();
   Result<std::shared_ptr<const data::Dataset>> read =
       data::ParseCsv(f->preview, f->path, data::FormatOf(spec, f->preview));
   if (read) read = data::Prepare(*read, spec);
@@ -124,6 +131,9 @@ void CheckImport(ImportForm* f, const model::ModelSpec* model) {
     }
     rows += "; they bind to the model's inputs and outputs";
   }
+  if (range_later)
+    rows += "; the range t = " + FormatSig(f->range_from, 6) + " \xE2\x80\xA6 " +
+            FormatSig(f->range_to, 6) + " s is applied to the whole file";
   f->check = rows + (f->truncated ? " (the whole file is read when it is added)." : ".");
   f->check_ok = true;
 }
@@ -292,6 +302,43 @@ void DrawImportDialog(AppState& state) {
       ImGui::PopID();
     }
   }
+
+  // Preparation: a range, means or trends removed, a new sample time.
+  ImGui::Spacing();
+  changed |= ImGui::Checkbox("Only t from", &f.use_range);
+  ImGui::SameLine();
+  ImGui::BeginDisabled(!f.use_range);
+  ImGui::SetNextItemWidth(90 * s);
+  changed |= ImGui::InputDouble("##range-from", &f.range_from, 0, 0, "%g");
+  ImGui::SameLine();
+  ImGui::TextUnformatted("to");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(90 * s);
+  changed |= ImGui::InputDouble("##range-to", &f.range_to, 0, 0, "%g");
+  ImGui::SameLine();
+  ImGui::TextUnformatted("s");
+  ImGui::EndDisabled();
+  ImGui::SameLine(0, 24 * s);
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextUnformatted("Remove");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(130 * s);
+  changed |= ImGui::Combo("##detrend", &f.detrend, "nothing\0the means\0linear trends\0");
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("From every column (inputs and outputs), as a model linearised about the "
+                      "operating point's mean values expects");
+  ImGui::SameLine(0, 24 * s);
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextUnformatted("Resample to");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(90 * s);
+  changed |= ImGui::InputDouble("##resample", &f.resample, 0, 0, "%g");
+  f.resample = std::max(0.0, f.resample);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("A new sample time in seconds (0: keep the record's); a longer one "
+                      "decimates after a windowed-sinc anti-alias filter");
+  ImGui::SameLine();
+  ImGui::TextDisabled("s (0: keep)");
 
   // Name and role.
   ImGui::Spacing();

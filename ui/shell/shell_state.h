@@ -63,6 +63,11 @@ struct ImportForm {
   std::vector<std::string> map;    // per model input, then output: "" = the column of its name
   std::string name;
   bool validation = false;
+  // Preparation (the entry's range, detrend and resample keys).
+  bool use_range = false;
+  double range_from = 0, range_to = 0;  // seconds
+  int detrend = 0;                       // 0 none, 1 means, 2 linear trends (every column)
+  double resample = 0;                   // a new sample time in seconds; 0: keep
 
   // What the check found (CheckImport), and the form it checked.
   std::string checked;  // the entry's JSON when last checked
