@@ -870,8 +870,10 @@ Result<Mdf4File> Parser::Run() {
   while (dg.at != 0) {
     if (!Visit(*from, field.c_str(), dg) || !Need(dg, 4, 8)) return *error_;
     const int rec_id_size = U8(dg.data());
-    if (rec_id_size != 0 && rec_id_size != 1 && rec_id_size != 2 && rec_id_size != 4 && rec_id_size != 8)
-      return Fail(dg, fmt::format("record ID size {} is not 0, 1, 2, 4 or 8", rec_id_size)), *error_;
+    if (rec_id_size != 0 && rec_id_size != 1 && rec_id_size != 2 && rec_id_size != 4 && rec_id_size != 8) {
+      Fail(dg, fmt::format("record ID size {} is not 0, 1, 2, 4 or 8", rec_id_size));
+      return *error_;
+    }
     std::vector<Group> groups;
     std::vector<unsigned char> owned;
     std::span<const unsigned char> stream;

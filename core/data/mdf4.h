@@ -2,7 +2,8 @@
 // to physical values, and a Dataset (dataset.h) built from some of them on one time base.
 //
 // What is read
-//   - MDF 4.00 to 4.2x (id_ver 400-499; a 4.3 feature met in a file is refused by name).
+//   - MDF 4.00 to 4.2x (id_ver 400-499: of 4.3's additions, zstd/lz4 DZ blocks are refused and
+//     VLSC channels and strings with a byte order mark skipped, where met).
 //   - Every data group (DG), sorted (one channel group) or unsorted (several channel groups whose
 //     records are told apart by a 1, 2, 4 or 8-byte record ID); the records of a VLSD channel
 //     group in an unsorted DG are skipped by their u32 length prefix.

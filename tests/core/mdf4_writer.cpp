@@ -17,8 +17,9 @@ namespace {
 // A byte buffer written little-endian.
 struct Out {
   std::vector<unsigned char> b;
+  // n bytes of v (n > 8: zeros after v's 8 bytes, for reserved fields).
   void U(std::uint64_t v, int n) {
-    for (int i = 0; i < n; ++i) b.push_back(static_cast<unsigned char>(v >> (8 * i)));
+    for (int i = 0; i < n; ++i) b.push_back(i < 8 ? static_cast<unsigned char>(v >> (8 * i)) : 0);
   }
   void F(double v) { U(std::bit_cast<std::uint64_t>(v), 8); }
   void S(std::string_view s) { b.insert(b.end(), s.begin(), s.end()); }
