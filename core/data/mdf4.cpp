@@ -36,8 +36,8 @@ namespace gb::data {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr std::uint64_t kIdSize = 64;       // the identification block, which has no header
-constexpr std::uint64_t kHeaderSize = 24;   // "##XY", reserved, length, link count
+constexpr std::uint64_t kIdSize = 64;      // the identification block, which has no header
+constexpr std::uint64_t kHeaderSize = 24;  // "##XY", reserved, length, link count
 // Deflate cannot expand data by more than about 1032:1; a DZ declaring more is refused before
 // its output buffer is allocated.
 constexpr std::uint64_t kMaxInflateRatio = 1032;
@@ -61,29 +61,29 @@ struct Block {
 
 // One conversion (CC), reduced to what decoding needs.
 struct Conversion {
-  int type = 0;              // 0 identity, 1 linear, 2 rational, 4/5 value tables, 6 ranges
-  std::vector<double> p;     // cc_val
+  int type = 0;           // 0 identity, 1 linear, 2 rational, 4/5 value tables, 6 ranges
+  std::vector<double> p;  // cc_val
   double Apply(double x, bool integer_raw) const;
 };
 
-struct Channel {             // one CN block
+struct Channel {  // one CN block
   Block block;
   std::string name, unit, comment;
   int type = 0, sync = 0, data_type = 0, bit_offset = 0;
   std::uint32_t byte_offset = 0, bit_count = 0, flags = 0, inval_pos = 0;
   Conversion conversion;
-  std::string skip;          // non-empty: not read as numbers, and why
+  std::string skip;  // non-empty: not read as numbers, and why
   bool Virtual() const { return type == 3 || type == 6; }
 };
 
-struct Group {               // one CG block and where its records lie in the DG's stream
+struct Group {  // one CG block and where its records lie in the DG's stream
   Block block;
   std::string name;
   std::uint64_t record_id = 0, cycles = 0;
   std::uint16_t flags = 0;
   std::uint32_t data_bytes = 0, inval_bytes = 0;
   std::vector<Channel> channels;
-  int master = -1;           // index into channels
+  int master = -1;  // index into channels
   bool Vlsd() const { return (flags & 1) != 0; }
   // Record k's channel bytes start at stream offset first + k * stride (sorted), or at[k].
   std::uint64_t first = 0, stride = 0;
@@ -147,9 +147,10 @@ class Parser {
   const std::string& source_;
   std::optional<Error> error_;
   int version_ = 0;
-  std::set<std::uint64_t> visited_;   // chain and data blocks already read: a second visit is a cycle
+  std::set<std::uint64_t>
+      visited_;  // chain and data blocks already read: a second visit is a cycle
   std::map<std::uint64_t, std::pair<Conversion, std::string>> conversions_;  // by CC offset
-  std::uint64_t values_ = 0;           // decoded so far, against kMaxMdf4Values
+  std::uint64_t values_ = 0;  // decoded so far, against kMaxMdf4Values
   Mdf4File file_;
 };
 
@@ -166,21 +167,22 @@ bool Parser::ReadHeader(std::uint64_t at, std::initializer_list<std::string_view
   if (std::find(types.begin(), types.end(), b->type) == types.end()) {
     std::string expected;
     for (std::string_view t : types) expected += (expected.empty() ? "" : " or ") + std::string(t);
-    return Fail(via + ": " + Hex(at) + " holds a " + b->type + " block, not a " + expected + " block");
+    return Fail(via + ": " + Hex(at) + " holds a " + b->type + " block, not a " + expected +
+                " block");
   }
   b->length = U64(at + 8);
   b->links = U64(at + 16);
   if (b->links > (size_ - at - kHeaderSize) / 8) {
-    return Fail(*b, fmt::format("its {} links run past the end of the file (size {})", b->links,
-                                size_));
+    return Fail(
+        *b, fmt::format("its {} links run past the end of the file (size {})", b->links, size_));
   }
   if (b->length < kHeaderSize + 8 * b->links) {
     return Fail(*b, fmt::format("length {} is shorter than its header and {} links ({} bytes)",
                                 b->length, b->links, kHeaderSize + 8 * b->links));
   }
   if (b->length > size_ - at) {
-    return Fail(*b, fmt::format("length {} runs past the end of the file (size {})", b->length,
-                                size_));
+    return Fail(*b,
+                fmt::format("length {} runs past the end of the file (size {})", b->length, size_));
   }
   return true;
 }
@@ -193,11 +195,14 @@ bool Parser::Link(const Block& from, std::uint64_t index, const char* field, std
   *link = U64(from.at + kHeaderSize + 8 * index);
   const std::string what = fmt::format("link {} ({})", index, field);
   if (*link == 0) return true;
-  if (*link < kIdSize) return Fail(from, what + " points into the identification block (" + Hex(*link) + ")");
-  if (*link >= size_) return Fail(from, what + fmt::format(" points past the end of the file (size {})", size_));
+  if (*link < kIdSize)
+    return Fail(from, what + " points into the identification block (" + Hex(*link) + ")");
+  if (*link >= size_)
+    return Fail(from, what + fmt::format(" points past the end of the file (size {})", size_));
   if (*link > size_ - kHeaderSize) {
     return Fail(from, what + fmt::format(" points to {}, too near the end of the file (size {}) "
-                                         "for a block header", Hex(*link), size_));
+                                         "for a block header",
+                                         Hex(*link), size_));
   }
   return true;
 }
@@ -215,11 +220,13 @@ bool Parser::Follow(const Block& from, std::uint64_t index, const char* field,
 // At least `links` links and a data section of at least `data_bytes` bytes.
 bool Parser::Need(const Block& b, std::uint64_t links, std::uint64_t data_bytes) {
   if (b.links < links)
-    return Fail(b, fmt::format("it has {} links; a {} block has at least {}", b.links, b.type, links));
+    return Fail(b,
+                fmt::format("it has {} links; a {} block has at least {}", b.links, b.type, links));
   const std::uint64_t need = kHeaderSize + 8 * b.links + data_bytes;
   if (data_bytes > b.length || b.length < need) {
     return Fail(b, fmt::format("length {} is shorter than its {} links and {} bytes of fields need "
-                               "({})", b.length, b.links, data_bytes, need));
+                               "({})",
+                               b.length, b.links, data_bytes, need));
   }
   return true;
 }
@@ -228,7 +235,8 @@ bool Parser::Need(const Block& b, std::uint64_t links, std::uint64_t data_bytes)
 // block shared where the format has none, which would read the same data twice).
 bool Parser::Visit(const Block& from, const char* field, const Block& b) {
   if (visited_.insert(b.at).second) return true;
-  return Fail(from, std::string(field) + " leads back to " + b.Name() + ", which was read already (a cycle)");
+  return Fail(from, std::string(field) + " leads back to " + b.Name() +
+                        ", which was read already (a cycle)");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -239,16 +247,21 @@ bool Parser::Visit(const Block& from, const char* field, const Block& b) {
 std::string MdText(std::string_view xml) {
   if (const std::size_t open = xml.find("<TX>"); open != std::string_view::npos) {
     const std::size_t close = xml.find("</TX>", open);
-    xml = xml.substr(open + 4, close == std::string_view::npos ? std::string_view::npos : close - open - 4);
+    xml = xml.substr(open + 4,
+                     close == std::string_view::npos ? std::string_view::npos : close - open - 4);
   }
   std::string out;
   bool in_tag = false;
   for (std::size_t i = 0; i < xml.size(); ++i) {
     const char c = xml[i];
-    if (c == '<') in_tag = true;
-    else if (c == '>') in_tag = false;
-    else if (in_tag) continue;
-    else if (c != '&') out += c;
+    if (c == '<')
+      in_tag = true;
+    else if (c == '>')
+      in_tag = false;
+    else if (in_tag)
+      continue;
+    else if (c != '&')
+      out += c;
     else {
       static constexpr std::pair<std::string_view, char> kEntities[] = {
           {"&amp;", '&'}, {"&lt;", '<'}, {"&gt;", '>'}, {"&quot;", '"'}, {"&apos;", '\''}};
@@ -338,7 +351,8 @@ bool Parser::ReadConversion(const Block& cn, Conversion* c, std::string* skip) {
   const std::uint16_t refs = U16(d + 4);
   const std::uint16_t n = U16(d + 6);
   if (refs != b.links - 4)
-    return Fail(b, fmt::format("reference count {} disagrees with its {} links (4 + references)", refs, b.links));
+    return Fail(b, fmt::format("reference count {} disagrees with its {} links (4 + references)",
+                               refs, b.links));
   if (b.length < kHeaderSize + 8 * b.links + 24 + 8 * std::uint64_t{n})
     return Fail(b, fmt::format("length {} is too short for its {} values", b.length, n));
   if (c->type > 11) return Fail(b, fmt::format("unknown conversion type {}", c->type));
@@ -347,7 +361,7 @@ bool Parser::ReadConversion(const Block& cn, Conversion* c, std::string* skip) {
   } else if (c->type >= 7) {
     *skip = "its conversion (" + b.Name() + fmt::format(", type {}) produces text", c->type);
   } else {
-    const bool ok = c->type == 0 ? true
+    const bool ok = c->type == 0   ? true
                     : c->type == 1 ? n == 2
                     : c->type == 2 ? n == 6
                     : c->type == 6 ? n % 3 == 1
@@ -359,7 +373,8 @@ bool Parser::ReadConversion(const Block& cn, Conversion* c, std::string* skip) {
       if (!std::isfinite(c->p[i])) return Fail(b, fmt::format("value {} is not finite", i));
     }
     if (c->type == 2 && c->p[3] == 0 && c->p[4] == 0 && c->p[5] == 0)
-      return Fail(b, "the rational conversion's denominator is identically zero (p3 = p4 = p5 = 0)");
+      return Fail(b,
+                  "the rational conversion's denominator is identically zero (p3 = p4 = p5 = 0)");
     if (c->type == 4 || c->type == 5) {
       for (std::size_t i = 2; i < c->p.size(); i += 2) {
         if (!(c->p[i] > c->p[i - 2]))
@@ -402,18 +417,22 @@ bool Parser::ReadChannel(const Group& g, const Block& b, Channel* cn) {
   if (cn->type > 7) return Fail(who + fmt::format(": unknown channel type {}", cn->type));
   if (cn->sync > 4) return Fail(who + fmt::format(": unknown sync type {}", cn->sync));
   if (cn->data_type > 17) return Fail(who + fmt::format(": unknown data type {}", cn->data_type));
-  if (cn->bit_offset > 7) return Fail(who + fmt::format(": bit offset {} is more than 7", cn->bit_offset));
+  if (cn->bit_offset > 7)
+    return Fail(who + fmt::format(": bit offset {} is more than 7", cn->bit_offset));
   if ((cn->flags & 2) && !(cn->flags & 1) && cn->inval_pos / 8 >= g.inval_bytes) {
     return Fail(who + fmt::format(": invalidation bit {} lies beyond the record's {} invalidation "
-                                  "bytes", cn->inval_pos, g.inval_bytes));
+                                  "bytes",
+                                  cn->inval_pos, g.inval_bytes));
   }
   std::uint64_t composition = 0;
   if (!Link(b, 1, "composition", &composition)) return false;
   static constexpr const char* kTypeSkips[] = {
-      "", "it is a variable-length (VLSD) channel", "", "", "it is a synchronisation channel",
-      "it is a maximum-length (MLSD) channel", "", "it is a VLSC channel (MDF 4.3)"};
+      "", "it is a variable-length (VLSD) channel", "",
+      "", "it is a synchronisation channel",        "it is a maximum-length (MLSD) channel",
+      "", "it is a VLSC channel (MDF 4.3)"};
   cn->skip = kTypeSkips[cn->type];
-  if (cn->skip.empty() && composition != 0) cn->skip = "it is a structure or an array (composition)";
+  if (cn->skip.empty() && composition != 0)
+    cn->skip = "it is a structure or an array (composition)";
   if (cn->skip.empty() && !CheckNumeric(g, cn)) return false;
   if (cn->skip.empty() && !ReadConversion(b, &cn->conversion, &cn->skip)) return false;
   return true;
@@ -421,10 +440,24 @@ bool Parser::ReadChannel(const Group& g, const Block& b, Channel* cn) {
 
 // The data type and placement of a channel that would be read as numbers.
 bool Parser::CheckNumeric(const Group& g, Channel* cn) {
-  static constexpr const char* kTypeNames[] = {
-      "", "", "", "", "", "", "an ISO-8859-1 string", "a UTF-8 string", "a UTF-16 LE string",
-      "a UTF-16 BE string", "a byte array", "a MIME sample", "a MIME stream", "a CANopen date",
-      "a CANopen time", "a complex number", "a complex number", "a string with a byte order mark"};
+  static constexpr const char* kTypeNames[] = {"",
+                                               "",
+                                               "",
+                                               "",
+                                               "",
+                                               "",
+                                               "an ISO-8859-1 string",
+                                               "a UTF-8 string",
+                                               "a UTF-16 LE string",
+                                               "a UTF-16 BE string",
+                                               "a byte array",
+                                               "a MIME sample",
+                                               "a MIME stream",
+                                               "a CANopen date",
+                                               "a CANopen time",
+                                               "a complex number",
+                                               "a complex number",
+                                               "a string with a byte order mark"};
   const std::string who = cn->block.Name() + " ('" + cn->name + "')";
   if (cn->data_type >= 6) {
     cn->skip = std::string("its data type is ") + kTypeNames[cn->data_type] + ", not a number";
@@ -434,13 +467,15 @@ bool Parser::CheckNumeric(const Group& g, Channel* cn) {
   const std::uint32_t bits = cn->bit_count;
   if (cn->data_type <= 3 && (bits == 0 || bits + static_cast<std::uint32_t>(cn->bit_offset) > 64)) {
     return Fail(who + fmt::format(": an integer of {} bits at bit offset {} (1 to 64 bits, "
-                                  "offset + count at most 64)", bits, cn->bit_offset));
+                                  "offset + count at most 64)",
+                                  bits, cn->bit_offset));
   }
   if (cn->data_type >= 4) {
     const bool half = bits == 16 && version_ >= 420;
     if (cn->bit_offset != 0 || (bits != 32 && bits != 64 && !half)) {
       return Fail(who + fmt::format(": a float of {} bits at bit offset {} (32 or 64 bits, 16 from "
-                                    "MDF 4.20, at bit offset 0)", bits, cn->bit_offset));
+                                    "MDF 4.20, at bit offset 0)",
+                                    bits, cn->bit_offset));
     }
   }
   const std::uint64_t end = std::uint64_t{cn->byte_offset} + (cn->bit_offset + bits + 7) / 8;
@@ -469,8 +504,8 @@ bool Parser::ReadGroups(const Block& dg, int rec_id_size, std::vector<Group>* gr
     g.inval_bytes = U32(d + 28);
     if (!Text(cg, 2, "acquisition name", &g.name)) return false;
     if (rec_id_size < 8 && g.record_id >> (8 * rec_id_size) != 0) {
-      return Fail(cg, fmt::format("record ID {} does not fit in the DG's {}-byte record IDs", g.record_id,
-                                  rec_id_size));
+      return Fail(cg, fmt::format("record ID {} does not fit in the DG's {}-byte record IDs",
+                                  g.record_id, rec_id_size));
     }
     for (std::size_t i = 0; i + 1 < groups->size(); ++i) {
       if ((*groups)[i].record_id == g.record_id) {
@@ -489,10 +524,11 @@ bool Parser::ReadGroups(const Block& dg, int rec_id_size, std::vector<Group>* gr
         if (!ReadChannel(g, cn, &c)) return false;
         if (c.type == 2 || c.type == 3) {
           if (g.master >= 0) {
-            return Fail(cg, "it has two master channels, '" + g.channels[g.master].name + "' and '" +
-                                c.name + "' (" + cn.Name() + ")");
+            return Fail(cg, "it has two master channels, '" + g.channels[g.master].name +
+                                "' and '" + c.name + "' (" + cn.Name() + ")");
           }
-          if (!c.skip.empty()) return Fail(cn, "master channel '" + c.name + "' is not numeric: " + c.skip);
+          if (!c.skip.empty())
+            return Fail(cn, "master channel '" + c.name + "' is not numeric: " + c.skip);
           g.master = static_cast<int>(g.channels.size()) - 1;
         }
         cn_from = &c.block;
@@ -523,10 +559,13 @@ bool Parser::Inflate(const Block& dz, std::vector<unsigned char>* out) {
   const std::uint32_t columns = U32(d + 4);
   const std::uint64_t org_length = U64(d + 8);
   const std::uint64_t data_length = U64(d + 16);
-  if (org != "DT") return Fail(dz, "it holds a compressed '" + org + "' block where a DT block belongs");
+  if (org != "DT")
+    return Fail(dz, "it holds a compressed '" + org + "' block where a DT block belongs");
   if (zip > 1) {
-    return Fail(dz, fmt::format("zip type {} is not supported (0 deflate, 1 transposition + deflate; "
-                                "2-5 are MDF 4.3's)", zip));
+    return Fail(dz,
+                fmt::format("zip type {} is not supported (0 deflate, 1 transposition + deflate; "
+                            "2-5 are MDF 4.3's)",
+                            zip));
   }
   if (zip == 1 && columns == 0) return Fail(dz, "a transposition with 0 columns (zip parameter 0)");
   if (data_length > dz.end() - d - 24) {
@@ -535,7 +574,8 @@ bool Parser::Inflate(const Block& dz, std::vector<unsigned char>* out) {
   }
   if (org_length > kMaxInflateRatio * data_length + 64) {
     return Fail(dz, fmt::format("its declared original size {} is more than deflate can produce "
-                                "from {} bytes", org_length, data_length));
+                                "from {} bytes",
+                                org_length, data_length));
   }
   const std::size_t base = out->size();
   out->resize(base + org_length);
@@ -573,18 +613,21 @@ bool Parser::Inflate(const Block& dz, std::vector<unsigned char>* out) {
   inflateEnd(&z);
   if (rc != Z_STREAM_END) {
     return Fail(dz, "its data does not inflate (" +
-                        (rc == Z_OK || rc == Z_BUF_ERROR ? std::string("the zlib stream is cut short")
-                                                         : "zlib: " + (zmsg.empty() ? std::to_string(rc) : zmsg)) +
+                        (rc == Z_OK || rc == Z_BUF_ERROR
+                             ? std::string("the zlib stream is cut short")
+                             : "zlib: " + (zmsg.empty() ? std::to_string(rc) : zmsg)) +
                         ")");
   }
   if (out_left != 0) {
-    return Fail(dz, fmt::format("it inflates to {} bytes, not its declared {}", org_length - out_left,
-                                org_length));
+    return Fail(dz, fmt::format("it inflates to {} bytes, not its declared {}",
+                                org_length - out_left, org_length));
   }
-  if (zip == 1) {  // column c of the first rows * C bytes holds byte c of every row; the rest is as is
+  if (zip ==
+      1) {  // column c of the first rows * C bytes holds byte c of every row; the rest is as is
     const std::uint64_t rows = org_length / columns;
-    const std::vector<unsigned char> t(out->begin() + static_cast<std::ptrdiff_t>(base),
-                                       out->begin() + static_cast<std::ptrdiff_t>(base + rows * columns));
+    const std::vector<unsigned char> t(
+        out->begin() + static_cast<std::ptrdiff_t>(base),
+        out->begin() + static_cast<std::ptrdiff_t>(base + rows * columns));
     unsigned char* o = out->data() + base;
     for (std::uint64_t c = 0; c < columns; ++c)
       for (std::uint64_t r = 0; r < rows; ++r) o[r * columns + c] = t[c * rows + r];
@@ -609,7 +652,8 @@ bool Parser::ReadData(const Block& dg, std::vector<unsigned char>* owned,
   if (!Follow(dg, 2, "data", {"DT", "DZ", "DL", "HL", "LD"}, &b)) return false;
   *stream = {};
   if (b.at == 0) return true;
-  if (b.type == "LD") return Fail(b, "column-oriented storage (MDF 4.2 LD blocks) is not supported");
+  if (b.type == "LD")
+    return Fail(b, "column-oriented storage (MDF 4.2 LD blocks) is not supported");
   if (!Visit(dg, "link 2 (data)", b)) return false;
   if (b.type == "DT") {
     *stream = bytes_.subspan(b.data(), b.end() - b.data());
@@ -632,7 +676,8 @@ bool Parser::ReadData(const Block& dg, std::vector<unsigned char>* owned,
     const bool equal = (U8(d) & 1) != 0;
     const std::uint64_t n = dl.links - 1;
     const std::uint32_t count = U32(d + 4);
-    if (count != n) return Fail(dl, fmt::format("its count {} disagrees with its {} data links", count, n));
+    if (count != n)
+      return Fail(dl, fmt::format("its count {} disagrees with its {} data links", count, n));
     if (!Need(dl, 1, equal ? 16 : 8 + 8 * n)) return false;
     const std::uint64_t equal_length = equal ? U64(d + 8) : 0;
     for (std::uint64_t i = 0; i < n; ++i) {
@@ -651,8 +696,10 @@ bool Parser::ReadData(const Block& dg, std::vector<unsigned char>* owned,
       // Every block but the chain's last holds exactly equal_length bytes.
       const bool last = i + 1 == n && U64(dl.at + kHeaderSize) == 0;
       if (equal && (last ? got > equal_length : got != equal_length)) {
-        return Fail(block, fmt::format("it holds {} bytes, but its DL block at {} gives equal lengths "
-                                       "of {}", got, Hex(dl.at), equal_length));
+        return Fail(block,
+                    fmt::format("it holds {} bytes, but its DL block at {} gives equal lengths "
+                                "of {}",
+                                got, Hex(dl.at), equal_length));
       }
     }
     prev = dl;
@@ -673,7 +720,8 @@ bool Parser::SplitRecords(const Block& dg, int rec_id_size, std::span<const unsi
   const std::uint64_t size = stream.size();
   const auto id_at = [&](std::uint64_t pos) {
     std::uint64_t v = 0;
-    for (int i = rec_id_size - 1; i >= 0; --i) v = (v << 8) | stream[pos + static_cast<std::uint64_t>(i)];
+    for (int i = rec_id_size - 1; i >= 0; --i)
+      v = (v << 8) | stream[pos + static_cast<std::uint64_t>(i)];
     return v;
   };
   if (groups->size() == 1 && !groups->front().Vlsd()) {
@@ -681,14 +729,17 @@ bool Parser::SplitRecords(const Block& dg, int rec_id_size, std::span<const unsi
     const std::uint64_t s = rec_id_size + std::uint64_t{g.data_bytes} + g.inval_bytes;
     if (s == 0 && g.cycles > 0) {
       return Fail(g.block, fmt::format("its records are 0 bytes long (no record ID, data or "
-                                       "invalidation bytes), but its cycle count is {}", g.cycles));
+                                       "invalidation bytes), but its cycle count is {}",
+                                       g.cycles));
     }
     if (s > 0 && (g.cycles > size / s || g.cycles * s != size)) {
-      return Fail(g.block, fmt::format("its cycle count {} needs {} bytes of {}-byte records, but "
-                                       "the data of {} holds {}", g.cycles,
-                                       g.cycles > size / s ? std::string("more than ") + std::to_string(size)
-                                                           : std::to_string(g.cycles * s),
-                                       s, dg.Name(), size));
+      return Fail(g.block,
+                  fmt::format("its cycle count {} needs {} bytes of {}-byte records, but "
+                              "the data of {} holds {}",
+                              g.cycles,
+                              g.cycles > size / s ? std::string("more than ") + std::to_string(size)
+                                                  : std::to_string(g.cycles * s),
+                              s, dg.Name(), size));
     }
     g.first = static_cast<std::uint64_t>(rec_id_size);
     g.stride = s;
@@ -712,7 +763,8 @@ bool Parser::SplitRecords(const Block& dg, int rec_id_size, std::span<const unsi
     const auto it = by_id.find(id);
     if (it == by_id.end()) {
       return Fail(dg, fmt::format("the record at byte {} of its data has record ID {}, which none "
-                                  "of its channel groups has", pos, id));
+                                  "of its channel groups has",
+                                  pos, id));
     }
     Group& g = (*groups)[it->second];
     std::uint64_t payload = std::uint64_t{g.data_bytes} + g.inval_bytes;
@@ -720,15 +772,18 @@ bool Parser::SplitRecords(const Block& dg, int rec_id_size, std::span<const unsi
     if (g.Vlsd()) {  // [u32 length][length bytes]
       if (left < 4) {
         return Fail(g.block, fmt::format("its VLSD record at byte {} of the data is cut short "
-                                         "before its length", pos));
+                                         "before its length",
+                                         pos));
       }
       std::uint64_t len = 0;
-      for (int i = 3; i >= 0; --i) len = (len << 8) | stream[pos + rec_id_size + static_cast<std::uint64_t>(i)];
+      for (int i = 3; i >= 0; --i)
+        len = (len << 8) | stream[pos + rec_id_size + static_cast<std::uint64_t>(i)];
       payload = 4 + len;
     }
     if (payload > left) {
       return Fail(g.block, fmt::format("its record at byte {} of the data needs {} bytes after the "
-                                       "record ID; {} are left", pos, payload, left));
+                                       "record ID; {} are left",
+                                       pos, payload, left));
     }
     if (!g.Vlsd()) g.at.push_back(pos + rec_id_size);
     ++met[it->second];
@@ -737,7 +792,8 @@ bool Parser::SplitRecords(const Block& dg, int rec_id_size, std::span<const unsi
   for (std::size_t i = 0; i < groups->size(); ++i) {
     if (met[i] != (*groups)[i].cycles) {
       return Fail((*groups)[i].block, fmt::format("its cycle count is {}, but the data of {} holds "
-                                                  "{} of its records", (*groups)[i].cycles, dg.Name(), met[i]));
+                                                  "{} of its records",
+                                                  (*groups)[i].cycles, dg.Name(), met[i]));
     }
   }
   return true;
@@ -751,9 +807,12 @@ double HalfToDouble(std::uint64_t h) {
   const int sign = (h >> 15) & 1, exponent = (h >> 10) & 0x1f;
   const double mantissa = static_cast<double>(h & 0x3ff);
   double v = 0;
-  if (exponent == 0) v = std::ldexp(mantissa, -24);  // zero and subnormals
-  else if (exponent == 31) v = mantissa == 0 ? std::numeric_limits<double>::infinity() : kNaN;
-  else v = std::ldexp(1024 + mantissa, exponent - 25);
+  if (exponent == 0)
+    v = std::ldexp(mantissa, -24);  // zero and subnormals
+  else if (exponent == 31)
+    v = mantissa == 0 ? std::numeric_limits<double>::infinity() : kNaN;
+  else
+    v = std::ldexp(1024 + mantissa, exponent - 25);
   return sign ? -v : v;
 }
 
@@ -776,7 +835,8 @@ double RawValue(const Channel& cn, const unsigned char* rec) {
     const std::uint64_t sign = std::uint64_t{1} << (bits - 1);
     return static_cast<double>(static_cast<std::int64_t>((v ^ sign) - sign));
   }
-  return cn.data_type >= 2 ? static_cast<double>(static_cast<std::int64_t>(v)) : static_cast<double>(v);
+  return cn.data_type >= 2 ? static_cast<double>(static_cast<std::int64_t>(v))
+                           : static_cast<double>(v);
 }
 
 // One physical value per record of `g`: NaN where invalid, CC(k) for a virtual channel.
@@ -785,7 +845,8 @@ bool Parser::Decode(const Group& g, const Channel& cn, std::span<const unsigned 
   values_ += g.cycles;
   if (values_ > kMaxMdf4Values) {
     return Fail(cn.block, fmt::format("the file decodes to more than {} values, more than this "
-                                      "reader holds", kMaxMdf4Values));
+                                      "reader holds",
+                                      kMaxMdf4Values));
   }
   values->resize(g.cycles);
   const bool integer = cn.data_type <= 3;
@@ -839,14 +900,17 @@ bool Parser::Emit(std::vector<Group>& groups, std::span<const unsigned char> str
 Result<Mdf4File> Parser::Run() {
   const std::string id = "identification block at 0x0";
   if (size_ < kIdSize) {
-    Fail(fmt::format("{}: the file holds {} bytes, fewer than an MDF identification block (64): "
-                     "not an MDF file", id, size_));
+    Fail(
+        fmt::format("{}: the file holds {} bytes, fewer than an MDF identification block (64): "
+                    "not an MDF file",
+                    id, size_));
     return *error_;
   }
   const std::string_view magic(reinterpret_cast<const char*>(bytes_.data()), 8);
   if (magic == "UnFinMF ") {
-    Fail(id + ": the file is an unfinalized MDF file ('UnFinMF '), whose cycle counts and block "
-              "lengths cannot be trusted; finalize it with the program that wrote it");
+    Fail(id +
+         ": the file is an unfinalized MDF file ('UnFinMF '), whose cycle counts and block "
+         "lengths cannot be trusted; finalize it with the program that wrote it");
   } else if (magic != "MDF     ") {
     Fail(id + ": not an MDF file (it does not start with 'MDF     ')");
   } else if (version_ = U16(28); version_ < 400 || version_ >= 500) {
@@ -860,7 +924,8 @@ Result<Mdf4File> Parser::Run() {
     return *error_;
   }
   Block hd;
-  if (!ReadHeader(kIdSize, {"HD"}, id + ": the HD block that must follow it", &hd) || !Need(hd, 6, 32))
+  if (!ReadHeader(kIdSize, {"HD"}, id + ": the HD block that must follow it", &hd) ||
+      !Need(hd, 6, 32))
     return *error_;
   Block dg;
   if (!Follow(hd, 0, "first data group", {"DG"}, &dg)) return *error_;
@@ -870,7 +935,8 @@ Result<Mdf4File> Parser::Run() {
   while (dg.at != 0) {
     if (!Visit(*from, field.c_str(), dg) || !Need(dg, 4, 8)) return *error_;
     const int rec_id_size = U8(dg.data());
-    if (rec_id_size != 0 && rec_id_size != 1 && rec_id_size != 2 && rec_id_size != 4 && rec_id_size != 8) {
+    if (rec_id_size != 0 && rec_id_size != 1 && rec_id_size != 2 && rec_id_size != 4 &&
+        rec_id_size != 8) {
       Fail(dg, fmt::format("record ID size {} is not 0, 1, 2, 4 or 8", rec_id_size));
       return *error_;
     }
@@ -908,7 +974,8 @@ Result<Mdf4File> ReadMdf4File(const std::string& path) {
   if (const std::string why = WhyNotReadable(path, kMaxFileBytes, &size); !why.empty())
     return file_error(why);
   std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (f == nullptr) return file_error("cannot open the file: " + std::generic_category().message(errno));
+  if (f == nullptr)
+    return file_error("cannot open the file: " + std::generic_category().message(errno));
   std::vector<unsigned char> bytes(static_cast<std::size_t>(size));
   const std::size_t got = std::fread(bytes.data(), 1, bytes.size(), f);
   const bool failed = std::ferror(f) != 0;
@@ -940,7 +1007,8 @@ int Mdf4File::Find(std::string_view name) const {
   const std::size_t at = name.rfind('@');
   if (exact != -1 || at == std::string_view::npos) return exact;
   const std::string_view g = name.substr(at + 1);
-  const bool number = !g.empty() && g.size() < 10 && g.find_first_not_of("0123456789") == std::string_view::npos;
+  const bool number =
+      !g.empty() && g.size() < 10 && g.find_first_not_of("0123456789") == std::string_view::npos;
   return find(name.substr(0, at), [&](int group) {
     const Mdf4Group& grp = groups[static_cast<std::size_t>(group)];
     return number ? std::to_string(grp.number) == g : grp.name == g;
@@ -963,7 +1031,8 @@ std::string ChannelList(const Mdf4File& file) {
     if (i == 40) return out + ", ...";
     const Mdf4Channel& c = file.channels[i];
     out += (i ? ", " : "") + c.name;
-    if (file.Find(c.name) != static_cast<int>(i)) out += "@" + std::to_string(file.groups[c.group].number);
+    if (file.Find(c.name) != static_cast<int>(i))
+      out += "@" + std::to_string(file.groups[c.group].number);
   }
   return out.empty() ? "none" : out;
 }
@@ -973,15 +1042,18 @@ std::string WhyNot(const Mdf4File& file, const std::string& name, int found) {
   if (found == -2) {
     std::string where;
     for (const Mdf4Channel& c : file.channels) {
-      if (c.name != name && c.name + "@" + std::to_string(file.groups[c.group].number) != name) continue;
-      where += (where.empty() ? "" : ", ") + name + "@" + std::to_string(file.groups[c.group].number);
+      if (c.name != name && c.name + "@" + std::to_string(file.groups[c.group].number) != name)
+        continue;
+      where +=
+          (where.empty() ? "" : ", ") + name + "@" + std::to_string(file.groups[c.group].number);
     }
-    return "channel '" + name + "' is in several groups: write " + (where.empty() ? name + "@G" : where) +
-           " (G: the group's number)";
+    return "channel '" + name + "' is in several groups: write " +
+           (where.empty() ? name + "@G" : where) + " (G: the group's number)";
   }
   for (const Mdf4Skipped& s : file.skipped) {
     if (s.name == name || s.name + "@" + std::to_string(file.groups[s.group].number) == name)
-      return "channel '" + name + "' in " + GroupLabel(file.groups[s.group]) + " is not read: " + s.reason;
+      return "channel '" + name + "' in " + GroupLabel(file.groups[s.group]) +
+             " is not read: " + s.reason;
   }
   return "channel '" + name + "' is not in the file; its channels are " + ChannelList(file);
 }
@@ -992,8 +1064,8 @@ std::string CheckMaster(const Mdf4Group& g) {
     const std::string where = GroupLabel(g) + ": master '" + g.master_name + "'";
     if (!std::isfinite(g.time[k])) return where + fmt::format(" is not finite at record {}", k);
     if (k > 0 && !(g.time[k] > g.time[k - 1])) {
-      return where + fmt::format(" at record {} ({}) is not after record {} ({})", k, g.time[k], k - 1,
-                                 g.time[k - 1]);
+      return where + fmt::format(" at record {} ({}) is not after record {} ({})", k, g.time[k],
+                                 k - 1, g.time[k - 1]);
     }
   }
   return "";
@@ -1009,15 +1081,18 @@ std::vector<double> Resample(std::span<const double> t, std::span<const double> 
     while (j < t.size() && t[j] <= rows[r]) ++j;
     if (j == 0) continue;
     const std::size_t i = j - 1;
-    if (how == Mdf4Format::Interpolation::kHold || t[i] == rows[r]) out[r] = v[i];
-    else if (j < t.size()) out[r] = v[i] + (v[j] - v[i]) * (rows[r] - t[i]) / (t[j] - t[i]);
+    if (how == Mdf4Format::Interpolation::kHold || t[i] == rows[r])
+      out[r] = v[i];
+    else if (j < t.size())
+      out[r] = v[i] + (v[j] - v[i]) * (rows[r] - t[i]) / (t[j] - t[i]);
   }
   return out;
 }
 
 }  // namespace
 
-Result<std::shared_ptr<const Dataset>> Mdf4ToDataset(const Mdf4File& file, const std::string& source,
+Result<std::shared_ptr<const Dataset>> Mdf4ToDataset(const Mdf4File& file,
+                                                     const std::string& source,
                                                      const Mdf4Format& format) {
   const auto fail = [&source](std::string message) {
     Error e = InputError(std::move(message));
@@ -1032,7 +1107,8 @@ Result<std::shared_ptr<const Dataset>> Mdf4ToDataset(const Mdf4File& file, const
       const Mdf4Group& g = file.groups[static_cast<std::size_t>(c.group)];
       if (!g.has_master) continue;
       const bool unique = file.Find(c.name) == static_cast<int>(i);
-      chosen.emplace_back(static_cast<int>(i), unique ? c.name : c.name + "@" + std::to_string(g.number));
+      chosen.emplace_back(static_cast<int>(i),
+                          unique ? c.name : c.name + "@" + std::to_string(g.number));
     }
   }
   for (const std::string& name : format.channels) {
@@ -1060,7 +1136,8 @@ Result<std::shared_ptr<const Dataset>> Mdf4ToDataset(const Mdf4File& file, const
       if (c == -2) return fail("time base: " + WhyNot(file, b, c));
       if (c >= 0) base = file.channels[static_cast<std::size_t>(c)].group;
       for (std::size_t g = 0; g < file.groups.size() && base < 0; ++g) {
-        if (file.groups[g].has_master && file.groups[g].master_name == b) base = static_cast<int>(g);
+        if (file.groups[g].has_master && file.groups[g].master_name == b)
+          base = static_cast<int>(g);
       }
     }
     if (base < 0) {
@@ -1068,12 +1145,15 @@ Result<std::shared_ptr<const Dataset>> Mdf4ToDataset(const Mdf4File& file, const
                   std::to_string(file.groups.size()) + ", or its name) nor a channel");
     }
     if (!file.groups[static_cast<std::size_t>(base)].has_master)
-      return fail("time base " + GroupLabel(file.groups[static_cast<std::size_t>(base)]) + " has no master channel");
+      return fail("time base " + GroupLabel(file.groups[static_cast<std::size_t>(base)]) +
+                  " has no master channel");
   } else {
     for (const auto& [c, name] : chosen) {
       const int g = file.channels[static_cast<std::size_t>(c)].group;
-      if (base < 0 || file.groups[g].time.size() > file.groups[static_cast<std::size_t>(base)].time.size() ||
-          (file.groups[g].time.size() == file.groups[static_cast<std::size_t>(base)].time.size() && g < base)) {
+      if (base < 0 ||
+          file.groups[g].time.size() > file.groups[static_cast<std::size_t>(base)].time.size() ||
+          (file.groups[g].time.size() == file.groups[static_cast<std::size_t>(base)].time.size() &&
+           g < base)) {
         base = g;
       }
     }
@@ -1081,15 +1161,18 @@ Result<std::shared_ptr<const Dataset>> Mdf4ToDataset(const Mdf4File& file, const
   // The masters used: one kind, each finite and strictly increasing.
   std::vector<int> used;
   if (base >= 0) used.push_back(base);
-  for (const auto& [c, name] : chosen) used.push_back(file.channels[static_cast<std::size_t>(c)].group);
+  for (const auto& [c, name] : chosen)
+    used.push_back(file.channels[static_cast<std::size_t>(c)].group);
   std::sort(used.begin(), used.end());
   used.erase(std::unique(used.begin(), used.end()), used.end());
   for (int g : used) {
     const Mdf4Group& group = file.groups[static_cast<std::size_t>(g)];
     if (group.master_sync != file.groups[static_cast<std::size_t>(used.front())].master_sync) {
-      return fail(GroupLabel(group) + " and " + GroupLabel(file.groups[static_cast<std::size_t>(used.front())]) +
-                  " have masters of different kinds (sync types " + std::to_string(group.master_sync) +
-                  " and " + std::to_string(file.groups[static_cast<std::size_t>(used.front())].master_sync) +
+      return fail(GroupLabel(group) + " and " +
+                  GroupLabel(file.groups[static_cast<std::size_t>(used.front())]) +
+                  " have masters of different kinds (sync types " +
+                  std::to_string(group.master_sync) + " and " +
+                  std::to_string(file.groups[static_cast<std::size_t>(used.front())].master_sync) +
                   "): they share no time base");
     }
     if (const std::string why = CheckMaster(group); !why.empty()) return fail(why);
@@ -1101,7 +1184,8 @@ Result<std::shared_ptr<const Dataset>> Mdf4ToDataset(const Mdf4File& file, const
   std::vector<double> rows;
   if (format.sample_time > 0 && !used.empty()) {
     if (!std::isfinite(format.sample_time)) return fail("the sample time is not finite");
-    double t0 = -std::numeric_limits<double>::infinity(), t1 = std::numeric_limits<double>::infinity();
+    double t0 = -std::numeric_limits<double>::infinity(),
+           t1 = std::numeric_limits<double>::infinity();
     bool any_empty = false;  // a group without records: no common span
     for (int g : used) {
       const std::vector<double>& t = file.groups[static_cast<std::size_t>(g)].time;
@@ -1119,7 +1203,8 @@ Result<std::shared_ptr<const Dataset>> Mdf4ToDataset(const Mdf4File& file, const
       for (std::size_t k = 0; k < static_cast<std::size_t>(n); ++k) {
         const double t = t0 + static_cast<double>(k) * format.sample_time;
         if (!rows.empty() && !(t > rows.back()))
-          return fail(fmt::format("a sample time of {} s is too small to step from t = {}", format.sample_time, t0));
+          return fail(fmt::format("a sample time of {} s is too small to step from t = {}",
+                                  format.sample_time, t0));
         rows.push_back(t);
       }
     }

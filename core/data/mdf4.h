@@ -66,32 +66,32 @@ inline constexpr std::uint64_t kMaxMdf4Values = std::uint64_t{1} << 28;
 // One numeric channel, decoded to physical values.
 struct Mdf4Channel {
   std::string name, unit, comment;
-  int group = 0;                  // 0-based index into Mdf4File::groups
-  std::vector<double> values;     // physical values (conversion applied), NaN where invalid
+  int group = 0;               // 0-based index into Mdf4File::groups
+  std::vector<double> values;  // physical values (conversion applied), NaN where invalid
 };
 
 // One channel group (CG): one time base.
 struct Mdf4Group {
-  std::string name;               // acquisition name (TX), may be empty
-  int number = 0;                 // 1-based, in file order over all DGs and their CGs
-  std::vector<double> time;       // the master's physical values, one per record (cycle count);
-                                  // empty when the group has no master
-  std::string master_name;        // "" without a master; the master's name, also when virtual
+  std::string name;          // acquisition name (TX), may be empty
+  int number = 0;            // 1-based, in file order over all DGs and their CGs
+  std::vector<double> time;  // the master's physical values, one per record (cycle count);
+                             // empty when the group has no master
+  std::string master_name;   // "" without a master; the master's name, also when virtual
   bool has_master = false;
-  bool virtual_master = false;    // time[k] = CC(k)
-  int master_sync = 0;            // 1 time (s), 2 angle (rad), 3 distance (m), 4 index; 0 none
-  std::vector<int> channels;      // indices into Mdf4File::channels (not the master)
+  bool virtual_master = false;  // time[k] = CC(k)
+  int master_sync = 0;          // 1 time (s), 2 angle (rad), 3 distance (m), 4 index; 0 none
+  std::vector<int> channels;    // indices into Mdf4File::channels (not the master)
 };
 
 // A channel that is not read as numbers, and why ("a UTF-8 string channel").
 struct Mdf4Skipped {
   std::string name;
-  int group = 0;                  // 0-based index into Mdf4File::groups
+  int group = 0;  // 0-based index into Mdf4File::groups
   std::string reason;
 };
 
 struct Mdf4File {
-  int version = 0;                // id_ver: 400, 410, 411, 420, ...
+  int version = 0;  // id_ver: 400, 410, 411, 420, ...
   std::vector<Mdf4Group> groups;
   std::vector<Mdf4Channel> channels;
   std::vector<Mdf4Skipped> skipped;
@@ -139,7 +139,8 @@ struct Mdf4Format {
   std::optional<std::array<double, 2>> range;
 };
 
-Result<std::shared_ptr<const Dataset>> Mdf4ToDataset(const Mdf4File& file, const std::string& source,
+Result<std::shared_ptr<const Dataset>> Mdf4ToDataset(const Mdf4File& file,
+                                                     const std::string& source,
                                                      const Mdf4Format& format = {});
 
 }  // namespace gb::data

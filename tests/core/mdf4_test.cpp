@@ -114,8 +114,10 @@ const std::vector<double>& Column(const Dataset& d, std::string_view name) {
 void ExpectSame(const std::vector<double>& a, const std::vector<double>& b, std::string_view what) {
   ASSERT_EQ(a.size(), b.size()) << what;
   for (std::size_t k = 0; k < a.size(); ++k) {
-    if (std::isnan(a[k])) EXPECT_TRUE(std::isnan(b[k])) << what << " [" << k << "]";
-    else EXPECT_EQ(a[k], b[k]) << what << " [" << k << "]";
+    if (std::isnan(a[k]))
+      EXPECT_TRUE(std::isnan(b[k])) << what << " [" << k << "]";
+    else
+      EXPECT_EQ(a[k], b[k]) << what << " [" << k << "]";
   }
 }
 
@@ -134,17 +136,21 @@ void ExpectSameFile(const Mdf4File& a, const Mdf4File& b) {
 }
 
 // The message of a refused file; it must name the file and contain each of `parts`.
-std::string Refused(const std::vector<unsigned char>& bytes, std::initializer_list<std::string> parts) {
+std::string Refused(const std::vector<unsigned char>& bytes,
+                    std::initializer_list<std::string> parts) {
   Result<Mdf4File> r = ParseMdf4(bytes, "run.mf4");
   EXPECT_FALSE(r.ok()) << "expected a refusal";
   if (r.ok()) return "";
   const std::string m = r.error().ToString();
   EXPECT_EQ(m.rfind("run.mf4: ", 0), 0u) << m;
-  for (const std::string& p : parts) EXPECT_NE(m.find(p), std::string::npos) << "'" << p << "' not in: " << m;
+  for (const std::string& p : parts)
+    EXPECT_NE(m.find(p), std::string::npos) << "'" << p << "' not in: " << m;
   return m;
 }
 
-std::string Block(std::uint64_t at, std::string_view type) { return fmt::format("{} block at {:#x}", type, at); }
+std::string Block(std::uint64_t at, std::string_view type) {
+  return fmt::format("{} block at {:#x}", type, at);
+}
 
 // A one-group file of `records` records holding `channels` after a float64 time master.
 WFile OneGroup(std::vector<WChannel> channels, std::size_t records) {
@@ -166,7 +172,8 @@ TEST(Mdf4, TwoGroupsAt100And10HzImportToTheSameDataAsTheEquivalentCsv) {
   std::string csv = "t,speed,temp,pressure\n";
   for (int k = 0; k < kSlow; ++k) {
     int j = -1;
-    for (int i = 0; i < kFast; ++i) if (FastTime(i) <= SlowTime(k)) j = i;
+    for (int i = 0; i < kFast; ++i)
+      if (FastTime(i) <= SlowTime(k)) j = i;
     ASSERT_GE(j, 0);
     csv += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g}\n", SlowTime(k), Speed(j),
                        static_cast<double>(Temp(j)), Pressure(k));
@@ -227,7 +234,8 @@ TEST(Mdf4, DtDlDzTransposedDzAndHlStorageReadToIdenticalChannels) {
   for (bool unsorted : {false, true}) {
     const Mdf4File dt = Read(TwoRates(Storage::kDt, unsorted, 1000, 100));
     ASSERT_EQ(dt.channels.size(), 3u);
-    for (Storage s : {Storage::kDl, Storage::kDlEqual, Storage::kDz, Storage::kDzTransposed, Storage::kHlDz}) {
+    for (Storage s :
+         {Storage::kDl, Storage::kDlEqual, Storage::kDz, Storage::kDzTransposed, Storage::kHlDz}) {
       SCOPED_TRACE(fmt::format("storage {}, unsorted {}", static_cast<int>(s), unsorted));
       ExpectSameFile(dt, Read(TwoRates(s, unsorted, 1000, 100)));
     }
@@ -295,8 +303,8 @@ TEST(Mdf4, WrittenIntegersOfEveryWidthAndSignReadBack) {
 TEST(Mdf4, Float32AndFloat64InBothByteOrdersReadExactly) {
   const std::vector<float> f32 = {0.1f, -3.5f, 1e30f, -0.0f};
   const std::vector<double> f64 = {0.1, -3.5, 1e300, 5e-324};
-  const Mdf4File f = Read(OneGroup({Float32("le32", f32), Float32("be32", f32, true), Float64("le64", f64),
-                                    Float64("be64", f64, true)},
+  const Mdf4File f = Read(OneGroup({Float32("le32", f32), Float32("be32", f32, true),
+                                    Float64("le64", f64), Float64("be64", f64, true)},
                                    4));
   for (std::size_t k = 0; k < 4; ++k) {
     EXPECT_EQ(Values(f, "le32")[k], static_cast<double>(f32[k]));
@@ -308,10 +316,12 @@ TEST(Mdf4, Float32AndFloat64InBothByteOrdersReadExactly) {
 
 TEST(Mdf4, HalfFloatsOfMdf420ReadToTheirValues) {
   // binary16: 0x3c00 = 1, 0xc000 = -2, 0x3555 = 0.333251953125, 0x0001 = 2^-24, 0x7c00 = inf.
-  WFile file = OneGroup({Integer("h", kFloatLe, 16, 0, {0x3c00, 0xc000, 0x3555, 0x0001, 0x7c00})}, 5);
+  WFile file =
+      OneGroup({Integer("h", kFloatLe, 16, 0, {0x3c00, 0xc000, 0x3555, 0x0001, 0x7c00})}, 5);
   file.version = 420;
   const Mdf4File f = Read(file);
-  EXPECT_EQ(Values(f, "h"), (std::vector<double>{1, -2, 0.333251953125, std::ldexp(1.0, -24), INFINITY}));
+  EXPECT_EQ(Values(f, "h"),
+            (std::vector<double>{1, -2, 0.333251953125, std::ldexp(1.0, -24), INFINITY}));
 }
 
 TEST(Mdf4, LinearRationalAndTableConversionsGiveHandComputedValues) {
@@ -353,7 +363,9 @@ TEST(Mdf4, AVirtualMasterIsItsPeriodTimesTheRecordIndexAndVirtualDataItsConversi
   data.data_type = kUintLe;
   data.bit_count = 0;
   data.conversion = {1, {1, 3}};
-  WGroup g = Group("virtual", 5, {VirtualMaster(0.02, "time"), data, Integer("x", kUintLe, 8, 0, {9, 8, 7, 6, 5})});
+  WGroup g =
+      Group("virtual", 5,
+            {VirtualMaster(0.02, "time"), data, Integer("x", kUintLe, 8, 0, {9, 8, 7, 6, 5})});
   WFile file;
   file.data_groups = {{{g}}};
   const Mdf4File f = Read(file);
@@ -391,8 +403,9 @@ Mdf4File Quarters() {
     q.push_back(k);
   }
   WFile file;
-  file.data_groups = {{{Group("quarters", 13, {TimeMaster(t), Float64("q", q)})}},
-                      {{Group("sparse", 3, {TimeMaster({0.5, 1.5, 2.5}), Float64("s", {0, 10, 40})})}}};
+  file.data_groups = {
+      {{Group("quarters", 13, {TimeMaster(t), Float64("q", q)})}},
+      {{Group("sparse", 3, {TimeMaster({0.5, 1.5, 2.5}), Float64("s", {0, 10, 40})})}}};
   return Read(file);
 }
 
@@ -466,24 +479,29 @@ TEST(Mdf4, ANameInSeveralGroupsIsFoundAsNameAtGroupNumberOrGroupName) {
   ambiguous.channels = {"x"};
   const Result<std::shared_ptr<const Dataset>> r = Mdf4ToDataset(f, "run.mf4", ambiguous);
   ASSERT_FALSE(r.ok());
-  EXPECT_EQ(r.error().ToString(), "run.mf4: channel 'x' is in several groups: write x@1, x@2 (G: the group's number)");
+  EXPECT_EQ(r.error().ToString(),
+            "run.mf4: channel 'x' is in several groups: write x@1, x@2 (G: the group's number)");
 }
 
 TEST(Mdf4, AnAbsentChannelIsRefusedWithTheFilesChannels) {
   Mdf4Format format;
   format.channels = {"speed", "rpm"};
-  const Result<std::shared_ptr<const Dataset>> r = Mdf4ToDataset(Read(TwoRates(Storage::kDt, false)), "run.mf4", format);
+  const Result<std::shared_ptr<const Dataset>> r =
+      Mdf4ToDataset(Read(TwoRates(Storage::kDt, false)), "run.mf4", format);
   ASSERT_FALSE(r.ok());
-  EXPECT_EQ(r.error().ToString(), "run.mf4: channel 'rpm' is not in the file; its channels are speed, temp, pressure");
+  EXPECT_EQ(r.error().ToString(),
+            "run.mf4: channel 'rpm' is not in the file; its channels are speed, temp, pressure");
 }
 
 TEST(Mdf4, AMasterThatDoesNotIncreaseIsRefusedNamingGroupAndRecord) {
   WFile file;
-  file.data_groups = {{{Group("fast", 4, {TimeMaster({0, 0.1, 0.1, 0.3}), Float64("x", {1, 2, 3, 4})})}}};
+  file.data_groups = {
+      {{Group("fast", 4, {TimeMaster({0, 0.1, 0.1, 0.3}), Float64("x", {1, 2, 3, 4})})}}};
   const Mdf4File f = Read(file);  // the file itself is fine
   const Result<std::shared_ptr<const Dataset>> r = Mdf4ToDataset(f, "run.mf4", {});
   ASSERT_FALSE(r.ok());
-  EXPECT_EQ(r.error().ToString(), "run.mf4: group 1 ('fast'): master 't' at record 2 (0.1) is not after record 1 (0.1)");
+  EXPECT_EQ(r.error().ToString(),
+            "run.mf4: group 1 ('fast'): master 't' at record 2 (0.1) is not after record 1 (0.1)");
 }
 
 TEST(Mdf4, AStringChannelIsSkippedAndRefusedOnlyWhenAskedFor) {
@@ -496,7 +514,9 @@ TEST(Mdf4, AStringChannelIsSkippedAndRefusedOnlyWhenAskedFor) {
   format.channels = {"label"};
   const Result<std::shared_ptr<const Dataset>> r = Mdf4ToDataset(f, "run.mf4", format);
   ASSERT_FALSE(r.ok());
-  EXPECT_EQ(r.error().ToString(), "run.mf4: channel 'label' in group 1 ('g') is not read: its data type is a UTF-8 string, not a number");
+  EXPECT_EQ(r.error().ToString(),
+            "run.mf4: channel 'label' in group 1 ('g') is not read: its data type is a UTF-8 "
+            "string, not a number");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -564,7 +584,9 @@ TEST(Mdf4, AFileThatCannotBeReadIsRefusedNamingIt) {
 }
 
 TEST(Mdf4, LooksLikeMdfKnowsBothMagics) {
-  const auto bytes = [](std::string_view s) { return std::vector<unsigned char>(s.begin(), s.end()); };
+  const auto bytes = [](std::string_view s) {
+    return std::vector<unsigned char>(s.begin(), s.end());
+  };
   EXPECT_TRUE(LooksLikeMdf(bytes("MDF     4.10")));
   EXPECT_TRUE(LooksLikeMdf(bytes("UnFinMF 4.10")));
   EXPECT_FALSE(LooksLikeMdf(bytes("t,x\n0,1")));
@@ -626,14 +648,16 @@ TEST(Mdf4Malformed, ALinkToATruncatedBlockHeaderIsRefused) {
 TEST(Mdf4Malformed, ALinkPastTheEndOfTheFileIsRefused) {
   Case c;
   Put(c.b, c.at("CN:speed") + kCnName, c.b.size() + 100, 8);
-  Refused(c.b, {Block(c.at("CN:speed"), "CN") + ": link 2 (name) points past the end of the file (size " +
+  Refused(c.b, {Block(c.at("CN:speed"), "CN") +
+                ": link 2 (name) points past the end of the file (size " +
                 std::to_string(c.b.size()) + ")"});
 }
 
 TEST(Mdf4Malformed, ALinkIntoTheIdentificationBlockIsRefused) {
   Case c;
   Put(c.b, c.at("CG1.1") + kCgFirstCn, 16, 8);
-  Refused(c.b, {Block(c.at("CG1.1"), "CG") + ": link 1 (first channel) points into the identification block"});
+  Refused(c.b, {Block(c.at("CG1.1"), "CG") +
+                ": link 1 (first channel) points into the identification block"});
 }
 
 TEST(Mdf4Malformed, ALinkToWhereNoBlockStartsIsRefused) {
@@ -645,8 +669,8 @@ TEST(Mdf4Malformed, ALinkToWhereNoBlockStartsIsRefused) {
 TEST(Mdf4Malformed, ACycleInAChannelChainIsRefused) {
   Case c;
   Put(c.b, c.at("CN:temp") + kCnNext, c.at("CN:t"), 8);  // temp is the last channel of group 1
-  Refused(c.b, {Block(c.at("CN:temp"), "CN"), "link 0 (next channel) leads back to " + Block(c.at("CN:t"), "CN"),
-                "a cycle"});
+  Refused(c.b, {Block(c.at("CN:temp"), "CN"),
+                "link 0 (next channel) leads back to " + Block(c.at("CN:t"), "CN"), "a cycle"});
 }
 
 TEST(Mdf4Malformed, ACycleInTheDataGroupChainIsRefused) {
@@ -664,31 +688,36 @@ TEST(Mdf4Malformed, ABlockOfAnotherTypeWhereAChannelBelongsIsRefused) {
 TEST(Mdf4Malformed, ABlockOfAnotherTypeWhereAConversionBelongsIsRefused) {
   Case c;
   Put(c.b, c.at("CN:temp") + kCnConversion, c.at("TX:temp"), 8);
-  Refused(c.b, {Block(c.at("CN:temp"), "CN") + ": link 4 (conversion)", "holds a TX block, not a CC block"});
+  Refused(c.b, {Block(c.at("CN:temp"), "CN") + ": link 4 (conversion)",
+                "holds a TX block, not a CC block"});
 }
 
 TEST(Mdf4Malformed, AConversionWhereANameBelongsIsRefused) {
   Case c;
   Put(c.b, c.at("CN:temp") + kCnName, c.at("CC:speed"), 8);
-  Refused(c.b, {Block(c.at("CN:temp"), "CN") + ": link 2 (name)", "holds a CC block, not a TX or MD block"});
+  Refused(c.b, {Block(c.at("CN:temp"), "CN") + ": link 2 (name)",
+                "holds a CC block, not a TX or MD block"});
 }
 
 TEST(Mdf4Malformed, ABlockShorterThanItsLinksIsRefused) {
   Case c;
   Put(c.b, c.at("CN:speed") + kLength, 24 + 8 * 8 - 8, 8);
-  Refused(c.b, {Block(c.at("CN:speed"), "CN"), "length 80 is shorter than its header and 8 links (88 bytes)"});
+  Refused(c.b, {Block(c.at("CN:speed"), "CN"),
+                "length 80 is shorter than its header and 8 links (88 bytes)"});
 }
 
 TEST(Mdf4Malformed, ABlockShorterThanItsFieldsIsRefused) {
   Case c;
   Put(c.b, c.at("CN:speed") + kLength, 24 + 8 * 8 + 8, 8);
-  Refused(c.b, {Block(c.at("CN:speed"), "CN"), "length 96 is shorter than its 8 links and 72 bytes of fields"});
+  Refused(c.b, {Block(c.at("CN:speed"), "CN"),
+                "length 96 is shorter than its 8 links and 72 bytes of fields"});
 }
 
 TEST(Mdf4Malformed, ACycleCountLargerThanTheDataIsRefused) {
   Case c;
   Put(c.b, c.at("CG1.1") + kCgCycles, kFast + 1, 8);
-  Refused(c.b, {Block(c.at("CG1.1"), "CG"), "cycle count 51", Block(c.at("DG1"), "DG") + " holds 700"});
+  Refused(c.b,
+          {Block(c.at("CG1.1"), "CG"), "cycle count 51", Block(c.at("DG1"), "DG") + " holds 700"});
 }
 
 TEST(Mdf4Malformed, AHugeCycleCountIsRefusedBeforeAnythingIsAllocated) {
@@ -707,7 +736,8 @@ TEST(Mdf4Malformed, RecordsOfZeroBytesAreRefused) {
 TEST(Mdf4Malformed, AChannelBeyondItsRecordIsRefused) {
   Case c;
   Put(c.b, c.at("CN:temp") + kCnByteOffset, 12, 4);  // 4 bytes at 12 in a 14-byte record
-  Refused(c.b, {Block(c.at("CN:temp"), "CN") + " ('temp'): its bytes 12 to 15 lie beyond the record's 14 data bytes"});
+  Refused(c.b, {Block(c.at("CN:temp"), "CN") +
+                " ('temp'): its bytes 12 to 15 lie beyond the record's 14 data bytes"});
 }
 
 TEST(Mdf4Malformed, AnIntegerOfMoreThan64BitsIsRefused) {
@@ -746,14 +776,16 @@ TEST(Mdf4Malformed, ARecordIdSizeOfThreeIsRefused) {
 TEST(Mdf4Malformed, DuplicateRecordIdsInOneDataGroupAreRefused) {
   Written w = WriteMdf4(TwoRates(Storage::kDt, true));
   Put(w.bytes, w.At("CG1.2") + kCgRecordId, 1, 8);
-  Refused(w.bytes, {Block(w.At("CG1.2"), "CG") + ": record ID 1 is also that of " + Block(w.At("CG1.1"), "CG")});
+  Refused(w.bytes, {Block(w.At("CG1.2"), "CG") + ": record ID 1 is also that of " +
+                    Block(w.At("CG1.1"), "CG")});
 }
 
 TEST(Mdf4Malformed, AnUnknownRecordIdInAnUnsortedGroupIsRefused) {
   Written w = WriteMdf4(TwoRates(Storage::kDt, true));
   const std::uint64_t data = w.At("DATA1") + 24;
   Put(w.bytes, data + 15, 9, 1);  // the second record (the first is the 15-byte fast one at t = 0)
-  Refused(w.bytes, {Block(w.At("DG1"), "DG") + ": the record at byte 15 of its data has record ID 9"});
+  Refused(w.bytes,
+          {Block(w.At("DG1"), "DG") + ": the record at byte 15 of its data has record ID 9"});
 }
 
 TEST(Mdf4Malformed, AVlsdLengthPastTheEndOfTheDataIsRefused) {
@@ -764,9 +796,10 @@ TEST(Mdf4Malformed, AVlsdLengthPastTheEndOfTheDataIsRefused) {
   WFile file;
   file.data_groups = {{groups}};
   Written w = WriteMdf4(file);
-  ASSERT_EQ(Read(w.bytes).groups.size(), 2u);  // the VLSD group is read past
+  ASSERT_EQ(Read(w.bytes).groups.size(), 2u);                 // the VLSD group is read past
   Put(w.bytes, w.At("DATA1") + 24 + 1 + 4 + 3 + 1, 1000, 4);  // the second item's length
-  Refused(w.bytes, {Block(w.At("CG1.3"), "CG") + ": its record at byte 8 of the data needs 1004 bytes"});
+  Refused(w.bytes,
+          {Block(w.At("CG1.3"), "CG") + ": its record at byte 8 of the data needs 1004 bytes"});
 }
 
 TEST(Mdf4Malformed, ADzThatDoesNotInflateIsRefused) {
@@ -776,19 +809,23 @@ TEST(Mdf4Malformed, ADzThatDoesNotInflateIsRefused) {
   Refused(w.bytes, {Block(w.At("DATA1"), "DZ") + ": its data does not inflate"});
   Written bad_header = WriteMdf4(TwoRates(Storage::kDz, false));
   bad_header.bytes[bad_header.At("DATA1") + kDzData] = 0;
-  Refused(bad_header.bytes, {Block(bad_header.At("DATA1"), "DZ") + ": its data does not inflate (zlib: "});
+  Refused(bad_header.bytes,
+          {Block(bad_header.At("DATA1"), "DZ") + ": its data does not inflate (zlib: "});
 }
 
 TEST(Mdf4Malformed, ADzWhoseInflatedSizeDiffersFromTheDeclaredOneIsRefused) {
   Written more = WriteMdf4(TwoRates(Storage::kDz, false));
   Put(more.bytes, more.At("DATA1") + kDzOrgLength, 700 + 1, 8);
-  Refused(more.bytes, {Block(more.At("DATA1"), "DZ") + ": it inflates to 700 bytes, not its declared 701"});
+  Refused(more.bytes,
+          {Block(more.At("DATA1"), "DZ") + ": it inflates to 700 bytes, not its declared 701"});
   Written less = WriteMdf4(TwoRates(Storage::kDz, false));
   Put(less.bytes, less.At("DATA1") + kDzOrgLength, 700 - 1, 8);
-  Refused(less.bytes, {Block(less.At("DATA1"), "DZ") + ": it inflates to more than its declared 699 bytes"});
+  Refused(less.bytes,
+          {Block(less.At("DATA1"), "DZ") + ": it inflates to more than its declared 699 bytes"});
   Written huge = WriteMdf4(TwoRates(Storage::kDz, false));
   Put(huge.bytes, huge.At("DATA1") + kDzOrgLength, std::uint64_t{1} << 60, 8);
-  Refused(huge.bytes, {Block(huge.At("DATA1"), "DZ") + ": its declared original size", "more than deflate can produce"});
+  Refused(huge.bytes, {Block(huge.At("DATA1"), "DZ") + ": its declared original size",
+                       "more than deflate can produce"});
 }
 
 TEST(Mdf4Malformed, ADzOfAnUnknownZipTypeOrATranspositionWithoutColumnsIsRefused) {
@@ -818,14 +855,16 @@ TEST(Mdf4Malformed, ADataBlockListedTwiceIsRefused) {
   Written w = WriteMdf4(TwoRates(Storage::kDl, false));
   const std::uint64_t dl = w.At("DL1");
   Put(w.bytes, dl + 24 + 16, w.At("DT1.0"), 8);
-  Refused(w.bytes, {Block(dl, "DL") + ": link 2 (data block 1) leads back to " + Block(w.At("DT1.0"), "DT")});
+  Refused(w.bytes, {Block(dl, "DL") + ": link 2 (data block 1) leads back to " +
+                    Block(w.At("DT1.0"), "DT")});
 }
 
 TEST(Mdf4Malformed, ARationalConversionWithAZeroDenominatorIsRefused) {
   WChannel x = Integer("x", kUintLe, 8, 0, {1, 2});
   x.conversion = {2, {1, 0, 0, 0, 0, 0}};
   const Written w = WriteMdf4(OneGroup({x}, 2));
-  Refused(w.bytes, {Block(w.At("CC:x"), "CC") + ": the rational conversion's denominator is identically zero"});
+  Refused(w.bytes, {Block(w.At("CC:x"), "CC") +
+                    ": the rational conversion's denominator is identically zero"});
 }
 
 TEST(Mdf4Malformed, AConversionWithTheWrongValueCountOrUnorderedKeysIsRefused) {
@@ -835,7 +874,8 @@ TEST(Mdf4Malformed, AConversionWithTheWrongValueCountOrUnorderedKeysIsRefused) {
   Refused(w.bytes, {Block(w.At("CC:x"), "CC") + ": a type 1 conversion cannot have 3 values"});
   x.conversion = {4, {0, 1, 5, 2, 5, 3}};
   const Written keys = WriteMdf4(OneGroup({x}, 2));
-  Refused(keys.bytes, {Block(keys.At("CC:x"), "CC") + ": the table's keys do not increase strictly at key 2"});
+  Refused(keys.bytes,
+          {Block(keys.At("CC:x"), "CC") + ": the table's keys do not increase strictly at key 2"});
   x.conversion = {1, {0, INFINITY}};
   const Written inf = WriteMdf4(OneGroup({x}, 2));
   Refused(inf.bytes, {Block(inf.At("CC:x"), "CC") + ": value 1 is not finite"});
@@ -853,10 +893,12 @@ TEST(Mdf4Malformed, AChannelWithoutANameIsRefused) {
 TEST(Mdf4Malformed, SeveralGroupsWithoutRecordIdsAreRefused) {
   Written w = WriteMdf4(TwoRates(Storage::kDt, true));
   Put(w.bytes, w.At("DG1") + kDgRecIdSize, 0, 1);
-  Refused(w.bytes, {Block(w.At("CG1.1"), "CG") + ": record ID 1 does not fit in the DG's 0-byte record IDs"});
+  Refused(w.bytes, {Block(w.At("CG1.1"), "CG") +
+                    ": record ID 1 does not fit in the DG's 0-byte record IDs"});
   Put(w.bytes, w.At("CG1.1") + kCgRecordId, 0, 8);
   Put(w.bytes, w.At("CG1.2") + kCgRecordId, 0, 8);
-  Refused(w.bytes, {Block(w.At("CG1.2"), "CG") + ": record ID 0 is also that of " + Block(w.At("CG1.1"), "CG")});
+  Refused(w.bytes, {Block(w.At("CG1.2"), "CG") + ": record ID 0 is also that of " +
+                    Block(w.At("CG1.1"), "CG")});
 }
 
 TEST(Mdf4Malformed, AGroupWhoseDataIsLongerThanItsCycleCountIsRefused) {

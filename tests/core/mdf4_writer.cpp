@@ -114,9 +114,11 @@ std::vector<unsigned char> Record(const WGroup& g, const Layout& l, std::size_t 
   for (std::size_t i = 0; i < g.channels.size(); ++i) {
     const WChannel& c = g.channels[i];
     if (c.inval_bit >= 0 && k < c.invalid.size() && c.invalid[k])
-      r[static_cast<std::size_t>(l.data_bytes + c.inval_bit / 8)] |= static_cast<unsigned char>(1 << (c.inval_bit % 8));
+      r[static_cast<std::size_t>(l.data_bytes + c.inval_bit / 8)] |=
+          static_cast<unsigned char>(1 << (c.inval_bit % 8));
     if (Virtual(c) || k >= c.raw.size()) continue;
-    const std::uint64_t mask = c.bit_count >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << c.bit_count) - 1;
+    const std::uint64_t mask =
+        c.bit_count >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << c.bit_count) - 1;
     const std::uint64_t v = (c.raw[k] & mask) << c.bit_offset;
     const int n = Bytes(c);
     const bool big = c.data_type == kUintBe || c.data_type == kIntBe || c.data_type == kFloatBe;
@@ -199,8 +201,9 @@ std::uint64_t WriteData(FileOut& f, const WDataGroup& dg, const std::vector<unsi
   cuts.push_back(stream.size());
   std::vector<std::uint64_t> links = {0};
   for (std::size_t i = 0; i < k; ++i) {
-    const std::vector<unsigned char> part(stream.begin() + static_cast<std::ptrdiff_t>(cuts[i]),
-                                          stream.begin() + static_cast<std::ptrdiff_t>(cuts[i + 1]));
+    const std::vector<unsigned char> part(
+        stream.begin() + static_cast<std::ptrdiff_t>(cuts[i]),
+        stream.begin() + static_cast<std::ptrdiff_t>(cuts[i + 1]));
     const bool zipped = dg.storage == Storage::kHlDz;
     links.push_back(zipped ? Dz(f, part, 0) : f.Block("DT", {}, part));
     w->blocks[(zipped ? "DZ" : "DT") + n + "." + std::to_string(i)] = links.back();
@@ -209,7 +212,8 @@ std::uint64_t WriteData(FileOut& f, const WDataGroup& dg, const std::vector<unsi
   d.U(equal ? 1 : 0, 1);
   d.U(0, 3);
   d.U(k, 4);
-  if (equal) d.U(piece, 8);
+  if (equal)
+    d.U(piece, 8);
   else
     for (std::size_t i = 0; i < k; ++i) d.U(cuts[i], 8);
   const std::uint64_t dl = f.Block("DL", links, d.b);
@@ -309,7 +313,10 @@ Written WriteMdf4(const WFile& file) {
     }
     // The records: a sorted DG's in order; an unsorted one's VLSD items first, then the others
     // by time (a stable merge: ties in group order).
-    struct Ref { double t; std::size_t g, k; };
+    struct Ref {
+      double t;
+      std::size_t g, k;
+    };
     std::vector<Ref> order;
     for (std::size_t i = 0; i < dg.groups.size(); ++i) {
       const WGroup& g = dg.groups[i];
@@ -317,7 +324,8 @@ Written WriteMdf4(const WFile& file) {
       for (std::size_t k = 0; k < n; ++k)
         order.push_back({g.vlsd_items.empty() ? When(g, k) : -INFINITY, i, k});
     }
-    std::stable_sort(order.begin(), order.end(), [](const Ref& a, const Ref& b) { return a.t < b.t; });
+    std::stable_sort(order.begin(), order.end(),
+                     [](const Ref& a, const Ref& b) { return a.t < b.t; });
     std::vector<unsigned char> stream;
     for (const Ref& r : order) {
       const WGroup& g = dg.groups[r.g];
@@ -333,10 +341,14 @@ Written WriteMdf4(const WFile& file) {
       stream.insert(stream.end(), o.b.begin(), o.b.end());
     }
     const std::uint32_t record_size =
-        dg.groups.empty() ? 1 : static_cast<std::uint32_t>(rid + layouts[0].data_bytes + layouts[0].inval_bytes);
-    const std::uint64_t data = stream.empty() && dg.groups.empty()
-                                   ? 0 : WriteData(f, dg, stream, std::max<std::uint32_t>(record_size, 1),
-                                                   static_cast<int>(d + 1), &w);
+        dg.groups.empty()
+            ? 1
+            : static_cast<std::uint32_t>(rid + layouts[0].data_bytes + layouts[0].inval_bytes);
+    const std::uint64_t data =
+        stream.empty() && dg.groups.empty()
+            ? 0
+            : WriteData(f, dg, stream, std::max<std::uint32_t>(record_size, 1),
+                        static_cast<int>(d + 1), &w);
     w.blocks["DATA" + dn] = data;
     Out o;
     o.U(static_cast<std::uint64_t>(rid), 1);
@@ -347,10 +359,10 @@ Written WriteMdf4(const WFile& file) {
   // The DG chain: each DG's next link (the blocks are already written).
   std::vector<unsigned char>& b = f.bytes();
   for (std::size_t d = 0; d + 1 < dgs.size(); ++d) Put(b, dgs[d] + 24, dgs[d + 1], 8);
-  const std::uint64_t fh_comment =
-      f.Text("<FHcomment><TX>written by greybench's tests</TX><tool_id>greybench</tool_id>"
-             "<tool_vendor>greybench</tool_vendor><tool_version>0</tool_version></FHcomment>",
-             "MD");
+  const std::uint64_t fh_comment = f.Text(
+      "<FHcomment><TX>written by greybench's tests</TX><tool_id>greybench</tool_id>"
+      "<tool_vendor>greybench</tool_vendor><tool_version>0</tool_version></FHcomment>",
+      "MD");
   Out fh;
   fh.U(0, 8);
   fh.U(0, 8);
@@ -382,11 +394,13 @@ Written WriteMdf4(const WFile& file) {
 
 void WriteBytes(const std::string& path, const std::vector<unsigned char>& bytes) {
   std::ofstream(path, std::ios::binary)
-      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+      .write(reinterpret_cast<const char*>(bytes.data()),
+             static_cast<std::streamsize>(bytes.size()));
 }
 
 void Put(std::vector<unsigned char>& bytes, std::uint64_t at, std::uint64_t value, int size) {
-  for (int i = 0; i < size; ++i) bytes.at(at + static_cast<std::uint64_t>(i)) = static_cast<unsigned char>(value >> (8 * i));
+  for (int i = 0; i < size; ++i)
+    bytes.at(at + static_cast<std::uint64_t>(i)) = static_cast<unsigned char>(value >> (8 * i));
 }
 
 }  // namespace gb::data::mdf4_testing

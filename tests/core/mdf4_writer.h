@@ -21,18 +21,18 @@ inline constexpr int kUintLe = 0, kUintBe = 1, kIntLe = 2, kIntBe = 3, kFloatLe 
                      kUtf8 = 7;
 
 struct WConversion {
-  int type = -1;                   // -1: no CC block; else cc_type with cc_val = p
+  int type = -1;  // -1: no CC block; else cc_type with cc_val = p
   std::vector<double> p;
 };
 
 struct WChannel {
   std::string name, unit;
-  int cn_type = 0;                 // 0 data, 2 master, 3 virtual master, 6 virtual data
-  int sync = 0;                    // 1 time for a master
+  int cn_type = 0;  // 0 data, 2 master, 3 virtual master, 6 virtual data
+  int sync = 0;     // 1 time for a master
   int data_type = kFloatLe;
   int bit_count = 64;
   int bit_offset = 0;
-  int byte_offset = -1;            // -1: the byte after the previous channel's
+  int byte_offset = -1;  // -1: the byte after the previous channel's
   WConversion conversion;
   std::vector<std::uint64_t> raw;  // the raw bits of each record (a float's bit pattern)
   int inval_bit = -1;              // >= 0: cn_flags bit 1, this invalidation bit
@@ -49,12 +49,12 @@ WChannel Integer(std::string name, int data_type, int bit_count, int bit_offset,
                  const std::vector<std::int64_t>& values);
 
 struct WGroup {
-  std::string name;                // acquisition name ("" writes no TX)
+  std::string name;  // acquisition name ("" writes no TX)
   std::size_t records = 0;
   std::vector<WChannel> channels;
-  int data_bytes = -1;             // -1: what the channels need
-  int inval_bytes = -1;            // -1: what the invalidation bits need
-  std::uint64_t record_id = 0;     // unsorted DG: 0 gives the group's 1-based index in its DG
+  int data_bytes = -1;                  // -1: what the channels need
+  int inval_bytes = -1;                 // -1: what the invalidation bits need
+  std::uint64_t record_id = 0;          // unsorted DG: 0 gives the group's 1-based index in its DG
   std::vector<std::string> vlsd_items;  // non-empty: a VLSD group (cg_flags bit 0) of these items
 };
 
@@ -69,10 +69,10 @@ inline WGroup Group(std::string name, std::size_t records, std::vector<WChannel>
 enum class Storage { kDt, kDl, kDlEqual, kDz, kDzTransposed, kHlDz };
 
 struct WDataGroup {
-  std::vector<WGroup> groups;      // more than one: unsorted
-  int rec_id_size = -1;            // -1: 0 when sorted, 1 when unsorted
+  std::vector<WGroup> groups;  // more than one: unsorted
+  int rec_id_size = -1;        // -1: 0 when sorted, 1 when unsorted
   Storage storage = Storage::kDt;
-  int blocks = 3;                  // the DL's blocks
+  int blocks = 3;  // the DL's blocks
 };
 
 struct WFile {
