@@ -1102,11 +1102,13 @@ Result<std::shared_ptr<const Dataset>> Mdf4ToDataset(const Mdf4File& file,
   // The channels and their column names.
   std::vector<std::pair<int, std::string>> chosen;
   if (format.channels.empty()) {
+    std::map<std::string_view, int> count;
+    for (const Mdf4Channel& c : file.channels) ++count[c.name];
     for (std::size_t i = 0; i < file.channels.size(); ++i) {
       const Mdf4Channel& c = file.channels[i];
       const Mdf4Group& g = file.groups[static_cast<std::size_t>(c.group)];
       if (!g.has_master) continue;
-      const bool unique = file.Find(c.name) == static_cast<int>(i);
+      const bool unique = count[c.name] == 1;
       chosen.emplace_back(static_cast<int>(i),
                           unique ? c.name : c.name + "@" + std::to_string(g.number));
     }
@@ -1148,13 +1150,13 @@ Result<std::shared_ptr<const Dataset>> Mdf4ToDataset(const Mdf4File& file,
       return fail("time base " + GroupLabel(file.groups[static_cast<std::size_t>(base)]) +
                   " has no master channel");
   } else {
+    std::size_t most = 0;  // records of the base
     for (const auto& [c, name] : chosen) {
       const int g = file.channels[static_cast<std::size_t>(c)].group;
-      if (base < 0 ||
-          file.groups[g].time.size() > file.groups[static_cast<std::size_t>(base)].time.size() ||
-          (file.groups[g].time.size() == file.groups[static_cast<std::size_t>(base)].time.size() &&
-           g < base)) {
+      const std::size_t n = file.groups[static_cast<std::size_t>(g)].time.size();
+      if (base < 0 || n > most || (n == most && g < base)) {
         base = g;
+        most = n;
       }
     }
   }

@@ -4,6 +4,7 @@
 // What is read
 //   - MDF 4.00 to 4.2x (id_ver 400-499: of 4.3's additions, zstd/lz4 DZ blocks are refused and
 //     VLSC channels and strings with a byte order mark skipped, where met).
+//   - DZ and HL blocks (MDF 4.10's) are read whatever version the file states.
 //   - Every data group (DG), sorted (one channel group) or unsorted (several channel groups whose
 //     records are told apart by a 1, 2, 4 or 8-byte record ID); the records of a VLSD channel
 //     group in an unsorted DG are skipped by their u32 length prefix.
