@@ -908,5 +908,94 @@ TEST(Mdf4Malformed, AGroupWhoseDataIsLongerThanItsCycleCountIsRefused) {
   Refused(c.b, {Block(c.at("CG1.1"), "CG"), "needs 650 bytes of 13-byte records", "holds 700"});
 }
 
+TEST(Mdf4Malformed, AFileWithoutItsHeaderBlockIsRefused) {
+  Case c;
+  c.b[64] = 'X';
+  Refused(c.b, {"identification block at 0x0: the HD block that must follow it: no block starts "
+                "at 0x40 (it holds 58 23 48 44)"});
+}
+
+TEST(Mdf4Malformed, AnInvalidationBitBeyondTheInvalidationBytesIsRefused) {
+  WChannel x = Integer("x", kUintLe, 8, 0, {1, 2});
+  x.inval_bit = 3;
+  x.invalid = {false, false};
+  Written w = WriteMdf4(OneGroup({x}, 2));
+  Put(w.bytes, w.At("CN:x") + 104, 8, 4);  // bit 8 of one invalidation byte
+  Refused(w.bytes, {Block(w.At("CN:x"), "CN") + " ('x'): invalidation bit 8 lies beyond the "
+                                                "record's 1 invalidation bytes"});
+}
+
+TEST(Mdf4Malformed, AnEqualLengthDlWhoseBlockHasAnotherLengthIsRefused) {
+  Written w = WriteMdf4(TwoRates(Storage::kDlEqual, false));
+  const std::uint64_t dl = w.At("DL1");
+  Put(w.bytes, dl + 24 + 8 * 4 + 8, 200, 8);  // the equal length: 234 written
+  Refused(w.bytes, {Block(w.At("DT1.0"), "DT") + ": it holds 234 bytes, but its DL block at " +
+                    fmt::format("{:#x}", dl) + " gives equal lengths of 200"});
+}
+
+TEST(Mdf4Malformed, ADzOfAnotherBlockTypeWhereDataBelongsIsRefused) {
+  Written w = WriteMdf4(TwoRates(Storage::kDz, false));
+  w.bytes[w.At("DATA1") + 24] = 'S';
+  w.bytes[w.At("DATA1") + 25] = 'D';
+  Refused(w.bytes, {Block(w.At("DATA1"), "DZ") +
+                    ": it holds a compressed 'SD' block where a DT block belongs"});
+}
+
+TEST(Mdf4Malformed, ColumnOrientedStorageIsRefusedByName) {
+  Written w = WriteMdf4(TwoRates(Storage::kDt, false));
+  w.bytes[w.At("DATA1") + 2] = 'L';
+  w.bytes[w.At("DATA1") + 3] = 'D';
+  Refused(w.bytes, {Block(w.At("DATA1"), "LD") + ": column-oriented storage"});
+}
+
+TEST(Mdf4, ARowBetweenAValidAndAnInvalidSampleIsMissingWhenInterpolated) {
+  WChannel x = Float64("x", {0, 10, 20});
+  x.inval_bit = 0;
+  x.invalid = {false, true, false};
+  WFile file;
+  file.data_groups = {{{Group("a", 3, {TimeMaster({0, 1, 2}), x})}},
+                      {{Group("b", 5, {TimeMaster({0, 0.5, 1, 1.5, 2}), Float64("y", {})})}}};
+  file.data_groups[1].groups[0].channels[1].raw.assign(5, 0);
+  Mdf4Format format;
+  format.channels = {"x"};
+  format.time_base = "b";
+  format.interpolation = Mdf4Format::Interpolation::kLinear;
+  ExpectSame(Column(*ToDataset(Read(file), format), "x"), {0, NAN, NAN, NAN, 20}, "x");
+}
+
+TEST(Mdf4, AnUnknownTimeBaseAndAGroupWithoutMasterAreRefused) {
+  const Mdf4File f = Read(TwoRates(Storage::kDt, false));
+  Mdf4Format format;
+  format.time_base = "medium";
+  Result<std::shared_ptr<const Dataset>> r = Mdf4ToDataset(f, "run.mf4", format);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().ToString(),
+            "run.mf4: time base 'medium' is neither a group (its number 1 to 2, or its name) nor a "
+            "channel");
+  WFile file;
+  file.data_groups = {{{Group("nomaster", 2, {Float64("x", {1, 2})})}}};
+  const Mdf4File g = Read(file);
+  EXPECT_FALSE(g.groups[0].has_master);
+  EXPECT_TRUE(ToDataset(g, {})->columns.empty());
+  format = {};
+  format.channels = {"x"};
+  r = Mdf4ToDataset(g, "run.mf4", format);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().ToString(),
+            "run.mf4: channel 'x' is in group 1 ('nomaster'), which has no master channel: its "
+            "samples have no times");
+}
+
+TEST(Mdf4, GroupsOfDifferentMasterKindsAreRefusedTogether) {
+  WFile file;
+  WChannel angle = TimeMaster({0, 1});
+  angle.sync = 2;
+  file.data_groups = {{{Group("time", 2, {TimeMaster({0, 1}), Float64("x", {1, 2})})}},
+                      {{Group("angle", 2, {angle, Float64("y", {1, 2})})}}};
+  const Result<std::shared_ptr<const Dataset>> r = Mdf4ToDataset(Read(file), "run.mf4", {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().ToString().find("have masters of different kinds"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace gb::data::mdf4_test
