@@ -45,14 +45,10 @@ Error internal::FileError(const std::string& file, int line, int col, std::strin
 
 namespace {
 
+using internal::EqualsIgnoringCase;
+
 // ---------------------------------------------------------------------------------------------
 // Cells
-
-bool EqualsIgnoringCase(std::string_view a, std::string_view b) {
-  return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](char x, char y) {
-    return (x >= 'A' && x <= 'Z' ? x - 'A' + 'a' : x) == (y >= 'A' && y <= 'Z' ? y - 'A' + 'a' : y);
-  });
-}
 
 bool IsMissingMarker(std::string_view s) {
   return s.empty() || EqualsIgnoringCase(s, "na") || EqualsIgnoringCase(s, "nan");

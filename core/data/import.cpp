@@ -12,10 +12,13 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iterator>
 #include <numbers>
 #include <set>
 
+#include "core/data/internal.h"
+#include "core/data/mdf4.h"
 #include "core/expr/expr.h"
 
 namespace gb::data {
@@ -169,6 +172,10 @@ Result<DatasetSpec> ParseDatasetSpec(const Json& entry, const std::string& origi
       }
     } else if (key == "resample") {
       if (Status s = positive(v, key, &spec.resample); !s) return s.error();
+    } else if (key == "interpolation") {
+      const std::string s = v.is_string() ? v.get<std::string>() : "";
+      if (s != "hold" && s != "linear") return KeyError(spec, key, "expected \"hold\" or \"linear\"");
+      spec.interpolation = s;
     } else if (key == "role") {
       const std::string s = v.is_string() ? v.get<std::string>() : "";
       if (s == "estimation") spec.role = Role::kEstimation;
@@ -177,7 +184,8 @@ Result<DatasetSpec> ParseDatasetSpec(const Json& entry, const std::string& origi
     } else {
       return KeyError(spec, key,
                       "unknown key (a dataset has file, name, header, separator, decimal, "
-                      "columns, time, sample_time, map, range, detrend, resample and role)");
+                      "columns, time, sample_time, map, range, detrend, resample, "
+                      "interpolation and role)");
     }
   }
   if (spec.file.empty()) return KeyError(spec, "", "the dataset names no file: add \"file\"");
@@ -221,6 +229,7 @@ Json DatasetSpecToJson(const DatasetSpec& spec, const std::string& file) {
     }
   }
   if (spec.resample > 0) j["resample"] = spec.resample;
+  if (!spec.interpolation.empty()) j["interpolation"] = spec.interpolation;
   if (spec.role != Role::kEstimation) j["role"] = RoleName(spec.role);
   return j;
 }
@@ -247,7 +256,58 @@ CsvFormat FormatOf(const DatasetSpec& spec, std::string_view text) {
   return format;
 }
 
+bool IsMdfFile(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  using internal::EqualsIgnoringCase;
+  if (EqualsIgnoringCase(ext, ".mf4") || EqualsIgnoringCase(ext, ".mdf")) return true;
+  std::ifstream in(path, std::ios::binary);
+  unsigned char head[8] = {};
+  if (!in.read(reinterpret_cast<char*>(head), sizeof head)) return false;
+  return LooksLikeMdf(head);
+}
+
+namespace {
+
+Result<std::shared_ptr<const Dataset>> ReadMdfDataset(const DatasetSpec& spec) {
+  for (const auto& [key, set] : {std::pair{"header", spec.header.has_value()},
+                                 std::pair{"separator", spec.separator.has_value()},
+                                 std::pair{"decimal", spec.decimal.has_value()}}) {
+    if (set)
+      return KeyError(spec, key,
+                      fmt::format("a key of CSV files, and {} is an ASAM MDF file (its channels "
+                                  "are chosen by \"columns\", its time base by \"time\")",
+                                  spec.file));
+  }
+  Result<Mdf4File> file = ReadMdf4File(spec.file);
+  if (!file) return file.error();
+  Mdf4Format format;
+  format.channels = spec.columns;
+  format.time_base = spec.time;
+  format.sample_time = spec.sample_time;
+  format.interpolation = spec.interpolation == "linear" ? Mdf4Format::Interpolation::kLinear
+                                                        : Mdf4Format::Interpolation::kHold;
+  format.range = spec.range;
+  return Mdf4ToDataset(*file, spec.file, format);
+}
+
+}  // namespace
+
 Result<std::shared_ptr<const Dataset>> ReadDataset(const DatasetSpec& spec) {
+  if (IsMdfFile(spec.file)) {
+    Result<std::shared_ptr<const Dataset>> read = ReadMdfDataset(spec);
+    if (!read) return read.error();
+    if (spec.range && (*read)->rows() < 2) {
+      const std::size_t n = (*read)->rows();
+      return KeyError(spec, "range",
+                      fmt::format("[{:g}, {:g}] holds {} row{} of the record; at least 2 are needed",
+                                  (*spec.range)[0], (*spec.range)[1], n, n == 1 ? "" : "s"));
+    }
+    return Prepare(std::move(*read), spec);
+  }
+  if (!spec.interpolation.empty())
+    return KeyError(spec, "interpolation",
+                    "a key of ASAM MDF files (channels at different rates); " + spec.file +
+                        " is read as a CSV file");
   if (spec.plain) return ReadCsvFile(spec.file);
   Result<std::shared_ptr<const Dataset>> read =
       ReadCsvFile(spec.file, [&spec](std::string_view text) { return FormatOf(spec, text); });

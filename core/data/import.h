@@ -17,6 +17,15 @@
 //    "resample": 0.5,             a new sample time, after an anti-alias filter
 //    "role": "validation"}        "estimation" (default: fitted) or "validation" (not fitted)
 //
+// An ASAM MDF 4 file (`.mf4`, `.mdf`, or a file that starts with MDF's magic; mdf4.h) takes the
+// same keys but header, separator and decimal, with these meanings: `columns` the channels to
+// read (names, or name@G for a name in several channel groups; default every channel of every
+// group with a master), `time` the time base (a channel group by its number or name, or a
+// channel, whose master gives the rows' times; default the channels' group with the most
+// samples), `sample_time` a uniform grid instead, and
+//    "interpolation": "linear"    how a channel at another rate is brought onto the rows' times:
+//                                 "hold" (default: its last sample) or "linear" (MDF only)
+//
 // Preparation runs in that order: the file is read (header, separator, decimal, columns, time
 // or sample_time), keeping the rows of `range` (every row is still checked), then `map` adds its
 // columns (replacing one of the same name), `detrend` subtracts each named column's mean or least-squares line over those rows
@@ -58,6 +67,7 @@ struct DatasetSpec {
   // (column, how); the column "" is every column (the one-word form).
   std::vector<std::pair<std::string, Detrend>> detrend;
   double resample = 0;
+  std::string interpolation;  // MDF only: "hold" or "linear"; "": hold
   Role role = Role::kEstimation;
 
   // Where the entry was written, for messages: the project file and the JSON path of the entry
@@ -91,7 +101,11 @@ Json DatasetSpecToJson(const DatasetSpec& spec, const std::string& file);
 // tells from `text` where not; its columns, time, sample time and range.
 CsvFormat FormatOf(const DatasetSpec& spec, std::string_view text);
 
-// Reads and prepares the recording. A plain spec reads exactly as ReadCsvFile(spec.file).
+// Whether `path` is an ASAM MDF file: its name ends in .mf4 or .mdf (any case), or its first
+// bytes are MDF's magic.
+bool IsMdfFile(const std::string& path);
+
+// Reads and prepares the recording (a CSV file, or an MDF file: mdf4.h's Mdf4ToDataset). A plain spec reads exactly as ReadCsvFile(spec.file).
 // Errors in the file name the file and line; errors of a key name the project file and the key's
 // JSON path (`case.json: datasets[0].map.ilambda: column 'Lamda' is not in the file; ...`).
 Result<std::shared_ptr<const Dataset>> ReadDataset(const DatasetSpec& spec);

@@ -3,6 +3,7 @@
 // things about them; not part of the public API.
 #pragma once
 
+#include <algorithm>
 #include <deque>
 #include <limits>
 #include <string>
@@ -19,6 +20,13 @@ inline constexpr std::string_view kByteOrderMark = "\xEF\xBB\xBF";
 
 // An input Error at `file`:`line`:`col` (1-based; 0 = unknown).
 Error FileError(const std::string& file, int line, int col, std::string message);
+
+// ASCII letters compared without case ("NaN" and "nan", ".MF4" and ".mf4").
+inline bool EqualsIgnoringCase(std::string_view a, std::string_view b) {
+  return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](char x, char y) {
+    return (x >= 'A' && x <= 'Z' ? x - 'A' + 'a' : x) == (y >= 'A' && y <= 'Z' ? y - 'A' + 'a' : y);
+  });
+}
 
 enum class Cell { kNumber, kMissing, kNotANumber };
 

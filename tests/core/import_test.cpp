@@ -12,6 +12,7 @@
 //   Resample     Decimate against sinusoids, gaps and the record's ends
 //   Files        ReadDataset end to end, the bundled Bosch records
 #include "core/data/import.h"
+#include "core/data/mdf4.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -568,6 +569,69 @@ TEST(Files, TheBoschRecordsReadByTheirKeysAlone) {
   EXPECT_EQ((*d)->time[10], 10 * 0.1);
   EXPECT_EQ(Values(**d, "n")[0], 1.56428813);
   EXPECT_EQ(Values(**d, "Tcat")[0], 1.43876136);
+}
+
+// An ASAM MDF 4 recording (tests/data/mdf4/two_rates.mf4: group "fast", 50 records at 100 Hz
+// with speed and temp; group "slow", 5 at 10 Hz with pressure) read through a project's keys:
+// `columns` picks the channels, `time` the time base, `interpolation` the way onto it; the same
+// numbers as mdf4.h reads directly, and the preparation keys apply as to a CSV.
+const std::string kTwoRates = std::string(GREYBENCH_SOURCE_DIR) + "/tests/data/mdf4/two_rates.mf4";
+
+TEST(Files, AnMdfRecordingReadsByItsKeysAsTheMdfReaderReadsIt) {
+  EXPECT_TRUE(IsMdfFile(kTwoRates));
+  EXPECT_FALSE(IsMdfFile(std::string(GREYBENCH_SOURCE_DIR) + "/assets/data/fuel_f1.csv"));
+  DatasetSpec s = SpecOf(R"({"file": "x", "columns": ["speed", "pressure"], "time": "slow"})");
+  s.file = kTwoRates;
+  Result<std::shared_ptr<const Dataset>> d = ReadDataset(s);
+  ASSERT_TRUE(d.ok()) << d.error().ToString();
+  Result<Mdf4File> file = ReadMdf4File(kTwoRates);
+  ASSERT_TRUE(file.ok());
+  Mdf4Format format;
+  format.channels = {"speed", "pressure"};
+  format.time_base = "slow";
+  Result<std::shared_ptr<const Dataset>> direct = Mdf4ToDataset(*file, kTwoRates, format);
+  ASSERT_TRUE(direct.ok());
+  ExpectSameData(**d, **direct);
+  EXPECT_EQ((*d)->rows(), 5u);
+  // speed on the 10 Hz rows, held: its sample at t = k/10 (record 10 k), -10 + 0.5 (1237 · 10 k).
+  EXPECT_EQ(Values(**d, "speed")[2], -10 + 0.5 * (1237 * 20));
+  // Linear on the 100 Hz rows: pressure between its 10 Hz samples (1000 + 1.5 k at t = k/10).
+  s = SpecOf(R"({"file": "x", "columns": ["speed", "pressure"], "time": "fast",
+                 "interpolation": "linear", "range": [0.1, 0.3], "map": {"p_bar": "pressure/1000"}})");
+  s.file = kTwoRates;
+  d = ReadDataset(s);
+  ASSERT_TRUE(d.ok()) << d.error().ToString();
+  ASSERT_EQ((*d)->rows(), 21u);
+  EXPECT_NEAR((*d)->time[5], 0.15, 1e-12);
+  EXPECT_NEAR(Values(**d, "pressure")[5], 1000 + 1.5 * 1.5, 1e-9);
+  EXPECT_NEAR(Values(**d, "p_bar")[5], 1.00225, 1e-12);
+  // The keys round-trip.
+  auto back = ParseDatasetSpec(DatasetSpecToJson(s, "run.mf4"), "p.json", "datasets[0]");
+  ASSERT_TRUE(back.ok()) << back.error().ToString();
+  EXPECT_EQ(back->interpolation, "linear");
+}
+
+TEST(Files, KeysOfTheOtherFormatAreRefusedNamingTheKey) {
+  DatasetSpec s = SpecOf(R"({"file": "x", "decimal": ","})");
+  s.file = kTwoRates;
+  Result<std::shared_ptr<const Dataset>> d = ReadDataset(s);
+  ASSERT_FALSE(d.ok());
+  EXPECT_EQ(d.error().path, "datasets[0].decimal");
+  EXPECT_NE(d.error().message.find("is an ASAM MDF file"), std::string::npos) << d.error().message;
+  s = SpecOf(R"({"file": "x", "interpolation": "linear"})");
+  s.file = std::string(GREYBENCH_SOURCE_DIR) + "/assets/data/fuel_f1.csv";
+  d = ReadDataset(s);
+  ASSERT_FALSE(d.ok());
+  EXPECT_EQ(d.error().path, "datasets[0].interpolation");
+  // A channel the file lacks: the file and its channels.
+  s = SpecOf(R"({"file": "x", "columns": ["speeed"]})");
+  s.file = kTwoRates;
+  d = ReadDataset(s);
+  ASSERT_FALSE(d.ok());
+  EXPECT_NE(d.error().ToString().find("two_rates.mf4"), std::string::npos) << d.error().ToString();
+  EXPECT_NE(d.error().message.find("speed"), std::string::npos) << d.error().message;
+  EXPECT_EQ(SpecError(R"({"file": "x", "interpolation": "cubic"})"),
+            "case.json: datasets[0].interpolation: expected \"hold\" or \"linear\"");
 }
 
 }  // namespace
