@@ -17,9 +17,9 @@ seconds=${1:-60}
 build=build-asan
 jobs=${GREYBENCH_JOBS:-$(nproc)}
 parallel=${FUZZ_PARALLEL:-$(nproc)}
-# cli drives the whole command line (tests/fuzz/cli_fuzz.cpp). On CI's 2 cores the four targets
-# run in two rounds of SECONDS, as three did: cli takes the slot where project ran alone.
-targets=(csv model project cli)
+# cli drives the whole command line (tests/fuzz/cli_fuzz.cpp); mdf4 the ASAM MDF 4 reader
+# (tests/fuzz/mdf4_fuzz.cpp). On CI's 2 cores the five targets run in three rounds of SECONDS.
+targets=(csv model project cli mdf4)
 
 if ! command -v clang++ >/dev/null; then
   echo "fuzz.sh: clang++ is needed (apt-get install clang libclang-rt-dev)" >&2

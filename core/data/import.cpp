@@ -280,6 +280,12 @@ Result<std::shared_ptr<const Dataset>> ReadMdfDataset(const DatasetSpec& spec) {
   }
   Result<Mdf4File> file = ReadMdf4File(spec.file);
   if (!file) return file.error();
+  return Mdf4ToDataset(*file, spec.file, Mdf4FormatOf(spec));
+}
+
+}  // namespace
+
+Mdf4Format Mdf4FormatOf(const DatasetSpec& spec) {
   Mdf4Format format;
   format.channels = spec.columns;
   format.time_base = spec.time;
@@ -287,10 +293,8 @@ Result<std::shared_ptr<const Dataset>> ReadMdfDataset(const DatasetSpec& spec) {
   format.interpolation = spec.interpolation == "linear" ? Mdf4Format::Interpolation::kLinear
                                                         : Mdf4Format::Interpolation::kHold;
   format.range = spec.range;
-  return Mdf4ToDataset(*file, spec.file, format);
+  return format;
 }
-
-}  // namespace
 
 Result<std::shared_ptr<const Dataset>> ReadDataset(const DatasetSpec& spec) {
   if (IsMdfFile(spec.file)) {

@@ -101,6 +101,11 @@ Json DatasetSpecToJson(const DatasetSpec& spec, const std::string& file);
 // tells from `text` where not; its columns, time, sample time and range.
 CsvFormat FormatOf(const DatasetSpec& spec, std::string_view text);
 
+// How the entry's MDF file is brought onto one time base (mdf4.h): columns, time, sample_time,
+// interpolation and range.
+struct Mdf4Format;
+Mdf4Format Mdf4FormatOf(const DatasetSpec& spec);
+
 // Whether `path` is an ASAM MDF file: its name ends in .mf4 or .mdf (any case), or its first
 // bytes are MDF's magic.
 bool IsMdfFile(const std::string& path);

@@ -468,5 +468,63 @@ TEST(ImportDialog, ARangeADetrendAndAResampleBecomeTheEntrysKeys) {
   }
 }
 
+// An ASAM MDF 4 recording in the dialog: its channels listed with their groups and rates,
+// picked, on a chosen time base; the entry reads as the project's keys read it.
+TEST(ImportDialog, AnMdfRecordingsChannelsArePickedOntoATimeBase) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("greybench-import-mdf-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::filesystem::copy_file(kSource + "/tests/data/mdf4/two_rates.mf4", dir / "two_rates.mf4",
+                             std::filesystem::copy_options::overwrite_existing);
+  std::ofstream(dir / "model.json") << R"({"greybench_model": 1, "name": "p", "states": ["x"],
+      "inputs": ["speed"], "outputs": ["pressure"],
+      "parameters": {"a": {"value": 1, "lower": 0.01, "upper": 100}, "b": 0.001, "c": 1000,
+                     "s": {"value": 1, "lower": 1e-6}, "r": {"value": 1, "lower": 1e-6}},
+      "drift": {"x": "-a*x + b*speed"}, "diffusion": {"x": "s"},
+      "observation": {"pressure": "c + x"}, "measurement_variance": {"pressure": "r"}})";
+  std::ofstream(dir / "empty.json")
+      << R"({"greybench_project": 1, "name": "mdf", "model": "model.json", "datasets": []})";
+  WorkbenchDriver d;
+  d.Open((dir / "empty.json").string());
+  ASSERT_TRUE(d.state.project) << d.state.open_error;
+  OpenImportDialog(d.state, (dir / "two_rates.mf4").string());
+  ImportForm& f = d.state.shell.import;
+  ASSERT_TRUE(f.mdf);
+  ASSERT_TRUE(f.mdf_file) << f.read_error;
+  EXPECT_EQ(f.channels, (std::vector<std::string>{"speed", "temp", "pressure"}));
+  EXPECT_EQ(f.time_base, 1);  // "fast", the group with the most samples
+  ASSERT_TRUE(f.check_ok) << f.check;
+  // temp left out, the 10 Hz group's times.
+  f.use[1] = false;
+  f.time_base = 2;
+  CheckImport(&f, &*d.state.model);
+  ASSERT_TRUE(f.check_ok) << f.check;
+  EXPECT_NE(f.check.find("5 rows"), std::string::npos) << f.check;
+  const data::DatasetSpec spec = ImportSpecOf(f, &*d.state.model);
+  EXPECT_EQ(spec.columns, (std::vector<std::string>{"speed", "pressure"}));
+  EXPECT_EQ(spec.time, "2");
+  EXPECT_FALSE(spec.header.has_value());
+  d.Frame();  // opens the popup
+  d.Frame();  // draws it
+  ImGuiWindow* popup = WorkbenchDriver::FindWindow("Import a dataset");
+  ASSERT_TRUE(popup);
+  const std::optional<ImVec2> add = d.Find(popup, popup->GetID("Add to the project"));
+  ASSERT_TRUE(add);
+  d.Click(*add);
+  ASSERT_TRUE(d.FramesUntil([&] { return !d.state.datasets.empty(); }, std::chrono::seconds(20)));
+  ASSERT_TRUE(d.state.datasets[0].data) << d.state.datasets[0].error;
+  auto direct = data::ReadDataset(spec);
+  ASSERT_TRUE(direct.ok()) << direct.error().ToString();
+  EXPECT_EQ(d.state.datasets[0].data->time, (*direct)->time);
+  EXPECT_EQ(d.state.datasets[0].data->columns[0].values, (*direct)->columns[0].values);
+  // Nothing picked: said so.
+  OpenImportDialog(d.state, (dir / "two_rates.mf4").string());
+  d.state.shell.import.use.assign(3, false);
+  CheckImport(&d.state.shell.import, &*d.state.model);
+  EXPECT_FALSE(d.state.shell.import.check_ok);
+  EXPECT_EQ(d.state.shell.import.check, "choose the channels to read");
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace gb::ui

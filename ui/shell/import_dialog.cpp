@@ -37,16 +37,10 @@ std::vector<std::string> ModelNames(const model::ModelSpec* model) {
   return names;
 }
 
-}  // namespace
-
-// ---------------------------------------------------------------------------------------------
-// 1. The form as a dataset entry
-
-data::DatasetSpec ImportSpecOf(const ImportForm& f, const model::ModelSpec* model) {
-  data::DatasetSpec spec;
-  spec.file = f.path;
-  spec.plain = false;
-  spec.name = f.name;
+// The CSV keys of the form: header, separator, decimal mark, the columns' names where renamed,
+// the time column or the sample time.
+void CsvKeys(const ImportForm& f, data::DatasetSpec* out) {
+  data::DatasetSpec& spec = *out;
   spec.header = f.header;
   spec.separator = kSeparators[std::clamp(f.separator, 0, 2)];
   spec.decimal = kDecimals[std::clamp(f.decimal, 0, 1)];
@@ -59,6 +53,67 @@ data::DatasetSpec ImportSpecOf(const ImportForm& f, const model::ModelSpec* mode
     spec.time = f.names[static_cast<std::size_t>(f.time - 1)];
   } else {
     spec.sample_time = f.sample_time;
+  }
+}
+
+// The rows an MDF file's form gives, as a line of the check ("5 rows, t = 0 … 0.4 s").
+std::string RowsText(const data::Dataset& d, bool previewed) {
+  return GroupedCount(static_cast<long long>(d.rows())) + (previewed ? " rows previewed" : " rows") +
+         ", t = " + FormatSig(d.time.front(), 6) + " \xE2\x80\xA6 " + FormatSig(d.time.back(), 6) +
+         " s";
+}
+
+// The check of an MDF file's form: its channels on the time base, prepared and bound.
+void CheckMdf(ImportForm* f, const model::ModelSpec* model) {
+  f->names.clear();
+  for (std::size_t c = 0; c < f->channels.size() && c < f->use.size(); ++c)
+    if (f->use[c]) f->names.push_back(f->channels[c]);
+  if (f->names.empty()) {
+    f->check = "choose the channels to read";
+    return;
+  }
+  const data::DatasetSpec spec = ImportSpecOf(*f, model);
+  Result<std::shared_ptr<const data::Dataset>> read =
+      data::Mdf4ToDataset(*f->mdf_file, f->path, data::Mdf4FormatOf(spec));
+  if (read && spec.range && (*read)->rows() < 2)
+    read = InputError("the range holds fewer than 2 rows of the record");
+  if (read) read = data::Prepare(*read, spec);
+  if (!read) {
+    f->check = read.error().ToString();
+    return;
+  }
+  std::string rows = RowsText(**read, false);
+  if (model) {
+    Result<std::shared_ptr<const data::Series>> bound =
+        data::Bind(**read, model->inputs, model->outputs);
+    if (!bound) {
+      f->check = bound.error().ToString();
+      return;
+    }
+    rows += "; they bind to the model's inputs and outputs";
+  }
+  f->check = rows + ".";
+  f->check_ok = true;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// 1. The form as a dataset entry
+
+data::DatasetSpec ImportSpecOf(const ImportForm& f, const model::ModelSpec* model) {
+  data::DatasetSpec spec;
+  spec.file = f.path;
+  spec.plain = false;
+  spec.name = f.name;
+  if (f.mdf) {
+    for (std::size_t c = 0; c < f.channels.size() && c < f.use.size(); ++c)
+      if (f.use[c]) spec.columns.push_back(f.channels[c]);
+    if (f.time_base > 0) spec.time = std::to_string(f.time_base);
+    else spec.sample_time = f.sample_time;
+    if (f.interpolation == 1) spec.interpolation = "linear";
+  } else {
+    CsvKeys(f, &spec);
   }
   const std::vector<std::string> names = ModelNames(model);
   for (std::size_t i = 0; i < names.size() && i < f.map.size(); ++i)
@@ -80,6 +135,10 @@ void CheckImport(ImportForm* f, const model::ModelSpec* model) {
   f->check_ok = false;
   if (!f->read_error.empty()) {
     f->check = f->read_error;
+    return;
+  }
+  if (f->mdf) {
+    CheckMdf(f, model);
     return;
   }
   // The raw fields: every field a column (no time column), with the form's names.
@@ -119,10 +178,7 @@ void CheckImport(ImportForm* f, const model::ModelSpec* model) {
     return;
   }
   const data::Dataset& d = **read;
-  std::string rows = GroupedCount(static_cast<long long>(d.rows())) +
-                     (f->truncated ? " rows previewed" : " rows") + ", t = " +
-                     FormatSig(d.time.front(), 6) + " \xE2\x80\xA6 " + FormatSig(d.time.back(), 6) +
-                     " s";
+  std::string rows = RowsText(d, f->truncated);
   if (model) {
     Result<std::shared_ptr<const data::Series>> bound = data::Bind(d, model->inputs, model->outputs);
     if (!bound) {
@@ -141,54 +197,37 @@ void CheckImport(ImportForm* f, const model::ModelSpec* model) {
 // ---------------------------------------------------------------------------------------------
 // 3. The dialog
 
-void OpenImportDialog(AppState& state, const std::string& path) {
-  ImportForm f;
-  f.requested = true;
-  f.path = path;  // as the browser gave it (absolute); AddDataset makes it so in any case
-  Result<std::string> text = data::ReadFileHead(f.path, kPreviewBytes, &f.truncated);
-  if (!text) {
-    f.read_error = text.error().ToString();
-  } else {
-    f.preview = std::move(*text);
-    if (f.truncated) f.preview.erase(f.preview.find_last_of('\n') + 1);
-    const data::CsvFormat sniffed = data::SniffCsv(f.preview);
-    f.header = sniffed.header;
-    f.separator = sniffed.separator == ';' ? 1 : sniffed.separator == '\t' ? 2 : 0;
-    f.decimal = sniffed.decimal == ',' ? 1 : 0;
+namespace {
+
+// An MDF file's channels for the form: every numeric channel of a group with a master, picked;
+// the time base the group with the most samples (as the reader chooses it).
+void OpenMdf(ImportForm* f) {
+  f->mdf = true;
+  Result<data::Mdf4File> file = data::ReadMdf4File(f->path);
+  if (!file) {
+    f->read_error = file.error().ToString();
+    return;
   }
-  const model::ModelSpec* model = state.model ? &*state.model : nullptr;
-  f.map.assign(ModelNames(model).size(), "");
-  CheckImport(&f, model);
-  // The time column the reader would take, if there is one.
-  for (std::size_t i = 0; i < f.names.size() && f.time == 0; ++i)
-    if (data::TimeUnitScale(f.names[i])) f.time = static_cast<int>(i) + 1;
-  CheckImport(&f, model);
-  state.shell.import = std::move(f);
+  f->mdf_file = std::make_shared<const data::Mdf4File>(std::move(file).value());
+  const data::Mdf4File& m = *f->mdf_file;
+  std::size_t most = 0;
+  for (const data::Mdf4Channel& c : m.channels) {
+    int same = 0;
+    for (const data::Mdf4Channel& o : m.channels) same += o.name == c.name ? 1 : 0;
+    const data::Mdf4Group& g = m.groups[static_cast<std::size_t>(c.group)];
+    f->channels.push_back(same > 1 ? c.name + "@" + std::to_string(g.number) : c.name);
+    f->use.push_back(g.has_master);
+    if (g.has_master && g.time.size() > most) {
+      most = g.time.size();
+      f->time_base = g.number;
+    }
+  }
 }
 
-void AddImportedDataset(AppState& state) {
-  ImportForm& f = state.shell.import;
-  data::DatasetSpec spec = ImportSpecOf(f, state.model ? &*state.model : nullptr);
-  AddDataset(state, std::move(spec));
-}
-
-void DrawImportDialog(AppState& state) {
-  ImportForm& f = state.shell.import;
-  if (f.requested) {
-    f.requested = false;
-    ImGui::OpenPopup(kImportPopup);
-  }
-  const ImGuiViewport* viewport = ImGui::GetMainViewport();
-  ImGui::SetNextWindowPos(viewport->GetCenter(), ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
-  ImGui::SetNextWindowSizeConstraints(ImVec2(0, 0), ImVec2(viewport->Size.x * 0.95f,
-                                                           viewport->Size.y * 0.95f));
-  if (!ImGui::BeginPopupModal(kImportPopup, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
-  const float s = state.fonts.scale;
-  const model::ModelSpec* model = state.model ? &*state.model : nullptr;
+// The CSV part of the form: header, separator, decimal mark, time, and the first rows under
+// the columns' names.
+bool DrawCsvFields(ImportForm& f, float s) {
   bool changed = false;
-
-  ImGui::TextDisabled("%s", f.path.c_str());
-  ImGui::Spacing();
   // Format.
   changed |= ImGui::Checkbox("The first row names the columns", &f.header);
   ImGui::SameLine(0, 24 * s);
@@ -277,6 +316,169 @@ void DrawImportDialog(AppState& state) {
     }
     ImGui::TextDisabled("Type over a name to rename the column; a blank or \xE2\x80\x94 cell is missing.");
   }
+  return changed;
+}
+
+// The MDF part of the form: the time base, the interpolation and the channels to read.
+bool DrawMdfFields(ImportForm& f, float s) {
+  bool changed = false;
+  const data::Mdf4File& m = *f.mdf_file;
+  const auto rate = [](const data::Mdf4Group& g) {
+    const std::size_t n = g.time.size();
+    return n >= 2 && g.time.back() > g.time.front()
+               ? static_cast<double>(n - 1) / (g.time.back() - g.time.front())
+               : 0.0;
+  };
+  const auto group_label = [&](const data::Mdf4Group& g) {
+    std::string label = "group " + std::to_string(g.number);
+    if (!g.name.empty()) label += " " + g.name;
+    label += ": " + GroupedCount(static_cast<long long>(g.time.size())) + " samples";
+    if (const double r = rate(g); r > 0) label += " at " + FormatSig(r, 4) + " Hz";
+    return label;
+  };
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextUnformatted("Time base");
+  ImGui::SameLine(110 * s);
+  ImGui::SetNextItemWidth(330 * s);
+  std::string current = "a uniform grid";
+  for (const data::Mdf4Group& g : m.groups)
+    if (g.number == f.time_base) current = group_label(g);
+  if (ImGui::BeginCombo("##time-base", current.c_str())) {
+    for (const data::Mdf4Group& g : m.groups) {
+      if (!g.has_master) continue;
+      if (ImGui::Selectable(group_label(g).c_str(), g.number == f.time_base)) {
+        f.time_base = g.number;
+        changed = true;
+      }
+    }
+    if (ImGui::Selectable("a uniform grid", f.time_base == 0)) {
+      f.time_base = 0;
+      changed = true;
+    }
+    ImGui::EndCombo();
+  }
+  if (f.time_base == 0) {
+    ImGui::SameLine();
+    ImGui::TextUnformatted("every");
+    ImGui::SameLine();
+    ImGui::SetNextItemWidth(90 * s);
+    if (ImGui::InputDouble("s##grid", &f.sample_time, 0, 0, "%g")) {
+      f.sample_time = f.sample_time > 0 && std::isfinite(f.sample_time) ? f.sample_time : 0.1;
+      changed = true;
+    }
+  }
+  ImGui::SameLine(0, 24 * s);
+  ImGui::TextUnformatted("Other rates");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(150 * s);
+  changed |= ImGui::Combo("##interpolation", &f.interpolation, "hold\0linear\0");
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("A channel of another group at a row's time: its last sample (hold) or "
+                      "the line between the samples either side (linear); missing before its "
+                      "first sample");
+
+  constexpr ImGuiTableFlags kFlags = ImGuiTableFlags_ScrollY | ImGuiTableFlags_BordersInnerH |
+                                     ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingFixedFit;
+  const float height =
+      ImGui::GetFrameHeightWithSpacing() *
+          static_cast<float>(std::min<std::size_t>(f.channels.size(), 8)) +
+      1.6f * ImGui::GetTextLineHeightWithSpacing();
+  if (ImGui::BeginTable("##channels", 5, kFlags, ImVec2(760 * s, height))) {
+    ImGui::TableSetupScrollFreeze(0, 1);
+    for (const char* c : {"Read", "Channel", "Group", "Unit", "Samples"}) ImGui::TableSetupColumn(c);
+    ImGui::TableHeadersRow();
+    for (std::size_t c = 0; c < m.channels.size() && c < f.use.size(); ++c) {
+      const data::Mdf4Channel& ch = m.channels[c];
+      const data::Mdf4Group& g = m.groups[static_cast<std::size_t>(ch.group)];
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      ImGui::PushID(static_cast<int>(c));
+      bool use = f.use[c];
+      ImGui::BeginDisabled(!g.has_master);
+      if (ImGui::Checkbox("##use", &use)) {
+        f.use[c] = use;
+        changed = true;
+      }
+      ImGui::EndDisabled();
+      ImGui::PopID();
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(f.channels[c].c_str());
+      ImGui::TableNextColumn();
+      ImGui::TextDisabled("%s", group_label(g).c_str());
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(ch.unit.c_str());
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(GroupedCount(static_cast<long long>(ch.values.size())).c_str());
+    }
+    ImGui::EndTable();
+  }
+  if (!m.skipped.empty())
+    ImGui::TextDisabled("%zu channel%s not numeric (strings, arrays, ...): not offered.",
+                        m.skipped.size(), m.skipped.size() == 1 ? " is" : "s are");
+  return changed;
+}
+
+}  // namespace
+
+void OpenImportDialog(AppState& state, const std::string& path) {
+  ImportForm f;
+  f.requested = true;
+  f.path = path;  // as the browser gave it (absolute); AddDataset makes it so in any case
+  const model::ModelSpec* model = state.model ? &*state.model : nullptr;
+  f.map.assign(ModelNames(model).size(), "");
+  if (data::IsMdfFile(path)) {
+    OpenMdf(&f);
+    CheckImport(&f, model);
+    state.shell.import = std::move(f);
+    return;
+  }
+  Result<std::string> text = data::ReadFileHead(f.path, kPreviewBytes, &f.truncated);
+  if (!text) {
+    f.read_error = text.error().ToString();
+  } else {
+    f.preview = std::move(*text);
+    if (f.truncated) f.preview.erase(f.preview.find_last_of('\n') + 1);
+    const data::CsvFormat sniffed = data::SniffCsv(f.preview);
+    f.header = sniffed.header;
+    f.separator = sniffed.separator == ';' ? 1 : sniffed.separator == '\t' ? 2 : 0;
+    f.decimal = sniffed.decimal == ',' ? 1 : 0;
+  }
+  CheckImport(&f, model);
+  // The time column the reader would take, if there is one.
+  for (std::size_t i = 0; i < f.names.size() && f.time == 0; ++i)
+    if (data::TimeUnitScale(f.names[i])) f.time = static_cast<int>(i) + 1;
+  CheckImport(&f, model);
+  state.shell.import = std::move(f);
+}
+
+void AddImportedDataset(AppState& state) {
+  ImportForm& f = state.shell.import;
+  data::DatasetSpec spec = ImportSpecOf(f, state.model ? &*state.model : nullptr);
+  AddDataset(state, std::move(spec));
+}
+
+void DrawImportDialog(AppState& state) {
+  ImportForm& f = state.shell.import;
+  if (f.requested) {
+    f.requested = false;
+    ImGui::OpenPopup(kImportPopup);
+  }
+  const ImGuiViewport* viewport = ImGui::GetMainViewport();
+  ImGui::SetNextWindowPos(viewport->GetCenter(), ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
+  ImGui::SetNextWindowSizeConstraints(ImVec2(0, 0), ImVec2(viewport->Size.x * 0.95f,
+                                                           viewport->Size.y * 0.95f));
+  if (!ImGui::BeginPopupModal(kImportPopup, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
+  const float s = state.fonts.scale;
+  const model::ModelSpec* model = state.model ? &*state.model : nullptr;
+  bool changed = false;
+
+  ImGui::TextDisabled("%s", f.path.c_str());
+  ImGui::Spacing();
+  if (f.mdf) {
+    if (f.mdf_file) changed |= DrawMdfFields(f, s);
+  } else {
+    changed |= DrawCsvFields(f, s);
+  }
 
   // The model's inputs and outputs: a column of their name, or an expression of the columns.
   const std::vector<std::string> names = ModelNames(model);
@@ -358,7 +560,7 @@ void DrawImportDialog(AppState& state) {
   ImGui::Spacing();
   ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 760 * s);
   ImGui::TextColored(f.check_ok ? SeverityColor(Severity::kInfo) : SeverityColor(Severity::kError),
-                     "%s%s", f.check_ok ? "\xE2\x9C\x93 " : "", f.check.c_str());
+                     "%s", f.check.c_str());
   ImGui::PopTextWrapPos();
   ImGui::Separator();
   ImGui::BeginDisabled(!f.check_ok || state.shell.dataset_job.active() || !state.project);

@@ -39,7 +39,8 @@ constexpr const char* kRecoveryKey = "greybench_recovery";
 const std::vector<FileFilter> kProjectFilters = {{"Projects (*.json)", {".json"}},
                                                  {"All files", {}}};
 const std::vector<FileFilter> kModelFilters = {{"Models (*.json)", {".json"}}, {"All files", {}}};
-const std::vector<FileFilter> kDataFilters = {{"Data (*.csv)", {".csv"}}, {"All files", {}}};
+const std::vector<FileFilter> kDataFilters = {
+    {"Data (*.csv, *.mf4)", {".csv", ".mf4", ".mdf"}}, {"All files", {}}};
 
 // The keys of the workbench (Help > Keyboard shortcuts lists this table).
 struct ShortcutInfo {

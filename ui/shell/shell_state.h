@@ -11,6 +11,7 @@
 
 #include "core/data/dataset.h"
 #include "core/data/import.h"
+#include "core/data/mdf4.h"
 #include "ui/jobs/job.h"
 #include "ui/state/data_summary.h"
 #include "ui/widgets/file_browser.h"
@@ -68,6 +69,14 @@ struct ImportForm {
   double range_from = 0, range_to = 0;  // seconds
   int detrend = 0;                       // 0 none, 1 means, 2 linear trends (every column)
   double resample = 0;                   // a new sample time in seconds; 0: keep
+  // An ASAM MDF file (data::IsMdfFile): its channels, picked, instead of the CSV preview.
+  bool mdf = false;
+  std::shared_ptr<const data::Mdf4File> mdf_file;
+  std::vector<std::string> channels;  // each numeric channel as an entry names it (name or name@G)
+  std::vector<bool> use;              // per channel: read it
+  int time_base = 0;                  // the group (1-based number) whose master times the rows;
+                                      // 0: a uniform grid, sample_time apart
+  int interpolation = 0;              // channels at other rates: 0 hold, 1 linear
 
   // What the check found (CheckImport), and the form it checked.
   std::string checked;  // the entry's JSON when last checked
