@@ -297,24 +297,15 @@ Mdf4Format Mdf4FormatOf(const DatasetSpec& spec) {
 }
 
 Result<std::shared_ptr<const Dataset>> ReadDataset(const DatasetSpec& spec) {
-  if (IsMdfFile(spec.file)) {
-    Result<std::shared_ptr<const Dataset>> read = ReadMdfDataset(spec);
-    if (!read) return read.error();
-    if (spec.range && (*read)->rows() < 2) {
-      const std::size_t n = (*read)->rows();
-      return KeyError(spec, "range",
-                      fmt::format("[{:g}, {:g}] holds {} row{} of the record; at least 2 are needed",
-                                  (*spec.range)[0], (*spec.range)[1], n, n == 1 ? "" : "s"));
-    }
-    return Prepare(std::move(*read), spec);
-  }
-  if (!spec.interpolation.empty())
+  const bool mdf = IsMdfFile(spec.file);
+  if (!mdf && !spec.interpolation.empty())
     return KeyError(spec, "interpolation",
                     "a key of ASAM MDF files (channels at different rates); " + spec.file +
                         " is read as a CSV file");
-  if (spec.plain) return ReadCsvFile(spec.file);
+  if (!mdf && spec.plain) return ReadCsvFile(spec.file);
   Result<std::shared_ptr<const Dataset>> read =
-      ReadCsvFile(spec.file, [&spec](std::string_view text) { return FormatOf(spec, text); });
+      mdf ? ReadMdfDataset(spec)
+          : ReadCsvFile(spec.file, [&spec](std::string_view text) { return FormatOf(spec, text); });
   if (!read) return read.error();
   if (spec.range && (*read)->rows() < 2) {
     const std::size_t n = (*read)->rows();

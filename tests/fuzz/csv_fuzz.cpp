@@ -54,15 +54,6 @@ std::shared_ptr<const gb::model::LinearModel> OneStateModel(int n_outputs) {
   return std::make_shared<const gb::model::LinearModel>(std::move(model).value());
 }
 
-void CheckDataset(const gb::data::Dataset& d) {
-  FUZZ_CHECK(d.row_line.size() == d.rows());
-  for (std::size_t r = 0; r < d.rows(); ++r) {
-    FUZZ_CHECK(std::isfinite(d.time[r]));
-    if (r > 0) FUZZ_CHECK(d.time[r] > d.time[r - 1]);
-  }
-  for (const gb::data::Column& c : d.columns) FUZZ_CHECK(c.values.size() == d.rows());
-}
-
 // The text read as the dataset keys would read it, prepared; every result a valid Dataset.
 void CheckOtherForms(std::string_view text) {
   gb::data::CsvFormat sniffed = gb::data::SniffCsv(text);

@@ -33,15 +33,6 @@ void CheckFile(const gb::data::Mdf4File& f) {
     FUZZ_CHECK(ch.group >= 0 && static_cast<std::size_t>(ch.group) < f.groups.size());
 }
 
-void CheckDataset(const gb::data::Dataset& d) {
-  FUZZ_CHECK(d.row_line.size() == d.rows());
-  for (std::size_t r = 0; r < d.rows(); ++r) {
-    FUZZ_CHECK(std::isfinite(d.time[r]));
-    if (r > 0) FUZZ_CHECK(d.time[r] > d.time[r - 1]);
-  }
-  for (const gb::data::Column& c : d.columns) FUZZ_CHECK(c.values.size() == d.rows());
-}
-
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
