@@ -170,29 +170,16 @@ void DrawStatusBar(AppState& state, float height) {
 
   const float pad = 10.0f * s;
   const float text_y = min.y + 0.5f * (height - ImGui::GetTextLineHeight());
-  std::string text;
+  const std::string text = StatusText(state);
   ImU32 color = ImGui::GetColorU32(ImGuiCol_TextDisabled);
-  if (state.load_job.active()) {
-    text = "Opening " + state.loading_path + "\xE2\x80\xA6";
-  } else if (EstimationRunning(state)) {
-    const EstimationProgress::Latest p = state.estimation.progress
-                                             ? state.estimation.progress->latest()
-                                             : EstimationProgress::Latest{};
-    text = "Estimating \xE2\x80\x94 " + std::string(StageText(p.stage));
-    if (p.any) text += ", iteration " + std::to_string(p.iteration);
-    text += "\xE2\x80\xA6";
-  } else if (SweepRunning(state)) {
-    text = "Sweeping the operating points\xE2\x80\xA6";
-  } else if (!state.messages.empty()) {
+  const bool busy = state.load_job.active() || EstimationRunning(state) || SweepRunning(state);
+  if (!busy && !state.messages.empty() && !state.messages.back().resolved) {
     const Message& m = state.messages.back();
-    text = m.text;
     if (m.severity != Severity::kInfo)
       color = ImGui::ColorConvertFloat4ToU32(SeverityColor(m.severity));
     const float r = 3.5f * s;
     dl->AddCircleFilled(ImVec2(min.x + pad + r, min.y + 0.5f * height), r,
                         ImGui::ColorConvertFloat4ToU32(SeverityColor(m.severity)), 12);
-  } else {
-    text = "Ready";
   }
 
   const std::string button = std::to_string(state.messages.size()) +
@@ -222,6 +209,11 @@ void DrawMessagesWindow(AppState& state) {
   ImGui::PushStyleVar(ImGuiStyleVar_WindowBorderSize, 1.0f);
   const bool open = ImGui::Begin("Messages", &state.show_messages, ImGuiWindowFlags_NoCollapse);
   ImGui::PopStyleVar();
+  if (open && ImGui::IsWindowFocused(ImGuiFocusedFlags_RootAndChildWindows)) {
+    state.shell.tool_window_focused = true;  // Esc is this window's (shell.cpp)
+    if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Escape), false))
+      state.show_messages = false;
+  }
   if (open) {
     if (ImGui::Button("Clear")) state.messages.clear();
     ImGui::Separator();
@@ -231,10 +223,20 @@ void DrawMessagesWindow(AppState& state) {
       const char* tag = m.severity == Severity::kError     ? "error  "
                         : m.severity == Severity::kWarning ? "warning"
                                                            : "info   ";
-      ImGui::TextColored(SeverityColor(m.severity), "%s", tag);
+      if (!m.time.empty()) {
+        ImGui::TextDisabled("%s", m.time.c_str());
+        ImGui::SameLine();
+      }
+      ImGui::TextColored(m.resolved ? ImGui::GetStyle().Colors[ImGuiCol_TextDisabled]
+                                    : SeverityColor(m.severity),
+                         "%s", tag);
       ImGui::SameLine();
       ImGui::PushTextWrapPos(0.0f);
-      ImGui::TextUnformatted(m.text.c_str());
+      if (m.resolved) {
+        ImGui::TextDisabled("%s (resolved since)", m.text.c_str());
+      } else {
+        ImGui::TextUnformatted(m.text.c_str());
+      }
       ImGui::PopTextWrapPos();
     }
     ImGui::EndChild();

@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "tests/ui/headless_imgui.h"
 #include "ui/widgets/plot.h"
+#include "ui/widgets/plot_internal.h"
 
 namespace gb::ui::plot {
 namespace {
@@ -180,6 +182,59 @@ TEST_F(PlotInteraction, ClickingALegendEntryHidesTheItemAndTheFitIgnoresIt) {
   EXPECT_EQ(Top().hidden.size(), 1u);
   EXPECT_LT(Top().y.max, 1.2);               // only the sine is fitted now
   EXPECT_DOUBLE_EQ(linked_.range.min, 0.0);  // the click did not pan
+}
+
+// The hover readout names the x of the sample pointed at, also where the first item is a band
+// known only at its two ends (a correlogram's ± bound): over lag 10, "lag = 10", not "lag = 1".
+// The mouse is over lag 10 of a drawn plot (its crosshair is there); the readout's x is
+// ReadoutX's.
+TEST_F(PlotInteraction, TheHoverReadoutNamesTheLagPointedAtBesideATwoPointBand) {
+  std::vector<double> lag, acf;
+  for (int k = 1; k <= 20; ++k) {
+    lag.push_back(k);
+    acf.push_back(0.5 / k);
+  }
+  const double band_x[2] = {1, 20}, lo[2] = {-0.1, -0.1}, hi[2] = {0.1, 0.1};
+  PlotContext plots;
+  std::vector<Item> items;
+  const auto frame = [&] {
+    ImGui::NewFrame();
+    ImGui::SetNextWindowPos(ImVec2(0, 0));
+    ImGui::SetNextWindowSize(ImVec2(kWidth, kHeight));
+    ImGui::Begin("acf", nullptr, ImGuiWindowFlags_NoDecoration);
+    PlotOptions options;
+    options.x_label = "lag";
+    if (BeginPlot(plots, "##acf", ImVec2(-1, 400), options)) {
+      PlotBand(plots, "95 % bound", band_x, lo, hi, 2);
+      PlotStems(plots, "ACF", lag.data(), acf.data(), static_cast<int>(lag.size()));
+      items = plots.items;
+      EndPlot(plots);
+    }
+    ImGui::End();
+    ImGui::Render();
+  };
+  frame();
+  frame();
+  ImGui::NewFrame();
+  ImGui::Begin("acf");
+  const ImGuiID id = ImGui::GetID("##acf");
+  ImGui::End();
+  ImGui::EndFrame();
+  const PlotState& st = plots.plots.at(id);
+  const Range& x = st.own_x.range;
+  const double w = st.last_plot_max.x - st.last_plot_min.x;
+  const float px = st.last_plot_min.x + static_cast<float>((10.0 - x.min) / x.Span() * w);
+  MouseTo(ImVec2(px, 0.5f * (st.last_plot_min.y + st.last_plot_max.y)));
+  frame();
+  frame();
+  const LinkedRange& hover = plots.plots.at(id).own_x;
+  EXPECT_EQ(hover.hover_frame, ImGui::GetFrameCount());  // the last frame: the mouse is over it
+  ASSERT_EQ(items.size(), 2u);
+  const std::optional<double> readout = internal::ReadoutX(items, hover.hover_x);
+  ASSERT_TRUE(readout);
+  EXPECT_EQ(*readout, 10.0);
+  // The band alone still names its nearest end.
+  EXPECT_EQ(*internal::ReadoutX({items[0]}, hover.hover_x), 1.0);
 }
 
 }  // namespace

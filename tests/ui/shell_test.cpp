@@ -365,6 +365,55 @@ TEST_F(ShellTest, ShortcutsSwitchViewsAndRunAndCancelTheEstimation) {
   EXPECT_NE(d.state.estimation.last_failure.find("cancelled"), std::string::npos);
 }
 
+// Esc closes the Keyboard shortcuts and Messages windows, and there it does not cancel the
+// estimation under way.
+TEST_F(ShellTest, EscClosesTheShortcutsAndMessagesWindowsWithoutCancellingTheRun) {
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  d.state.shell.show_shortcuts = true;
+  d.Frame();
+  d.Frame();
+  ASSERT_TRUE(PopupOpen("Keyboard shortcuts"));
+  d.state.estimation.settings.multistart = 50;  // long enough to outlast the keys
+  ASSERT_TRUE(StartEstimation(d.state));
+  Key(kKeyEscape);
+  EXPECT_FALSE(d.state.shell.show_shortcuts);
+  EXPECT_TRUE(EstimationRunning(d.state));
+  d.state.show_messages = true;
+  d.Frame();
+  d.Frame();
+  Key(kKeyEscape);
+  EXPECT_FALSE(d.state.show_messages);
+  EXPECT_TRUE(EstimationRunning(d.state));
+  // Elsewhere Esc still cancels the run.
+  Key(kKeyEscape);
+  ASSERT_TRUE(d.FramesUntil([&] { return !EstimationRunning(d.state); }, kTimeout));
+}
+
+// An error the workbench later gets past (the predictions computed after all) leaves the status
+// bar; the Messages window keeps it, marked, with the time of each message.
+TEST_F(ShellTest, AnErrorThatIsResolvedLeavesTheStatusBarAndMessagesHaveTimes) {
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  WaitForJobs(d.state);
+  AddMessage(d.state, Severity::kError, "The predictions could not be computed: a test",
+             MessageTopic::kPredictions);
+  EXPECT_EQ(StatusText(d.state), "The predictions could not be computed: a test");
+  ASSERT_EQ(d.state.messages.back().time.size(), 8u);  // HH:MM:SS
+  EXPECT_EQ(d.state.messages.back().time[2], ':');
+  RecomputeAnalysis(d.state);
+  d.Frame();
+  WaitForJobs(d.state);
+  ASSERT_TRUE(d.state.analysis.result);
+  EXPECT_TRUE(d.state.messages.back().resolved);
+  EXPECT_EQ(StatusText(d.state), "Ready");
+  d.state.show_messages = true;
+  d.Frame();
+  d.Frame();
+  ImGuiWindow* w = WorkbenchDriver::FindWindow("Messages");
+  ASSERT_TRUE(w && w->Active);
+}
+
 TEST_F(ShellTest, AddDatasetAndReplaceModelAreSavedWithTheProject) {
   WorkbenchDriver& d = Start();
   d.Open(project());

@@ -171,6 +171,63 @@ TEST(WorkbenchEstimation, ProfileIntervalsShowBesideTheWaldOnesAndAParametersPro
   EXPECT_EQ(d.Text().find("nan"), std::string::npos);
 }
 
+// The interval columns beside the profile intervals are as wide as their longest text at
+// 1024 x 768 and at 1600 x 1000 (the table scrolls sideways where the window is narrower); they
+// were squeezed to a character or two at every width.
+TEST(WorkbenchEstimation, TheProfileIntervalColumnsKeepTheirWidthAtEveryWindowSize) {
+  WorkbenchDriver d;
+  d.Open(kTestProject);
+  d.state.estimation.settings.threads = 1;
+  d.state.estimation.settings.profile_intervals = true;
+  std::string why;
+  ASSERT_TRUE(StartEstimation(d.state, &why)) << why;
+  ASSERT_TRUE(FinishFit(d));
+  d.state.view = View::kParameters;
+  for (const ImVec2 size : {ImVec2(1024, 768), ImVec2(1600, 1000)}) {
+    ImGui::GetIO().DisplaySize = size;
+    d.Frame();
+    d.Frame();
+    const ImGuiTable* table = nullptr;
+    for (int i = 0; i < GImGui->Tables.GetMapSize(); ++i) {
+      const ImGuiTable* t = GImGui->Tables.TryGetMapData(i);
+      if (t && t->ColumnsCount == 11 && t->LastFrameActive == ImGui::GetFrameCount()) table = t;
+    }
+    ASSERT_TRUE(table) << "no parameters table with profile intervals at " << size.x;
+    float longest = 0;
+    for (const estimate::ParameterEstimate& p : d.state.estimation.result->summary.parameters) {
+      if (!p.profile || !p.profile->lower || !p.profile->upper) continue;
+      const std::string text = FormatSig(*p.profile->lower, 3) + " \xE2\x80\xA6 " +
+                               FormatSig(*p.profile->upper, 3);
+      longest = std::max(longest, ImGui::CalcTextSize(text.c_str()).x);
+    }
+    ASSERT_GT(longest, 0);
+    EXPECT_GE(table->Columns[10].WidthGiven, longest) << "at " << size.x;
+    EXPECT_GE(table->Columns[9].WidthGiven, 0.8f * longest) << "at " << size.x;
+  }
+}
+
+// At 1024 x 768 (the smallest window the guide supports) every option of the Estimate view's
+// toolbar is on screen: what does not fit on the first line goes to the second.
+TEST(WorkbenchEstimation, AtTheSmallestWindowEveryOptionOfTheToolbarCanBeReached) {
+  WorkbenchDriver d;
+  d.Open(kTestProject);
+  ImGui::GetIO().DisplaySize = ImVec2(1024, 768);
+  d.state.view = View::kEstimate;
+  d.Frame();
+  d.Frame();
+  const std::optional<ImVec2> run = FindButton(d, "Run");
+  ASSERT_TRUE(run);
+  const float row = ImGui::GetFrameHeightWithSpacing();
+  for (const char* label : {"Profile intervals", "Steady-state start"}) {
+    std::optional<ImVec2> at = d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId(label), run->y);
+    if (!at) at = d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId(label), run->y + row);
+    EXPECT_TRUE(at) << label << " is off the toolbar at 1024 x 768";
+    if (at) {
+      EXPECT_LT(at->x, 1024.0f) << label;
+    }
+  }
+}
+
 TEST(WorkbenchEstimation, CancelStopsTheFitWithin100msAndKeepsThePreviousResult) {
   WorkbenchDriver d;
   // Under the sanitizers the test project (500 rows): the case study's first fit took a minute

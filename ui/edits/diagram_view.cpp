@@ -21,6 +21,7 @@ void Recompile(AppState& state) {
   if (!compiled.model) return;
   state.model = std::move(compiled.model);
   state.model_error.clear();
+  ResolveMessages(state, MessageTopic::kModel);
   ++state.model_revision;
   v.synced_revision = state.model_revision;
   v.model_from_diagram = true;
@@ -69,13 +70,15 @@ void InstallDiagram(AppState& state) {
     if (compiled.model) {
       state.model = std::move(compiled.model);
       state.model_error.clear();
+      ResolveMessages(state, MessageTopic::kModel);
       v.model_from_diagram = true;
       state.project->model_json = model::ToJson(*state.model);
     } else {
       AddMessage(state, Severity::kWarning,
                  "The project's diagram does not compile (" + std::to_string(v.problems.size()) +
                      (v.problems.size() == 1 ? " problem" : " problems") +
-                     "); the model file is used until it does.");
+                     "); the model file is used until it does.",
+                 MessageTopic::kModel);
     }
     return;
   }

@@ -66,6 +66,7 @@ void InstallAnalysis(AppState& state, AnalysisRun run) {
         a.result->request.datasets_revision == run.analysis->request.datasets_revision;
     a.result = std::move(run.analysis);
     a.last_failure.clear();
+    ResolveMessages(state, MessageTopic::kPredictions);
     if (same_data) {
       a.histogram_x.RequestFit();
       a.qq_x.RequestFit();
@@ -86,7 +87,8 @@ void InstallAnalysis(AppState& state, AnalysisRun run) {
   a.last_failure = "The predictions could not be computed: " + run.error;
   a.last_failure_severity = Severity::kError;
   AddMessage(state, Severity::kError,
-             a.last_failure + (a.result ? " (the previous results are kept)" : ""));
+             a.last_failure + (a.result ? " (the previous results are kept)" : ""),
+             MessageTopic::kPredictions);
 }
 
 }  // namespace

@@ -84,9 +84,15 @@ void DrawToolbar(AppState& state) {
   }
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", Info(e.settings.algorithm).summary);
 
-  ImGui::SameLine(0, gap);
-  ImGui::AlignTextToFramePadding();
-  ImGui::TextDisabled("Extra starts");
+  // A label and its input: on this line where both fit, else on the next (1024 x 768).
+  const auto labelled = [&](const char* label, float extra) {
+    SameLineIfFits(ImGui::CalcTextSize(label).x + ImGui::GetStyle().ItemSpacing.x +
+                       kOptionInputWidth * s + extra,
+                   gap);
+    ImGui::AlignTextToFramePadding();
+    ImGui::TextDisabled("%s", label);
+  };
+  labelled("Extra starts", 0);
   ImGui::SameLine();
   ImGui::SetNextItemWidth(kOptionInputWidth * s);
   if (ImGui::InputInt("##multistart", &e.settings.multistart))
@@ -94,9 +100,7 @@ void DrawToolbar(AppState& state) {
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("Starts spread over the bounds besides the model's start values");
 
-  ImGui::SameLine(0, gap);
-  ImGui::AlignTextToFramePadding();
-  ImGui::TextDisabled("Threads");
+  labelled("Threads", ImGui::GetStyle().ItemSpacing.x + ImGui::CalcTextSize("(all cores)").x);
   ImGui::SameLine();
   ImGui::SetNextItemWidth(kOptionInputWidth * s);
   if (ImGui::InputInt("##threads", &e.settings.threads))
@@ -104,7 +108,7 @@ void DrawToolbar(AppState& state) {
   ImGui::SameLine();
   ImGui::AlignTextToFramePadding();
   ImGui::TextDisabled("%s", e.settings.threads == 0 ? "(all cores)" : "");
-  ImGui::SameLine(0, gap);
+  SameLineIfFits(CheckboxWidth("Profile intervals"), gap);
   ImGui::Checkbox("Profile intervals", &e.settings.profile_intervals);
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("Likelihood-ratio (profile) 95 %% intervals for every free parameter, "
@@ -112,11 +116,7 @@ void DrawToolbar(AppState& state) {
                       "dozen fits per parameter)");
   // On this line where it fits, else at the start of the next (narrow windows).
   constexpr const char* kSteadyLabel = "Steady-state start";
-  const float steady_width = ImGui::GetFrameHeight() + ImGui::GetStyle().ItemInnerSpacing.x +
-                             ImGui::CalcTextSize(kSteadyLabel).x;
-  if (ImGui::GetItemRectMax().x + gap + steady_width <=
-      ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x)
-    ImGui::SameLine(0, gap);
+  SameLineIfFits(CheckboxWidth(kSteadyLabel), gap);
   if (ImGui::Checkbox(kSteadyLabel, &e.settings.steady_start) && state.project) {
     // Kept with the project (its "estimation" key), like a model edit: saved with it.
     state.project->extra[project::kEstimationKey]["steady_start"] = e.settings.steady_start;
@@ -133,11 +133,7 @@ void DrawToolbar(AppState& state) {
   for (const LoadedDataset& d : state.datasets) fitted += d.spec.role == data::Role::kEstimation;
   if (fitted >= 2) {
     constexpr const char* kPerRecordLabel = "Initial state per record";
-    const float width = ImGui::GetFrameHeight() + ImGui::GetStyle().ItemInnerSpacing.x +
-                        ImGui::CalcTextSize(kPerRecordLabel).x;
-    if (ImGui::GetItemRectMax().x + gap + width <=
-        ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x)
-      ImGui::SameLine(0, gap);
+    SameLineIfFits(CheckboxWidth(kPerRecordLabel), gap);
     if (ImGui::Checkbox(kPerRecordLabel, &e.settings.per_record_initial_states) &&
         state.project) {
       state.project->extra[project::kEstimationKey]["initial_states"] =

@@ -72,6 +72,9 @@ void RowLabel(AppState& state, const char* text) {
 }
 
 void Gap() { ImGui::SameLine(0, 1.4f * ImGui::GetFontSize()); }
+// The same for a group of controls `width` wide that goes to the next line where it does not fit
+// (1024 x 768).
+void GapOrWrap(float width) { SameLineIfFits(width, 1.4f * ImGui::GetFontSize()); }
 
 // A path field and a Browse button that opens the view's file browser for `target`.
 void PathField(AppState& state, const char* id, std::string* path, const char* hint, int target,
@@ -238,7 +241,9 @@ void DrawControls(AppState& state) {
 
   // The monitor's options are fixed for a run (they design its tests when it starts).
   ImGui::BeginDisabled(active);
-  Gap();
+  const float spacing = ImGui::GetStyle().ItemSpacing.x;
+  GapOrWrap(ImGui::CalcTextSize("Forgetting \xCE\xBB memory 100.0 s").x + kNumberWidth * s +
+            2 * spacing);
   ImGui::AlignTextToFramePadding();
   ImGui::TextDisabled("Forgetting \xCE\xBB");
   ImGui::SameLine();
@@ -262,7 +267,7 @@ void DrawControls(AppState& state) {
   } else {
     ImGui::TextDisabled("memory %s rows", FormatSig(rows, 3).c_str());
   }
-  Gap();
+  GapOrWrap(ImGui::CalcTextSize("False alarms per hour").x + kNumberWidth * s + 2 * spacing);
   ImGui::AlignTextToFramePadding();
   ImGui::TextDisabled("False alarms");
   ImGui::SameLine();

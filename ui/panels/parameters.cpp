@@ -151,6 +151,25 @@ std::string BoundNote(const estimate::ParameterEstimate& e) {
 // Estimate, SE, t (unless `with_t` is false: beside the profile intervals, for room), p and the
 // interval. Where there is no standard error the SE cell says why: "fixed", "at lower bound"
 // (the at-bound marker, also on the estimate), "not determined".
+// "lo … hi" of the Wald 95 % interval, or a dash without a standard error.
+std::string WaldText(const estimate::ParameterEstimate& e) {
+  if (!e.std_error || !std::isfinite(*e.std_error)) return kDash;
+  const double half = kZ95 * *e.std_error;
+  return FormatSig(e.estimate - half, kErrorDigits) + " \xE2\x80\xA6 " +
+         FormatSig(e.estimate + half, kErrorDigits);
+}
+
+// The profile interval "lo … hi" ("bound" for an end the data do not reach before the
+// parameter's bound, "none" where the search gave up), or a dash without one.
+std::string ProfileText(const estimate::ParameterEstimate& e) {
+  if (!e.profile) return kDash;
+  const estimate::ProfileInterval& pi = *e.profile;
+  auto end = [](const std::optional<double>& v, bool at_bound) {
+    return v ? FormatSig(*v, kErrorDigits) : std::string(at_bound ? "bound" : "none");
+  };
+  return end(pi.lower, pi.lower_at_bound) + " \xE2\x80\xA6 " + end(pi.upper, pi.upper_at_bound);
+}
+
 void EstimateCells(const estimate::ParameterEstimate* e, bool with_t = true) {
   if (!e) {  // a parameter the fit did not know (cannot happen unless the model changed)
     for (int i = 0; i < (with_t ? 5 : 4); ++i) {
@@ -194,13 +213,8 @@ void EstimateCells(const estimate::ParameterEstimate* e, bool with_t = true) {
   ImGui::TableNextColumn();
   TextRight(FormatPValue(e->p_value), !e->p_value);
   ImGui::TableNextColumn();
-  if (e->std_error && std::isfinite(*e->std_error)) {
-    const double half = kZ95 * *e->std_error;
-    TextRight(FormatSig(e->estimate - half, kErrorDigits) + " \xE2\x80\xA6 " +
-              FormatSig(e->estimate + half, kErrorDigits));
-  } else {
-    TextRight(kDash, true);
-  }
+  const std::string wald = WaldText(*e);
+  TextRight(wald, wald == kDash);
 }
 
 // The profile interval "lo … hi" ("bound" for an end the data do not reach before the
@@ -211,12 +225,7 @@ void ProfileCell(AppState& state, const estimate::ParameterEstimate* e) {
     TextRight(kDash, true);
     return;
   }
-  const estimate::ProfileInterval& pi = *e->profile;
-  auto end = [](const std::optional<double>& v, bool at_bound) {
-    return v ? FormatSig(*v, kErrorDigits) : std::string(at_bound ? "bound" : "none");
-  };
-  const std::string text = end(pi.lower, pi.lower_at_bound) + " \xE2\x80\xA6 " +
-                           end(pi.upper, pi.upper_at_bound);
+  const std::string text = ProfileText(*e);
   const bool shown = state.parameters_view.profile_plot == e->name;
   const float w = ImGui::CalcTextSize(text.c_str()).x;
   const float avail = ImGui::GetContentRegionAvail().x;
@@ -259,7 +268,24 @@ void DrawTable(AppState& state, const FitResult* result) {
   ImGui::PushStyleVar(ImGuiStyleVar_FramePadding,
                       ImVec2(ImGui::GetStyle().FramePadding.x, 2.0f * s));
   const float row_h = ImGui::GetFrameHeight() + 2.0f * ImGui::GetStyle().CellPadding.y;
-  if (!ImGui::BeginTable("##parameters", columns, flags)) {
+  // With the profile intervals the two interval columns take the width their longest text needs
+  // and the table scrolls sideways where the window is narrower (stretched, they were squeezed
+  // to a character or two beside the inputs).
+  float wald_w = 0, profile_w = 0;
+  ImVec2 outer(0, 0);
+  if (with_profiles) {
+    wald_w = ImGui::CalcTextSize("95 % Wald").x;
+    profile_w = ImGui::CalcTextSize("95 % profile").x;
+    for (const estimate::ParameterEstimate& e : result->summary.parameters) {
+      wald_w = std::max(wald_w, ImGui::CalcTextSize(WaldText(e).c_str()).x);
+      profile_w = std::max(profile_w, ImGui::CalcTextSize(ProfileText(e).c_str()).x);
+    }
+    const std::size_t rows = std::max(m.parameters.size(), result->summary.parameters.size());
+    outer.y = row_h * static_cast<float>(rows) + ImGui::GetTextLineHeight() +
+              2.0f * ImGui::GetStyle().CellPadding.y + ImGui::GetStyle().ScrollbarSize;
+  }
+  if (!ImGui::BeginTable("##parameters", columns,
+                         with_profiles ? flags | ImGuiTableFlags_ScrollX : flags, outer)) {
     ImGui::PopStyleVar();
     return;
   }
@@ -276,10 +302,12 @@ void DrawTable(AppState& state, const FitResult* result) {
     ImGui::TableSetupColumn("Std. error");
     if (!with_profiles) ImGui::TableSetupColumn("t");
     ImGui::TableSetupColumn("p");
-    ImGui::TableSetupColumn(with_profiles ? "95 % Wald" : "95 % interval",
-                            ImGuiTableColumnFlags_WidthStretch);
-    if (with_profiles)
-      ImGui::TableSetupColumn("95 % profile", ImGuiTableColumnFlags_WidthStretch);
+    if (with_profiles) {
+      ImGui::TableSetupColumn("95 % Wald", ImGuiTableColumnFlags_WidthFixed, wald_w);
+      ImGui::TableSetupColumn("95 % profile", ImGuiTableColumnFlags_WidthFixed, profile_w);
+    } else {
+      ImGui::TableSetupColumn("95 % interval", ImGuiTableColumnFlags_WidthStretch);
+    }
   } else {
     ImGui::TableSetupColumn("Description", ImGuiTableColumnFlags_WidthStretch);
   }
@@ -494,7 +522,10 @@ void DrawFitLine(AppState& state, const FitResult* result) {
   }
   const char* label = "Use estimates as start values";
   const float w = ImGui::CalcTextSize(label).x + 2.0f * ImGui::GetStyle().FramePadding.x;
-  ImGui::SameLine(std::max(ImGui::GetCursorPosX(), ImGui::GetContentRegionMax().x - w));
+  // At the right of the line where it fits after the figures, else under them (1024 x 768).
+  const float right = ImGui::GetContentRegionMax().x - w;
+  const float after = ImGui::GetItemRectMax().x - ImGui::GetWindowPos().x + gap;
+  if (right >= after) ImGui::SameLine(right);
   ImGui::BeginDisabled(!result);
   if (ImGui::Button(label)) state.parameters_view.use_estimates_requested = true;
   ImGui::EndDisabled();

@@ -53,7 +53,7 @@ constexpr ShortcutInfo kShortcuts[] = {
     {"Ctrl+Shift+S", "Save the project under another name"},
     {"Ctrl+Q", "Quit (asks to save changes)"},
     {"F5", "Run the estimation"},
-    {"Esc", "Cancel the estimation under way"},
+    {"Esc", "Cancel the estimation under way; close this window or Messages"},
     {"Ctrl+1 \xE2\x80\xA6 Ctrl+9", "Show a view (Data \xE2\x80\xA6 Live)"},
     {"Ctrl+= / Ctrl+-", "Zoom in / out"},
     {"Ctrl+0", "Actual size"},
@@ -352,8 +352,12 @@ void HandleShortcuts(AppState& state) {
     if (!StartEstimation(state, &why))
       AddMessage(state, Severity::kWarning, "The estimation cannot start: " + why);
   }
-  // Esc in a text field reverts the field; only outside one does it cancel the run.
-  if (!io.WantTextInput && Pressed(ImGui::GetKeyIndex(ImGuiKey_Escape)) && EstimationRunning(state))
+  // Esc in a text field reverts the field, in the shortcuts or messages window closes it; only
+  // elsewhere does it cancel the run.
+  const bool tool_window = state.shell.tool_window_focused;
+  state.shell.tool_window_focused = false;  // the windows say it again as they are drawn
+  if (!io.WantTextInput && !tool_window && Pressed(ImGui::GetKeyIndex(ImGuiKey_Escape)) &&
+      EstimationRunning(state))
     CancelEstimation(state);
 }
 
@@ -631,6 +635,12 @@ void DrawShortcutsWindow(AppState& state) {
   const bool open = ImGui::Begin("Keyboard shortcuts", &state.shell.show_shortcuts,
                                  ImGuiWindowFlags_NoCollapse | ImGuiWindowFlags_AlwaysAutoResize);
   ImGui::PopStyleVar();
+  // Esc closes it, as it closes the dialogs.
+  if (open && ImGui::IsWindowFocused(ImGuiFocusedFlags_RootAndChildWindows)) {
+    state.shell.tool_window_focused = true;
+    if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Escape), false))
+      state.shell.show_shortcuts = false;
+  }
   if (open) {
     if (ImGui::BeginTable("##shortcuts", 2, ImGuiTableFlags_SizingFixedFit)) {
       for (const ShortcutInfo& k : kShortcuts) {
@@ -745,6 +755,7 @@ Status ReplaceModel(AppState& state, const std::string& path) {
   state.project->model_json = model::ToJson(*spec);
   state.model = std::move(spec).value();
   state.model_error.clear();
+  ResolveMessages(state, MessageTopic::kModel);
   ++state.model_revision;
   // The fit and the parameter edits belonged to the previous model.
   if (state.estimation.job.active()) state.estimation.job.RequestCancel();

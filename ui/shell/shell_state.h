@@ -99,6 +99,9 @@ struct NewProjectForm {
 };
 
 struct ShellState {
+  // The Keyboard shortcuts or Messages window had the focus in the last frame: Esc closes it and
+  // does not cancel the estimation.
+  bool tool_window_focused = false;
   FileBrowserState browser;
 
   // Recent projects, autosave and recovery read and write files under the user's

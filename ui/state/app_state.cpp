@@ -1,6 +1,7 @@
 #include "ui/state/app_state.h"
 
 #include <cstdio>
+#include <ctime>
 #include <exception>
 #include <filesystem>
 #include <utility>
@@ -125,7 +126,8 @@ void InstallProject(AppState& state, ProjectLoad load) {
   state.analysis.dataset = state.analysis.output = state.analysis.input = 0;
   ResetLive(state);  // the live run watched the previous project's model
   if (!state.model)
-    AddMessage(state, Severity::kError, "The model is not valid: " + state.model_error);
+    AddMessage(state, Severity::kError, "The model is not valid: " + state.model_error,
+               MessageTopic::kModel);
 }
 
 bool SameParameters(const model::ModelSpec& a, const model::ModelSpec& b) {
@@ -152,7 +154,8 @@ void InstallEstimation(AppState& state, EstimationRun run) {
     e.last_failure = "The estimation failed: " + run.error;
     e.last_failure_severity = Severity::kError;
     AddMessage(state, Severity::kError,
-               e.last_failure + (e.result ? " (the previous results are kept)" : ""));
+               e.last_failure + (e.result ? " (the previous results are kept)" : ""),
+               MessageTopic::kEstimation);
     e.live_trace.Clear();
     return;
   }
@@ -176,6 +179,7 @@ void InstallEstimation(AppState& state, EstimationRun run) {
   }
   AddMessage(state, s.converged && s.warnings.empty() ? Severity::kInfo : Severity::kWarning, text);
   e.last_failure.clear();
+  ResolveMessages(state, MessageTopic::kEstimation);
   Trace trace = std::move(e.live_trace);
   e.live_trace = Trace{};
   e.result = MakeFitResult(std::move(run.summary).value(), std::move(trace), e.settings,
@@ -196,8 +200,40 @@ std::optional<View> ParseView(std::string_view name) {
   return std::nullopt;
 }
 
-void AddMessage(AppState& state, Severity severity, std::string text) {
-  state.messages.push_back({severity, std::move(text)});
+void AddMessage(AppState& state, Severity severity, std::string text, MessageTopic topic) {
+  Message m;
+  m.severity = severity;
+  m.text = std::move(text);
+  m.topic = topic;
+  if (!state.deterministic) {
+    const std::time_t now = std::time(nullptr);
+    std::tm local{};
+    localtime_r(&now, &local);
+    char buf[16];
+    std::strftime(buf, sizeof buf, "%H:%M:%S", &local);
+    m.time = buf;
+  }
+  state.messages.push_back(std::move(m));
+}
+
+void ResolveMessages(AppState& state, MessageTopic topic) {
+  for (Message& m : state.messages)
+    if (m.topic == topic && m.severity != Severity::kInfo) m.resolved = true;
+}
+
+std::string StatusText(const AppState& state) {
+  if (state.load_job.active()) return "Opening " + state.loading_path + "\xE2\x80\xA6";
+  if (EstimationRunning(state)) {
+    const EstimationProgress::Latest p = state.estimation.progress
+                                             ? state.estimation.progress->latest()
+                                             : EstimationProgress::Latest{};
+    std::string text = "Estimating \xE2\x80\x94 " + std::string(StageText(p.stage));
+    if (p.any) text += ", iteration " + std::to_string(p.iteration);
+    return text + "\xE2\x80\xA6";
+  }
+  if (SweepRunning(state)) return "Sweeping the operating points\xE2\x80\xA6";
+  if (!state.messages.empty() && !state.messages.back().resolved) return state.messages.back().text;
+  return "Ready";
 }
 
 void OpenProject(AppState& state, std::string path) {

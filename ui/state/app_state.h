@@ -58,9 +58,16 @@ std::string_view ViewTitle(View view);  // the title in the UI: "Operating point
 std::optional<View> ParseView(std::string_view name);
 
 enum class Severity { kInfo, kWarning, kError };
+// What a warning or an error is about, so that a later success settles it: the model became
+// valid, the predictions or the estimate were computed after all.
+enum class MessageTopic { kNone, kModel, kPredictions, kEstimation };
+
 struct Message {
   Severity severity = Severity::kInfo;
   std::string text;
+  std::string time;  // local "HH:MM:SS" when it was added ("" in a snapshot: deterministic)
+  MessageTopic topic = MessageTopic::kNone;
+  bool resolved = false;  // a later success of its topic settled it
 };
 
 // Fonts of the workbench (owned by ImGui's font atlas). Any may be the default font when the
@@ -294,7 +301,14 @@ struct AppState {
   bool deterministic = false;
 };
 
-void AddMessage(AppState& state, Severity severity, std::string text);
+void AddMessage(AppState& state, Severity severity, std::string text,
+                MessageTopic topic = MessageTopic::kNone);
+// Marks the warnings and errors of `topic` resolved: the status bar no longer shows them (the
+// Messages window keeps them, marked so).
+void ResolveMessages(AppState& state, MessageTopic topic);
+// What the status bar says: a job under way, else the last message unless it was resolved, else
+// "Ready".
+std::string StatusText(const AppState& state);
 
 // The sidebar's dataset edits. Each changes the project's entry and the loaded dataset together,
 // counts as an unsaved change, and makes the predictions be computed again; a fit already made

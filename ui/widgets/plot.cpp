@@ -98,9 +98,10 @@ Region RegionAt(const PlotContext& ctx, const PlotState& st, ImVec2 p) {
 }
 
 void ToggleLegendEntry(PlotState& st, ImVec2 mouse) {
-  const float h = (st.last_legend_max.y - st.last_legend_min.y) /
-                  std::max<std::size_t>(1, st.legend_ids.size());
-  const auto row = static_cast<std::size_t>((mouse.y - st.last_legend_min.y) / h);
+  std::size_t row = 0;
+  while (row < st.legend_ids.size() &&
+         !Inside(mouse, st.legend_entry_min[row], st.legend_entry_max[row]))
+    ++row;
   if (row >= st.legend_ids.size()) return;
   const ImGuiID id = st.legend_ids[row];
   const auto it = std::find(st.hidden.begin(), st.hidden.end(), id);
@@ -399,21 +400,56 @@ void DrawAxes(PlotContext& ctx, ImDrawList* dl, const Layout& l, const Transform
 void DrawLegend(PlotContext& ctx, PlotState& st, ImDrawList* dl, const Layout& l,
                 const Transform& t) {
   st.legend_ids.clear();
+  st.legend_entry_min.clear();
+  st.legend_entry_max.clear();
   st.last_legend_min = st.last_legend_max = ImVec2(0, 0);
-  int labelled = 0;
+  std::vector<const Item*> entries;
   float text_w = 0.0f;
   for (const Item& item : ctx.items) {
     if (item.label.empty()) continue;
-    ++labelled;
+    entries.push_back(&item);
     text_w = std::max(text_w, ImGui::CalcTextSize(item.label.c_str()).x);
   }
   const Legend mode = ctx.options.legend;
+  const int labelled = static_cast<int>(entries.size());
   if (mode == Legend::kHide || labelled == 0 || (mode == Legend::kAuto && labelled < 2)) return;
 
   const float pad = 0.4f * l.font_h;
   const float row_h = l.font_h + 0.3f * l.font_h;
   const float swatch_w = 1.4f * l.font_h;
-  const ImVec2 size(pad * 3.0f + swatch_w + text_w, pad * 2.0f + row_h * labelled);
+  const float plot_w = t.max.x - t.min.x, plot_h = t.max.y - t.min.y;
+  // One entry a row; where that box would cover much of a small plot (a third of its height, or
+  // a sixth of its area), the entries run side by side in as few rows as the width allows.
+  const ImVec2 column(pad * 3.0f + swatch_w + text_w, pad * 2.0f + row_h * labelled);
+  const bool side_by_side =
+      column.y > plot_h / 3.0f || column.x * column.y > plot_w * plot_h / 6.0f;
+  const auto entry_w = [&](const Item* item) {
+    return swatch_w + pad + ImGui::CalcTextSize(item->label.c_str()).x + 2.0f * pad;
+  };
+  // Each entry's offset in the box, and the box's size.
+  std::vector<ImVec2> at;
+  ImVec2 size(0, 0);
+  if (side_by_side) {
+    const float limit = std::max(plot_w - 2.0f * pad, 0.0f);
+    float x = pad, y = pad;
+    for (const Item* item : entries) {
+      const float w = entry_w(item);
+      if (x > pad && x + w > limit) {
+        x = pad;
+        y += row_h;
+      }
+      at.emplace_back(x, y);
+      x += w;
+      size.x = std::max(size.x, x);
+    }
+    size.y = y + row_h + pad;
+  } else {
+    for (int k = 0; k < labelled; ++k) at.emplace_back(pad, pad + row_h * static_cast<float>(k));
+    size = column;
+  }
+  // Still a quarter of the plot: left out (the hover readout names the items with their
+  // swatches).
+  if (side_by_side && size.x * size.y > 0.25f * plot_w * plot_h) return;
   const LegendCorner corner = ctx.options.legend_corner;
   const bool right = corner == LegendCorner::kTopRight || corner == LegendCorner::kBottomRight;
   const bool top = corner == LegendCorner::kTopRight || corner == LegendCorner::kTopLeft;
@@ -422,19 +458,21 @@ void DrawLegend(PlotContext& ctx, PlotState& st, ImDrawList* dl, const Layout& l
   const ImVec2 max(min.x + size.x, min.y + size.y);
   dl->AddRectFilled(min, max, IM_COL32(255, 255, 255, 225), 3.0f * ctx.style.scale);
   dl->AddRect(min, max, ctx.style.border, 3.0f * ctx.style.scale);
-  float y = min.y + pad;
-  for (const Item& item : ctx.items) {
-    if (item.label.empty()) continue;
+  for (std::size_t k = 0; k < entries.size(); ++k) {
+    const Item& item = *entries[k];
     const float alpha = item.hidden ? 0.3f : 1.0f;
     const float sh = 0.6f * l.font_h;
-    const ImVec2 sw_min(min.x + pad, y + 0.5f * (row_h - sh));
+    const ImVec2 e(min.x + at[k].x, min.y + at[k].y);
+    const ImVec2 sw_min(e.x, e.y + 0.5f * (row_h - sh));
     internal::DrawSwatch(dl, item, sw_min, ImVec2(sw_min.x + swatch_w, sw_min.y + sh),
                          ctx.style.scale, alpha);
     const ImU32 text = item.hidden ? IM_COL32(150, 154, 160, 255) : ctx.style.title_text;
-    dl->AddText(ImVec2(min.x + 2.0f * pad + swatch_w, y + 0.5f * (row_h - l.font_h)), text,
+    dl->AddText(ImVec2(e.x + pad + swatch_w, e.y + 0.5f * (row_h - l.font_h)), text,
                 item.label.c_str());
     st.legend_ids.push_back(item.id);
-    y += row_h;
+    st.legend_entry_min.push_back(e);
+    st.legend_entry_max.emplace_back(side_by_side ? e.x + entry_w(&item) : max.x - pad,
+                                     e.y + row_h);
   }
   st.last_legend_min = ImVec2(min.x, min.y + pad);
   st.last_legend_max = ImVec2(max.x, max.y - pad);
@@ -472,15 +510,14 @@ void DrawHover(PlotContext& ctx, PlotState& st, LinkedRange& xr, ImDrawList* dl,
 
   ImGui::BeginTooltip();
   const std::string x_name = ctx.options.x_label ? ctx.options.x_label : "x";
+  if (const std::optional<double> x = internal::ReadoutX(ctx.items, hx))
+    ImGui::TextDisabled("%s = %s", x_name.c_str(), FormatValue(*x).c_str());
   bool first = true;
   for (const Item& item : ctx.items) {
     if (item.hidden || item.kind == ItemKind::kVLines) continue;
     const int i = internal::NearestIndex(item, hx);
     if (i < 0) continue;
-    if (first) {
-      ImGui::TextDisabled("%s = %s", x_name.c_str(), FormatValue(item.x[i]).c_str());
-      first = false;
-    }
+    first = false;
     const ImVec2 pos = ImGui::GetCursorScreenPos();
     const float h = ImGui::GetTextLineHeight();
     internal::DrawSwatch(ImGui::GetWindowDrawList(), item, ImVec2(pos.x, pos.y + 0.25f * h),

@@ -119,7 +119,8 @@ struct PlotState {
   ImVec2 box_start;
   ImVec2 last_plot_min, last_plot_max;  // plot area of the previous frame (input uses it)
   ImVec2 last_legend_min, last_legend_max;
-  std::vector<ImGuiID> legend_ids;  // entries of the previous frame's legend, top to bottom
+  std::vector<ImGuiID> legend_ids;  // entries of the previous frame's legend, in order
+  std::vector<ImVec2> legend_entry_min, legend_entry_max;  // ... and where each was drawn
   std::vector<ImGuiID> hidden;      // items the user switched off in the legend
   bool drawn_before = false;
 };

@@ -5,6 +5,9 @@
 #include <imgui.h>
 
 #include <algorithm>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "ui/widgets/plot.h"
 
@@ -47,6 +50,11 @@ bool ItemYExtent(const Item& item, Range view, double* lo, double* hi);
 
 // The sample nearest to `x` (-1 for an empty item).
 int NearestIndex(const Item& item, double x);
+
+// The x the hover readout names with the mouse at `x`: the nearest sample of the first shown
+// line, marker or stem item (a band may have only its two ends, a correlogram's ± bound, whose
+// nearest x is not the one pointed at), else of the first shown band; nullopt without samples.
+std::optional<double> ReadoutX(const std::vector<Item>& items, double x);
 
 // The item's values at sample i, formatted for the hover readout ("0.125", "0.1 … 0.3").
 std::string ItemValueText(const Item& item, int i);

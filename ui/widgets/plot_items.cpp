@@ -305,6 +305,17 @@ int NearestIndex(const Item& item, double x) {
   return i;
 }
 
+std::optional<double> ReadoutX(const std::vector<Item>& items, double x) {
+  const Item* chosen = nullptr;
+  for (const Item& item : items) {
+    if (item.hidden || item.kind == ItemKind::kVLines || NearestIndex(item, x) < 0) continue;
+    if (!chosen || (chosen->kind == ItemKind::kBand && item.kind != ItemKind::kBand))
+      chosen = &item;
+  }
+  if (!chosen) return std::nullopt;
+  return chosen->x[NearestIndex(*chosen, x)];
+}
+
 std::string ItemValueText(const Item& item, int i) {
   switch (item.kind) {
     case ItemKind::kBand:
