@@ -44,6 +44,9 @@ struct CommandInputs {
   Json inline_model;         // the project's inline model
   std::string project_path;  // "" without a project
   std::vector<data::DatasetSpec> datasets;  // every dataset, in order
+  // Every file the project is made of (project::ProjectFiles: its diagram file too); empty
+  // without a project.
+  std::vector<FileRole> project_files;
   // Several fitted records each from its own initial state (the project's
   // "estimation": {"initial_states": "per_record"}, or --initial-states).
   bool per_record_initial_states = false;

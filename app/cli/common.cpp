@@ -47,7 +47,7 @@ Result<model::ModelSpec> ApplySets(model::ModelSpec spec, const std::vector<std:
 }  // namespace
 
 std::vector<FileRole> CommandInputs::Files() const {
-  std::vector<FileRole> files;
+  std::vector<FileRole> files = project_files;
   if (!project_path.empty()) files.push_back({project_path, "the project file"});
   if (!model_path.empty()) files.push_back({model_path, "the model file"});
   for (const data::DatasetSpec& d : datasets) files.push_back({d.file, "the data file"});
@@ -82,6 +82,7 @@ Result<CommandInputs> ResolveFiles(const std::string& first, const std::vector<s
   auto p = project::LoadProject(first);
   if (!p) return p.error();
   in.project_path = first;
+  in.project_files = project::ProjectFiles(*p);
   in.model_path = p->model_path;
   if (p->model_path.empty()) in.inline_model = p->model_json;
   in.datasets = data.empty() ? p->datasets : project::PlainDatasets(data);

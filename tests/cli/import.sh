@@ -141,5 +141,15 @@ bad 'model.json|no datasets' '[]'
 kept=("$tmp/two.json" "$tmp/german.csv")
 expect_kept 2 "refus|input" -- estimate "$tmp/two.json" --out "$tmp/german.csv"
 expect_kept 2 "refus|input" -- estimate "$tmp/two.json" --out "$tmp/two.json"
+# ... or on the project's diagram file, which no command reads but the project is made of
+# (found by cli_fuzz: `diagnose PROJECT --out DIAGRAM` wrote over it).
+echo '{"greybench_diagram": 1, "blocks": []}' >"$tmp/diagram.json"
+printf '{"greybench_project": 1, "model": "model.json", "diagram": "diagram.json", "datasets": ["%s"]}\n' \
+  "$csv" >"$tmp/with_diagram.json"
+"$cli" estimate "$tmp/with_diagram.json" --out "$tmp/fit_d.json" >/dev/null 2>&1
+kept=("$tmp/with_diagram.json" "$tmp/diagram.json")
+expect_kept 2 "refus|input" -- diagnose "$tmp/with_diagram.json" --result "$tmp/fit_d.json" --out "$tmp/diagram.json"
+expect_kept 2 "refus|input" -- predict "$tmp/with_diagram.json" --result "$tmp/fit_d.json" --out "$tmp/diagram.json"
+expect_kept 2 "refus|input" -- estimate "$tmp/with_diagram.json" --out "$tmp/diagram.json"
 
 summary import
