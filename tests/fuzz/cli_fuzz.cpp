@@ -382,7 +382,9 @@ CommandLine Decode(const std::uint8_t* data, std::size_t size) {
       cl.output_seq.push_back(arg);
     }
     cl.args.push_back(arg);
-    previous = token;
+    // A word taken as an option's value is not an option itself, even when it reads like one
+    // (`--out --states --states F` writes the file "--states" and F: not one output twice).
+    previous = after_value_option ? std::string() : token;
   }
   // A project is read with its diagram (export-model).
   if (cl.inputs.count("project.json")) cl.inputs.insert("diagram.json");
