@@ -172,14 +172,12 @@ void DrawStatusBar(AppState& state, float height) {
   const float text_y = min.y + 0.5f * (height - ImGui::GetTextLineHeight());
   const std::string text = StatusText(state);
   ImU32 color = ImGui::GetColorU32(ImGuiCol_TextDisabled);
-  const bool busy = state.load_job.active() || EstimationRunning(state) || SweepRunning(state);
-  if (!busy && !state.messages.empty() && !state.messages.back().resolved) {
-    const Message& m = state.messages.back();
-    if (m.severity != Severity::kInfo)
-      color = ImGui::ColorConvertFloat4ToU32(SeverityColor(m.severity));
+  if (const Message* m = StatusMessage(state)) {
+    if (m->severity != Severity::kInfo)
+      color = ImGui::ColorConvertFloat4ToU32(SeverityColor(m->severity));
     const float r = 3.5f * s;
     dl->AddCircleFilled(ImVec2(min.x + pad + r, min.y + 0.5f * height), r,
-                        ImGui::ColorConvertFloat4ToU32(SeverityColor(m.severity)), 12);
+                        ImGui::ColorConvertFloat4ToU32(SeverityColor(m->severity)), 12);
   }
 
   const std::string button = std::to_string(state.messages.size()) +

@@ -65,8 +65,7 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
   auto loaded = LoadModelWithOverrides(in, sets);
   if (!loaded) return loaded.error();
   // A fitted record of a fit per record starts from its own copies of the initial state's
-  // parameters (record 1 from the originals).
-  // A result of a fit per record says so: its records start from their own copies here too.
+  // parameters (record 1 from the originals); a result of such a fit says so.
   CommandInputs as_fitted = in;
   if (!result_path.empty()) {
     auto result = project::ReadJsonFile(result_path);
@@ -92,12 +91,8 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
   }
   EvaluatedSeries out;
   out.theta = spec->Values();
-  if (record > 0) {
-    const std::vector<int>& index = fitted_model->index[static_cast<std::size_t>(record)];
-    const std::vector<double> all = out.theta;
-    for (std::size_t i = 0; i < index.size(); ++i)
-      if (index[i] >= 0) out.theta[i] = all[static_cast<std::size_t>(index[i])];
-  }
+  if (record > 0)
+    out.theta = filter::SeriesTheta(out.theta, fitted_model->index[static_cast<std::size_t>(record)]);
   auto problem = project::LoadProblem(std::move(*spec), std::vector{dataset});
   if (!problem) return problem.error();
   auto lik = project::MakeLikelihood(*problem);

@@ -307,12 +307,6 @@ Result<std::shared_ptr<const Dataset>> ReadDataset(const DatasetSpec& spec) {
       mdf ? ReadMdfDataset(spec)
           : ReadCsvFile(spec.file, [&spec](std::string_view text) { return FormatOf(spec, text); });
   if (!read) return read.error();
-  if (spec.range && (*read)->rows() < 2) {
-    const std::size_t n = (*read)->rows();
-    return KeyError(spec, "range",
-                    fmt::format("[{:g}, {:g}] holds {} row{} of the record; at least 2 are needed",
-                                (*spec.range)[0], (*spec.range)[1], n, n == 1 ? "" : "s"));
-  }
   return Prepare(std::move(*read), spec);
 }
 
@@ -548,6 +542,12 @@ std::vector<double> Decimate(std::span<const double> time, std::span<const doubl
 
 Result<std::shared_ptr<const Dataset>> Prepare(std::shared_ptr<const Dataset> data,
                                                const DatasetSpec& spec) {
+  if (spec.range && data->rows() < 2) {
+    const std::size_t n = data->rows();
+    return KeyError(spec, "range",
+                    fmt::format("[{:g}, {:g}] holds {} row{} of the record; at least 2 are needed",
+                                (*spec.range)[0], (*spec.range)[1], n, n == 1 ? "" : "s"));
+  }
   if (spec.map.empty() && spec.detrend.empty() && spec.resample == 0) return data;
   auto d = std::make_shared<Dataset>(*data);
   if (!spec.map.empty())

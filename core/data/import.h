@@ -116,7 +116,7 @@ bool IsMdfFile(const std::string& path);
 Result<std::shared_ptr<const Dataset>> ReadDataset(const DatasetSpec& spec);
 
 // The preparation steps on a dataset already read, in the rows of its range (map, detrend and
-// resample of `spec`).
+// resample of `spec`). A range that kept fewer than 2 rows is an error of the key `range`.
 Result<std::shared_ptr<const Dataset>> Prepare(std::shared_ptr<const Dataset> data,
                                                const DatasetSpec& spec);
 

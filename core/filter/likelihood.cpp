@@ -131,12 +131,16 @@ void Likelihood::set_series_parameters(std::vector<std::vector<int>> index) {
   series_parameters_ = std::move(index);
 }
 
-std::vector<double> Likelihood::SeriesTheta(std::span<const double> theta, std::size_t s) const {
+std::vector<double> SeriesTheta(std::span<const double> theta, std::span<const int> row) {
   std::vector<double> own(theta.begin(), theta.end());
-  if (s < series_parameters_.size())
-    for (std::size_t i = 0; i < series_parameters_[s].size(); ++i)
-      if (series_parameters_[s][i] >= 0) own[i] = theta[series_parameters_[s][i]];
+  for (std::size_t i = 0; i < row.size(); ++i)
+    if (row[i] >= 0) own[i] = theta[static_cast<std::size_t>(row[i])];
   return own;
+}
+
+std::vector<double> Likelihood::SeriesTheta(std::span<const double> theta, std::size_t s) const {
+  if (s >= series_parameters_.size()) return {theta.begin(), theta.end()};
+  return filter::SeriesTheta(theta, series_parameters_[s]);
 }
 
 Likelihood::SeriesFree Likelihood::FreeOf(std::span<const int> free, std::size_t s) const {
@@ -187,8 +191,6 @@ Result<Loglik> Likelihood::EvaluateEkf(std::span<const double> theta, std::span<
   auto total = SumOverSeries(delay, terms, [&](std::size_t i, const data::Series& s,
                                                const FilterSettings& settings,
                                                std::vector<double>* t) {
-    if (series_parameters_.empty())
-      return EkfLogLikelihood(*nonlinear_, theta, s, settings, t, &counts);
     return EkfLogLikelihood(*nonlinear_, SeriesTheta(theta, i), s, settings, t, &counts);
   });
   counts_->Add(counts);
@@ -311,9 +313,6 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
         delay, free, gradient, J_terms_theta,
         [&](std::size_t i, const data::Series& s, const FilterSettings& settings,
             std::span<const int> params, Eigen::VectorXd* g, Eigen::MatrixXd* J) {
-          if (series_parameters_.empty())
-            return EkfLogLikelihoodWithScore(*nonlinear_, *sensitivity_, theta, s, settings,
-                                             params, g, J, &counts);
           return EkfLogLikelihoodWithScore(*nonlinear_, *sensitivity_, SeriesTheta(theta, i), s,
                                            settings, params, g, J, &counts);
         });

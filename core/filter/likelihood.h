@@ -38,6 +38,10 @@ struct DelayProfile {
   int best = -1;                           // index of the highest log-likelihood, -1 if none ok
 };
 
+// θ_s of a series whose row of Likelihood::set_series_parameters is `row`: θ_s[i] = θ[row[i]],
+// or θ[i] where row[i] is -1 (an empty row: θ itself).
+std::vector<double> SeriesTheta(std::span<const double> theta, std::span<const int> row);
+
 class Likelihood {
  public:
   // Binds nothing itself: `series` must be bound to the model's inputs and outputs. Fails (kInput)

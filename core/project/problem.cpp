@@ -11,10 +11,6 @@
 
 namespace gb::project {
 
-const char* InitialStatesName(InitialStates s) {
-  return s == InitialStates::kPerRecord ? "per_record" : "shared";
-}
-
 Result<RecordInitialStates> PerRecordInitialStates(model::ModelSpec spec, int records) {
   RecordInitialStates out;
   if (records < 2) {
@@ -95,9 +91,7 @@ bool StartsFromFirstSamples(const Problem& p, const std::vector<bool>& declared,
   const std::vector<double> theta = spec->Values();
   bool moved = false;
   for (std::size_t r = 1; r < p.series.size(); ++r) {
-    std::vector<double> own = theta;
-    for (std::size_t i = 0; i < own.size(); ++i)
-      if (p.series_parameters[r][i] >= 0) own[i] = theta[p.series_parameters[r][i]];
+    const std::vector<double> own = filter::SeriesTheta(theta, p.series_parameters[r]);
     const data::Series& series = *p.series[r];
     const int n = filter::InitialStateSamples(static_cast<int>(series.size()));
     std::optional<filter::InitialStateEstimate> start;

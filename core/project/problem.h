@@ -18,7 +18,6 @@ namespace gb::project {
 // How the records of a joint fit start: all from the model's one initial state, or each from
 // its own (PerRecordInitialStates). A project's "estimation": {"initial_states": "per_record"}.
 enum class InitialStates { kShared, kPerRecord };
-const char* InitialStatesName(InitialStates s);  // "shared", "per_record"
 
 struct Problem {
   // Exactly one is set: the linear model (exact Kalman filter), or, for a model that is not

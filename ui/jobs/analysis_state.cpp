@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <utility>
 
+#include "core/filter/likelihood.h"
 #include "ui/panels/common.h"
 #include "ui/state/app_state.h"
 
@@ -15,8 +16,10 @@ namespace {
 // copies in a fit with initial states per record), and so are its outputs.
 bool FitMatchesModel(const FitResult& fit, const model::ModelSpec& m) {
   const estimate::EstimateSummary& s = fit.summary;
-  const std::size_t copies = fit.series_parameters.empty() ? 0 : s.parameters.size() - std::min(s.parameters.size(), m.parameters.size());
-  if (s.theta.size() != s.parameters.size() || s.parameters.size() != m.parameters.size() + copies)
+  const bool copies = !fit.series_parameters.empty();
+  if (s.theta.size() != s.parameters.size() ||
+      (copies ? s.parameters.size() < m.parameters.size()
+              : s.parameters.size() != m.parameters.size()))
     return false;
   for (const std::vector<int>& row : fit.series_parameters)
     if (row.size() != s.parameters.size()) return false;
@@ -125,14 +128,14 @@ std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state, std::st
   const FitResult* fit = state.estimation.result ? &*state.estimation.result : nullptr;
   if (fit && !a.use_current_values && FitMatchesModel(*fit, m)) {
     r.source = AnalysisSource::kFit;
-    const std::vector<double>& all = fit->summary.theta;
-    r.theta.assign(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(m.parameters.size()));
-    for (const std::vector<int>& row : fit->series_parameters) {
-      std::vector<double> own = r.theta;
-      for (std::size_t i = 0; i < own.size(); ++i)
-        if (row[i] >= 0) own[i] = all[static_cast<std::size_t>(row[i])];
-      r.record_theta.push_back(std::move(own));
-    }
+    // The model's parameters come first; a fit per record's copies after them.
+    const auto model_part = [&m](std::vector<double> theta) {
+      theta.resize(m.parameters.size());
+      return theta;
+    };
+    r.theta = model_part(fit->summary.theta);
+    for (const std::vector<int>& row : fit->series_parameters)
+      r.record_theta.push_back(model_part(filter::SeriesTheta(fit->summary.theta, row)));
     for (const estimate::DelayEstimate& d : fit->summary.delays) r.delay.push_back(d.estimate);
   } else {
     r.source = AnalysisSource::kCurrentValues;

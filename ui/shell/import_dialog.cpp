@@ -63,6 +63,30 @@ std::string RowsText(const data::Dataset& d, bool previewed) {
          " s";
 }
 
+// The check's verdict on the entry's rows as read: prepared (map, detrend, resample, with the
+// range's row count checked) and bound to the model; `note` ends the rows' line.
+void CheckRows(ImportForm* f, Result<std::shared_ptr<const data::Dataset>> read,
+               const data::DatasetSpec& spec, const model::ModelSpec* model,
+               const std::string& note) {
+  if (read) read = data::Prepare(*read, spec);
+  if (!read) {
+    f->check = read.error().ToString();
+    return;
+  }
+  std::string rows = RowsText(**read, f->truncated);
+  if (model) {
+    Result<std::shared_ptr<const data::Series>> bound =
+        data::Bind(**read, model->inputs, model->outputs);
+    if (!bound) {
+      f->check = bound.error().ToString();
+      return;
+    }
+    rows += "; they bind to the model's inputs and outputs";
+  }
+  f->check = rows + note;
+  f->check_ok = true;
+}
+
 // The check of an MDF file's form: its channels on the time base, prepared and bound.
 void CheckMdf(ImportForm* f, const model::ModelSpec* model) {
   f->names.clear();
@@ -73,27 +97,8 @@ void CheckMdf(ImportForm* f, const model::ModelSpec* model) {
     return;
   }
   const data::DatasetSpec spec = ImportSpecOf(*f, model);
-  Result<std::shared_ptr<const data::Dataset>> read =
-      data::Mdf4ToDataset(*f->mdf_file, f->path, data::Mdf4FormatOf(spec));
-  if (read && spec.range && (*read)->rows() < 2)
-    read = InputError("the range holds fewer than 2 rows of the record");
-  if (read) read = data::Prepare(*read, spec);
-  if (!read) {
-    f->check = read.error().ToString();
-    return;
-  }
-  std::string rows = RowsText(**read, false);
-  if (model) {
-    Result<std::shared_ptr<const data::Series>> bound =
-        data::Bind(**read, model->inputs, model->outputs);
-    if (!bound) {
-      f->check = bound.error().ToString();
-      return;
-    }
-    rows += "; they bind to the model's inputs and outputs";
-  }
-  f->check = rows + ".";
-  f->check_ok = true;
+  CheckRows(f, data::Mdf4ToDataset(*f->mdf_file, f->path, data::Mdf4FormatOf(spec)), spec, model,
+            ".");
 }
 
 }  // namespace
@@ -170,28 +175,13 @@ void CheckImport(ImportForm* f, const model::ModelSpec* model) {
   // A range beyond the preview's rows is checked on the whole file when it is added.
   const bool range_later = f->truncated && spec.range.has_value();
   if (range_later) spec.range.reset();
-  Result<std::shared_ptr<const data::Dataset>> read =
-      data::ParseCsv(f->preview, f->path, data::FormatOf(spec, f->preview));
-  if (read) read = data::Prepare(*read, spec);
-  if (!read) {
-    f->check = read.error().ToString();
-    return;
-  }
-  const data::Dataset& d = **read;
-  std::string rows = RowsText(d, f->truncated);
-  if (model) {
-    Result<std::shared_ptr<const data::Series>> bound = data::Bind(d, model->inputs, model->outputs);
-    if (!bound) {
-      f->check = bound.error().ToString();
-      return;
-    }
-    rows += "; they bind to the model's inputs and outputs";
-  }
+  std::string note;
   if (range_later)
-    rows += "; the range t = " + FormatSig(f->range_from, 6) + " \xE2\x80\xA6 " +
-            FormatSig(f->range_to, 6) + " s is applied to the whole file";
-  f->check = rows + (f->truncated ? " (the whole file is read when it is added)." : ".");
-  f->check_ok = true;
+    note = "; the range t = " + FormatSig(f->range_from, 6) + " \xE2\x80\xA6 " +
+           FormatSig(f->range_to, 6) + " s is applied to the whole file";
+  note += f->truncated ? " (the whole file is read when it is added)." : ".";
+  CheckRows(f, data::ParseCsv(f->preview, f->path, data::FormatOf(spec, f->preview)), spec, model,
+            note);
 }
 
 // ---------------------------------------------------------------------------------------------

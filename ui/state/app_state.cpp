@@ -221,6 +221,12 @@ void ResolveMessages(AppState& state, MessageTopic topic) {
     if (m.topic == topic && m.severity != Severity::kInfo) m.resolved = true;
 }
 
+const Message* StatusMessage(const AppState& state) {
+  if (state.load_job.active() || EstimationRunning(state) || SweepRunning(state)) return nullptr;
+  if (state.messages.empty() || state.messages.back().resolved) return nullptr;
+  return &state.messages.back();
+}
+
 std::string StatusText(const AppState& state) {
   if (state.load_job.active()) return "Opening " + state.loading_path + "\xE2\x80\xA6";
   if (EstimationRunning(state)) {
@@ -232,7 +238,7 @@ std::string StatusText(const AppState& state) {
     return text + "\xE2\x80\xA6";
   }
   if (SweepRunning(state)) return "Sweeping the operating points\xE2\x80\xA6";
-  if (!state.messages.empty() && !state.messages.back().resolved) return state.messages.back().text;
+  if (const Message* m = StatusMessage(state)) return m->text;
   return "Ready";
 }
 

@@ -306,8 +306,10 @@ void AddMessage(AppState& state, Severity severity, std::string text,
 // Marks the warnings and errors of `topic` resolved: the status bar no longer shows them (the
 // Messages window keeps them, marked so).
 void ResolveMessages(AppState& state, MessageTopic topic);
-// What the status bar says: a job under way, else the last message unless it was resolved, else
-// "Ready".
+// The message the status bar shows: the last, unless it was resolved or a job under way (opening,
+// estimating, sweeping) has the bar; null then.
+const Message* StatusMessage(const AppState& state);
+// What the status bar says: the job under way, else StatusMessage's text, else "Ready".
 std::string StatusText(const AppState& state);
 
 // The sidebar's dataset edits. Each changes the project's entry and the loaded dataset together,
