@@ -112,111 +112,25 @@ int RunEstimate(const EstimateArgs& args) {
   return summary->converged ? 0 : 1;
 }
 
-namespace {
-
-// What `compare` reads of a result file.
-struct Fit {
-  std::string path;
-  std::string model;
-  double loglik = 0;
-  int n_free = 0;
-  long n_obs = 0;
-  std::vector<std::string> datasets;      // file names, sorted
-  std::vector<std::string> fingerprints;  // the data files' fingerprints, sorted (may be empty)
-  std::map<std::string, std::optional<double>> parameters;  // name: its value if fixed, else none
-};
-
-Result<Fit> ReadFit(const std::string& path) {
-  auto j = project::ReadJsonFile(path);
-  if (!j) return j.error();
-  auto fail = [&](const std::string& where, const std::string& what) {
-    return project::ResultFileError(path, where, what);
-  };
-  if (!j->is_object() || !j->contains("greybench_result"))
-    return fail("", "not a greybench result file (no \"greybench_result\")");
-  if (j->value("partial", false))
-    return fail("partial", "a partial result (a checkpoint of a fit that did not finish): its log L "
-                           "is not an optimum, so a likelihood-ratio test on it means nothing");
-  Fit fit;
-  fit.path = path;
-  if (!(*j)["loglik"].is_number() || !std::isfinite((*j)["loglik"].get<double>()))
-    return fail("loglik", "expected a finite number");
-  if (!(*j)["n_free"].is_number_integer()) return fail("n_free", "expected a whole number");
-  if (!(*j)["n_obs"].is_number_integer() || (*j)["n_obs"].get<long>() < 1)
-    return fail("n_obs", "expected a whole number of observations (1 or more)");
-  fit.loglik = (*j)["loglik"].get<double>();
-  fit.n_free = (*j)["n_free"].get<int>();
-  fit.n_obs = (*j)["n_obs"].get<long>();
-  if ((*j)["model"].is_string()) fit.model = (*j)["model"].get<std::string>();
-  namespace fs = std::filesystem;
-  if ((*j)["datasets"].is_array())
-    for (const Json& d : (*j)["datasets"])
-      if (d.is_string()) fit.datasets.push_back(fs::path(d.get<std::string>()).filename().string());
-  if ((*j)["data_fingerprints"].is_array())
-    for (const Json& d : (*j)["data_fingerprints"])
-      if (d.is_string()) fit.fingerprints.push_back(d.get<std::string>());
-  std::sort(fit.datasets.begin(), fit.datasets.end());
-  std::sort(fit.fingerprints.begin(), fit.fingerprints.end());
-  const Json& params = (*j)["parameters"];
-  if (!params.is_object()) return fail("parameters", "expected an object of parameter estimates");
-  for (const auto& [name, entry] : params.items()) {
-    if (!entry.is_object() || !entry["estimate"].is_number())
-      return fail("parameters." + name + ".estimate", "expected a number");
-    const bool fixed = entry.value("fixed", false);
-    fit.parameters[name] = fixed ? std::optional<double>(entry["estimate"].get<double>())
-                                 : std::nullopt;
-  }
-  return fit;
-}
-
-// Why a likelihood-ratio test of `r` (fewer free parameters) against `f` is meaningless, or "":
-// the two were fitted to other data, or `r` is not `f` with some of its free parameters fixed.
-std::string WhyNotNested(const Fit& r, const Fit& f, bool* by_name_only) {
-  if (r.n_obs != f.n_obs)
-    return fmt::format("they were fitted to different data: {} has {} observations, {} has {}",
-                       r.path, r.n_obs, f.path, f.n_obs);
-  *by_name_only = r.fingerprints.empty() || f.fingerprints.empty();
-  if (!*by_name_only && r.fingerprints != f.fingerprints)
-    return fmt::format("they were fitted to different data: the data files of {} and of {} "
-                       "differ in content",
-                       r.path, f.path);
-  if (*by_name_only && r.datasets != f.datasets)
-    return fmt::format("they were fitted to different data files ({} and {})",
-                       fmt::join(r.datasets, ", "), fmt::join(f.datasets, ", "));
-  for (const auto& [name, fixed_r] : r.parameters) {
-    const auto it = f.parameters.find(name);
-    if (it == f.parameters.end())
-      return fmt::format("the models are not nested: '{}' of {} is not a parameter of {}", name,
-                         r.path, f.path);
-    const std::optional<double>& fixed_f = it->second;
-    if (!fixed_r && fixed_f)
-      return fmt::format("the models are not nested: '{}' is free in {} (the fit with fewer free "
-                         "parameters) but fixed in {}",
-                         name, r.path, f.path);
-    if (fixed_r && fixed_f &&
-        std::abs(*fixed_r - *fixed_f) > 1e-12 * std::max(std::abs(*fixed_r), std::abs(*fixed_f)))
-      return fmt::format("the models are not nested: '{}' is fixed at {} in {} and at {} in {}",
-                         name, *fixed_r, r.path, *fixed_f, f.path);
-  }
-  return "";
-}
-
-}  // namespace
-
 int RunCompare(const CompareArgs& args) {
-  auto a = ReadFit(args.a);
+  auto read = [](const std::string& path) -> Result<project::NestedFit> {
+    auto j = project::ReadJsonFile(path);
+    if (!j) return j.error();
+    return project::ReadNestedFit(*j, path);
+  };
+  auto a = read(args.a);
   if (!a) return Fail(a.error());
-  auto b = ReadFit(args.b);
+  auto b = read(args.b);
   if (!b) return Fail(b.error());
   if (a->n_free == b->n_free)
     return Fail(InputError(fmt::format("{} and {} have the same number of free parameters ({}): "
                                        "a likelihood-ratio test needs nested models",
                                        args.a, args.b, a->n_free)));
   const bool a_restricted = a->n_free < b->n_free;
-  const Fit& r = a_restricted ? *a : *b;
-  const Fit& f = a_restricted ? *b : *a;
+  const project::NestedFit& r = a_restricted ? *a : *b;
+  const project::NestedFit& f = a_restricted ? *b : *a;
   bool by_name_only = false;
-  if (const std::string why = WhyNotNested(r, f, &by_name_only); !why.empty())
+  if (const std::string why = project::WhyNotNested(r, f, &by_name_only); !why.empty())
     return Fail(InputError("no likelihood-ratio test: " + why));
   auto test = estimate::CompareNested(r.loglik, r.n_free, f.loglik, f.n_free);
   if (!test) return Fail(test.error());

@@ -1332,6 +1332,58 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& likelihood,
   return run.Run();
 }
 
+Result<EstimateSummary> StoppedSummary(const filter::Likelihood& likelihood,
+                                       EstimateSummary cancelled, const Progress& best) {
+  const model::ModelSpec& spec = likelihood.spec();
+  if (best.theta.size() != spec.parameters.size())
+    return InputError("the fit was stopped before it reached a point of the model's parameters");
+  std::vector<int> delay = best.delay;
+  if (delay.empty())
+    for (const model::DelaySpec& d : spec.output_delay) delay.push_back(d.min);
+  auto at = likelihood.Evaluate(best.theta, delay);
+  if (!at) return at.error();
+  if (!std::isfinite(at->loglik))
+    return NumericalError("the log-likelihood cannot be evaluated at the best point so far");
+  EstimateSummary& s = cancelled;
+  s.cancelled = true;
+  s.converged = false;
+  s.message = fmt::format("stopped by the user after {} iterations", s.iterations);
+  s.theta = best.theta;
+  s.loglik = at->loglik;
+  s.n_obs = at->n_obs;
+  s.n_free = 0;
+  for (const model::Parameter& p : spec.parameters) s.n_free += p.fixed ? 0 : 1;
+  for (const model::DelaySpec& d : spec.output_delay) s.n_free += d.IsScan() ? 1 : 0;
+  s.aic = -2 * s.loglik + 2 * s.n_free;
+  s.bic = -2 * s.loglik + s.n_free * std::log(static_cast<double>(std::max<long>(1, s.n_obs)));
+  s.parameters.clear();
+  for (std::size_t i = 0; i < spec.parameters.size(); ++i) {
+    const model::Parameter& p = spec.parameters[i];
+    ParameterEstimate e;
+    e.name = p.name;
+    e.estimate = best.theta[i];
+    e.lower = p.lower;
+    e.upper = p.upper;
+    e.fixed = p.fixed;
+    e.unit = p.unit;
+    s.parameters.push_back(std::move(e));
+  }
+  s.delays.clear();
+  for (std::size_t o = 0; o < spec.outputs.size(); ++o)
+    s.delays.push_back({spec.outputs[o], o < delay.size() ? delay[o] : 0,
+                        spec.output_delay[o].IsScan(), {}});
+  s.optima = {Optimum{s.loglik, 1, false, s.theta}};
+  s.starts_at_best = 1;
+  s.correlation_names.clear();
+  s.correlation.resize(0, 0);
+  s.covariance.resize(0, 0);
+  s.warnings = {fmt::format("the fit was stopped by the user after {} iterations ({}): these are "
+                            "the best values it had reached, not an optimum, so no standard errors "
+                            "are given; run the estimation again from them to finish it",
+                            s.iterations, best.stage.empty() ? "fitting" : best.stage)};
+  return s;
+}
+
 // ---- 6. likelihood-ratio test ----------------------------------------------------------------
 
 Result<LikelihoodRatioTest> CompareNested(double loglik_restricted, int n_free_restricted,

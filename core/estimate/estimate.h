@@ -254,12 +254,23 @@ struct EstimateSummary {
 
   std::string Report() const;  // readable, in the spirit of CTSM's summary
   Json ToJson() const;         // CONTRACT section 5
+  // A result file read back (the inverse of ToJson; the ODE solver's rejected steps and the
+  // steady-state start's θ, which it does not write, stay empty). Errors name `file` and the
+  // JSON path; a partial result (a checkpoint) is refused: it holds estimates only.
+  static Result<EstimateSummary> FromJson(const Json& j, const std::string& file);
 };
 
 // Fits the model of `likelihood` to its data. Fails only for invalid options or when the log-
 // likelihood cannot be evaluated at the start values; a fit that does not converge returns a
 // summary with converged = false and a message saying why.
 Result<EstimateSummary> Estimate(const filter::Likelihood& likelihood, const EstimateOptions& options);
+
+// The summary of a fit the user stopped (Estimate's summary with `cancelled` set) at the best
+// point it had reported (Progress::theta and ::delay): log L evaluated there once more, the
+// run's counts and times, the parameters' values without standard errors (not an optimum), and
+// a warning that says so. `likelihood` must not be the cancelled one (Estimate copies it).
+Result<EstimateSummary> StoppedSummary(const filter::Likelihood& likelihood,
+                                       EstimateSummary cancelled, const Progress& best);
 
 // The profile log-likelihood and likelihood-ratio interval at `level` of each free parameter named
 // in `names` (empty: every free parameter), at the estimate `at` of `likelihood`'s model (its

@@ -203,6 +203,7 @@ Json EstimateSummary::ToJson() const {
   j["model"] = model_name;
   j["datasets"] = datasets;
   j["converged"] = converged;
+  if (cancelled) j["cancelled"] = true;  // stopped by the user: the best point so far
   j["message"] = message;
   j["loglik"] = loglik;
   j["n_obs"] = n_obs;

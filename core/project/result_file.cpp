@@ -1,8 +1,11 @@
 #include "core/project/result_file.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 
 #include "core/project/project.h"
 
@@ -81,6 +84,94 @@ Result<std::vector<int>> ApplyResultFile(const std::string& path, const std::set
     }
   }
   return delay;
+}
+
+}  // namespace gb::project
+
+namespace gb::project {
+namespace {
+
+const Json& Member(const Json& j, const char* key) {
+  static const Json kNull;
+  const auto it = j.find(key);
+  return it == j.end() ? kNull : *it;
+}
+
+}  // namespace
+
+Result<NestedFit> ReadNestedFit(const Json& j, const std::string& path) {
+  auto fail = [&](const std::string& where, const std::string& what) {
+    return ResultFileError(path, where, what);
+  };
+  if (!j.is_object() || !j.contains("greybench_result"))
+    return fail("", "not a greybench result file (no \"greybench_result\")");
+  if (j.value("partial", false))
+    return fail("partial", "a partial result (a checkpoint of a fit that did not finish): its log L "
+                           "is not an optimum, so a likelihood-ratio test on it means nothing");
+  if (j.value("cancelled", false))
+    return fail("cancelled", "a fit stopped by the user before it finished: its log L is not an "
+                             "optimum, so a likelihood-ratio test on it means nothing");
+  NestedFit fit;
+  fit.path = path;
+  const Json& loglik = Member(j, "loglik");
+  if (!loglik.is_number() || !std::isfinite(loglik.get<double>()))
+    return fail("loglik", "expected a finite number");
+  if (!Member(j, "n_free").is_number_integer()) return fail("n_free", "expected a whole number");
+  if (!Member(j, "n_obs").is_number_integer() || Member(j, "n_obs").get<long>() < 1)
+    return fail("n_obs", "expected a whole number of observations (1 or more)");
+  fit.loglik = loglik.get<double>();
+  fit.n_free = Member(j, "n_free").get<int>();
+  fit.n_obs = Member(j, "n_obs").get<long>();
+  if (Member(j, "model").is_string()) fit.model = Member(j, "model").get<std::string>();
+  namespace fs = std::filesystem;
+  if (Member(j, "datasets").is_array())
+    for (const Json& d : Member(j, "datasets"))
+      if (d.is_string()) fit.datasets.push_back(fs::path(d.get<std::string>()).filename().string());
+  if (Member(j, "data_fingerprints").is_array())
+    for (const Json& d : Member(j, "data_fingerprints"))
+      if (d.is_string()) fit.fingerprints.push_back(d.get<std::string>());
+  std::sort(fit.datasets.begin(), fit.datasets.end());
+  std::sort(fit.fingerprints.begin(), fit.fingerprints.end());
+  const Json& params = Member(j, "parameters");
+  if (!params.is_object()) return fail("parameters", "expected an object of parameter estimates");
+  for (const auto& [name, entry] : params.items()) {
+    if (!entry.is_object() || !Member(entry, "estimate").is_number())
+      return fail("parameters." + name + ".estimate", "expected a number");
+    const bool fixed = entry.value("fixed", false);
+    fit.parameters[name] = fixed ? std::optional<double>(entry["estimate"].get<double>())
+                                 : std::nullopt;
+  }
+  return fit;
+}
+
+std::string WhyNotNested(const NestedFit& r, const NestedFit& f, bool* by_name_only) {
+  if (r.n_obs != f.n_obs)
+    return fmt::format("they were fitted to different data: {} has {} observations, {} has {}",
+                       r.path, r.n_obs, f.path, f.n_obs);
+  *by_name_only = r.fingerprints.empty() || f.fingerprints.empty();
+  if (!*by_name_only && r.fingerprints != f.fingerprints)
+    return fmt::format("they were fitted to different data: the data files of {} and of {} "
+                       "differ in content",
+                       r.path, f.path);
+  if (*by_name_only && r.datasets != f.datasets)
+    return fmt::format("they were fitted to different data files ({} and {})",
+                       fmt::join(r.datasets, ", "), fmt::join(f.datasets, ", "));
+  for (const auto& [name, fixed_r] : r.parameters) {
+    const auto it = f.parameters.find(name);
+    if (it == f.parameters.end())
+      return fmt::format("the models are not nested: '{}' of {} is not a parameter of {}", name,
+                         r.path, f.path);
+    const std::optional<double>& fixed_f = it->second;
+    if (!fixed_r && fixed_f)
+      return fmt::format("the models are not nested: '{}' is free in {} (the fit with fewer free "
+                         "parameters) but fixed in {}",
+                         name, r.path, f.path);
+    if (fixed_r && fixed_f &&
+        std::abs(*fixed_r - *fixed_f) > 1e-12 * std::max(std::abs(*fixed_r), std::abs(*fixed_f)))
+      return fmt::format("the models are not nested: '{}' is fixed at {} in {} and at {} in {}",
+                         name, *fixed_r, r.path, *fixed_f, f.path);
+  }
+  return "";
 }
 
 }  // namespace gb::project

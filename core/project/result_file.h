@@ -2,6 +2,8 @@
 // reference of a monitor (core/online/monitor.h).
 #pragma once
 
+#include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -23,5 +25,29 @@ Result<std::vector<int>> ApplyResultFile(const std::string& path, const std::set
 
 // An Error of a result file at a JSON path.
 Error ResultFileError(const std::string& file, const std::string& path, const std::string& message);
+
+// What a likelihood-ratio test needs of a result file (`greybench-cli compare`, the workbench's
+// Fits list).
+struct NestedFit {
+  std::string path;  // how messages name it (a file, or "fit 2")
+  std::string model;
+  double loglik = 0;
+  int n_free = 0;
+  long n_obs = 0;
+  std::vector<std::string> datasets;      // file names, sorted
+  std::vector<std::string> fingerprints;  // the data files' fingerprints, sorted (may be empty)
+  std::map<std::string, std::optional<double>> parameters;  // name: its value if fixed, else none
+};
+
+// Refuses a partial result (a checkpoint) and a fit stopped by the user ("cancelled"): their
+// log L is not an optimum, so a likelihood-ratio test on them means nothing. Errors name `path`
+// and the JSON path.
+Result<NestedFit> ReadNestedFit(const Json& result, const std::string& path);
+
+// Why a likelihood-ratio test of `restricted` (fewer free parameters) against `full` is
+// meaningless, or "": the two were fitted to other data, or `restricted` is not `full` with some
+// of its free parameters fixed. `by_name_only`: the data could be matched by file name only (a
+// result without fingerprints).
+std::string WhyNotNested(const NestedFit& restricted, const NestedFit& full, bool* by_name_only);
 
 }  // namespace gb::project

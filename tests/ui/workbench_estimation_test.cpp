@@ -228,18 +228,19 @@ TEST(WorkbenchEstimation, AtTheSmallestWindowEveryOptionOfTheToolbarCanBeReached
   }
 }
 
-TEST(WorkbenchEstimation, CancelStopsTheFitWithin100msAndKeepsThePreviousResult) {
+TEST(WorkbenchEstimation, CancelStopsTheFitWithin100msAndKeepsItsBestPointAsAStoppedFit) {
   WorkbenchDriver d;
   // Under the sanitizers the test project (500 rows): the case study's first fit took a minute
   // there, and the point is the Cancel button's path, which a fit of 50 starts exercises alike.
-  d.Open(kSanitized ? kTestProject : kCaseStudy);
+  const std::string project = kSanitized ? kTestProject : kCaseStudy;
+  d.Open(project);
   ASSERT_TRUE(d.state.model) << d.state.model_error;
   d.state.view = View::kEstimate;
   d.Frame();
   const std::optional<ImVec2> run = d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId("Run"));
   ASSERT_TRUE(run);
 
-  // A first fit: the result to keep.
+  // A first fit: it stays in the Fits list.
   d.Click(*run);
   ASSERT_TRUE(FinishFit(d));
   const estimate::EstimateSummary first = d.state.estimation.result->summary;
@@ -270,17 +271,36 @@ TEST(WorkbenchEstimation, CancelStopsTheFitWithin100msAndKeepsThePreviousResult)
 
   d.Frame();  // installs the outcome
   EXPECT_FALSE(EstimationRunning(d.state));
+  // Both fits are in the list; the first is untouched.
+  ASSERT_EQ(d.state.estimation.fits.size(), 2u);
+  EXPECT_EQ(d.state.estimation.fits[0].fit.summary.theta, first.theta);
+  EXPECT_EQ(d.state.estimation.fits[0].fit.summary.loglik, first.loglik);
+  // The stopped one is shown: the best point the run had reached, marked so, its log L that of
+  // the model at those values (computed here by the likelihood itself).
   ASSERT_TRUE(d.state.estimation.result);
+  EXPECT_EQ(d.state.estimation.shown, 1);
   const estimate::EstimateSummary& kept = d.state.estimation.result->summary;
-  EXPECT_EQ(kept.loglik, first.loglik);
-  EXPECT_EQ(kept.iterations, first.iterations);
-  EXPECT_EQ(kept.theta, first.theta);
-  EXPECT_NE(d.state.estimation.last_failure.find("cancelled"), std::string::npos);
+  EXPECT_TRUE(kept.cancelled);
+  EXPECT_FALSE(kept.converged);
+  ASSERT_EQ(kept.theta.size(), d.state.model->parameters.size());
+  auto lik = project::LoadProblem(*d.state.model, {d.state.datasets[0].spec});
+  ASSERT_TRUE(lik.ok()) << lik.error().ToString();
+  auto likelihood = project::MakeLikelihood(*lik);
+  ASSERT_TRUE(likelihood.ok());
+  std::vector<int> delay;
+  for (const estimate::DelayEstimate& de : kept.delays) delay.push_back(de.estimate);
+  auto at = likelihood->Evaluate(kept.theta, delay);
+  ASSERT_TRUE(at.ok());
+  EXPECT_DOUBLE_EQ(kept.loglik, at->loglik);
+  EXPECT_EQ(kept.n_obs, at->n_obs);
+  for (const estimate::ParameterEstimate& p : kept.parameters)
+    EXPECT_FALSE(p.std_error) << p.name << ": a stopped fit is not an optimum";
   ASSERT_FALSE(d.state.messages.empty());
-  EXPECT_EQ(d.state.messages.back().severity, Severity::kWarning);
-  EXPECT_NE(d.state.messages.back().text.find("previous results are kept"), std::string::npos);
+  EXPECT_NE(d.state.messages.back().text.find("stopped"), std::string::npos)
+      << d.state.messages.back().text;
   const std::string log = d.Text();
-  EXPECT_NE(log.find("The results below are from the previous run"), std::string::npos) << log;
+  EXPECT_NE(log.find("Stopped"), std::string::npos) << log;
+  EXPECT_NE(log.find("not an optimum"), std::string::npos) << log;
 }
 
 // The Steady-state start box: kept with the project (an unsaved change until saved), read back

@@ -3,9 +3,12 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <mutex>
+#include <optional>
 #include <utility>
 
 #include "core/project/problem.h"
+#include "core/util/file.h"
 
 namespace gb::ui {
 namespace {
@@ -95,6 +98,7 @@ void EstimationProgress::AppendTrace(Trace* trace) const {
 EstimationRun RunEstimation(const EstimationInput& input, EstimationProgress& progress,
                             JobControl& control) {
   EstimationRun run;
+  run.spec = input.spec;
   try {
     Result<project::Problem> problem = project::MakeProblem(
         input.spec, input.datasets,
@@ -117,14 +121,29 @@ EstimationRun RunEstimation(const EstimationInput& input, EstimationProgress& pr
     options.steady_start = input.settings.steady_start;
     options.steady_window = input.settings.steady_window;
     options.cancel = &control.cancel;
-    options.progress = [&progress](const estimate::Progress& p) { progress.Record(p); };
+    // The best point reported so far: what a run the user stops leaves.
+    std::mutex best_mutex;
+    std::optional<estimate::Progress> best;
+    options.progress = [&](const estimate::Progress& p) {
+      progress.Record(p);
+      const std::lock_guard<std::mutex> lock(best_mutex);
+      if (std::isfinite(p.loglik) && !p.theta.empty() && (!best || p.loglik > best->loglik))
+        best = p;
+    };
     Result<estimate::EstimateSummary> summary = estimate::Estimate(*likelihood, options);
     if (!summary) {
       run.error = summary.error().ToString();
       return run;
     }
     run.summary = std::move(summary).value();
+    if (run.summary->cancelled && best) {
+      Result<estimate::EstimateSummary> stopped =
+          estimate::StoppedSummary(*likelihood, *run.summary, *best);
+      if (stopped) run.summary = std::move(stopped).value();
+    }
     run.series_parameters = problem->series_parameters;
+    for (const std::string& file : input.dataset_files)
+      run.fingerprints.push_back(FileFingerprint(file));
   } catch (const std::exception& e) {  // e.g. out of memory; never into the UI loop
     run.summary.reset();
     run.error = std::string("the estimation stopped: ") + e.what();

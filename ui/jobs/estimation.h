@@ -112,6 +112,7 @@ class EstimationProgress {
 struct EstimationInput {
   model::ModelSpec spec;
   std::vector<std::shared_ptr<const data::Dataset>> datasets;
+  std::vector<std::string> dataset_files;  // their files, fingerprinted for the kept fit
   EstimationSettings settings;
 };
 
@@ -123,10 +124,16 @@ struct EstimationRun {
   std::string error;  // why `summary` is absent
   // With initial states per record: each record's parameters (Problem::series_parameters).
   std::vector<std::vector<int>> series_parameters;
+  // The data files' fingerprints (FileFingerprint), as `greybench-cli estimate` records them.
+  std::vector<std::string> fingerprints;
+  model::ModelSpec spec;  // the model fitted (EstimationInput::spec)
 };
 
 // The job's work: binds the data, builds the likelihood and estimates, reporting to `progress`
-// and stopping when control.cancel is set. Never throws.
+// and stopping when control.cancel is set. A run the user stopped returns the best point it
+// had reported as a summary of its own (estimate::StoppedSummary: log L there, no standard
+// errors, `cancelled` set), or a cancelled summary without parameters when it had reported
+// none. Never throws.
 EstimationRun RunEstimation(const EstimationInput& input, EstimationProgress& progress,
                             JobControl& control);
 

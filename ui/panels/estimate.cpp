@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include <fmt/format.h>
@@ -173,7 +174,12 @@ void DrawResultStatus(AppState& state, const FitResult& r) {
   const ImU32 color = ImGui::ColorConvertFloat4ToU32(
       SeverityColor(s.converged ? Severity::kInfo : Severity::kWarning));
   StatusLine(state, s.converged ? IM_COL32(44, 160, 44, 255) : color,
-             s.converged ? "Converged" : "Not converged", s.message);
+             s.cancelled ? "Stopped" : s.converged ? "Converged" : "Not converged",
+             s.cancelled ? s.message + ": the best point so far, not an optimum" : s.message);
+}
+
+const char* FitStatus(const estimate::EstimateSummary& s) {
+  return s.cancelled ? "stopped" : s.converged ? "converged" : "not converged";
 }
 
 // "label value" pairs left to right, wrapping to a new line when the next does not fit.
@@ -366,6 +372,135 @@ void DrawOptima(AppState& state, const FitResult& r) {
   ImGui::EndTable();
 }
 
+// Every fit of the project (kept beside it): its figures, which the views show, two of them
+// compared by the likelihood-ratio test, and any shown, made the start values or deleted.
+void DrawFits(AppState& state) {
+  EstimationState& e = state.estimation;
+  if (e.fits.empty()) return;
+  SectionHeading(state, "Fits");
+  ImGui::PushTextWrapPos(0.0f);
+  ImGui::TextDisabled("%s", e.keep_on_disk && state.project && !state.project->path.empty()
+                                ? "Every fit is kept beside the project as a result file "
+                                  "greybench-cli reads. Tick two to compare them."
+                                : "Tick two fits to compare them.");
+  ImGui::PopTextWrapPos();
+  const ImGuiTableFlags flags = ImGuiTableFlags_BordersInnerH | ImGuiTableFlags_RowBg |
+                                ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_ScrollX;
+  const float rows = static_cast<float>(std::min<std::size_t>(e.fits.size(), 8) + 1);
+  const float height = rows * ImGui::GetFrameHeightWithSpacing() + ImGui::GetStyle().ScrollbarSize;
+  std::optional<std::size_t> show, start, remove;
+  if (ImGui::BeginTable("##fits", 11, flags, ImVec2(0, height))) {
+    ImGui::TableSetupColumn("");
+    ImGui::TableSetupColumn("Fit");
+    ImGui::TableSetupColumn("Model");
+    ImGui::TableSetupColumn("Finished");
+    ImGui::TableSetupColumn("log L");
+    ImGui::TableSetupColumn("Free");
+    ImGui::TableSetupColumn("AIC");
+    ImGui::TableSetupColumn("BIC");
+    ImGui::TableSetupColumn("Status");
+    ImGui::TableSetupColumn("Compare");
+    ImGui::TableSetupColumn("");
+    ImGui::TableHeadersRow();
+    for (std::size_t i = 0; i < e.fits.size(); ++i) {
+      const KeptFit& k = e.fits[i];
+      const estimate::EstimateSummary& s = k.fit.summary;
+      const int at = static_cast<int>(i);
+      ImGui::PushID(at);
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      if (e.shown == at) ImGui::TextUnformatted("\xE2\x97\x8F");  // shown in the views
+      ImGui::TableNextColumn();
+      ImGui::Text("%d", k.number);
+      if (!k.file.empty() && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", k.file.c_str());
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(s.model_name.c_str());
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(k.finished.empty() ? "\xE2\x80\x94" : k.finished.c_str());
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(FormatFixed(s.loglik, 3).c_str());
+      ImGui::TableNextColumn();
+      ImGui::Text("%d", s.n_free);
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(FormatFixed(s.aic, 2).c_str());
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(FormatFixed(s.bic, 2).c_str());
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(FitStatus(s));
+      ImGui::TableNextColumn();
+      bool ticked = e.compare_a == at || e.compare_b == at;
+      if (ImGui::Checkbox("##compare", &ticked)) {
+        if (!ticked) {
+          if (e.compare_a == at) e.compare_a = e.compare_b;
+          e.compare_b = -1;
+        } else if (e.compare_a < 0) {
+          e.compare_a = at;
+        } else {
+          if (e.compare_b >= 0) e.compare_a = e.compare_b;  // the older choice goes
+          e.compare_b = at;
+        }
+      }
+      ImGui::TableNextColumn();
+      if (e.shown != at && ImGui::SmallButton("Show")) show = i;
+      ImGui::SameLine();
+      if (ImGui::SmallButton("Use as start values")) start = i;
+      ImGui::SameLine();
+      if (ImGui::SmallButton("Delete\xE2\x80\xA6")) ImGui::OpenPopup("Delete fit?");
+      if (ImGui::BeginPopup("Delete fit?")) {
+        ImGui::Text("Delete fit %d%s?", k.number,
+                    k.file.empty() ? "" : " and its two files beside the project");
+        if (ImGui::Button("Delete")) {
+          remove = i;
+          ImGui::CloseCurrentPopup();
+        }
+        ImGui::SameLine();
+        if (ImGui::Button("Keep it")) ImGui::CloseCurrentPopup();
+        ImGui::EndPopup();
+      }
+      ImGui::PopID();
+    }
+    ImGui::EndTable();
+  }
+  std::string why;
+  if (show && !ShowFit(state, *show, &why)) AddMessage(state, Severity::kError, "Cannot show the fit: " + why);
+  if (start) {
+    if (ShowFit(state, *start, &why)) {
+      state.parameters_view.use_estimates_requested = true;
+      state.parameters_view.use_optimum = 0;
+    } else {
+      AddMessage(state, Severity::kError, "Cannot use the fit's estimates: " + why);
+    }
+  }
+  if (remove && !DeleteFit(state, *remove, &why))
+    AddMessage(state, Severity::kError, "Cannot delete the fit: " + why);
+  if (e.compare_a < 0 || e.compare_b < 0) return;
+  std::string notes;
+  const auto a = static_cast<std::size_t>(e.compare_a), b = static_cast<std::size_t>(e.compare_b);
+  Result<estimate::LikelihoodRatioTest> test = CompareFits(state, a, b, &notes);
+  ImGui::PushTextWrapPos(0.0f);
+  if (!test) {
+    ImGui::TextColored(SeverityColor(Severity::kWarning), "Fits %d and %d: %s",
+                       e.fits[a].number, e.fits[b].number, test.error().message.c_str());
+  } else {
+    const KeptFit& r = e.fits[a].fit.summary.n_free < e.fits[b].fit.summary.n_free ? e.fits[a] : e.fits[b];
+    const KeptFit& f = &r == &e.fits[a] ? e.fits[b] : e.fits[a];
+    ImGui::Text("Likelihood-ratio test of fit %d (%d free) against fit %d (%d free): "
+                "2 (log L\xE2\x82\x82 \xE2\x88\x92 log L\xE2\x82\x81) = %s, %d degrees of "
+                "freedom, p = %s.",
+                r.number, r.fit.summary.n_free, f.number, f.fit.summary.n_free,
+                FormatFixed(test->statistic, 3).c_str(), test->df,
+                FormatSig(test->p_value, 3).c_str());
+    const bool better = test->p_value < 0.05;
+    ImGui::TextColored(better ? ImVec4(0.17f, 0.63f, 0.17f, 1.0f) : SeverityColor(Severity::kInfo), "%s",
+                       better ? "The fit with more parameters is significantly better (5 % level): "
+                                "keep the extra parameters."
+                              : "The fit with more parameters is not significantly better (5 % "
+                                "level): the smaller model suffices.");
+    if (!notes.empty()) ImGui::TextDisabled("%s", notes.c_str());
+  }
+  ImGui::PopTextWrapPos();
+}
+
 void DrawReport(AppState& state, const FitResult& r, bool previous) {
   const float s = state.fonts.scale;
   SectionHeading(state, previous ? "Report of the previous run" : "Report");
@@ -432,6 +567,7 @@ void DrawEstimatePanel(AppState& state) {
   }
   if (!running && !result) {
     if (e.last_failure.empty()) DrawNothingYet(state);
+    DrawFits(state);
     return;
   }
   if (result && !running) DrawKeyFigures(state, *result);
@@ -439,6 +575,7 @@ void DrawEstimatePanel(AppState& state) {
   DrawPlots(state, running ? e.live_trace : result->trace, running ? nullptr : result);
   if (result && !running) {
     DrawOptima(state, *result);
+    DrawFits(state);
     // The Parameters view applies such a request when it is drawn; here it may not be.
     if (state.parameters_view.use_estimates_requested) ApplyParameterEdits(state);
   }

@@ -672,6 +672,7 @@ void DrawShortcutsWindow(AppState& state) {
 void StartSession(AppState& state) {
   ShellState& sh = state.shell;
   sh.session_files = true;
+  state.estimation.keep_on_disk = true;  // each fit written beside the project (kept_fits.h)
   sh.recent_file =
       (fs::path(XdgDir("XDG_CONFIG_HOME", ".config")) / "greybench" / "recent.json").string();
   sh.recovery_dir =
@@ -728,6 +729,7 @@ Status SaveProjectAs(AppState& state, const std::string& path) {
   RemoveRecovery(state, old_path);
   RemoveRecovery(state, target);
   MarkSaved(state);
+  WriteUnwrittenFits(state);
   state.shell.autosaved_model_revision = state.model_revision;
   state.shell.autosaved_layout_revision = state.layout_revision;
   if (state.shell.session_files) AddRecent(state, target);
@@ -760,6 +762,7 @@ Status ReplaceModel(AppState& state, const std::string& path) {
   // The fit and the parameter edits belonged to the previous model.
   if (state.estimation.job.active()) state.estimation.job.RequestCancel();
   state.estimation.result.reset();
+  state.estimation.shown = -1;
   state.estimation.last_failure.clear();
   state.parameters_view = ParametersViewState{};
   AddMessage(state, Severity::kInfo, "The project's model is now " + Basename(path) + ".");

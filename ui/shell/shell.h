@@ -44,7 +44,7 @@ inline constexpr float kMaxZoom = 2.0f;
 inline constexpr float kZoomStep = 1.125f;  // a factor per Ctrl+= / Ctrl+-
 
 // Turns on recent files, autosave and recovery (reads $XDG_CONFIG_HOME, $XDG_STATE_HOME,
-// $HOME now) and reads the recent projects.
+// $HOME now), and keeping each fit on disk beside the project; reads the recent projects.
 void StartSession(AppState& state);
 
 // The project on disk differs from what the views show (an edit since the last save).

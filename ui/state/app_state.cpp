@@ -38,7 +38,7 @@ const ViewInfo& Info(View view) {
 }
 
 // Runs on the loading job's thread: reads the project file, then each dataset.
-ProjectLoad LoadProjectAndData(const std::string& path, JobControl& control) {
+ProjectLoad LoadProjectAndData(const std::string& path, bool deterministic, JobControl& control) {
   ProjectLoad out;
   out.path = path;
   try {
@@ -70,6 +70,7 @@ ProjectLoad LoadProjectAndData(const std::string& path, JobControl& control) {
     } else {
       out.model_error = spec.error().ToString();
     }
+    ReadFits(path, deterministic, &out);
     out.project = std::move(project).value();
   } catch (const std::exception& e) {  // e.g. out of memory on a huge file
     out.project.reset();
@@ -110,6 +111,7 @@ void InstallProject(AppState& state, ProjectLoad load) {
   state.estimation.live_trace.Clear();
   state.estimation.trace_x.RequestFit();
   state.parameters_view = ParametersViewState{};
+  InstallFits(state, std::move(load.fits), load.fit_problems);
   // The project's own estimation options (LoadProject checked them); the others are the view's.
   if (state.project) {
     const project::EstimationDefaults d = project::ReadEstimationDefaults(*state.project);
@@ -159,7 +161,7 @@ void InstallEstimation(AppState& state, EstimationRun run) {
     e.live_trace.Clear();
     return;
   }
-  if (run.summary->cancelled) {
+  if (run.summary->cancelled && run.summary->parameters.empty()) {
     e.last_failure =
         "The estimation was cancelled" + ElapsedClause(state, " after ", run.summary->elapsed_s);
     e.last_failure_severity = Severity::kWarning;
@@ -170,7 +172,9 @@ void InstallEstimation(AppState& state, EstimationRun run) {
   }
   const estimate::EstimateSummary& s = *run.summary;
   std::string text =
-      std::string(s.converged ? "Estimation converged" : "Estimation did NOT converge") +
+      std::string(s.cancelled   ? "Estimation stopped; the best point so far is kept"
+                  : s.converged ? "Estimation converged"
+                                : "Estimation did NOT converge") +
       ": log L = " + FormatSig(s.loglik, 6) + ", " + std::to_string(s.iterations) +
       " iterations" + ElapsedClause(state, ", ", s.elapsed_s);
   if (!s.warnings.empty()) {
@@ -182,9 +186,10 @@ void InstallEstimation(AppState& state, EstimationRun run) {
   ResolveMessages(state, MessageTopic::kEstimation);
   Trace trace = std::move(e.live_trace);
   e.live_trace = Trace{};
-  e.result = MakeFitResult(std::move(run.summary).value(), std::move(trace), e.settings,
-                           e.started_revision, state.deterministic);
-  e.result->series_parameters = std::move(run.series_parameters);
+  FitResult fit = MakeFitResult(*run.summary, std::move(trace), e.settings, e.started_revision,
+                                state.deterministic);
+  fit.series_parameters = run.series_parameters;
+  KeepFit(state, std::move(fit), run);
   e.profile_x.assign(e.result->profiles.size(), plot::LinkedRange{});
 }
 
@@ -246,7 +251,9 @@ void OpenProject(AppState& state, std::string path) {
   if (state.load_job.active()) return;
   state.loading_path = path;
   state.load_job.Start(
-      [path = std::move(path)](JobControl& control) { return LoadProjectAndData(path, control); });
+      [path = std::move(path), deterministic = state.deterministic](JobControl& control) {
+        return LoadProjectAndData(path, deterministic, control);
+      });
 }
 
 void PollJobs(AppState& state) {

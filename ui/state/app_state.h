@@ -101,6 +101,17 @@ struct LoadedDataset {
   DatasetSummary summary;
 };
 
+// A fit of the project's: finished, or stopped by the user (summary.cancelled), kept in the Fits
+// list and on disk beside the project (core/project/kept_fits.h).
+struct KeptFit {
+  FitResult fit;         // its model_revision is the model's when it matches the model, else -1
+  Json result;           // its result file's content (what `greybench-cli compare` reads)
+  Json model;            // the model it was fitted with (model::ToJson)
+  std::string file;      // its result file; "" until written (a project never saved)
+  int number = 0;        // NNN of fit-NNN.json; the session's count until written
+  std::string finished;  // local time it finished ("" in a snapshot)
+};
+
 // The result of the loading job.
 struct ProjectLoad {
   std::string path;
@@ -110,6 +121,10 @@ struct ProjectLoad {
   // The project's model, parsed and validated (core/model); absent when it is not valid.
   std::optional<model::ModelSpec> model;
   std::string model_error;  // why `model` is absent
+  // The project's kept fits (core/project/kept_fits.h), and the files among them that could not
+  // be read, each with why.
+  std::vector<KeptFit> fits;
+  std::vector<std::string> fit_problems;
 };
 
 struct DataViewState {
@@ -132,8 +147,19 @@ struct EstimationState {
   std::chrono::steady_clock::time_point started;
   int started_revision = 0;    // AppState::model_revision when the run started
   int started_generation = 0;  // AppState::project_generation when the run started
-  // The last fit that finished (converged or not); a failed or cancelled run leaves it alone.
+  // The fit the views show: the last that finished (converged, not, or stopped by the user), or
+  // the one the Fits list showed since; a failed run leaves it alone.
   std::optional<FitResult> result;
+  // Every fit of the project, oldest first (the Fits list), and which of them `result` is (-1:
+  // none of them).
+  std::vector<KeptFit> fits;
+  int shown = -1;
+  // Write each fit beside the project file as it finishes (the window does; the snapshot renderer
+  // and most tests leave the disk alone, as ShellState::session_files does).
+  bool keep_on_disk = false;
+  int next_number = 1;  // the session's number for a fit not written
+  // The two fits of the Fits list's likelihood-ratio test (-1: not chosen).
+  int compare_a = -1, compare_b = -1;
   // How the last run ended when it left no result: "cancelled after 1.2 s", or the error.
   std::string last_failure;
   Severity last_failure_severity = Severity::kInfo;
@@ -340,8 +366,29 @@ bool AnyJobActive(const AppState& state);
 // false and says why in `why` when it cannot start (no valid model, unreadable data, a run or
 // a project load under way).
 bool StartEstimation(AppState& state, std::string* why = nullptr);
-// Asks the run under way to stop; PollJobs then reports it and keeps the previous result.
+// Asks the run under way to stop; PollJobs then keeps the best point it had reached as a fit
+// marked stopped (or the previous result, when it had reached none).
 void CancelEstimation(AppState& state);
+
+// The Fits list (ui/state/fits.cpp). A project's kept fits are read when it is opened; each
+// fit that finishes joins them (and is written beside the project with keep_on_disk).
+// Shows fit `index` in every view. A fit of another model (other parameters or outputs) brings
+// its model back as the project's model (an edit; refused for a model drawn as a block diagram).
+bool ShowFit(AppState& state, std::size_t index, std::string* why = nullptr);
+// Removes the fit from the list and its two files from the disk.
+bool DeleteFit(AppState& state, std::size_t index, std::string* why = nullptr);
+// The likelihood-ratio test of two kept fits (in either order), or why there is none (not
+// nested, other data, a stopped fit). `notes`: caveats of a test made (matched by name only).
+Result<estimate::LikelihoodRatioTest> CompareFits(const AppState& state, std::size_t a,
+                                                  std::size_t b, std::string* notes = nullptr);
+// Writes the fits not written yet (of a project saved for the first time, or saved as another
+// file: its fits folder is another). The shell calls it after a save.
+void WriteUnwrittenFits(AppState& state);
+// For app_state.cpp: a finished or stopped run joins the fits (written with keep_on_disk) and is
+// shown; the loading job reads the project's kept fits; InstallProject makes them the list.
+void KeepFit(AppState& state, FitResult fit, const EstimationRun& run);
+void ReadFits(const std::string& project_path, bool deterministic, ProjectLoad* out);
+void InstallFits(AppState& state, std::vector<KeptFit> fits, const std::vector<std::string>& problems);
 bool EstimationRunning(const AppState& state);
 
 // The operating-point sweep (ui/jobs/sweep_state.cpp), run like the estimation.
