@@ -20,6 +20,7 @@ constexpr int kMaxKeptFits = 9999;
 
 std::string ResultName(int n) { return fmt::format("fit-{:03d}.json", n); }
 std::string ModelName(int n) { return fmt::format("fit-{:03d}.model.json", n); }
+std::string ProjectName(int n) { return fmt::format("fit-{:03d}.project.json", n); }
 
 // NNN of "fit-NNN.json" (not of "fit-NNN.model.json"), or nothing.
 std::optional<int> NumberOf(const std::string& file_name) {
@@ -58,8 +59,8 @@ std::string FitsFolder(const std::string& project_path) {
   return (p.parent_path() / (p.stem().string() + ".fits")).string();
 }
 
-Result<KeptFitFile> WriteKeptFit(const std::string& folder, const std::string& project_path,
-                                 Json result, const Json& model) {
+Result<KeptFitFile> WriteKeptFit(const std::string& folder, Json result, const Json& model,
+                                 Project project) {
   std::error_code ec;
   fs::create_directories(folder, ec);
   if (ec || !fs::is_directory(folder))
@@ -67,7 +68,8 @@ Result<KeptFitFile> WriteKeptFit(const std::string& folder, const std::string& p
                                  (ec ? ec.message() : std::string("a file is in the way")) + ")");
   int n = 1;
   while (n <= kMaxKeptFits && (fs::exists(fs::path(folder) / ResultName(n), ec) ||
-                               fs::exists(fs::path(folder) / ModelName(n), ec)))
+                               fs::exists(fs::path(folder) / ModelName(n), ec) ||
+                               fs::exists(fs::path(folder) / ProjectName(n), ec)))
     ++n;
   if (n > kMaxKeptFits)
     return FileError(folder, fmt::format("holds {} fits already: delete some", kMaxKeptFits));
@@ -75,16 +77,23 @@ Result<KeptFitFile> WriteKeptFit(const std::string& folder, const std::string& p
   kept.number = n;
   kept.path = (fs::path(folder) / ResultName(n)).string();
   result["model_file"] = ModelName(n);
-  if (!project_path.empty()) {
-    const fs::path rel =
-        fs::absolute(project_path, ec).lexically_relative(fs::absolute(folder, ec));
-    result["project_file"] = rel.empty() ? project_path : rel.generic_string();
-  }
+  result["project_file"] = ProjectName(n);
   result["finished"] = LocalTime();
-  const std::string model_path = (fs::path(folder) / ModelName(n)).string();
-  if (Status st = WriteFileAtomic(model_path, model.dump(1) + "\n"); !st) return st.error();
-  if (Status st = WriteFileAtomic(kept.path, result.dump(1) + "\n"); !st) {
+  const fs::path model_path = fs::path(folder) / ModelName(n);
+  const fs::path project_path = fs::path(folder) / ProjectName(n);
+  project.model_path = fs::absolute(model_path, ec).string();
+  project.model_json = model;
+  auto remove_written = [&] {
     fs::remove(model_path, ec);
+    fs::remove(project_path, ec);
+  };
+  if (Status st = WriteFileAtomic(model_path.string(), model.dump(1) + "\n"); !st) return st.error();
+  if (Status st = SaveProject(project, fs::absolute(project_path, ec).string()); !st) {
+    remove_written();
+    return st.error();
+  }
+  if (Status st = WriteFileAtomic(kept.path, result.dump(1) + "\n"); !st) {
+    remove_written();
     return st.error();
   }
   kept.result = std::move(result);
@@ -139,6 +148,7 @@ Status DeleteKeptFit(const std::string& result_path) {
     return FileError(result_path, "is not a kept fit (fit-NNN.json in a project's .fits folder)");
   std::error_code ec;
   fs::remove(p.parent_path() / ModelName(*n), ec);
+  fs::remove(p.parent_path() / ProjectName(*n), ec);
   if (!fs::remove(p, ec) && ec)
     return FileError(result_path, "cannot delete the fit (" + ec.message() + ")");
   return Ok{};

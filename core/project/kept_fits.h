@@ -5,9 +5,11 @@
 //   engine.json                        the project
 //   engine.fits/fit-001.json           EstimateSummary::ToJson and the keys below
 //   engine.fits/fit-001.model.json     the model as it was fitted ("model_file" names it)
+//   engine.fits/fit-001.project.json   that model and the datasets as they were fitted: the
+//                                      project `greybench-cli estimate` fits again
 //
 // Keys a kept fit adds to a result file: "model_file" ("fit-001.model.json"), "project_file"
-// ("../engine.json"), "finished" (local time, "2026-11-27 11:52:03"), "data_fingerprints", and
+// ("fit-001.project.json"), "finished" (local time, "2026-11-27 11:52:03"), "data_fingerprints", and
 // what the caller puts in (the workbench: "settings", "initial_states").
 // A kept fit is never written over: the next fit takes the first number whose two files do not
 // exist, and deleting a fit removes its two files only.
@@ -16,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "core/project/project.h"
 #include "core/util/json.h"
 #include "core/util/result.h"
 
@@ -31,19 +34,19 @@ struct KeptFitFile {
   Json model;        // the model file it names
 };
 
-// Writes `result` and `model` as the next fit-NNN pair of `folder` (created when missing), with
-// "model_file", "project_file" (relative to the folder) and "finished" set. Returns the pair's
-// result file and number.
-Result<KeptFitFile> WriteKeptFit(const std::string& folder, const std::string& project_path,
-                                 Json result, const Json& model);
+// Writes `result`, `model` and `project` (its name, datasets and extra keys; its model is set to
+// the model file written) as the next fit-NNN files of `folder` (created when missing), with
+// "model_file", "project_file" and "finished" set in the result. Returns the result file and
+// its number.
+Result<KeptFitFile> WriteKeptFit(const std::string& folder, Json result, const Json& model,
+                                 Project project);
 
 // Every fit-NNN.json of `folder` with its model, in number order (none when the folder does not
 // exist). A pair that cannot be read is left out and reported in `problems`, naming the file and
 // what is wrong.
 std::vector<KeptFitFile> ReadKeptFits(const std::string& folder, std::vector<Error>* problems);
 
-// Removes a kept fit's result file and the model file it names (only a fit-NNN pair of a fits
-// folder: any other path is refused).
+// Removes a kept fit's files (only a fit-NNN.json of a fits folder: any other path is refused).
 Status DeleteKeptFit(const std::string& result_path);
 
 }  // namespace gb::project

@@ -9,6 +9,7 @@
 #include <string>
 #include <unistd.h>
 
+#include "core/data/import.h"
 #include "core/estimate/estimate.h"
 #include "core/project/kept_fits.h"
 #include "core/project/problem.h"
@@ -154,14 +155,22 @@ TEST_F(KeptFitsFolder, FitsAreNumberedNeverWrittenOverAndReadBackInOrder) {
   EXPECT_EQ(fs::path(folder).filename(), "engine.fits");
   const Json model = {{"greybench_model", 1}, {"name", "m"}};
   const Json result = {{"greybench_result", 1}, {"loglik", 1.5}};
-  auto first = project::WriteKeptFit(folder, project, result, model);
+  project::Project p;
+  p.name = "engine";
+  p.datasets = {data::PlainDataset((dir_ / "f1.csv").string())};
+  auto first = project::WriteKeptFit(folder, result, model, p);
   ASSERT_TRUE(first.ok()) << first.error().ToString();
   EXPECT_EQ(first->number, 1);
   EXPECT_EQ(first->result["model_file"], "fit-001.model.json");
-  EXPECT_EQ(first->result["project_file"], "../engine.json");
+  EXPECT_EQ(first->result["project_file"], "fit-001.project.json");
+  // Its project names the model beside it and the data beside the project.
+  auto written = project::ReadJsonFile((fs::path(folder) / "fit-001.project.json").string());
+  ASSERT_TRUE(written.ok());
+  EXPECT_EQ((*written)["model"], "fit-001.model.json");
+  EXPECT_EQ((*written)["datasets"][0], "../f1.csv");
   // A file of the user's with the next name is left alone: the fit takes the number after it.
   { std::ofstream(fs::path(folder) / "fit-002.model.json") << "mine"; }
-  auto second = project::WriteKeptFit(folder, project, result, model);
+  auto second = project::WriteKeptFit(folder, result, model, p);
   ASSERT_TRUE(second.ok());
   EXPECT_EQ(second->number, 3);
   std::ifstream mine(fs::path(folder) / "fit-002.model.json");
@@ -181,6 +190,7 @@ TEST_F(KeptFitsFolder, FitsAreNumberedNeverWrittenOverAndReadBackInOrder) {
   ASSERT_TRUE(project::DeleteKeptFit(fits[0].path).ok());
   EXPECT_FALSE(fs::exists(fs::path(folder) / "fit-001.json"));
   EXPECT_FALSE(fs::exists(fs::path(folder) / "fit-001.model.json"));
+  EXPECT_FALSE(fs::exists(fs::path(folder) / "fit-001.project.json"));
   EXPECT_FALSE(project::DeleteKeptFit(project).ok()) << "the project file is no kept fit";
   EXPECT_TRUE(fs::exists(fs::path(folder) / "fit-002.model.json"));
 }
@@ -188,8 +198,8 @@ TEST_F(KeptFitsFolder, FitsAreNumberedNeverWrittenOverAndReadBackInOrder) {
 TEST_F(KeptFitsFolder, AFitWhoseModelIsMissingIsReportedAndTheOthersRead) {
   const std::string folder = (dir_ / "p.fits").string();
   const Json model = {{"greybench_model", 1}};
-  ASSERT_TRUE(project::WriteKeptFit(folder, "", {{"greybench_result", 1}}, model).ok());
-  ASSERT_TRUE(project::WriteKeptFit(folder, "", {{"greybench_result", 1}}, model).ok());
+  ASSERT_TRUE(project::WriteKeptFit(folder, {{"greybench_result", 1}}, model, {}).ok());
+  ASSERT_TRUE(project::WriteKeptFit(folder, {{"greybench_result", 1}}, model, {}).ok());
   fs::remove(fs::path(folder) / "fit-001.model.json");
   std::vector<Error> problems;
   const auto fits = project::ReadKeptFits(folder, &problems);
@@ -203,7 +213,7 @@ TEST_F(KeptFitsFolder, AFitWhoseModelIsMissingIsReportedAndTheOthersRead) {
 TEST_F(KeptFitsFolder, AFileInTheWayOfTheFolderIsRefusedNamingIt) {
   const std::string folder = (dir_ / "p.fits").string();
   { std::ofstream(folder) << "not a folder"; }
-  auto kept = project::WriteKeptFit(folder, "", {{"greybench_result", 1}}, Json::object());
+  auto kept = project::WriteKeptFit(folder, {{"greybench_result", 1}}, Json::object(), {});
   ASSERT_FALSE(kept.ok());
   EXPECT_EQ(kept.error().file, folder);
 }

@@ -7,6 +7,7 @@
 #include <boost/math/distributions/chi_squared.hpp>
 
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -15,6 +16,7 @@
 #include "core/estimate/estimate.h"
 #include "core/project/kept_fits.h"
 #include "core/project/project.h"
+#include "core/project/result_file.h"
 #include "core/util/sanitizers.h"
 #include "tests/ui/workbench_driver.h"
 #include "ui/shell/shell.h"
@@ -84,7 +86,13 @@ TEST_F(FitsTest, TwoFitsAreKeptBesideTheProjectReopenAndAreComparedByTheLikeliho
     ASSERT_TRUE(fs::exists(result)) << result;
     EXPECT_TRUE(fs::exists(Folder() / ("fit-00" + std::to_string(n) + ".model.json")));
     auto model = model::LoadModelFile((Folder() / ("fit-00" + std::to_string(n) + ".model.json")).string());
-    EXPECT_TRUE(model.ok()) << model.error().ToString();
+    ASSERT_TRUE(model.ok()) << model.error().ToString();
+    // As `predict --result` and `--start` read it: the estimates onto the fit's own model.
+    auto delays = project::ApplyResultFile(result.string(), {}, &*model);
+    ASSERT_TRUE(delays.ok()) << delays.error().ToString();
+    const estimate::EstimateSummary& s = n == 1 ? full : restricted;
+    for (std::size_t i = 0; i < s.parameters.size(); ++i)
+      EXPECT_EQ(model->parameters[i].value, s.theta[i]) << s.parameters[i].name;
   }
 
   // The likelihood-ratio test of the two, against the closed form: 2 (log L_full - log
@@ -179,6 +187,32 @@ TEST_F(FitsTest, SavedAsAnotherFileTheProjectTakesItsFitsAlong) {
   ASSERT_TRUE(SaveProjectAs(d.state, copy).ok());
   EXPECT_TRUE(fs::exists(dir_ / "copy.fits" / "fit-001.json"));
   EXPECT_TRUE(fs::exists(Folder() / "fit-001.json")) << "the first project's fit stays";
+}
+
+// The command Copy as command puts on the clipboard, run in a shell, fits the same model to the
+// same data again (from the files kept beside the project) and reaches the same log L.
+TEST_F(FitsTest, CopyAsCommandRunInAShellFitsAgainToTheSameLogL) {
+  WorkbenchDriver d;
+  d.state.estimation.keep_on_disk = true;
+  d.Open(Project());
+  ASSERT_TRUE(d.state.model);
+  d.state.estimation.settings.threads = 1;
+  // Edited in the workbench and not saved: the command must fit the model as it was fitted.
+  d.state.parameters_view.pending.push_back({"s11", ParameterField::kFixed, std::nullopt, true, ""});
+  ApplyParameterEdits(d.state);
+  ASSERT_TRUE(FitAndKeep(d));
+  const double loglik = d.state.estimation.result->summary.loglik;
+  std::string why;
+  std::string command = FitCommand(d.state, 0, &why);
+  ASSERT_FALSE(command.empty()) << why;
+  const std::string program = "greybench-cli ";
+  ASSERT_EQ(command.rfind(program, 0), 0u) << command;
+  command = std::string(GREYBENCH_CLI) + " " + command.substr(program.size()) + " > /dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  auto again = project::ReadJsonFile((Folder() / "fit-001.again.json").string());
+  ASSERT_TRUE(again.ok()) << again.error().ToString();
+  EXPECT_NEAR((*again)["loglik"].get<double>(), loglik, 1e-9 * std::abs(loglik));
+  EXPECT_EQ((*again)["n_free"], d.state.estimation.result->summary.n_free);
 }
 
 TEST_F(FitsTest, AKeptFitThatCannotBeReadIsNamedAndTheOthersOpen) {

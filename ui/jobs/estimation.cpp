@@ -99,6 +99,7 @@ EstimationRun RunEstimation(const EstimationInput& input, EstimationProgress& pr
                             JobControl& control) {
   EstimationRun run;
   run.spec = input.spec;
+  run.dataset_specs = input.dataset_specs;
   try {
     Result<project::Problem> problem = project::MakeProblem(
         input.spec, input.datasets,
@@ -142,8 +143,8 @@ EstimationRun RunEstimation(const EstimationInput& input, EstimationProgress& pr
       if (stopped) run.summary = std::move(stopped).value();
     }
     run.series_parameters = problem->series_parameters;
-    for (const std::string& file : input.dataset_files)
-      run.fingerprints.push_back(FileFingerprint(file));
+    for (const data::DatasetSpec& d : input.dataset_specs)
+      run.fingerprints.push_back(FileFingerprint(d.file));
   } catch (const std::exception& e) {  // e.g. out of memory; never into the UI loop
     run.summary.reset();
     run.error = std::string("the estimation stopped: ") + e.what();

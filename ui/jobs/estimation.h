@@ -112,7 +112,8 @@ class EstimationProgress {
 struct EstimationInput {
   model::ModelSpec spec;
   std::vector<std::shared_ptr<const data::Dataset>> datasets;
-  std::vector<std::string> dataset_files;  // their files, fingerprinted for the kept fit
+  // The project's entries of those datasets: the kept fit's project, and its files' fingerprints.
+  std::vector<data::DatasetSpec> dataset_specs;
   EstimationSettings settings;
 };
 
@@ -127,6 +128,7 @@ struct EstimationRun {
   // The data files' fingerprints (FileFingerprint), as `greybench-cli estimate` records them.
   std::vector<std::string> fingerprints;
   model::ModelSpec spec;  // the model fitted (EstimationInput::spec)
+  std::vector<data::DatasetSpec> dataset_specs;  // EstimationInput::dataset_specs
 };
 
 // The job's work: binds the data, builds the likelihood and estimates, reporting to `progress`

@@ -378,21 +378,28 @@ void DrawFits(AppState& state) {
   EstimationState& e = state.estimation;
   if (e.fits.empty()) return;
   SectionHeading(state, "Fits");
+  const bool on_disk = e.keep_on_disk && state.project && !state.project->path.empty();
   ImGui::PushTextWrapPos(0.0f);
-  ImGui::TextDisabled("%s", e.keep_on_disk && state.project && !state.project->path.empty()
-                                ? "Every fit is kept beside the project as a result file "
-                                  "greybench-cli reads. Tick two to compare them."
-                                : "Tick two fits to compare them.");
+  ImGui::TextDisabled("%s%s", on_disk ? "Every fit is kept beside the project, as a result file "
+                                        "greybench-cli reads. "
+                                      : "",
+                      e.fits.size() < 2 ? "A second fit (another model, or a parameter fixed) "
+                                          "can be compared with this one."
+                                        : "Tick two fits to compare them by the likelihood-ratio "
+                                          "test.");
   ImGui::PopTextWrapPos();
+  // The model's name takes what the figures and buttons leave (clipped; its tooltip has it all).
   const ImGuiTableFlags flags = ImGuiTableFlags_BordersInnerH | ImGuiTableFlags_RowBg |
-                                ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_ScrollX;
+                                ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_ScrollY;
   const float rows = static_cast<float>(std::min<std::size_t>(e.fits.size(), 8) + 1);
-  const float height = rows * ImGui::GetFrameHeightWithSpacing() + ImGui::GetStyle().ScrollbarSize;
+  const float height = rows * ImGui::GetFrameHeightWithSpacing() + ImGui::GetStyle().CellPadding.y;
   std::optional<std::size_t> show, start, remove;
-  if (ImGui::BeginTable("##fits", 11, flags, ImVec2(0, height))) {
+  if (e.selected < 0 || e.selected >= static_cast<int>(e.fits.size())) e.selected = e.shown;
+  if (ImGui::BeginTable("##fits", 10, flags, ImVec2(0, height))) {
+    ImGui::TableSetupScrollFreeze(0, 1);
     ImGui::TableSetupColumn("");
     ImGui::TableSetupColumn("Fit");
-    ImGui::TableSetupColumn("Model");
+    ImGui::TableSetupColumn("Model", ImGuiTableColumnFlags_WidthStretch);
     ImGui::TableSetupColumn("Finished");
     ImGui::TableSetupColumn("log L");
     ImGui::TableSetupColumn("Free");
@@ -400,7 +407,6 @@ void DrawFits(AppState& state) {
     ImGui::TableSetupColumn("BIC");
     ImGui::TableSetupColumn("Status");
     ImGui::TableSetupColumn("Compare");
-    ImGui::TableSetupColumn("");
     ImGui::TableHeadersRow();
     for (std::size_t i = 0; i < e.fits.size(); ++i) {
       const KeptFit& k = e.fits[i];
@@ -411,10 +417,15 @@ void DrawFits(AppState& state) {
       ImGui::TableNextColumn();
       if (e.shown == at) ImGui::TextUnformatted("\xE2\x97\x8F");  // shown in the views
       ImGui::TableNextColumn();
-      ImGui::Text("%d", k.number);
+      // The row is selected by a click anywhere on it; the buttons below act on it.
+      if (ImGui::Selectable(std::to_string(k.number).c_str(), e.selected == at,
+                            ImGuiSelectableFlags_SpanAllColumns |
+                                ImGuiSelectableFlags_AllowItemOverlap))
+        e.selected = at;
       if (!k.file.empty() && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", k.file.c_str());
       ImGui::TableNextColumn();
       ImGui::TextUnformatted(s.model_name.c_str());
+      if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", s.model_name.c_str());
       ImGui::TableNextColumn();
       ImGui::TextUnformatted(k.finished.empty() ? "\xE2\x80\x94" : k.finished.c_str());
       ImGui::TableNextColumn();
@@ -440,26 +451,46 @@ void DrawFits(AppState& state) {
           e.compare_b = at;
         }
       }
-      ImGui::TableNextColumn();
-      if (e.shown != at && ImGui::SmallButton("Show")) show = i;
-      ImGui::SameLine();
-      if (ImGui::SmallButton("Use as start values")) start = i;
-      ImGui::SameLine();
-      if (ImGui::SmallButton("Delete\xE2\x80\xA6")) ImGui::OpenPopup("Delete fit?");
-      if (ImGui::BeginPopup("Delete fit?")) {
-        ImGui::Text("Delete fit %d%s?", k.number,
-                    k.file.empty() ? "" : " and its two files beside the project");
-        if (ImGui::Button("Delete")) {
-          remove = i;
-          ImGui::CloseCurrentPopup();
-        }
-        ImGui::SameLine();
-        if (ImGui::Button("Keep it")) ImGui::CloseCurrentPopup();
-        ImGui::EndPopup();
-      }
       ImGui::PopID();
     }
     ImGui::EndTable();
+  }
+  if (e.selected >= 0) {
+    const auto i = static_cast<std::size_t>(e.selected);
+    const KeptFit& k = e.fits[i];
+    ImGui::BeginDisabled(e.shown == e.selected);
+    if (ImGui::Button("Show in the views")) show = i;
+    ImGui::EndDisabled();
+    ImGui::SameLine();
+    if (ImGui::Button("Use as start values")) start = i;
+    ImGui::SameLine();
+    if (ImGui::Button("Delete\xE2\x80\xA6")) ImGui::OpenPopup("Delete fit?");
+    if (ImGui::BeginPopup("Delete fit?")) {
+      ImGui::Text("Delete fit %d%s?", k.number,
+                  k.file.empty() ? "" : " and its two files beside the project");
+      if (ImGui::Button("Delete")) {
+        remove = i;
+        ImGui::CloseCurrentPopup();
+      }
+      ImGui::SameLine();
+      if (ImGui::Button("Keep it")) ImGui::CloseCurrentPopup();
+      ImGui::EndPopup();
+    }
+    ImGui::SameLine();
+    std::string why_not;
+    const std::string command = FitCommand(state, i, &why_not);
+    ImGui::BeginDisabled(command.empty());
+    if (ImGui::Button("Copy as command")) {
+      ImGui::SetClipboardText(command.c_str());
+      AddMessage(state, Severity::kInfo, "Copied the command that fits it again: " + command);
+    }
+    ImGui::EndDisabled();
+    if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled))
+      ImGui::SetTooltip("%s", command.empty() ? why_not.c_str()
+                                              : "The greybench-cli command that fits it again, "
+                                                "from the files kept beside the project");
+    ImGui::SameLine();
+    ImGui::TextDisabled("fit %d", k.number);
   }
   std::string why;
   if (show && !ShowFit(state, *show, &why)) AddMessage(state, Severity::kError, "Cannot show the fit: " + why);

@@ -345,6 +345,7 @@ bool StartEstimation(AppState& state, std::string* why) {
     if (d.spec.role != data::Role::kEstimation) continue;  // validation records are not fitted
     if (!d.data) return refuse(FileName(d.path) + " could not be read: " + d.error);
     input.datasets.push_back(d.data);
+    input.dataset_specs.push_back(d.spec);
   }
   if (input.datasets.empty())
     return refuse("every dataset is a validation record: give one the role estimation");

@@ -107,6 +107,7 @@ struct KeptFit {
   FitResult fit;         // its model_revision is the model's when it matches the model, else -1
   Json result;           // its result file's content (what `greybench-cli compare` reads)
   Json model;            // the model it was fitted with (model::ToJson)
+  std::vector<data::DatasetSpec> datasets;  // as they were fitted (empty for a fit read back)
   std::string file;      // its result file; "" until written (a project never saved)
   int number = 0;        // NNN of fit-NNN.json; the session's count until written
   std::string finished;  // local time it finished ("" in a snapshot)
@@ -158,8 +159,10 @@ struct EstimationState {
   // and most tests leave the disk alone, as ShellState::session_files does).
   bool keep_on_disk = false;
   int next_number = 1;  // the session's number for a fit not written
-  // The two fits of the Fits list's likelihood-ratio test (-1: not chosen).
+  // The two fits of the Fits list's likelihood-ratio test (-1: not chosen), and the row its
+  // buttons act on (-1: the one shown).
   int compare_a = -1, compare_b = -1;
+  int selected = -1;
   // How the last run ended when it left no result: "cancelled after 1.2 s", or the error.
   std::string last_failure;
   Severity last_failure_severity = Severity::kInfo;
@@ -381,6 +384,11 @@ bool DeleteFit(AppState& state, std::size_t index, std::string* why = nullptr);
 // nested, other data, a stopped fit). `notes`: caveats of a test made (matched by name only).
 Result<estimate::LikelihoodRatioTest> CompareFits(const AppState& state, std::size_t a,
                                                   std::size_t b, std::string* notes = nullptr);
+// The shell command that fits kept fit `index` again with greybench-cli (its project file, the
+// options it ran with, a new result file beside it: `greybench-cli estimate
+// '/…/engine.fits/fit-001.project.json' --algorithm auto --out '/…/engine.fits/fit-001.again.json'`),
+// or "" with why (a fit not written: the project was never saved).
+std::string FitCommand(const AppState& state, std::size_t index, std::string* why = nullptr);
 // Writes the fits not written yet (of a project saved for the first time, or saved as another
 // file: its fits folder is another). The shell calls it after a save.
 void WriteUnwrittenFits(AppState& state);

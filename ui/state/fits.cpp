@@ -40,8 +40,19 @@ std::string FitName(const KeptFit& k) { return fmt::format("fit {}", k.number); 
 void WriteFit(AppState& state, KeptFit& k) {
   if (!state.estimation.keep_on_disk || !state.project || state.project->path.empty()) return;
   const std::string folder = project::FitsFolder(state.project->path);
-  Result<project::KeptFitFile> written =
-      project::WriteKeptFit(folder, state.project->path, k.result, k.model);
+  // The project that fits it again: the model and the datasets as they were fitted.
+  project::Project p;
+  p.name = state.project->name;
+  p.datasets = k.datasets;
+  p.extra = Json::object();
+  if (k.result.value("initial_states", "") == "per_record")
+    p.extra[project::kEstimationKey]["initial_states"] = "per_record";
+  const auto settings = k.result.find("settings");
+  if (settings != k.result.end() && settings->is_object() && settings->value("steady_start", false)) {
+    p.extra[project::kEstimationKey]["steady_start"] = true;
+    p.extra[project::kEstimationKey]["steady_window"] = settings->value("steady_window", 5.0);
+  }
+  Result<project::KeptFitFile> written = project::WriteKeptFit(folder, k.result, k.model, p);
   if (!written) {
     AddMessage(state, Severity::kWarning,
                "The fit could not be kept on disk: " + written.error().ToString());
@@ -68,12 +79,13 @@ void KeepFit(AppState& state, FitResult fit, const EstimationRun& run) {
                           {"steady_start", s.steady_start},
                           {"steady_window", s.steady_window}};
   k.model = model::ToJson(run.spec);
+  k.datasets = run.dataset_specs;
   k.number = e.next_number;
   k.fit = std::move(fit);
   WriteFit(state, k);
   e.next_number = std::max(e.next_number, k.number) + 1;
   e.fits.push_back(std::move(k));
-  e.shown = static_cast<int>(e.fits.size()) - 1;
+  e.shown = e.selected = static_cast<int>(e.fits.size()) - 1;
   e.result = e.fits.back().fit;
 }
 
@@ -104,6 +116,13 @@ void ReadFits(const std::string& path, bool deterministic, ProjectLoad* out) {
         if (copies) k.fit.series_parameters = std::move(copies->index);
       }
     }
+    // The datasets as they were fitted, from the fit's own project (for Save as).
+    const auto project_file = f.result.find("project_file");
+    if (project_file != f.result.end() && project_file->is_string()) {
+      Result<project::Project> p = project::LoadProject(project::ResolvePath(
+          fs::path(f.path).parent_path().string(), project_file->get<std::string>()));
+      if (p) k.datasets = p->datasets;
+    }
     k.result = std::move(f.result);
     k.model = std::move(f.model);
     out->fits.push_back(std::move(k));
@@ -116,7 +135,7 @@ void InstallFits(AppState& state, std::vector<KeptFit> fits, const std::vector<s
   EstimationState& e = state.estimation;
   e.fits = std::move(fits);
   e.shown = -1;
-  e.compare_a = e.compare_b = -1;
+  e.compare_a = e.compare_b = e.selected = -1;
   e.next_number = 1;
   for (KeptFit& k : e.fits) {
     e.next_number = std::max(e.next_number, k.number + 1);
@@ -188,6 +207,7 @@ bool DeleteFit(AppState& state, std::size_t index, std::string* why) {
   auto follow = [i](int& at) { at = at == i ? -1 : at > i ? at - 1 : at; };
   follow(e.compare_a);
   follow(e.compare_b);
+  follow(e.selected);
   if (e.shown == i) e.result.reset();
   follow(e.shown);
   return true;
@@ -218,6 +238,45 @@ Result<estimate::LikelihoodRatioTest> CompareFits(const AppState& state, std::si
                 "optimum, or the models are not nested.";
   }
   return estimate::CompareNested(r.loglik, r.n_free, f.loglik, f.n_free);
+}
+
+namespace {
+
+// `text` as one word of a POSIX shell.
+std::string ShellWord(const std::string& text) {
+  std::string out = "'";
+  for (char c : text) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+}  // namespace
+
+std::string FitCommand(const AppState& state, std::size_t index, std::string* why) {
+  const std::vector<KeptFit>& fits = state.estimation.fits;
+  if (index >= fits.size()) {
+    if (why) *why = "there is no such fit";
+    return "";
+  }
+  const KeptFit& k = fits[index];
+  const auto project_file = k.result.find("project_file");
+  if (k.file.empty() || project_file == k.result.end() || !project_file->is_string()) {
+    if (why) *why = "the fit is not written yet: save the project first";
+    return "";
+  }
+  std::error_code ec;
+  const fs::path folder = fs::absolute(fs::path(k.file), ec).parent_path();
+  std::string cmd = "greybench-cli estimate " +
+                    ShellWord((folder / project_file->get<std::string>()).string());
+  const auto settings = k.result.find("settings");
+  if (settings != k.result.end() && settings->is_object()) {
+    cmd += " --algorithm " + settings->value("algorithm", std::string("auto"));
+    if (const int m = settings->value("multistart", 0); m > 0) cmd += fmt::format(" --multistart {}", m);
+    if (settings->value("profile_intervals", false)) cmd += " --profile-intervals";
+    if (settings->value("steady_start", false))
+      cmd += fmt::format(" --steady-start --steady-window {}", settings->value("steady_window", 5.0));
+  }
+  const std::string again = fs::path(k.file).stem().string() + ".again.json";
+  return cmd + " --out " + ShellWord((folder / again).string());
 }
 
 void WriteUnwrittenFits(AppState& state) {
