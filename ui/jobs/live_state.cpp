@@ -15,9 +15,11 @@ namespace gb::ui {
 namespace {
 
 // The session's fit as a reference for `spec`: only when it was fitted to a model with the same
-// parameters (an edited formula may have renamed or added some since).
+// parameters (an edited formula may have renamed or added some since), and finished (a fit the
+// user stopped has no covariance to watch the parameters against).
 bool SessionFitFits(const FitResult& fit, const model::ModelSpec& spec) {
   const estimate::EstimateSummary& s = fit.summary;
+  if (s.cancelled) return false;
   if (s.parameters.size() != spec.parameters.size() || s.theta.size() != spec.parameters.size())
     return false;
   for (std::size_t i = 0; i < s.parameters.size(); ++i) {
