@@ -2,12 +2,12 @@
 //           fields  5. models to start from
 #include "core/model/model_structure.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <functional>
-
-#include <fmt/format.h>
 
 namespace gb::model {
 namespace {
@@ -16,17 +16,21 @@ namespace {
 constexpr const char* kStateFormulas[] = {"drift", "diffusion", "initial_state",
                                           "initial_covariance"};
 constexpr const char* kOutputKeys[] = {"observation", "measurement_variance", "output_delay"};
-constexpr const char* kFormulaMaps[] = {"drift",         "diffusion",          "observation",
-                                        "measurement_variance", "initial_state",
-                                        "initial_covariance"};
+constexpr const char* kFormulaMaps[] = {"drift",         "diffusion",
+                                        "observation",   "measurement_variance",
+                                        "initial_state", "initial_covariance"};
 constexpr const char* kTheTime = "t";
 
 const char* ListKey(NameKind kind) {
   switch (kind) {
-    case NameKind::kState: return "states";
-    case NameKind::kInput: return "inputs";
-    case NameKind::kOutput: return "outputs";
-    case NameKind::kParameter: return "parameters";
+    case NameKind::kState:
+      return "states";
+    case NameKind::kInput:
+      return "inputs";
+    case NameKind::kOutput:
+      return "outputs";
+    case NameKind::kParameter:
+      return "parameters";
   }
   return "";
 }
@@ -135,10 +139,14 @@ std::string WithArticle(NameKind kind) {
 
 const char* NameKindText(NameKind kind) {
   switch (kind) {
-    case NameKind::kState: return "state";
-    case NameKind::kInput: return "input";
-    case NameKind::kOutput: return "output";
-    case NameKind::kParameter: return "parameter";
+    case NameKind::kState:
+      return "state";
+    case NameKind::kInput:
+      return "input";
+    case NameKind::kOutput:
+      return "output";
+    case NameKind::kParameter:
+      return "parameter";
   }
   return "";
 }
@@ -163,10 +171,13 @@ std::string NameProblem(const Json& model, NameKind kind, const std::string& nam
   const char* what = NameKindText(kind);
   if (name.empty()) return fmt::format("a {} needs a name", what);
   if (!IsIdentifier(name))
-    return fmt::format("'{}' is not a valid name (letters, digits and _, not starting with a "
-                       "digit)", name);
+    return fmt::format(
+        "'{}' is not a valid name (letters, digits and _, not starting with a "
+        "digit)",
+        name);
   if (IsFunctionName(name))
-    return fmt::format("'{}' is the name of a function and cannot name a {}", name, what);
+    return fmt::format("'{}' is the name of a function and cannot name {}", name,
+                       WithArticle(kind));
   if (name == except) return "";
   auto taken_as = [&](NameKind k) {
     return Contains(NamesOf(model, k), name)
@@ -247,8 +258,8 @@ Result<Json> AddParameter(const Json& model, const Parameter& parameter) {
   if (!j.contains("parameters") || !j["parameters"].is_object()) j["parameters"] = Json::object();
   j["parameters"][name] = ParametersToJson({parameter})[name];
   Result<Json> checked = Checked(std::move(j));
-  if (!checked) return Refuse(fmt::format("cannot add parameter '{}': {}", name,
-                                          checked.error().message));
+  if (!checked)
+    return Refuse(fmt::format("cannot add parameter '{}': {}", name, checked.error().message));
   return checked;
 }
 
@@ -268,12 +279,10 @@ Result<Json> RenameName(const Json& model, NameKind kind, const std::string& fro
       if (v == from) v = to;
   }
   if (kind == NameKind::kState || kind == NameKind::kOutput) {
-    for (const char* section : kind == NameKind::kState ? std::vector<const char*>(
-                                                              std::begin(kStateFormulas),
-                                                              std::end(kStateFormulas))
-                                                        : std::vector<const char*>(
-                                                              std::begin(kOutputKeys),
-                                                              std::end(kOutputKeys))) {
+    for (const char* section :
+         kind == NameKind::kState
+             ? std::vector<const char*>(std::begin(kStateFormulas), std::end(kStateFormulas))
+             : std::vector<const char*>(std::begin(kOutputKeys), std::end(kOutputKeys))) {
       if (j.contains(section) && j[section].is_object())
         j[section] = RenameKey(j[section], from, to);
     }
@@ -289,8 +298,8 @@ Result<Json> RenameName(const Json& model, NameKind kind, const std::string& fro
   }
   Result<Json> checked = Checked(std::move(j));
   if (!checked)
-    return Refuse(fmt::format("cannot rename {} '{}' to '{}': {}", what, from, to,
-                              checked.error().message));
+    return Refuse(
+        fmt::format("cannot rename {} '{}' to '{}': {}", what, from, to, checked.error().message));
   return checked;
 }
 
@@ -299,8 +308,8 @@ Result<Json> DeleteName(const Json& model, NameKind kind, const std::string& nam
   const std::vector<std::string> names = NamesOf(model, kind);
   if (!Contains(names, name)) return Refuse(fmt::format("the model has no {} '{}'", what, name));
   if ((kind == NameKind::kState || kind == NameKind::kOutput) && names.size() == 1)
-    return Refuse(fmt::format("cannot delete {} '{}': the model needs at least one {}", what, name,
-                              what));
+    return Refuse(
+        fmt::format("cannot delete {} '{}': the model needs at least one {}", what, name, what));
   if (kind != NameKind::kOutput) {
     std::vector<std::string> uses = FormulasUsing(model, name);
     std::erase_if(uses, [&](const std::string& path) { return OwnFormula(kind, name, path); });
@@ -318,12 +327,10 @@ Result<Json> DeleteName(const Json& model, NameKind kind, const std::string& nam
     j[ListKey(kind)] = std::move(list);
   }
   if (kind == NameKind::kState || kind == NameKind::kOutput) {
-    for (const char* section : kind == NameKind::kState ? std::vector<const char*>(
-                                                              std::begin(kStateFormulas),
-                                                              std::end(kStateFormulas))
-                                                        : std::vector<const char*>(
-                                                              std::begin(kOutputKeys),
-                                                              std::end(kOutputKeys))) {
+    for (const char* section :
+         kind == NameKind::kState
+             ? std::vector<const char*>(std::begin(kStateFormulas), std::end(kStateFormulas))
+             : std::vector<const char*>(std::begin(kOutputKeys), std::end(kOutputKeys))) {
       if (j.contains(section) && j[section].is_object()) j[section].erase(name);
     }
   }
@@ -363,11 +370,15 @@ Result<Json> SetInputHold(const Json& model, InputHold hold) {
 Result<Json> SetInitialCovariance(const Json& model, InitialCovariance mode) {
   Json j = model;
   switch (mode) {
-    case InitialCovariance::kCtsm: j["initial_covariance"] = "ctsm"; break;
-    case InitialCovariance::kStationary: j["initial_covariance"] = "stationary"; break;
+    case InitialCovariance::kCtsm:
+      j["initial_covariance"] = "ctsm";
+      break;
+    case InitialCovariance::kStationary:
+      j["initial_covariance"] = "stationary";
+      break;
     case InitialCovariance::kExplicit: {
-      const Json before = model.contains("initial_covariance") ? model["initial_covariance"]
-                                                               : Json();
+      const Json before =
+          model.contains("initial_covariance") ? model["initial_covariance"] : Json();
       Json variances = Json::object();
       for (const std::string& x : NamesOf(model, NameKind::kState))
         variances[x] = before.is_object() && before.contains(x) ? before[x] : Json("1");
@@ -391,8 +402,8 @@ Result<Json> ParameterObject(const Json& model, const std::string& parameter) {
 
 }  // namespace
 
-Result<Json> SetParameterText(const Json& model, const std::string& parameter,
-                              ParameterText field, const std::string& text) {
+Result<Json> SetParameterText(const Json& model, const std::string& parameter, ParameterText field,
+                              const std::string& text) {
   Result<Json> p = ParameterObject(model, parameter);
   if (!p) return p;
   const char* key = field == ParameterText::kUnit ? "unit" : "description";
@@ -434,10 +445,13 @@ Json BlankModel(const std::string& name) {
   j["inputs"] = Json::array();
   j["outputs"] = {"y"};
   j["parameters"] = {
-      {"sigma_x", {{"value", 0.1}, {"lower", 0.0}, {"upper", 100.0},
-                   {"description", "diffusion of x"}}},
-      {"sigma_y", {{"value", 0.1}, {"lower", 0.0}, {"upper", 100.0},
-                   {"description", "measurement noise of y (standard deviation)"}}}};
+      {"sigma_x",
+       {{"value", 0.1}, {"lower", 0.0}, {"upper", 100.0}, {"description", "diffusion of x"}}},
+      {"sigma_y",
+       {{"value", 0.1},
+        {"lower", 0.0},
+        {"upper", 100.0},
+        {"description", "measurement noise of y (standard deviation)"}}}};
   j["drift"] = {{"x", "0"}};
   j["diffusion"] = {{"x", "sigma_x"}};
   j["observation"] = {{"y", "x"}};
@@ -456,13 +470,14 @@ Result<Json> ModelFromColumns(const ColumnsModelRequest& request) {
     const char* what = group == &request.inputs ? "an input" : "an output";
     for (const ColumnSummary& c : *group) {
       if (!IsIdentifier(c.name))
-        return Refuse(fmt::format("column '{}' cannot be {}: a model's names are letters, digits "
-                                  "and _, not starting with a digit", c.name, what));
+        return Refuse(
+            fmt::format("column '{}' cannot be {}: a model's names are letters, digits "
+                        "and _, not starting with a digit",
+                        c.name, what));
       if (IsFunctionName(c.name))
-        return Refuse(fmt::format("column '{}' cannot be {}: it is the name of a function",
-                                  c.name, what));
-      if (Contains(seen, c.name))
-        return Refuse(fmt::format("column '{}' is chosen twice", c.name));
+        return Refuse(
+            fmt::format("column '{}' cannot be {}: it is the name of a function", c.name, what));
+      if (Contains(seen, c.name)) return Refuse(fmt::format("column '{}' is chosen twice", c.name));
       seen.push_back(c.name);
     }
   }
@@ -480,7 +495,9 @@ Result<Json> ModelFromColumns(const ColumnsModelRequest& request) {
     outputs.push_back(y.name);
     const double sd = y.sd && std::isfinite(*y.sd) && *y.sd > 0 ? *y.sd : 1.0;
     const std::string tau_name = "tau_" + y.name;
-    parameters[tau_name] = {{"value", tau}, {"lower", tau / 1000}, {"upper", tau * 1000},
+    parameters[tau_name] = {{"value", tau},
+                            {"lower", tau / 1000},
+                            {"upper", tau * 1000},
                             {"description", "time constant of " + x}};
     std::string inflow = "-" + x;
     for (const ColumnSummary& u : request.inputs) {
@@ -489,14 +506,17 @@ Result<Json> ModelFromColumns(const ColumnsModelRequest& request) {
       inflow += " + " + b + "*" + u.name;
     }
     const std::string sigma = "sigma_" + y.name, e = "e_" + y.name, x0_name = "x0_" + y.name;
-    parameters[sigma] = {{"value", sd / 10}, {"lower", 0.0}, {"upper", 100 * sd},
+    parameters[sigma] = {{"value", sd / 10},
+                         {"lower", 0.0},
+                         {"upper", 100 * sd},
                          {"description", "diffusion of " + x}};
-    parameters[e] = {{"value", sd / 10}, {"lower", 0.0}, {"upper", 100 * sd},
+    parameters[e] = {{"value", sd / 10},
+                     {"lower", 0.0},
+                     {"upper", 100 * sd},
                      {"description", "measurement noise of " + y.name + " (standard deviation)"}};
     const double first = y.first && std::isfinite(*y.first) ? *y.first : 0.0;
     parameters[x0_name] = {{"value", first}, {"description", "initial value of " + x}};
-    drift[x] = request.inputs.empty() ? inflow + "/" + tau_name
-                                      : "(" + inflow + ")/" + tau_name;
+    drift[x] = request.inputs.empty() ? inflow + "/" + tau_name : "(" + inflow + ")/" + tau_name;
     diffusion[x] = sigma;
     observation[y.name] = x;
     variance[y.name] = e + "^2";

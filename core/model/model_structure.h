@@ -81,8 +81,8 @@ Result<Json> SetInputHold(const Json& model, InputHold hold);
 Result<Json> SetInitialCovariance(const Json& model, InitialCovariance mode);
 // A parameter's "unit" or "description" ("" removes it).
 enum class ParameterText { kUnit, kDescription };
-Result<Json> SetParameterText(const Json& model, const std::string& parameter,
-                              ParameterText field, const std::string& text);
+Result<Json> SetParameterText(const Json& model, const std::string& parameter, ParameterText field,
+                              const std::string& text);
 // A parameter's prior (absent: removed).
 Result<Json> SetParameterPrior(const Json& model, const std::string& parameter,
                                const std::optional<Parameter::Prior>& prior);

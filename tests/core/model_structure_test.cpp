@@ -1,10 +1,10 @@
 #include "core/model/model_structure.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <map>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "core/util/json.h"
 
@@ -111,8 +111,8 @@ TEST(ModelStructure, DeleteOfAnUnusedParameterRemovesOnlyIt) {
 }
 
 TEST(ModelStructure, DeleteOfAStateTakesItsOwnFormulasAndIsRefusedWhileOthersUseIt) {
-  Result<Json> used = DeleteName(AddName(Tank(), NameKind::kState, "z").value(), NameKind::kState,
-                                 "T");
+  Result<Json> used =
+      DeleteName(AddName(Tank(), NameKind::kState, "z").value(), NameKind::kState, "T");
   ASSERT_FALSE(used);
   EXPECT_EQ(used.error().message,
             "cannot delete state 'T': observation.T and observation.q use it");
@@ -263,8 +263,8 @@ TEST(ModelStructure, AGeneratedModelHasAFirstOrderStatePerOutput) {
   EXPECT_EQ(m->outputs, (std::vector<std::string>{"Tex", "Tcat"}));
   EXPECT_EQ(m->parameters.size(), 2u * (4 + 2));
   // dx = (-x + b_n*n + b_load*load)/tau at a point, against the formula written out by hand.
-  std::map<std::string, double> at = {{"x_Tex", 3},      {"n", 5},       {"load", 7},
-                                      {"tau_Tex", 2},    {"b_Tex_n", 11}, {"b_Tex_load", 13}};
+  std::map<std::string, double> at = {{"x_Tex", 3},   {"n", 5},        {"load", 7},
+                                      {"tau_Tex", 2}, {"b_Tex_n", 11}, {"b_Tex_load", 13}};
   auto lookup = [&](const std::string& name) { return at.at(name); };
   EXPECT_DOUBLE_EQ(expr::EvaluateTree(m->drift[0].expr, lookup), (-3 + 11 * 5 + 13 * 7) / 2.0);
   EXPECT_EQ(m->observation[1].text, "x_Tcat");
