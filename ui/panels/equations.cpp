@@ -542,7 +542,7 @@ void DrawEditableParameters(AppState& state) {
     for (const char* h : {"Name", "Value", "Lower", "Upper", "Fixed", "Unit"})
       ImGui::TableSetupColumn(h);
     ImGui::TableSetupColumn("Description", ImGuiTableColumnFlags_WidthStretch);
-    ImGui::TableSetupColumn("Prior N(mean, sdÂ²)");
+    ImGui::TableSetupColumn("Prior N(mean, sd\xC2\xB2)");
     ImGui::TableSetupColumn("");
     ImGui::TableHeadersRow();
     for (const model::Parameter& p : spec.parameters) {
