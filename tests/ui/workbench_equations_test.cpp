@@ -9,7 +9,9 @@
 #include <string>
 
 #include "core/model/model_structure.h"
+#include "core/project/project.h"
 #include "tests/ui/workbench_driver.h"
+#include "ui/shell/shell.h"
 
 namespace gb::ui {
 namespace {
@@ -178,6 +180,36 @@ TEST_F(EquationsStructure, UndoAndRedoRestoreEveryEdit) {
   EXPECT_EQ(ModelJson()["outputs"], Json({"y"}));
 }
 
+TEST_F(EquationsStructure, UndoTakesBackAFormulaEditAsWell) {
+  const ImGuiID drift = Id("drift.x", "##formula");
+  ASSERT_TRUE(Click(drift));
+  Key(kKeyEnd);
+  d_.Type("-x");  // "0" -> "0-x"
+  d_.PressEnter();
+  ASSERT_EQ(d_.state.model->drift[0].text, "0-x");
+  d_.MouseTo(ImVec2(1, 1));
+  Key(kKeyZ, /*ctrl=*/true);
+  EXPECT_EQ(d_.state.model->drift[0].text, "0");
+  EXPECT_EQ(ModelJson()["drift"]["x"], "0");
+  Key(kKeyY, /*ctrl=*/true);
+  EXPECT_EQ(d_.state.model->drift[0].text, "0-x");
+}
+
+TEST_F(EquationsStructure, AnEditElsewhereStartsANewHistory) {
+  ASSERT_TRUE(Add("input", "u"));
+  ASSERT_FALSE(d_.state.equations_view.undo.empty());
+  // A start value edited in the Parameters view: undoing the input would take it back too.
+  d_.state.parameters_view.pending.push_back(
+      ParseParameterEdit("sigma_x", ParameterField::kValue, "0.5").value());
+  ApplyParameterEdits(d_.state);
+  d_.Frame();
+  EXPECT_TRUE(d_.state.equations_view.undo.empty());
+  d_.state.equations_view.undo_requested = true;
+  d_.Frame();
+  EXPECT_EQ(d_.state.model->inputs, (std::vector<std::string>{"u"}));
+  EXPECT_EQ(d_.state.model->parameters[0].value, 0.5);
+}
+
 TEST_F(EquationsStructure, OptionsAndParameterFieldsAreEditedAndUndone) {
   ASSERT_TRUE(Retype(Id("model.name", "##field"), "exhaust"));
   EXPECT_EQ(d_.state.model->name, "exhaust");
@@ -202,6 +234,22 @@ TEST_F(EquationsStructure, OptionsAndParameterFieldsAreEditedAndUndone) {
   d_.state.equations_view.undo_requested = true;
   d_.Frame();
   EXPECT_EQ(d_.state.model->input_hold, model::InputHold::kZoh);
+}
+
+TEST_F(EquationsStructure, AStructureEditIsAnUnsavedChangeThatSaveWrites) {
+  EXPECT_FALSE(HasUnsavedChanges(d_.state));
+  ASSERT_TRUE(Retype(Id("rename.output.y", "##field"), "ilambda"));
+  ASSERT_TRUE(Add("input", "mfi"));
+  EXPECT_TRUE(HasUnsavedChanges(d_.state));
+  ASSERT_TRUE(SaveCurrentProject(d_.state).ok());
+  EXPECT_FALSE(HasUnsavedChanges(d_.state));
+  // Read back from disk: the project's model is the edited one.
+  Result<project::Project> saved = project::LoadProject((dir_ / "project.json").string());
+  ASSERT_TRUE(saved) << saved.error().ToString();
+  Result<model::ModelSpec> m = model::ParseModel(saved->model_json, "");
+  ASSERT_TRUE(m) << m.error().ToString();
+  EXPECT_EQ(m->outputs, (std::vector<std::string>{"ilambda"}));
+  EXPECT_EQ(m->inputs, (std::vector<std::string>{"mfi"}));
 }
 
 }  // namespace

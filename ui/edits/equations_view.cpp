@@ -8,7 +8,7 @@ namespace gb::ui {
 namespace {
 
 // Makes `edited` the workbench's model and the project's model file.
-void Install(AppState& state, EditedModel edited) {
+void InstallEditedModel(AppState& state, EditedModel edited) {
   state.model = std::move(edited.spec);
   state.model_error.clear();
   ResolveMessages(state, MessageTopic::kModel);
@@ -23,7 +23,7 @@ void Install(AppState& state, EditedModel edited) {
 }
 
 // Restores the model file at the back of `from`, moving the current one onto `to`.
-void Restore(AppState& state, std::vector<Json>& from, std::vector<Json>& to) {
+void RestoreModelFile(AppState& state, std::vector<Json>& from, std::vector<Json>& to) {
   if (from.empty() || !state.project || !state.model) return;
   Result<model::ModelSpec> spec = model::ParseModel(from.back(), state.model->source);
   if (!spec) {  // cannot happen: every step in the history was a model that parsed
@@ -34,7 +34,7 @@ void Restore(AppState& state, std::vector<Json>& from, std::vector<Json>& to) {
   to.push_back(state.project->model_json);
   Json restored = std::move(from.back());
   from.pop_back();
-  Install(state, EditedModel{std::move(restored), std::move(spec).value()});
+  InstallEditedModel(state, EditedModel{std::move(restored), std::move(spec).value()});
 }
 
 // Checks every draft against the model as it now is.
@@ -86,9 +86,9 @@ void ApplyEquationsEdits(AppState& state) {
     v.pending.clear();
     v.refusal.reset();
     if (undo)
-      Restore(state, v.undo, v.redo);
+      RestoreModelFile(state, v.undo, v.redo);
     else
-      Restore(state, v.redo, v.undo);
+      RestoreModelFile(state, v.redo, v.undo);
   } else {
     const Json before = state.project->model_json;
     const int revision = state.model_revision;
@@ -103,7 +103,7 @@ void ApplyEquationsEdits(AppState& state) {
       if (v.refusal && v.refusal->control == edit.control) v.refusal.reset();
       ForgetTyping(v, edit.control);
       if (edited->json == state.project->model_json) continue;  // e.g. the same name retyped
-      Install(state, std::move(edited).value());
+      InstallEditedModel(state, std::move(edited).value());
       // A parameter created from a refused formula's offer: the formula, left while it was
       // refused, is applied now that it names a parameter of the model.
       const auto draft = v.drafts.find(edit.control);

@@ -228,13 +228,13 @@ std::optional<std::string> StructureField(AppState& state, const std::string& co
   return left;
 }
 
-void Emit(AppState& state, StructureEdit edit) {
+void EmitStructureEdit(AppState& state, StructureEdit edit) {
   state.equations_view.structure_pending.push_back(std::move(edit));
 }
 
 // The reason an edit from `control` (or, with `prefix`, any control starting so) was refused,
 // with a button that drops what was typed.
-void DrawRefusal(AppState& state, const std::string& control, bool prefix = false) {
+void DrawStructureRefusal(AppState& state, const std::string& control, bool prefix = false) {
   EquationsViewState& v = state.equations_view;
   if (!v.refusal) return;
   const std::string& c = v.refusal->control;
@@ -265,7 +265,7 @@ void MonoLabel(AppState& state, const std::string& text) {
 // Sections
 
 // The toolbar: undo and redo of the view's edits, and their shortcuts.
-void DrawToolbar(AppState& state) {
+void DrawEquationsToolbar(AppState& state) {
   EquationsViewState& v = state.equations_view;
   ImGui::BeginDisabled(v.undo.empty());
   if (ImGui::Button("Undo")) v.undo_requested = true;
@@ -287,9 +287,9 @@ void DrawToolbar(AppState& state) {
     e.kind = StructureEditKind::kModelName;
     e.text = *typed;
     e.control = "model.name";
-    Emit(state, std::move(e));
+    EmitStructureEdit(state, std::move(e));
   }
-  DrawRefusal(state, "model.name");
+  DrawStructureRefusal(state, "model.name");
   const ImGuiIO& io = ImGui::GetIO();
   if (!io.KeyCtrl || io.WantTextInput) return;
   const bool z = ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Z), false);
@@ -324,7 +324,7 @@ void DrawEditableVariables(AppState& state, const ModelJson& model) {
         e.name = name;
         e.text = *typed;
         e.control = control;
-        Emit(state, std::move(e));
+        EmitStructureEdit(state, std::move(e));
       }
       ImGui::SameLine(0, 2.0f * s);
       ImGui::PushID(("delete." + what + "." + name).c_str());
@@ -334,7 +334,7 @@ void DrawEditableVariables(AppState& state, const ModelJson& model) {
         e.what = kind;
         e.name = name;
         e.control = "delete." + what + "." + name;
-        Emit(state, std::move(e));
+        EmitStructureEdit(state, std::move(e));
       }
       if (ImGui::IsItemHovered())
         ImGui::SetTooltip("Delete the %s '%s'%s", what.c_str(), name.c_str(),
@@ -359,11 +359,11 @@ void DrawEditableVariables(AppState& state, const ModelJson& model) {
       e.what = kind;
       e.name = typing;
       e.control = add;
-      Emit(state, std::move(e));
+      EmitStructureEdit(state, std::move(e));
     }
-    DrawRefusal(state, "rename." + what + ".", true);
-    DrawRefusal(state, "delete." + what + ".", true);
-    DrawRefusal(state, add);
+    DrawStructureRefusal(state, "rename." + what + ".", true);
+    DrawStructureRefusal(state, "delete." + what + ".", true);
+    DrawStructureRefusal(state, add);
     ImGui::EndGroup();
   }
 }
@@ -526,7 +526,7 @@ void PriorFields(AppState& state, const model::Parameter& p, float width) {
   e.name = p.name;
   e.prior = *prior;
   e.control = from;
-  Emit(state, std::move(e));
+  EmitStructureEdit(state, std::move(e));
 }
 
 // The parameters: name (rename), start and bounds (edited in the Parameters view), unit,
@@ -556,7 +556,7 @@ void DrawEditableParameters(AppState& state) {
         e.name = p.name;
         e.text = *typed;
         e.control = "rename.parameter." + p.name;
-        Emit(state, std::move(e));
+        EmitStructureEdit(state, std::move(e));
       }
       ImGui::PopFont();
       for (const std::string& number :
@@ -584,7 +584,7 @@ void DrawEditableParameters(AppState& state) {
         e.name = p.name;
         e.text = *typed;
         e.control = "unit." + p.name;
-        Emit(state, std::move(e));
+        EmitStructureEdit(state, std::move(e));
       }
       ImGui::TableNextColumn();
       if (auto typed = StructureField(state, "description." + p.name, p.description,
@@ -594,7 +594,7 @@ void DrawEditableParameters(AppState& state) {
         e.name = p.name;
         e.text = *typed;
         e.control = "description." + p.name;
-        Emit(state, std::move(e));
+        EmitStructureEdit(state, std::move(e));
       }
       ImGui::TableNextColumn();
       PriorFields(state, p, 60.0f * s);
@@ -606,7 +606,7 @@ void DrawEditableParameters(AppState& state) {
         e.what = model::NameKind::kParameter;
         e.name = p.name;
         e.control = "delete.parameter." + p.name;
-        Emit(state, std::move(e));
+        EmitStructureEdit(state, std::move(e));
       }
       ImGui::PopID();
     }
@@ -616,7 +616,7 @@ void DrawEditableParameters(AppState& state) {
   }
   for (const char* prefix : {"rename.parameter.", "delete.parameter.", "unit.", "description.",
                              "prior."})
-    DrawRefusal(state, prefix, true);
+    DrawStructureRefusal(state, prefix, true);
 
   // A new parameter: name, start value, bounds, unit, description.
   ImGui::AlignTextToFramePadding();
@@ -655,12 +655,12 @@ void DrawEditableParameters(AppState& state) {
       e.parameter.value = *start->number;
       e.parameter.lower = lower->number;
       e.parameter.upper = upper->number;
-      Emit(state, std::move(e));
+      EmitStructureEdit(state, std::move(e));
     }
   }
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("Start value 1 when none is typed; an empty bound is no bound");
-  DrawRefusal(state, "new_parameter.name");
+  DrawStructureRefusal(state, "new_parameter.name");
 }
 
 // Whether the model goes through the extended Kalman filter (checked once per revision).
@@ -744,12 +744,12 @@ void DrawEditableOptions(AppState& state, const ModelJson& model) {
         e.kind = StructureEditKind::kInitialCovariance;
         e.covariance = values[i];
         e.control = "initial_covariance";
-        Emit(state, std::move(e));
+        EmitStructureEdit(state, std::move(e));
       }
     }
     ImGui::EndCombo();
   }
-  DrawRefusal(state, "initial_covariance");
+  DrawStructureRefusal(state, "initial_covariance");
   if (spec.initial_covariance == model::InitialCovariance::kExplicit) {
     const ModelJson* p0 = Member(model, "initial_covariance");
     for (const std::string& x : spec.states) {
@@ -774,12 +774,12 @@ void DrawEditableOptions(AppState& state, const ModelJson& model) {
         e.kind = StructureEditKind::kInputHold;
         e.hold = hold;
         e.control = "input_hold";
-        Emit(state, std::move(e));
+        EmitStructureEdit(state, std::move(e));
       }
     }
     ImGui::EndCombo();
   }
-  DrawRefusal(state, "input_hold");
+  DrawStructureRefusal(state, "input_hold");
   label("Robust (Huber c)", "Set in the model file");
   MonoLine(state, MemberText(model, "robust_huber", "off (Gaussian)"));
 }
@@ -842,7 +842,7 @@ void DrawEquationsPanel(AppState& state) {
     return;
   }
   if (editable) {
-    DrawToolbar(state);
+    DrawEquationsToolbar(state);
     DrawEditableVariables(state, model);
   } else {
     DrawVariables(state, model);
