@@ -6,6 +6,8 @@
 #include <map>
 #include <string>
 
+#include "core/model/linear_model.h"
+#include "core/project/problem.h"
 #include "core/util/json.h"
 
 namespace gb::model {
@@ -272,6 +274,45 @@ TEST(ModelStructure, AGeneratedModelHasAFirstOrderStatePerOutput) {
   EXPECT_EQ(tau.value, 60.0);
   EXPECT_EQ(m->parameters[static_cast<std::size_t>(m->ParameterIndex("x0_Tex"))].value, 400.0);
   EXPECT_EQ(m->parameters[static_cast<std::size_t>(m->ParameterIndex("e_Tex"))].value, 3.0);
+}
+
+// The generated model is the linear first-order model it says it is (A = -1/tau, B = b/tau,
+// C = 1, S = e^2), and its likelihood on data with those columns is finite at the start values.
+TEST(ModelStructure, AGeneratedModelIsLinearAndFitsDataOfItsShape) {
+  ColumnsModelRequest r;
+  r.name = "fuel";
+  r.inputs = {{"mfi", 1.5, 0.3}};
+  r.outputs = {{"ilambda", 0.01, 0.002}};
+  r.duration = 10;
+  Result<Json> j = ModelFromColumns(r);
+  ASSERT_TRUE(j) << j.error().message;
+  Result<ModelSpec> spec = ParseModel(*j, "");
+  ASSERT_TRUE(spec) << spec.error().ToString();
+  Result<LinearModel> linear = LinearModel::Compile(*spec);
+  ASSERT_TRUE(linear) << linear.error().ToString();
+  std::vector<double> theta = spec->Values();
+  auto set = [&](const char* name, double v) {
+    theta[static_cast<std::size_t>(spec->ParameterIndex(name))] = v;
+  };
+  set("tau_ilambda", 0.5);
+  set("b_ilambda_mfi", 0.02);
+  set("e_ilambda", 0.003);
+  Result<StateSpace> ss = linear->Evaluate(theta);
+  ASSERT_TRUE(ss) << ss.error().ToString();
+  EXPECT_DOUBLE_EQ(ss->A(0, 0), -1 / 0.5);
+  EXPECT_DOUBLE_EQ(ss->B(0, 0), 0.02 / 0.5);
+  EXPECT_DOUBLE_EQ(ss->C(0, 0), 1.0);
+  EXPECT_DOUBLE_EQ(ss->S(0), 0.003 * 0.003);
+
+  Result<project::Problem> problem = project::LoadProblem(
+      *spec, std::vector<std::string>{std::string(GREYBENCH_SOURCE_DIR) + "/tests/data/ui/f1.csv"});
+  ASSERT_TRUE(problem) << problem.error().ToString();
+  Result<filter::Likelihood> likelihood = project::MakeLikelihood(*problem);
+  ASSERT_TRUE(likelihood) << likelihood.error().ToString();
+  const std::vector<int> no_delay = {0};
+  auto l = likelihood->Evaluate(spec->Values(), no_delay);
+  ASSERT_TRUE(l) << l.error().ToString();
+  EXPECT_TRUE(std::isfinite(l->loglik));
 }
 
 TEST(ModelStructure, AGeneratedModelRefusesAColumnThatCannotBeAName) {
