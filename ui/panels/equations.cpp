@@ -191,6 +191,16 @@ void DrawDraftError(AppState& state, const std::string& path, float indent) {
   ImGui::Unindent(indent);
 }
 
+// The width of a button (or a small button) labelled `label`.
+float ButtonWidth(const char* label) {
+  return ImGui::CalcTextSize(label, nullptr, true).x + 2.0f * ImGui::GetStyle().FramePadding.x;
+}
+
+// After SameLine(): goes to the next line when an item `width` wide does not fit on this one.
+void WrapUnlessFits(float width) {
+  if (ImGui::GetContentRegionAvail().x < width) ImGui::NewLine();
+}
+
 // A text field of the structure (a name, a unit, a description) showing `current`. What is
 // typed is kept in equations_view.typing until an edit made of it is accepted; returns it when
 // the field is left with a text other than `current`.
@@ -342,8 +352,10 @@ void DrawEditableVariables(AppState& state, const ModelJson& model) {
                                                           : " and its own formulas");
       ImGui::PopID();
       ImGui::SameLine(0, 12.0f * s);
+      WrapUnlessFits(110.0f * s + ButtonWidth("Delete"));
     }
     const std::string add = "add." + what;
+    WrapUnlessFits(110.0f * s + ButtonWidth(("Add " + what).c_str()));
     ImGui::SetNextItemWidth(110.0f * s);
     std::string& typing = state.equations_view.typing[add];
     ImGui::PushID(add.c_str());
@@ -626,7 +638,15 @@ void DrawEditableParameters(AppState& state) {
   for (int i = 0; i < 6; ++i) {
     ImGui::SameLine();
     const std::string control = std::string("new_parameter.") + fields[i];
-    ImGui::SetNextItemWidth(widths[i] * s);
+    // The description takes what the row leaves beside the button (the row fits at 1024 px).
+    float width = widths[i] * s;
+    if (i == 5) {
+      const float left = ImGui::GetContentRegionAvail().x - ButtonWidth("Add parameter") -
+                         ImGui::GetStyle().ItemSpacing.x;
+      width = std::max(100.0f * s, std::min(width, left));
+    }
+    WrapUnlessFits(width);
+    ImGui::SetNextItemWidth(width);
     ImGui::PushID(control.c_str());
     ImGui::InputTextWithHint("##field", fields[i], &v.typing[control]);
     ImGui::PopID();
