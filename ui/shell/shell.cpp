@@ -527,6 +527,12 @@ void ReadColumns(NewProjectForm& f) {
   f.duration.reset();
   f.columns_error.clear();
   if (path.empty()) return;
+  if (data::IsMdfFile(path)) {
+    f.columns_error = path + ": an MDF recording's channels are chosen when it is added (File "
+                             "\xE2\x80\xBA Add dataset\xE2\x80\xA6): start from a blank model, or "
+                             "from a CSV file";
+    return;
+  }
   bool truncated = false;
   Result<std::string> head = data::ReadFileHead(path, kColumnsHeadBytes, &truncated);
   if (!head) {
