@@ -210,6 +210,27 @@ TEST_F(EquationsStructure, AnEditElsewhereStartsANewHistory) {
   EXPECT_EQ(d_.state.model->parameters[0].value, 0.5);
 }
 
+// A draft refused for an unknown name turns valid, without retyping, once the model has the name
+// (here by a rename), and is applied when its field is left.
+TEST_F(EquationsStructure, ARefusedDraftIsCheckedAgainWhenTheNamesChange) {
+  ASSERT_TRUE(Click(Id("drift.x", "##formula")));
+  Key(kKeyEnd);
+  d_.Type("-k*x");
+  ASSERT_TRUE(d_.state.equations_view.drafts.at("drift.x").error);
+  EXPECT_EQ(
+      d_.state.equations_view.drafts.at("drift.x").error->message.rfind("unknown name 'k'", 0), 0u);
+  StructureEdit rename;
+  rename.kind = StructureEditKind::kRename;
+  rename.name = "sigma_y";
+  rename.text = "k";
+  d_.state.equations_view.structure_pending.push_back(rename);
+  d_.Frame();
+  ASSERT_GE(d_.state.model->ParameterIndex("k"), 0);
+  EXPECT_FALSE(d_.state.equations_view.drafts.at("drift.x").error);
+  d_.PressEnter();
+  EXPECT_EQ(d_.state.model->drift[0].text, "0-k*x");
+}
+
 TEST_F(EquationsStructure, OptionsAndParameterFieldsAreEditedAndUndone) {
   ASSERT_TRUE(Retype(Id("model.name", "##field"), "exhaust"));
   EXPECT_EQ(d_.state.model->name, "exhaust");
