@@ -47,12 +47,6 @@ std::string JsonTypeName(const Json& j) {
   }
 }
 
-bool IsIdentifier(const std::string& s) {
-  if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
-  return std::all_of(s.begin(), s.end(),
-                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
-}
-
 const std::set<std::string>& ReservedNames() {
   static const std::set<std::string> kReserved = {"exp",  "log", "sqrt", "sin", "cos", "tan",
                                                    "tanh", "abs", "pow",  "min", "max", "sign"};
@@ -346,6 +340,14 @@ Result<EkfOptions> ReadEkfOptions(const Parser& p, const Json& v) {
 }
 
 }  // namespace
+
+bool IsIdentifier(const std::string& s) {
+  if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
+  return std::all_of(s.begin(), s.end(),
+                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+}
+
+bool IsFunctionName(const std::string& s) { return ReservedNames().count(s) > 0; }
 
 // ---- ModelSpec accessors ---------------------------------------------------------------------
 

@@ -136,6 +136,12 @@ Status SaveModelFile(const ModelSpec& m, const std::string& path);
 // parameter and refused for a free one.
 Status SetParameter(ModelSpec* m, const std::string& name, double value);
 
+// Whether `s` is an identifier ([A-Za-z_][A-Za-z0-9_]*), as names in a model must be.
+bool IsIdentifier(const std::string& s);
+// Whether `s` names a function of the expression language (exp, log, ..., and the internal sign),
+// which no state, input, output or parameter may be called.
+bool IsFunctionName(const std::string& s);
+
 // The closest name in `candidates` to `name` by edit distance, if close enough to suggest.
 std::optional<std::string> Suggest(const std::string& name, const std::vector<std::string>& candidates);
 

@@ -116,6 +116,9 @@ bool ClickIntoFormula(testing::WorkbenchDriver& d, const std::string& path) {
   ImGuiWindow* w = testing::WorkbenchDriver::FindWindow("##workbench/##view_", "##equations_");
   if (!w) return false;
   const ImGuiID id = FormulaFieldId(w, path);
+  // Away first: ImGui::GetHoveredID() falls back to the previous frame's item, so a scan that
+  // starts right after a click into this field would "find" it at the scan's first point.
+  d.MouseTo(ImVec2(1, 1));
   const auto at = d.Find(w, id);
   if (!at) return false;
   d.Click(*at);

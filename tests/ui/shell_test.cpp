@@ -556,6 +556,64 @@ TEST_F(ShellTest, NewProjectWritesTheProjectFileAndOpensIt) {
   EXPECT_EQ((*raw)["datasets"], Json::array({"../work/f1.csv"}));
 }
 
+// New project without a model file: a model made from the first dataset's columns, or the blank
+// model, written beside the project as NAME.model.json and never over a file that exists.
+TEST_F(ShellTest, NewProjectMakesItsModelFromTheDataOrBlankAndNeverOverwritesOne) {
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  fs::create_directories(dir() / "new");
+  ASSERT_TRUE(OpenDialogByName(d.state, "new-project"));
+  d.Frame();
+  NewProjectForm& f = d.state.shell.new_form;
+  f.model_source = NewModelSource::kFromData;
+  f.datasets = {(dir() / "work/f1.csv").string()};
+  f.project = (dir() / "new/engine").string();
+  d.Frame();  // the dialog reads the columns: each an input, the last the output
+  ASSERT_EQ(f.columns.size(), 2u);
+  EXPECT_EQ(f.columns[0].name, "mfi");
+  EXPECT_EQ(f.column_use, (std::vector<ColumnUse>{ColumnUse::kInput, ColumnUse::kOutput}));
+  ASSERT_TRUE(ClickIn("New project", "Create"));
+  ASSERT_TRUE(WaitLoaded());
+  d.Frame();
+  ASSERT_TRUE(d.state.project);
+  ASSERT_TRUE(d.state.model) << d.state.model_error;
+  EXPECT_EQ(d.state.model->inputs, (std::vector<std::string>{"mfi"}));
+  EXPECT_EQ(d.state.model->outputs, (std::vector<std::string>{"ilambda"}));
+  EXPECT_EQ(d.state.model->states, (std::vector<std::string>{"x_ilambda"}));
+  EXPECT_EQ(d.state.model->name, "engine");
+  ASSERT_EQ(d.state.datasets.size(), 1u);
+  EXPECT_TRUE(d.state.datasets[0].data);
+  const fs::path model_file = dir() / "new/engine.model.json";
+  ASSERT_TRUE(fs::exists(model_file));
+  auto raw = project::ReadJsonFile((dir() / "new/engine.json").string());
+  ASSERT_TRUE(raw.ok());
+  EXPECT_EQ((*raw)["model"], "engine.model.json");
+
+  // The same name again: refused, naming the file, which keeps every byte.
+  auto bytes = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string before = bytes(model_file);
+  ASSERT_TRUE(OpenDialogByName(d.state, "new-project"));
+  d.Frame();
+  f.model_source = NewModelSource::kBlank;
+  f.project = (dir() / "new/engine.json").string();
+  ASSERT_TRUE(ClickIn("New project", "Create"));
+  EXPECT_NE(f.error.find("engine.model.json exists already"), std::string::npos) << f.error;
+  EXPECT_EQ(bytes(model_file), before);
+
+  // Another name: the blank model, named after the project.
+  f.project = (dir() / "new/blank").string();
+  ASSERT_TRUE(ClickIn("New project", "Create"));
+  ASSERT_TRUE(WaitLoaded());
+  d.Frame();
+  ASSERT_TRUE(d.state.model) << d.state.model_error;
+  EXPECT_EQ(d.state.model->name, "blank");
+  EXPECT_EQ(d.state.model->states, (std::vector<std::string>{"x"}));
+  EXPECT_TRUE(fs::exists(dir() / "new/blank.model.json"));
+}
+
 TEST(FileBrowser, ListsFoldersFirstFiltersAndReportsUnreadableFolders) {
   const fs::path dir =
       fs::temp_directory_path() / ("greybench-browser-test-" + std::to_string(::getpid()));

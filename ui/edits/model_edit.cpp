@@ -22,6 +22,15 @@ std::string Trim(const std::string& text) {
   return text.substr(a, b - a + 1);
 }
 
+// The model a formula edit or a structure edit leaves must compile for one of the filters: the
+// exact one when it is linear, else the extended one.
+Status Compiles(const model::ModelSpec& spec) {
+  if (model::LinearModel::Compile(spec)) return Ok{};
+  Result<model::NonlinearModel> nonlinear = model::NonlinearModel::Compile(spec);
+  if (!nonlinear) return nonlinear.error();
+  return Ok{};
+}
+
 // Round-trips the edited model through the file format's validation.
 Result<model::ModelSpec> Validate(const model::ModelSpec& edited) {
   Result<model::ModelSpec> parsed = model::ParseModel(model::ToJson(edited), edited.source);
@@ -93,7 +102,10 @@ Result<model::ModelSpec> ApplyFormulaEdit(const model::ModelSpec& spec, const Fo
   const std::size_t dot = edit.path.find('.');
   const std::string section = edit.path.substr(0, dot);
   const std::string name = dot == std::string::npos ? "" : edit.path.substr(dot + 1);
-  const bool of_state = section == "drift" || section == "diffusion" || section == "initial_state";
+  const bool of_state = section == "drift" || section == "diffusion" ||
+                        section == "initial_state" ||
+                        (section == "initial_covariance" &&
+                         spec.initial_covariance == model::InitialCovariance::kExplicit);
   const bool of_output = section == "observation" || section == "measurement_variance";
   const bool option = section == "ekf" && (name == "ode" || name == "rtol" || name == "atol" ||
                                            name == "iterations");
@@ -109,11 +121,9 @@ Result<model::ModelSpec> ApplyFormulaEdit(const model::ModelSpec& spec, const Fo
   // The parser's Error as it is: its path and expression column point into edit.text.
   Result<model::ModelSpec> parsed = model::ParseModel(j, spec.source);
   if (!parsed) return parsed;
-  // A formula that parses compiles for one of the filters: the exact one when the model is
-  // linear, else the extended one (which refuses only expressions too deep to compile).
-  if (model::LinearModel::Compile(*parsed)) return parsed;
-  Result<model::NonlinearModel> nonlinear = model::NonlinearModel::Compile(*parsed);
-  if (!nonlinear) return nonlinear.error();
+  // A formula that parses compiles for one of the filters (the extended one refuses only
+  // expressions too deep to compile).
+  if (Status s = Compiles(*parsed); !s) return s.error();
   return parsed;
 }
 
@@ -137,6 +147,68 @@ Result<Json> FormulaEditValue(const FormulaEdit& edit) {
     return Json(static_cast<long>(v));
   }
   return Json(v);
+}
+
+namespace {
+
+Result<Json> EditJson(const Json& j, const StructureEdit& e) {
+  switch (e.kind) {
+    case StructureEditKind::kAdd: return model::AddName(j, e.what, e.name);
+    case StructureEditKind::kRename: return model::RenameName(j, e.what, e.name, e.text);
+    case StructureEditKind::kDelete: return model::DeleteName(j, e.what, e.name);
+    case StructureEditKind::kAddParameter: return model::AddParameter(j, e.parameter);
+    case StructureEditKind::kModelName: return model::SetModelName(j, e.text);
+    case StructureEditKind::kInputHold: return model::SetInputHold(j, e.hold);
+    case StructureEditKind::kInitialCovariance:
+      return model::SetInitialCovariance(j, e.covariance);
+    case StructureEditKind::kParameterUnit:
+      return model::SetParameterText(j, e.name, model::ParameterText::kUnit, e.text);
+    case StructureEditKind::kParameterDescription:
+      return model::SetParameterText(j, e.name, model::ParameterText::kDescription, e.text);
+    case StructureEditKind::kParameterPrior: return model::SetParameterPrior(j, e.name, e.prior);
+  }
+  return InputError("unknown edit");
+}
+
+Result<double> ReadNumber(const std::string& what, const std::string& text) {
+  const std::string t = Trim(text);
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(t.c_str(), &end);
+  if (t.empty() || end == t.c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(v))
+    return InputError("the prior's " + what + " '" + t + "' is not a number");
+  return v;
+}
+
+}  // namespace
+
+Result<EditedModel> ApplyStructureEdit(const Json& model_json, const std::string& source,
+                                       const StructureEdit& edit) {
+  Result<Json> j = EditJson(model_json, edit);
+  if (!j) return j.error();
+  Result<model::ModelSpec> spec = model::ParseModel(*j, source);
+  if (!spec) return spec.error();
+  if (Status s = Compiles(*spec); !s) return s.error();
+  return EditedModel{std::move(*j), std::move(*spec)};
+}
+
+Result<std::optional<model::Parameter::Prior>> ParsePrior(const std::string& mean,
+                                                          const std::string& sd) {
+  if (Trim(mean).empty() && Trim(sd).empty()) return std::optional<model::Parameter::Prior>();
+  Result<double> m = ReadNumber("mean", mean);
+  if (!m) return m.error();
+  Result<double> s = ReadNumber("sd", sd);
+  if (!s) return s.error();
+  if (!(*s > 0)) return InputError("the prior's sd must be > 0");
+  return std::optional<model::Parameter::Prior>(model::Parameter::Prior{*m, *s});
+}
+
+std::optional<std::string> UnknownName(const Error& error) {
+  static const std::string kPrefix = "unknown name '";
+  if (error.message.rfind(kPrefix, 0) != 0) return std::nullopt;
+  const std::size_t end = error.message.find('\'', kPrefix.size());
+  if (end == std::string::npos) return std::nullopt;
+  return error.message.substr(kPrefix.size(), end - kPrefix.size());
 }
 
 Result<model::ModelSpec> UseEstimatesAsStart(const model::ModelSpec& spec,

@@ -11,6 +11,7 @@
 
 #include "core/estimate/estimate.h"
 #include "core/model/model.h"
+#include "core/model/model_structure.h"
 #include "core/util/result.h"
 
 namespace gb::ui {
@@ -38,7 +39,8 @@ Result<model::ModelSpec> ApplyParameterEdit(const model::ModelSpec& spec,
 
 // An edit of one formula of the model, as the Equations view emits it. `path` is the formula's
 // JSON path in the model file: "drift.S", "diffusion.S", "initial_state.S" for a state S,
-// "observation.O", "measurement_variance.O" for an output O; or one of the EKF's options,
+// "observation.O", "measurement_variance.O" for an output O, "initial_covariance.S" when the
+// initial covariance is explicit; or one of the EKF's options,
 // "ekf.ode" (auto, explicit, bdf), "ekf.rtol", "ekf.atol" (numbers), "ekf.iterations" (a whole
 // number), with the text as the user typed it.
 struct FormulaEdit {
@@ -54,6 +56,53 @@ Result<model::ModelSpec> ApplyFormulaEdit(const model::ModelSpec& spec, const Fo
 // The JSON value the edit writes at its path (a string for a formula and for ekf.ode, a number
 // for the other options); refused when an option's text is not a number.
 Result<Json> FormulaEditValue(const FormulaEdit& edit);
+
+// A change of the model's structure or options, as the Equations view emits it: applied to the
+// project's model JSON by core/model/model_structure.h, and accepted when the result parses and
+// compiles for one of the filters (as a formula edit is).
+enum class StructureEditKind {
+  kAdd,                   // a state, input or output `name` (`what`)
+  kRename,                // `name` (`what`) to `text`
+  kDelete,                // `name` (`what`)
+  kAddParameter,          // `parameter`
+  kModelName,             // `text`
+  kInputHold,             // `hold`
+  kInitialCovariance,     // `covariance`
+  kParameterUnit,         // of parameter `name`: `text` ("" removes it)
+  kParameterDescription,  // of parameter `name`: `text` ("" removes it)
+  kParameterPrior,        // of parameter `name`: `prior` (absent removes it)
+};
+struct StructureEdit {
+  StructureEditKind kind = StructureEditKind::kAdd;
+  model::NameKind what = model::NameKind::kParameter;
+  std::string name;
+  std::string text;
+  model::Parameter parameter;
+  model::InputHold hold = model::InputHold::kZoh;
+  model::InitialCovariance covariance = model::InitialCovariance::kCtsm;
+  std::optional<model::Parameter::Prior> prior;
+  // The control the edit came from (e.g. "parameters.k.unit", "add.state"): a refusal is shown
+  // beside it.
+  std::string control;
+};
+
+// The edited model file and the model it parses to.
+struct EditedModel {
+  Json json;
+  model::ModelSpec spec;
+};
+// `model_json` with the edit applied (`source` names the model in the parser's errors), or why
+// the edit is refused ("cannot delete parameter 'k': drift.T uses it").
+Result<EditedModel> ApplyStructureEdit(const Json& model_json, const std::string& source,
+                                       const StructureEdit& edit);
+
+// Reads a prior typed as its mean and sd: both empty is no prior; otherwise both must be
+// numbers and sd > 0.
+Result<std::optional<model::Parameter::Prior>> ParsePrior(const std::string& mean,
+                                                          const std::string& sd);
+
+// The name an "unknown name 'k0'" refusal of the model's parser is about, if it is one.
+std::optional<std::string> UnknownName(const Error& error);
 
 // The model with every free parameter's start value set to its estimate in `summary` (matched
 // by name; fixed parameters and names the fit does not know are left alone); with `optimum` > 0,

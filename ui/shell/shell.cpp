@@ -23,7 +23,9 @@
 #include <filesystem>
 #include <utility>
 
+#include "core/data/import.h"
 #include "core/model/model.h"
+#include "core/model/model_structure.h"
 #include "core/project/project.h"
 #include "ui/panels/common.h"
 
@@ -510,28 +512,121 @@ void PathRow(AppState& state, const char* label, std::string* path, const char* 
   ImGui::PopID();
 }
 
-// Validates the form, writes the project file and opens it.
+// How much of the first dataset the generated model's start values are taken from: the
+// header and the first rows, without waiting for a long recording.
+constexpr std::size_t kColumnsHeadBytes = 256 * 1024;
+
+// Reads the first dataset's columns into the form (once per file), each an input but the last,
+// which is the output, to start with.
+void ReadColumns(NewProjectForm& f) {
+  const std::string path = f.datasets.empty() ? std::string() : f.datasets.front();
+  if (path == f.columns_of) return;
+  f.columns_of = path;
+  f.columns.clear();
+  f.column_use.clear();
+  f.duration.reset();
+  f.columns_error.clear();
+  if (path.empty()) return;
+  if (data::IsMdfFile(path)) {
+    f.columns_error = path + ": an MDF recording's channels are chosen when it is added (File "
+                             "\xE2\x80\xBA Add dataset\xE2\x80\xA6): start from a blank model, or "
+                             "from a CSV file";
+    return;
+  }
+  bool truncated = false;
+  Result<std::string> head = data::ReadFileHead(path, kColumnsHeadBytes, &truncated);
+  if (!head) {
+    f.columns_error = head.error().ToString();
+    return;
+  }
+  std::string text = std::move(head).value();
+  if (truncated) text.erase(text.find_last_of('\n') + 1);  // whole lines only
+  const data::CsvFormat format = data::FormatOf(data::PlainDataset(path), text);
+  Result<std::shared_ptr<const data::Dataset>> d = data::ParseCsv(text, path, format);
+  if (!d) {
+    f.columns_error = d.error().ToString();
+    return;
+  }
+  const data::Dataset& data = **d;
+  for (const data::Column& c : data.columns) {
+    model::ColumnSummary summary{c.name, std::nullopt, std::nullopt};
+    double sum = 0, sum2 = 0;
+    int n = 0;
+    for (const double v : c.values) {
+      if (!std::isfinite(v)) continue;
+      if (!summary.first) summary.first = v;
+      sum += v;
+      sum2 += v * v;
+      ++n;
+    }
+    if (n > 1) summary.sd = std::sqrt(std::max(0.0, (sum2 - sum * sum / n) / (n - 1)));
+    f.columns.push_back(std::move(summary));
+    f.column_use.push_back(ColumnUse::kInput);
+  }
+  if (!f.column_use.empty()) f.column_use.back() = ColumnUse::kOutput;
+  if (data.rows() > 1) f.duration = data.time.back() - data.time.front();
+}
+
+// The model the form asks for, when it is not a file: the blank one or one generated from the
+// first dataset's columns.
+Result<Json> NewModelJson(const NewProjectForm& f, const std::string& name) {
+  if (f.model_source == NewModelSource::kBlank) return model::BlankModel(name);
+  if (f.datasets.empty()) return InputError("Add a data file: the model is made from its columns.");
+  if (!f.columns_error.empty()) return InputError(f.columns_error);
+  model::ColumnsModelRequest r;
+  r.name = name;
+  r.duration = f.duration;
+  for (std::size_t i = 0; i < f.columns.size(); ++i) {
+    if (f.column_use[i] == ColumnUse::kInput) r.inputs.push_back(f.columns[i]);
+    if (f.column_use[i] == ColumnUse::kOutput) r.outputs.push_back(f.columns[i]);
+  }
+  return model::ModelFromColumns(r);
+}
+
+// Validates the form, writes the project file (and a new model beside it) and opens it.
 void CreateProject(AppState& state) {
   NewProjectForm& f = state.shell.new_form;
   f.error.clear();
-  if (f.model.empty()) {
-    f.error = "Choose a model file.";
+  const bool model_file = f.model_source == NewModelSource::kFile;
+  if (model_file && f.model.empty()) {
+    f.error = "Choose a model file, or start from a blank model or one made from the data.";
     return;
   }
   if (f.project.empty()) {
     f.error = "Choose where to save the project file.";
     return;
   }
-  Result<model::ModelSpec> spec = model::LoadModelFile(f.model);
-  if (!spec) {
-    f.error = spec.error().ToString();
-    return;
-  }
   std::string project_path = f.project;
   if (fs::path(project_path).extension().empty()) project_path += ".json";
   project::Project p;
   p.name = f.name.empty() ? fs::path(project_path).stem().string() : f.name;
-  p.model_path = Absolute(f.model);
+  // The new model, written beside the project once everything else is checked.
+  std::optional<Json> new_model;
+  std::string new_model_path;
+  if (model_file) {
+    Result<model::ModelSpec> spec = model::LoadModelFile(f.model);
+    if (!spec) {
+      f.error = spec.error().ToString();
+      return;
+    }
+    p.model_path = Absolute(f.model);
+  } else {
+    Result<Json> j = NewModelJson(f, p.name);
+    if (!j) {
+      f.error = j.error().ToString();
+      return;
+    }
+    new_model = std::move(j).value();
+    const fs::path at = fs::path(Absolute(project_path));
+    new_model_path = (at.parent_path() / (at.stem().string() + ".model.json")).string();
+    std::error_code ec;
+    if (fs::exists(new_model_path, ec)) {
+      f.error = new_model_path + " exists already: choose another project name, or choose that "
+                                 "file as the model.";
+      return;
+    }
+    p.model_path = new_model_path;
+  }
   for (const std::string& d : f.datasets) {
     std::error_code ec;
     if (!fs::is_regular_file(d, ec)) {
@@ -545,12 +640,50 @@ void CreateProject(AppState& state) {
     f.error = st.error().ToString();
     return;
   }
+  if (new_model) {
+    if (Status st = project::WriteFileAtomic(new_model_path, new_model->dump(1) + "\n"); !st) {
+      f.error = st.error().ToString();
+      return;
+    }
+  }
   if (Status st = project::SaveProject(p, project_path); !st) {
     f.error = st.error().ToString();
+    std::error_code ec;
+    if (new_model) fs::remove(new_model_path, ec);  // nothing half made is left behind
     return;
   }
   ImGui::CloseCurrentPopup();
   OpenNow(state, project_path);
+}
+
+// What each column of the first dataset becomes in the generated model.
+void DrawColumnUses(AppState& state, NewProjectForm& f) {
+  const float s = state.fonts.scale;
+  ReadColumns(f);
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextUnformatted("Columns");
+  ImGui::SameLine(110.0f * s);
+  ImGui::BeginGroup();
+  if (f.datasets.empty()) {
+    ImGui::TextDisabled("Add a data file: the model is made from its columns.");
+  } else if (!f.columns_error.empty()) {
+    ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 520.0f * s);
+    ImGui::TextColored(SeverityColor(Severity::kError), "%s", f.columns_error.c_str());
+    ImGui::PopTextWrapPos();
+  } else {
+    const char* uses[] = {"not used", "input", "output"};
+    for (std::size_t i = 0; i < f.columns.size(); ++i) {
+      ImGui::PushID(static_cast<int>(i));
+      ImGui::SetNextItemWidth(110.0f * s);
+      int use = static_cast<int>(f.column_use[i]);
+      if (ImGui::Combo("##use", &use, uses, 3)) f.column_use[i] = static_cast<ColumnUse>(use);
+      ImGui::SameLine();
+      ImGui::AlignTextToFramePadding();
+      ImGui::TextUnformatted(f.columns[i].name.c_str());
+      ImGui::PopID();
+    }
+  }
+  ImGui::EndGroup();
 }
 
 void DrawNewProjectDialog(AppState& state) {
@@ -563,7 +696,7 @@ void DrawNewProjectDialog(AppState& state) {
   if (!ImGui::BeginPopupModal(kNewPopup, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
   const float s = state.fonts.scale;
   NewProjectForm& f = sh.new_form;
-  ImGui::TextDisabled("A project names a model file and the data files it is fitted to.");
+  ImGui::TextDisabled("A project names a model and the data files it is fitted to.");
   ImGui::Spacing();
   ImGui::AlignTextToFramePadding();
   ImGui::TextUnformatted("Name");
@@ -571,11 +704,36 @@ void DrawNewProjectDialog(AppState& state) {
   ImGui::SetNextItemWidth(440.0f * s);
   ImGui::InputTextWithHint("##name", "the project file's name when empty", &f.name);
 
-  FileBrowserRequest model_request;
-  model_request.title = "Choose the model";
-  model_request.confirm = "Choose";
-  model_request.filters = kModelFilters;
-  PathRow(state, "Model", &f.model, "model.json", BrowsePurpose::kNewModel, model_request);
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextUnformatted("Model");
+  ImGui::SameLine(110.0f * s);
+  int source = static_cast<int>(f.model_source);
+  ImGui::RadioButton("a model file", &source, static_cast<int>(NewModelSource::kFile));
+  ImGui::SameLine();
+  ImGui::RadioButton("a blank model", &source, static_cast<int>(NewModelSource::kBlank));
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("One state x, one output y = x, no inputs: rename and extend it in the "
+                      "Equations view");
+  ImGui::SameLine();
+  ImGui::RadioButton("made from the first dataset's columns", &source,
+                     static_cast<int>(NewModelSource::kFromData));
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("One input per input column, one output per output column, and a "
+                      "first-order state per output");
+  f.model_source = static_cast<NewModelSource>(source);
+  if (f.model_source == NewModelSource::kFile) {
+    FileBrowserRequest model_request;
+    model_request.title = "Choose the model";
+    model_request.confirm = "Choose";
+    model_request.filters = kModelFilters;
+    PathRow(state, "Model file", &f.model, "model.json", BrowsePurpose::kNewModel,
+            model_request);
+  } else {
+    ImGui::Indent(110.0f * s);
+    ImGui::TextDisabled("Written beside the project as NAME.model.json (NAME: the project "
+                        "file's name).");
+    ImGui::Unindent(110.0f * s);
+  }
 
   ImGui::AlignTextToFramePadding();
   ImGui::TextUnformatted("Datasets");
@@ -604,6 +762,8 @@ void DrawNewProjectDialog(AppState& state) {
     OpenFileBrowser(sh.browser, std::move(r));
   }
   ImGui::EndGroup();
+
+  if (f.model_source == NewModelSource::kFromData) DrawColumnUses(state, f);
 
   FileBrowserRequest save_request;
   save_request.title = "Save the new project as";

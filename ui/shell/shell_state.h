@@ -6,12 +6,14 @@
 
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "core/data/dataset.h"
 #include "core/data/import.h"
 #include "core/data/mdf4.h"
+#include "core/model/model_structure.h"
 #include "ui/jobs/job.h"
 #include "ui/state/data_summary.h"
 #include "ui/widgets/file_browser.h"
@@ -90,12 +92,26 @@ struct ImportForm {
   bool check_ok = false;
 };
 
+// Where a new project's model comes from: a model file, the blank model, or one generated from
+// the first dataset's columns (core/model/model_structure.h); the last two are written beside
+// the project as NAME.model.json.
+enum class NewModelSource { kFile, kBlank, kFromData };
+enum class ColumnUse { kUnused, kInput, kOutput };
+
 struct NewProjectForm {
   std::string name;
+  NewModelSource model_source = NewModelSource::kFile;
   std::string model;
   std::vector<std::string> datasets;
   std::string project;  // the file to create
   std::string error;    // why Create was refused
+  // kFromData: the columns of the first dataset (read from `columns_of` when it changes) and
+  // what each becomes.
+  std::string columns_of;
+  std::vector<model::ColumnSummary> columns;
+  std::vector<ColumnUse> column_use;
+  std::optional<double> duration;  // the time span of the rows read
+  std::string columns_error;       // why the columns could not be read
 };
 
 struct ShellState {

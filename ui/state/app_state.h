@@ -277,9 +277,25 @@ struct FormulaDraft {
   std::optional<Error> error;  // why the model refuses `text`; absent while it is valid
 };
 
+// A structure edit the model refused, shown beside the control it came from.
+struct StructureRefusal {
+  std::string control;  // StructureEdit::control
+  std::string reason;
+};
+
 struct EquationsViewState {
   std::map<std::string, FormulaDraft> drafts;  // by JSON path ("drift.mff")
   std::vector<FormulaEdit> pending;            // emitted while drawing, applied after the view
+  std::vector<StructureEdit> structure_pending;  // the same, for the structure
+  std::optional<StructureRefusal> refusal;
+  // Undo and redo restore whole model files (ui/edits/equations_view.h).
+  std::vector<Json> undo, redo;
+  bool undo_requested = false, redo_requested = false;
+  int history_revision = 0;  // model_revision the history belongs to
+  int drafts_revision = 0;   // model_revision the drafts were last checked at
+  // What is being typed into the structure's fields (ImGui keeps a text only while it is
+  // active): by control ("add.state", "rename.parameter.k", "parameters.k.unit").
+  std::map<std::string, std::string> typing;
   int checked_revision = -1;  // model_revision the linearity below was checked at
   bool nonlinear = false;     // the model goes through the extended Kalman filter
 };
