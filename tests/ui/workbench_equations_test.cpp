@@ -4,10 +4,13 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
+#include "core/estimate/estimate.h"
 #include "core/model/model_structure.h"
 #include "core/project/project.h"
 #include "tests/ui/workbench_driver.h"
@@ -271,6 +274,76 @@ TEST_F(EquationsStructure, AStructureEditIsAnUnsavedChangeThatSaveWrites) {
   ASSERT_TRUE(m) << m.error().ToString();
   EXPECT_EQ(m->outputs, (std::vector<std::string>{"ilambda"}));
   EXPECT_EQ(m->inputs, (std::vector<std::string>{"mfi"}));
+}
+
+// The workflow in the workbench alone, step by step: a blank model grows into a
+// first-order model of the lambda signal (an input added, the output renamed, two parameters
+// created from the drift's refusal), is fitted, gets an offset in its observation (a second,
+// nested model) and is fitted again; the two fits are compared by the likelihood-ratio test, the
+// project is saved and reopened, and both fits and their test are there.
+TEST_F(EquationsStructure, ABlankModelIsBuiltFittedExtendedComparedSavedAndReopened) {
+  d_.state.estimation.keep_on_disk = true;
+  d_.state.estimation.settings.threads = 1;
+  ASSERT_TRUE(Retype(Id("rename.output.y", "##field"), "ilambda"));
+  ASSERT_TRUE(Add("input", "mfi"));
+  // The drift names two parameters the model lacks: each is offered and created in turn.
+  ASSERT_TRUE(Retype(Id("drift.x", "##formula"), "(-x + K*mfi)/tau"));
+  const ImGuiID drift = ImHashStr("drift.x", 0, View()->ID);
+  ASSERT_TRUE(Click(ImHashStr("Create parameter 'K'", 0, drift))) << d_.Text();
+  ASSERT_TRUE(Click(ImHashStr("Create parameter 'tau'", 0, drift))) << d_.Text();
+  ASSERT_EQ(d_.state.model->drift[0].text, "(-x + K*mfi)/tau");
+  EXPECT_TRUE(d_.state.equations_view.drafts.empty());
+  // A time constant is positive: its lower bound, as the Parameters view takes it.
+  d_.state.parameters_view.pending.push_back(
+      ParseParameterEdit("tau", ParameterField::kLower, "0.001").value());
+  ApplyParameterEdits(d_.state);
+
+  auto fit = [&]() -> ::testing::AssertionResult {
+    std::string why;
+    if (!StartEstimation(d_.state, &why)) return ::testing::AssertionFailure() << why;
+    if (!d_.FramesUntil([&] { return !EstimationRunning(d_.state); }, std::chrono::minutes(10)))
+      return ::testing::AssertionFailure() << "the fit did not end";
+    d_.Frame();
+    if (!d_.state.estimation.result)
+      return ::testing::AssertionFailure() << d_.state.estimation.last_failure;
+    return ::testing::AssertionSuccess();
+  };
+  ASSERT_TRUE(fit());
+  const estimate::EstimateSummary first = d_.state.estimation.result->summary;
+  ASSERT_TRUE(std::isfinite(first.loglik));
+
+  // The second model: an offset in the observation, created from its refusal.
+  ASSERT_TRUE(Retype(Id("observation.ilambda", "##formula"), "x + c"));
+  ASSERT_TRUE(Click(ImHashStr("Create parameter 'c'", 0, ImHashStr("observation.ilambda", 0, View()->ID))))
+      << d_.Text();
+  ASSERT_EQ(d_.state.model->observation[0].text, "x + c");
+  ASSERT_TRUE(fit());
+  const estimate::EstimateSummary second = d_.state.estimation.result->summary;
+  ASSERT_EQ(second.n_free, first.n_free + 1);
+
+  auto test = CompareFits(d_.state, 0, 1);
+  ASSERT_TRUE(test.ok()) << test.error().ToString();
+  EXPECT_DOUBLE_EQ(test->statistic, 2 * (second.loglik - first.loglik));
+  EXPECT_EQ(test->df, 1);
+
+  ASSERT_TRUE(SaveCurrentProject(d_.state).ok());
+  WorkbenchDriver again;
+  again.Open((dir_ / "project.json").string());
+  ASSERT_TRUE(again.state.model) << again.state.model_error;
+  EXPECT_EQ(again.state.model->observation[0].text, "x + c");
+  ASSERT_EQ(again.state.estimation.fits.size(), 2u);
+  EXPECT_EQ(again.state.estimation.fits[0].fit.summary.loglik, first.loglik);
+  EXPECT_EQ(again.state.estimation.fits[1].fit.summary.loglik, second.loglik);
+  EXPECT_EQ(again.state.estimation.shown, 1) << "the fit of the saved model is shown";
+  again.state.view = View::kEstimate;
+  again.state.estimation.compare_a = 0;
+  again.state.estimation.compare_b = 1;
+  const std::string log = again.Text();
+  EXPECT_NE(log.find("Likelihood-ratio test of fit 1"), std::string::npos) << log;
+  // The first model comes back when its fit is shown.
+  std::string why;
+  ASSERT_TRUE(ShowFit(again.state, 0, &why)) << why;
+  EXPECT_EQ(again.state.model->observation[0].text, "x");
 }
 
 }  // namespace
