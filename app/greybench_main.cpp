@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -21,6 +22,7 @@
 #endif
 
 #include "ui/render/png.h"
+#include "ui/shell/export.h"
 #include "ui/shell/shell.h"
 #include "ui/state/app_state.h"
 #include "ui/theme.h"
@@ -214,6 +216,13 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
     glClearColor(bg.x, bg.y, bg.z, 1.0f);
     glClear(GL_COLOR_BUFFER_BIT);
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    // A plot's "Save image as PNG": its pixels as drawn in this frame (ui/shell/export.h).
+    if (const std::optional<ui::PixelRect> r = ui::PixelsToReadBack(state, fb_w, fb_h)) {
+      std::vector<unsigned char> rgba(static_cast<std::size_t>(r->width) * r->height * 4);
+      glPixelStorei(GL_PACK_ALIGNMENT, 1);
+      glReadPixels(r->x, r->y, r->width, r->height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+      ui::FinishPixelCapture(state, *r, rgba);
+    }
 
     if (!options.screenshot.empty() && !state.load_job.active() &&
         ++frames_drawn_loaded >= options.frames) {

@@ -349,7 +349,7 @@ void WriteTicksAndTitles(SvgWriter& w, const Figure& f, const Frame& fr, const T
   }
   if (!f.title.empty()) {
     w.Text(fr.left, kPad + kTitleFontSize, f.title, "start", "#1e2228", kTitleFontSize,
-           " font-weight=\"bold\"");
+           " font-weight=\"bold\" xml:space=\"preserve\"");
   }
 }
 

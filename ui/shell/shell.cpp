@@ -9,6 +9,7 @@
 //   6. The File menu
 //   7. Dialogs: browser, save changes?, recovery, new project, keyboard shortcuts
 #include "ui/shell/shell.h"
+#include "ui/shell/export.h"
 #include "ui/shell/import_dialog.h"
 
 #include <imgui.h>
@@ -396,6 +397,11 @@ void UseBrowsedFile(AppState& state, BrowsePurpose purpose, const std::string& p
       break;
     case BrowsePurpose::kNewProjectFile:
       form.project = path;
+      break;
+    case BrowsePurpose::kExportPlot:
+    case BrowsePurpose::kSaveReport:
+    case BrowsePurpose::kExportModel:
+      FinishExport(state, purpose, path);
       break;
   }
 }
@@ -850,6 +856,7 @@ void RemoveRecent(AppState& state, const std::string& path) {
 
 void UpdateShell(AppState& state) {
   ShellState& sh = state.shell;
+  UpdateExports(state);
   if (state.project_generation != sh.seen_generation) {
     sh.seen_generation = state.project_generation;
     if (state.project) OnProjectInstalled(state);
@@ -976,6 +983,8 @@ void DrawFileMenu(AppState& state) {
   }
   if (ImGui::MenuItem("Reload project", nullptr, false, open && !loading))
     RequestOpenProject(state, state.project->path);
+  ImGui::Separator();
+  DrawExportMenu(state);
   ImGui::Separator();
   if (ImGui::MenuItem("Quit", "Ctrl+Q")) RequestQuit(state);
 }

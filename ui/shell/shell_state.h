@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,7 @@
 #include "ui/jobs/job.h"
 #include "ui/state/data_summary.h"
 #include "ui/widgets/file_browser.h"
+#include "ui/widgets/plot.h"
 
 namespace gb::ui {
 
@@ -28,6 +30,9 @@ enum class BrowsePurpose {
   kNewModel,  // the New project dialog's fields
   kNewDataset,
   kNewProjectFile,
+  kExportPlot,  // ui/shell/export.h
+  kSaveReport,
+  kExportModel,
 };
 
 // An action that replaces or closes the open project: it waits for "save changes?" when the
@@ -103,6 +108,8 @@ struct ShellState {
   // does not cancel the estimation.
   bool tool_window_focused = false;
   FileBrowserState browser;
+  // A plot's export waiting for its file name (ui/shell/export.h).
+  std::optional<plot::ExportRequest> plot_export;
 
   // Recent projects, autosave and recovery read and write files under the user's
   // $XDG_CONFIG_HOME and $XDG_STATE_HOME; only the greybench window turns them on

@@ -1,0 +1,182 @@
+#include "ui/shell/export.h"
+
+#include <imgui.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <utility>
+
+#include "core/model/model.h"
+#include "core/project/project.h"
+#include "core/report/figure.h"
+#include "core/util/output_guard.h"
+#include "ui/render/png.h"
+
+namespace gb::ui {
+namespace {
+
+// A capture whose plot is not drawn within this many frames (the view changed) is given up.
+constexpr int kMaxCaptureFrames = 30;
+// Frames the plot is drawn without the menu and the browser before its pixels are read.
+constexpr int kCaptureFrames = 2;
+
+// The files of the open project: no export may write onto one of them.
+std::vector<FileRole> ProjectInputs(const AppState& state) {
+  if (!state.project) return {};
+  return project::ProjectFiles(*state.project);
+}
+
+Status CheckOutput(const AppState& state, const std::string& path) {
+  return CheckOutputs(ProjectInputs(state), {{path, "the export"}});
+}
+
+// A proposed file name from a plot's title: letters, digits, '-' and '_' kept, the rest '_'.
+std::string FileStem(const std::string& name) {
+  std::string stem;
+  for (char c : name) {
+    const bool keep = std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_';
+    stem += keep ? c : '_';
+  }
+  while (stem.find("__") != std::string::npos) stem.erase(stem.find("__"), 1);
+  while (!stem.empty() && stem.back() == '_') stem.pop_back();
+  while (!stem.empty() && stem.front() == '_') stem.erase(0, 1);
+  return stem.empty() ? "plot" : stem;
+}
+
+std::string StartDirectory(const AppState& state) {
+  return state.project ? state.project->path : std::string();
+}
+
+void Report(AppState& state, const Status& st, const std::string& what, const std::string& path) {
+  if (st) {
+    AddMessage(state, Severity::kInfo, what + " written to " + path);
+  } else {
+    AddMessage(state, Severity::kError, "Could not write " + what + ": " + st.error().ToString());
+  }
+}
+
+void FinishPlotExport(AppState& state, const std::string& path) {
+  std::optional<plot::ExportRequest> request = std::move(state.shell.plot_export);
+  state.shell.plot_export.reset();
+  if (!request) return;
+  if (Status st = CheckOutput(state, path); !st) return Report(state, st, "the plot", path);
+  if (request->kind == plot::ExportRequest::Kind::kSvg) {
+    const report::SvgSize size{static_cast<int>(std::lround(request->size.x)),
+                               static_cast<int>(std::lround(request->size.y))};
+    Report(state, project::WriteFileAtomic(path, report::FigureToSvg(request->figure, size)),
+           "the plot's SVG", path);
+    return;
+  }
+  // PNG: the plot as drawn, read back once it has been drawn again without the browser.
+  if (Status st = project::CheckWritable(path); !st) return Report(state, st, "the plot", path);
+  plot::PixelCapture& capture = state.plots.capture;
+  capture = plot::PixelCapture{};
+  capture.id = request->id;
+  capture.path = path;
+}
+
+}  // namespace
+
+void UpdateExports(AppState& state) {
+  std::optional<plot::ExportRequest>& asked = state.plots.export_request;
+  if (!asked) return;
+  plot::ExportRequest request = std::move(*asked);
+  asked.reset();
+  const bool svg = request.kind == plot::ExportRequest::Kind::kSvg;
+  FileBrowserRequest r;
+  r.title = svg ? "Save the plot as SVG" : "Save the plot as PNG";
+  r.confirm = "Save";
+  r.mode = FileBrowserMode::kSave;
+  r.filters = {svg ? FileFilter{"SVG images (*.svg)", {".svg"}}
+                   : FileFilter{"PNG images (*.png)", {".png"}}};
+  r.start = StartDirectory(state);
+  r.file_name = FileStem(request.name) + (svg ? ".svg" : ".png");
+  r.purpose = static_cast<int>(BrowsePurpose::kExportPlot);
+  state.shell.plot_export = std::move(request);
+  OpenFileBrowser(state.shell.browser, std::move(r));
+}
+
+void BrowseExportModel(AppState& state) {
+  if (!state.model) return;
+  FileBrowserRequest r;
+  r.title = "Export the model";
+  r.confirm = "Save";
+  r.mode = FileBrowserMode::kSave;
+  r.filters = {{"Models (*.json)", {".json"}}};
+  r.start = StartDirectory(state);
+  r.file_name = FileStem(state.model->name.empty() ? "model" : state.model->name) + ".json";
+  r.purpose = static_cast<int>(BrowsePurpose::kExportModel);
+  OpenFileBrowser(state.shell.browser, std::move(r));
+}
+
+void DrawExportMenu(AppState& state) {
+  if (!ImGui::BeginMenu("Export", state.project.has_value())) return;
+  if (ImGui::MenuItem("Export model\xE2\x80\xA6", nullptr, false, state.model.has_value()))
+    BrowseExportModel(state);
+  ImGui::EndMenu();
+}
+
+void FinishExport(AppState& state, BrowsePurpose purpose, const std::string& path) {
+  switch (purpose) {
+    case BrowsePurpose::kExportPlot:
+      FinishPlotExport(state, path);
+      break;
+    case BrowsePurpose::kExportModel: {
+      if (!state.model) break;
+      Status st = CheckOutput(state, path);
+      if (st) st = model::SaveModelFile(*state.model, path);
+      Report(state, st, "the model", path);
+      break;
+    }
+    default:
+      break;
+  }
+}
+
+std::optional<PixelRect> PixelsToReadBack(AppState& state, int framebuffer_width,
+                                          int framebuffer_height) {
+  plot::PixelCapture& capture = state.plots.capture;
+  if (capture.id == 0) return std::nullopt;
+  const bool drawn = capture.drawn;
+  capture.drawn = false;
+  if (!drawn) {
+    if (++capture.frames > kMaxCaptureFrames) {
+      AddMessage(state, Severity::kWarning,
+                 "The plot was not saved as PNG: it is no longer shown (" + capture.path + ")");
+      capture = plot::PixelCapture{};
+    }
+    return std::nullopt;
+  }
+  if (++capture.frames < kCaptureFrames) return std::nullopt;
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  if (!(display.x > 0 && display.y > 0)) return std::nullopt;
+  const double sx = framebuffer_width / double{display.x};
+  const double sy = framebuffer_height / double{display.y};
+  const int x0 = std::clamp(static_cast<int>(std::floor(capture.min.x * sx)), 0, framebuffer_width);
+  const int x1 = std::clamp(static_cast<int>(std::ceil(capture.max.x * sx)), 0, framebuffer_width);
+  const int y0 = std::clamp(static_cast<int>(std::floor(capture.min.y * sy)), 0, framebuffer_height);
+  const int y1 = std::clamp(static_cast<int>(std::ceil(capture.max.y * sy)), 0, framebuffer_height);
+  if (x1 <= x0 || y1 <= y0) {
+    AddMessage(state, Severity::kWarning,
+               "The plot was not saved as PNG: it is outside the window (" + capture.path + ")");
+    capture = plot::PixelCapture{};
+    return std::nullopt;
+  }
+  return PixelRect{x0, framebuffer_height - y1, x1 - x0, y1 - y0};
+}
+
+void FinishPixelCapture(AppState& state, const PixelRect& rect,
+                        const std::vector<unsigned char>& rgba) {
+  const std::string path = state.plots.capture.path;
+  state.plots.capture = plot::PixelCapture{};
+  std::string error;
+  if (WritePngFromGl(path, rect.width, rect.height, rgba.data(), &error)) {
+    AddMessage(state, Severity::kInfo, "the plot's PNG written to " + path);
+  } else {
+    AddMessage(state, Severity::kError, "Could not write the plot's PNG: " + error);
+  }
+}
+
+}  // namespace gb::ui
