@@ -59,8 +59,14 @@ Result<std::vector<report::ResidualSection>> ResidualSections(const CommandInput
     section.output = m.outputs[o];
     section.dataset = fs::path(s.source).filename().string();
     section.diagnostics = std::move(d).value();
-    section.predictions = report::PredictionFigure(
-        m.outputs[o], "", s.time, row(s.Y, o), row(pred->y_pred, o), row(pred->y_sd, o));
+    const std::vector<double> y_pred = row(pred->y_pred, o), y_sd = row(pred->y_sd, o);
+    std::vector<double> lower(y_pred.size()), upper(y_pred.size());
+    for (std::size_t k = 0; k < y_pred.size(); ++k) {
+      lower[k] = y_pred[k] - 2.0 * y_sd[k];
+      upper[k] = y_pred[k] + 2.0 * y_sd[k];
+    }
+    section.predictions =
+        report::PredictionFigure(m.outputs[o], "", s.time, row(s.Y, o), y_pred, lower, upper);
     section.acf = report::AcfFigure(m.outputs[o], section.diagnostics.acf);
     sections.push_back(std::move(section));
   }

@@ -410,7 +410,8 @@ Result<std::string> WriteReport(const ReportInput& in, ReportFormat format) {
 
 Figure PredictionFigure(const std::string& output, const std::string& time_unit,
                         const std::vector<double>& t, const std::vector<double>& y,
-                        const std::vector<double>& y_pred, const std::vector<double>& y_sd) {
+                        const std::vector<double>& y_pred, const std::vector<double>& lower,
+                        const std::vector<double>& upper) {
   Figure f;
   f.title = output + ": one-step predictions";
   f.x_label = "t";
@@ -430,12 +431,10 @@ Figure PredictionFigure(const std::string& output, const std::string& time_unit,
   band.x = line.x = measured.x = t;
   measured.y = y;
   line.y = y_pred;
-  band.y.resize(n);
-  band.y2.resize(n);
+  band.y = lower;
+  band.y2 = upper;
   double lo = INFINITY, hi = -INFINITY;
   for (std::size_t i = 0; i < n; ++i) {
-    band.y[i] = y_pred[i] - 2.0 * y_sd[i];
-    band.y2[i] = y_pred[i] + 2.0 * y_sd[i];
     for (double v : {y[i], band.y[i], band.y2[i], y_pred[i]}) {
       if (!std::isfinite(v)) continue;
       lo = std::min(lo, v);

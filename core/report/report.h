@@ -50,10 +50,11 @@ Result<std::string> WriteReport(const ReportInput& in, ReportFormat format);
 std::optional<ReportFormat> ParseReportFormat(const std::string& name);
 
 // The figures of a residual section. t: the sample times; y the measured output (NaN missing),
-// y_pred and y_sd the one-step predictions and their standard deviations (NaN where none).
+// y_pred the one-step predictions and lower, upper the band y_pred ∓ 2 sd (NaN where none).
 Figure PredictionFigure(const std::string& output, const std::string& time_unit,
                         const std::vector<double>& t, const std::vector<double>& y,
-                        const std::vector<double>& y_pred, const std::vector<double>& y_sd);
+                        const std::vector<double>& y_pred, const std::vector<double>& lower,
+                        const std::vector<double>& upper);
 Figure AcfFigure(const std::string& output, const diagnose::Correlogram& acf);
 
 }  // namespace gb::report

@@ -17,6 +17,7 @@
 #include "ui/format.h"
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
+#include "ui/shell/export.h"
 
 namespace gb::ui {
 namespace {
@@ -370,6 +371,8 @@ void DrawReport(AppState& state, const FitResult& r, bool previous) {
   const float s = state.fonts.scale;
   SectionHeading(state, previous ? "Report of the previous run" : "Report");
   if (ImGui::SmallButton("Copy to clipboard")) ImGui::SetClipboardText(r.report.c_str());
+  ImGui::SameLine();
+  if (ImGui::SmallButton("Save report\xE2\x80\xA6")) BrowseSaveReport(state, r, !previous);
   ImGui::SameLine();
   ImGui::TextDisabled("the text greybench-cli estimate prints");
   const float height = std::max(kMinReportHeight * s, ImGui::GetContentRegionAvail().y);

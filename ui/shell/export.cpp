@@ -77,7 +77,78 @@ void FinishPlotExport(AppState& state, const std::string& path) {
   capture.path = path;
 }
 
+// The residual sections of the analysis the Residuals view shows.
+std::vector<report::ResidualSection> ShownResiduals(const AppState& state, std::string* note) {
+  const std::optional<Analysis>& a = state.analysis.result;
+  if (!a || a->datasets.empty()) {
+    *note = "Not computed: the workbench had no predictions when the report was saved.";
+    return {};
+  }
+  const std::size_t index =
+      std::min<std::size_t>(static_cast<std::size_t>(std::max(state.analysis.dataset, 0)),
+                            a->datasets.size() - 1);
+  const DatasetAnalysis& d = a->datasets[index];
+  std::vector<report::ResidualSection> sections;
+  for (const OutputAnalysis& o : d.outputs) {
+    if (!o.diagnostics) continue;
+    report::ResidualSection s;
+    s.output = o.name;
+    s.dataset = d.name;
+    s.diagnostics = o.diagnostics->stats;
+    s.predictions =
+        report::PredictionFigure(o.name, "", d.time, o.measured, o.predicted, o.lower, o.upper);
+    s.predictions.x_label = d.time_name.empty() ? "t" : d.time_name;
+    s.acf = report::AcfFigure(o.name, s.diagnostics.acf);
+    sections.push_back(std::move(s));
+  }
+  if (sections.empty()) {
+    *note = d.error.empty() ? "Not computed: no output of " + d.name + " could be diagnosed."
+                            : "Not computed: " + d.error;
+  }
+  return sections;
+}
+
+void FinishReport(AppState& state, std::string path) {
+  std::optional<report::ReportInput> input = std::move(state.shell.report_export);
+  state.shell.report_export.reset();
+  if (!input) return;
+  std::string ext = std::filesystem::path(path).extension().string();
+  if (!ext.empty()) ext.erase(0, 1);
+  std::optional<report::ReportFormat> format = report::ParseReportFormat(ext);
+  if (!format) {
+    // No known extension: the browser's filter says which, and names the file.
+    format = state.shell.browser.filter == 1 ? report::ReportFormat::kHtml
+                                             : report::ReportFormat::kMarkdown;
+    path += *format == report::ReportFormat::kHtml ? ".html" : ".md";
+  }
+  if (Status st = CheckOutput(state, path); !st) return Report(state, st, "the report", path);
+  Result<std::string> text = report::WriteReport(*input, *format);
+  if (!text) return Report(state, text.error(), "the report", path);
+  Report(state, project::WriteFileAtomic(path, *text), "the report", path);
+}
+
 }  // namespace
+
+void BrowseSaveReport(AppState& state, const FitResult& fit, bool with_residuals) {
+  report::ReportInput input;
+  input.result = fit.summary.ToJson();
+  if (with_residuals) {
+    input.residuals = ShownResiduals(state, &input.residuals_note);
+  } else {
+    input.residuals_note = "Not included: the views show another fit's values.";
+  }
+  state.shell.report_export = std::move(input);
+  FileBrowserRequest r;
+  r.title = "Save the report";
+  r.confirm = "Save";
+  r.mode = FileBrowserMode::kSave;
+  r.filters = {{"Markdown (*.md)", {".md"}}, {"HTML (*.html)", {".html", ".htm"}}};
+  r.start = StartDirectory(state);
+  r.file_name = FileStem(fit.summary.model_name.empty() ? "report" : fit.summary.model_name) +
+                "-report.md";
+  r.purpose = static_cast<int>(BrowsePurpose::kSaveReport);
+  OpenFileBrowser(state.shell.browser, std::move(r));
+}
 
 void UpdateExports(AppState& state) {
   std::optional<plot::ExportRequest>& asked = state.plots.export_request;
@@ -122,6 +193,9 @@ void FinishExport(AppState& state, BrowsePurpose purpose, const std::string& pat
   switch (purpose) {
     case BrowsePurpose::kExportPlot:
       FinishPlotExport(state, path);
+      break;
+    case BrowsePurpose::kSaveReport:
+      FinishReport(state, path);
       break;
     case BrowsePurpose::kExportModel: {
       if (!state.model) break;

@@ -27,6 +27,12 @@ void UpdateExports(AppState& state);
 // The file browser chose `path` for an export purpose (kExportPlot, kSaveReport, kExportModel).
 void FinishExport(AppState& state, BrowsePurpose purpose, const std::string& path);
 
+// The Estimate view's "Save report…": the report of `fit` (core/report/report.h), Markdown or
+// HTML by the name's extension (else by the browser's filter). With `with_residuals`, also the
+// residual analysis the Residuals view shows (its dataset, at the parameter values the views
+// show: after a fit, its estimates).
+void BrowseSaveReport(AppState& state, const FitResult& fit, bool with_residuals);
+
 // File > Export model: the model the views show (with its edits) as a model file.
 void BrowseExportModel(AppState& state);
 // The File menu's Export submenu.

@@ -13,6 +13,7 @@
 #include "core/data/dataset.h"
 #include "core/data/import.h"
 #include "core/data/mdf4.h"
+#include "core/report/report.h"
 #include "ui/jobs/job.h"
 #include "ui/state/data_summary.h"
 #include "ui/widgets/file_browser.h"
@@ -108,8 +109,9 @@ struct ShellState {
   // does not cancel the estimation.
   bool tool_window_focused = false;
   FileBrowserState browser;
-  // A plot's export waiting for its file name (ui/shell/export.h).
+  // A plot's export, and a report, waiting for their file names (ui/shell/export.h).
   std::optional<plot::ExportRequest> plot_export;
+  std::optional<report::ReportInput> report_export;
 
   // Recent projects, autosave and recovery read and write files under the user's
   // $XDG_CONFIG_HOME and $XDG_STATE_HOME; only the greybench window turns them on
