@@ -65,7 +65,7 @@ std::string AxisTitle(const std::string& label, const std::string& unit) {
 }
 
 Range Usable(Range r) {
-  if (!std::isfinite(r.min) || !std::isfinite(r.max) || !(r.max > r.min)) return {0.0, 1.0};
+  if (!std::isfinite(r.Span()) || !(r.max > r.min)) return {0.0, 1.0};
   return r;
 }
 

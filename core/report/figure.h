@@ -85,7 +85,7 @@ struct SvgSize {
 Figure ClipToXRange(Figure f);
 
 // The figure as a standalone SVG 1.1 document (see above). Ranges that are empty, inverted or
-// not finite are drawn as [0, 1].
+// not finite (or whose span is not) are drawn as [0, 1].
 std::string FigureToSvg(const Figure& f, SvgSize size);
 
 // The figure's samples inside its x range as CSV (see above), ending with a newline.

@@ -224,8 +224,10 @@ void Estimates(const Json& params, std::vector<Block>* out) {
     std::string label = name;
     if (const std::string unit = Text(p, "unit"); !unit.empty()) label += " [" + unit + "]";
     std::string wald = kMissing;
-    if (est && se && !fixed)
-      wald = "[" + Num(*est - kWaldZ * *se) + ", " + Num(*est + kWaldZ * *se) + "]";
+    if (est && se && !fixed) {
+      const double lo = *est - kWaldZ * *se, hi = *est + kWaldZ * *se;
+      if (std::isfinite(lo) && std::isfinite(hi)) wald = "[" + Num(lo) + ", " + Num(hi) + "]";
+    }
     std::vector<std::string> row = {label,
                                     Cell(est),
                                     fixed ? "" : Cell(se),

@@ -163,10 +163,17 @@ TEST(FigureToSvg, EmptyOrInvertedRangesStillGiveADocument) {
   Figure f;
   f.x = {1.0, 1.0};
   f.y = {kNaN, 2.0};
-  const std::string svg = FigureToSvg(f, {10, 10});
-  EXPECT_NE(svg.find("width=\"64\""), std::string::npos);
-  EXPECT_EQ(svg.find("nan"), std::string::npos);
-  EXPECT_EQ(svg.find("inf"), std::string::npos);
+  FigureSeries line;
+  line.x = {0.5, 1.0, 2.0};
+  line.y = {1e308, -1e308, kNaN};
+  f.series = {line};
+  for (Range x : {Range{1.0, 1.0}, Range{-1e308, 1e308}}) {
+    f.x = x;
+    const std::string svg = FigureToSvg(f, {10, 10});
+    EXPECT_NE(svg.find("width=\"64\""), std::string::npos);
+    EXPECT_EQ(svg.find("nan"), std::string::npos);
+    EXPECT_EQ(svg.find("inf"), std::string::npos);
+  }
 }
 
 std::vector<std::vector<std::string>> ParseCsv(const std::string& text) {

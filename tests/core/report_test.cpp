@@ -73,6 +73,21 @@ TEST(WriteReport, HtmlEscapesNamesAndMarkdownKeepsTablesWhole) {
   EXPECT_NE(md->find("a\\|b"), std::string::npos);
 }
 
+TEST(WriteReport, NothingNonFiniteIsPrintedEvenWhereTheIntervalOverflows) {
+  Json r = AResult();
+  r["parameters"]["big"] = {{"estimate", 1e308}, {"std_error", 1e308}, {"t_value", 1.0},
+                            {"p_value", 0.3}, {"lower", nullptr}, {"upper", nullptr},
+                            {"fixed", false}, {"at_bound", false}};
+  r["correlation"]["matrix"][0][0] = "x";  // not a number: shown as missing
+  for (ReportFormat format : {ReportFormat::kMarkdown, ReportFormat::kHtml}) {
+    gb::Result<std::string> text = WriteReport({r, "", {}, ""}, format);
+    ASSERT_TRUE(text.ok());
+    EXPECT_EQ(text->find("inf"), std::string::npos);
+    EXPECT_EQ(text->find("nan"), std::string::npos);
+    EXPECT_NE(text->find("1e+308"), std::string::npos);
+  }
+}
+
 TEST(WriteReport, AFileThatIsNotAResultIsRefusedWithItsNameAndPath) {
   Json model;
   model["states"] = Json::array();
