@@ -67,8 +67,8 @@
 #include "core/project/project.h"
 #include "core/report/figure.h"
 #include "core/sim/dyno.h"
-#include "core/util/output_guard.h"
 #include "core/sim/fault_schedule.h"
+#include "core/util/output_guard.h"
 #include "ui/render/fixed_gl_renderer.h"
 #include "ui/render/png.h"
 #include "ui/shell/shell.h"
@@ -166,8 +166,7 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
         arg == "--height" || arg == "--dialog" || arg == "--time" || arg == "--profile" ||
         arg == "--overlays" || arg == "--live-until" || arg == "--live-fault" ||
         arg == "--live-point" || arg == "--live-seed" || arg == "--live-forgetting" ||
-        arg == "--live-csv" || arg == "--live-reference" || arg == "--dataset" ||
-        arg == "--plot";
+        arg == "--live-csv" || arg == "--live-reference" || arg == "--dataset" || arg == "--plot";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
@@ -418,7 +417,8 @@ std::vector<gb::ui::plot::RecordedFigure> RecordFigures(gb::ui::AppState& state)
   std::vector<std::string> base;
   for (const ui::plot::RecordedFigure& f : figures) base.push_back(f.name);
   for (std::size_t i = 0; i < figures.size(); ++i) {
-    const auto seen = std::count(base.begin(), base.begin() + static_cast<std::ptrdiff_t>(i), base[i]);
+    const auto seen =
+        std::count(base.begin(), base.begin() + static_cast<std::ptrdiff_t>(i), base[i]);
     if (seen > 0) figures[i].name += " (" + std::to_string(seen + 1) + ")";
   }
   return figures;
@@ -440,8 +440,7 @@ int RenderPlot(const Options& options, const Shot& shot, gb::ui::AppState& state
   if (!chosen) {
     return Fail(kExitBadInput,
                 "--plot '" + shot.plot + "': the " + view + " view has no plot of that name; " +
-                    (names.empty() ? std::string("it shows no plot here")
-                                   : "its plots: " + names));
+                    (names.empty() ? std::string("it shows no plot here") : "its plots: " + names));
   }
   if (IsSvg(shot.out)) {
     const std::string svg =

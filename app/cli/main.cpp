@@ -328,8 +328,9 @@ int Main(int argc, char** argv) {
   c_report->add_option("--model", report.model,
                        "model file, or a project file (default: the one the result names)");
   c_report->add_option("--data", report.data, "data files (CSV) for the residual analysis");
-  c_report->add_option("--dataset", report.dataset,
-                       "with a project: the dataset of the residual analysis (number, name or file)");
+  c_report->add_option(
+      "--dataset", report.dataset,
+      "with a project: the dataset of the residual analysis (number, name or file)");
   c_report->add_option("--format", report.format, "md or html (default: --out's extension)");
   c_report->add_option("--out", report.out, "report file to write (.md or .html)")->required();
   c_report->callback([&] { run = [&] { return RunReport(report); }; });

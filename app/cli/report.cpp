@@ -1,6 +1,8 @@
 // greybench-cli report: the estimation report of a result file as Markdown or HTML
 // (core/report/report.h), with the residual analysis of one dataset when the model and the data
 // are at hand.
+#include "core/report/report.h"
+
 #include <fmt/format.h>
 
 #include <cstdio>
@@ -9,7 +11,6 @@
 #include "app/cli/cli.h"
 #include "core/diagnose/residuals.h"
 #include "core/project/project.h"
-#include "core/report/report.h"
 
 namespace gb::cli {
 namespace {
@@ -41,7 +42,8 @@ Result<std::vector<report::ResidualSection>> ResidualSections(const CommandInput
   for (std::size_t i = 0; i < m.inputs.size(); ++i)
     input_values.emplace_back(s.U.row(i).begin(), s.U.row(i).end());
   std::vector<diagnose::InputSeries> inputs;
-  for (std::size_t i = 0; i < m.inputs.size(); ++i) inputs.push_back({m.inputs[i], input_values[i]});
+  for (std::size_t i = 0; i < m.inputs.size(); ++i)
+    inputs.push_back({m.inputs[i], input_values[i]});
   const auto row = [](const Eigen::MatrixXd& x, std::size_t o) {
     return std::vector<double>(x.row(static_cast<Eigen::Index>(o)).begin(),
                                x.row(static_cast<Eigen::Index>(o)).end());
@@ -104,8 +106,7 @@ int RunReport(const ReportArgs& args) {
     }
   }
   const std::optional<report::ReportFormat> format = report::ParseReportFormat(format_name);
-  if (!format)
-    return Fail(InputError("--format '" + format_name + "': expected md or html"));
+  if (!format) return Fail(InputError("--format '" + format_name + "': expected md or html"));
 
   auto result = project::ReadJsonFile(args.result);
   if (!result) return Fail(result.error());

@@ -75,12 +75,18 @@ std::string SeriesName(const FigureSeries& s, std::size_t index) {
 
 const char* KindName(SeriesKind k) {
   switch (k) {
-    case SeriesKind::kLine: return "line";
-    case SeriesKind::kBand: return "band";
-    case SeriesKind::kMarkers: return "markers";
-    case SeriesKind::kStems: return "stems";
-    case SeriesKind::kErrorBars: return "error-bars";
-    case SeriesKind::kVLines: return "vertical-lines";
+    case SeriesKind::kLine:
+      return "line";
+    case SeriesKind::kBand:
+      return "band";
+    case SeriesKind::kMarkers:
+      return "markers";
+    case SeriesKind::kStems:
+      return "stems";
+    case SeriesKind::kErrorBars:
+      return "error-bars";
+    case SeriesKind::kVLines:
+      return "vertical-lines";
   }
   return "line";
 }
@@ -148,8 +154,9 @@ void WriteSeries(SvgWriter& w, const FigureSeries& s, std::size_t index, const F
                  const Mapper& o) {
   const std::string colour = Hex(s.color);
   const double alpha = s.color.a / 255.0;
-  const std::string stroke = fmt::format("stroke=\"{}\"{}", colour,
-                                         s.color.a < 255 ? fmt::format(" stroke-opacity=\"{:.3f}\"", alpha) : "");
+  const std::string stroke =
+      fmt::format("stroke=\"{}\"{}", colour,
+                  s.color.a < 255 ? fmt::format(" stroke-opacity=\"{:.3f}\"", alpha) : "");
   const auto finite = [&](std::size_t i) {
     if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) return false;
     return s.kind != SeriesKind::kBand || std::isfinite(s.y2[i]);
@@ -239,8 +246,7 @@ void WriteTags(SvgWriter& w, const FigureSeries& s, const Frame& fr) {
   const std::string colour = Hex(s.color);
   for (std::size_t i = 0; i < s.x.size() && i < s.tags.size(); ++i) {
     if (!std::isfinite(s.x[i]) || s.tags[i].empty()) continue;
-    w.Text(fr.XToPixel(s.x[i]) + 3.0, fr.top + kFontSize + 2.0, s.tags[i], "start",
-           colour.c_str());
+    w.Text(fr.XToPixel(s.x[i]) + 3.0, fr.top + kFontSize + 2.0, s.tags[i], "start", colour.c_str());
   }
 }
 
@@ -321,12 +327,12 @@ void WriteTicksAndTitles(SvgWriter& w, const Figure& f, const Frame& fr, const T
   }
   w.Put("</g>\n<g class=\"tick-labels\">\n");
   for (double v : xt.values) {
-    w.Text(fr.XToPixel(v), fr.bottom + kTickLength + kFontSize + 1.0, FormatTick(v, xt),
-           "middle", tick_text);
+    w.Text(fr.XToPixel(v), fr.bottom + kTickLength + kFontSize + 1.0, FormatTick(v, xt), "middle",
+           tick_text);
   }
   for (double v : yt.values) {
-    w.Text(fr.left - kTickLength - 3.0, fr.YToPixel(v) + 0.35 * kFontSize, FormatTick(v, yt),
-           "end", tick_text);
+    w.Text(fr.left - kTickLength - 3.0, fr.YToPixel(v) + 0.35 * kFontSize, FormatTick(v, yt), "end",
+           tick_text);
   }
   w.Put("</g>\n");
   if (xt.exponent != 0) {
@@ -364,11 +370,21 @@ std::string XmlEscape(const std::string& text) {
   out.reserve(valid.size());
   for (char c : valid) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&apos;"; break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&apos;";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20 && c != '\t' && c != '\n') break;
         out += c;
@@ -541,9 +557,14 @@ std::string FigureToCsv(const Figure& f) {
       std::vector<std::string>& row = rows[key];
       row.resize(width);
       switch (columns[c].which) {
-        case 0: row[c] = i < s.y.size() ? CsvNumber(s.y[i]) : ""; break;
-        case 1: row[c] = i < s.y2.size() ? CsvNumber(s.y2[i]) : ""; break;
-        default: row[c] = i < s.tags.size() && !s.tags[i].empty() ? s.tags[i] : "|";
+        case 0:
+          row[c] = i < s.y.size() ? CsvNumber(s.y[i]) : "";
+          break;
+        case 1:
+          row[c] = i < s.y2.size() ? CsvNumber(s.y2[i]) : "";
+          break;
+        default:
+          row[c] = i < s.tags.size() && !s.tags[i].empty() ? s.tags[i] : "|";
       }
     }
   }

@@ -58,9 +58,9 @@ struct FigureSeries {
   std::string label;  // "" : no legend entry, column "series N"
   Rgba color;
   std::vector<double> x;
-  std::vector<double> y;   // line, markers, stems, error bars: the value; band: lower
-  std::vector<double> y2;  // band: upper; error bars: the half-width; else empty
-  double ref = 0.0;        // stems: the baseline
+  std::vector<double> y;          // line, markers, stems, error bars: the value; band: lower
+  std::vector<double> y2;         // band: upper; error bars: the half-width; else empty
+  double ref = 0.0;               // stems: the baseline
   std::vector<std::string> tags;  // vertical lines: a tag per line, or empty
   float line_weight = 1.5f;       // pixels
   float marker_radius = 2.5f;     // pixels
@@ -69,7 +69,7 @@ struct FigureSeries {
 
 struct Figure {
   std::string title, x_label, x_unit, y_label, y_unit;
-  Range x, y;  // what the plot shows
+  Range x, y;          // what the plot shows
   bool legend = true;  // a legend of the series that have labels
   std::vector<FigureSeries> series;
 };

@@ -16,7 +16,7 @@
 namespace gb::report {
 namespace {
 
-constexpr const char* kMissing = "\u2013";  // "–": a value the result does not have
+constexpr const char* kMissing = "\u2013";    // "–": a value the result does not have
 constexpr double kWaldZ = 1.959963984540054;  // the 95 % two-sided normal quantile
 
 // ---------------------------------------------------------------------------------------------
@@ -57,7 +57,8 @@ std::string ToMarkdown(const std::vector<Block>& blocks) {
   std::string out;
   for (const Block& b : blocks) {
     if (const auto* h = std::get_if<Heading>(&b)) {
-      out += std::string(static_cast<std::size_t>(h->level), '#') + " " + MdEscape(h->text) + "\n\n";
+      out +=
+          std::string(static_cast<std::size_t>(h->level), '#') + " " + MdEscape(h->text) + "\n\n";
     } else if (const auto* p = std::get_if<Paragraph>(&b)) {
       out += MdEscape(p->text) + "\n\n";
     } else if (const auto* l = std::get_if<Bullets>(&b)) {
@@ -210,8 +211,7 @@ void Estimates(const Json& params, std::vector<Block>* out) {
     }
   }
   Table t;
-  t.header = {"Parameter", "Estimate", "Std. error", "t value", "Pr(>|t|)",
-              "95 % Wald interval"};
+  t.header = {"Parameter", "Estimate", "Std. error", "t value", "Pr(>|t|)", "95 % Wald interval"};
   if (any_profile) t.header.push_back(fmt::format("{:.0f} % profile interval", 100 * level));
   t.header.push_back("Bounds");
   t.numeric = {false, true, true, true, true, true};
@@ -243,7 +243,8 @@ void Estimates(const Json& params, std::vector<Block>* out) {
           if (const auto v = Number(pi, key)) return Num(*v);
           return std::string(Flag(side, at_bound) ? "(bound)" : "(none)");
         };
-        profile = "[" + end("lower", "lower_at_bound") + ", " + end("upper", "upper_at_bound") + "]";
+        profile =
+            "[" + end("lower", "lower_at_bound") + ", " + end("upper", "upper_at_bound") + "]";
       }
       row.push_back(profile);
     }
@@ -271,7 +272,7 @@ void Delays(const Json& r, std::vector<Block>* out) {
   if (!r.contains("output_delay") || !r["output_delay"].is_object()) return;
   Table t{{"Output", "Delay [samples]", "How"}, {}, {false, true, false}};
   for (const auto& [output, d] : r["output_delay"].items()) {
-    const std::optional<double> est = d.is_object() ? Number(d, "estimate")
+    const std::optional<double> est = d.is_object()   ? Number(d, "estimate")
                                       : d.is_number() ? std::optional<double>(d.get<double>())
                                                       : std::nullopt;
     if (!est) continue;
@@ -343,18 +344,18 @@ void Residuals(const ReportInput& in, std::vector<Block>* out) {
     out->push_back(Heading{3, s.output + " (" + s.dataset + ")"});
     Table t{{"Test", "Statistic", "Reference", "p-value", "Result"}, {}, {}};
     t.numeric = {false, true, true, true, false};
-    t.rows.push_back({fmt::format("Ljung-Box, {} lags", d.ljung_box.lags),
-                      G4(d.ljung_box.statistic), fmt::format("\u03c7\u00b2 with {} df", d.ljung_box.df),
-                      PValue(d.ljung_box.p_value),
-                      d.ljung_box.p_value >= 0.05 ? "white" : "correlated"});
+    t.rows.push_back(
+        {fmt::format("Ljung-Box, {} lags", d.ljung_box.lags), G4(d.ljung_box.statistic),
+         fmt::format("\u03c7\u00b2 with {} df", d.ljung_box.df), PValue(d.ljung_box.p_value),
+         d.ljung_box.p_value >= 0.05 ? "white" : "correlated"});
     t.rows.push_back({"Cumulated periodogram, largest deviation", G4(d.periodogram.max_deviation),
                       "band " + G4(d.periodogram.band), "",
                       d.periodogram.inside ? "inside the band" : "leaves the band"});
     t.rows.push_back({"Jarque-Bera (normality)", G4(d.normality.jarque_bera),
                       "\u03c7\u00b2 with 2 df", PValue(d.normality.p_value),
                       d.normality.p_value >= 0.05 ? "normal" : "not normal"});
-    t.rows.push_back({"Mean, sd of z", G4(d.normality.mean) + ", " + G4(d.normality.sd),
-                      "0, 1", "", ""});
+    t.rows.push_back(
+        {"Mean, sd of z", G4(d.normality.mean) + ", " + G4(d.normality.sd), "0, 1", "", ""});
     t.rows.push_back({"Skewness, excess kurtosis",
                       G4(d.normality.skewness) + ", " + G4(d.normality.excess_kurtosis), "0, 0", "",
                       ""});
@@ -390,7 +391,8 @@ std::optional<ReportFormat> ParseReportFormat(const std::string& name) {
 Result<std::string> WriteReport(const ReportInput& in, ReportFormat format) {
   const Json& r = in.result;
   if (!r.is_object() || !r.contains("greybench_result"))
-    return ReportError(in, "greybench_result", "not a greybench result file (no \"greybench_result\")");
+    return ReportError(in, "greybench_result",
+                       "not a greybench result file (no \"greybench_result\")");
   if (!r.contains("parameters") || !r["parameters"].is_object())
     return ReportError(in, "parameters", "the result has no \"parameters\" object");
   const std::string model = Text(r, "model");

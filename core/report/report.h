@@ -36,8 +36,8 @@ struct ResidualSection {
 };
 
 struct ReportInput {
-  Json result;               // a result file's JSON
-  std::string result_file;   // for the report's heading and errors ("" : a fit in memory)
+  Json result;              // a result file's JSON
+  std::string result_file;  // for the report's heading and errors ("" : a fit in memory)
   std::vector<ResidualSection> residuals;  // empty: no residual analysis
   std::string residuals_note;  // why there is none, when empty (e.g. "give --model and --data")
 };

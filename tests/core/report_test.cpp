@@ -27,13 +27,18 @@ Json AResult() {
   r["n_free"] = 2;
   r["aic"] = -3051.151390304063;
   r["bic"] = -3042.8;
-  r["parameters"]["tau"] = {{"estimate", 0.079194412345}, {"std_error", 0.00111783456},
-                            {"t_value", 70.84}, {"p_value", 0.0}, {"lower", 0.005},
-                            {"upper", nullptr}, {"fixed", false}, {"at_bound", false},
+  r["parameters"]["tau"] = {{"estimate", 0.079194412345},
+                            {"std_error", 0.00111783456},
+                            {"t_value", 70.84},
+                            {"p_value", 0.0},
+                            {"lower", 0.005},
+                            {"upper", nullptr},
+                            {"fixed", false},
+                            {"at_bound", false},
                             {"unit", "s"}};
-  r["parameters"]["s2"] = {{"estimate", 1.0677412e-4}, {"std_error", nullptr},
-                           {"t_value", nullptr}, {"p_value", nullptr}, {"lower", 0},
-                           {"upper", 1}, {"fixed", false}, {"at_bound", true}};
+  r["parameters"]["s2"] = {{"estimate", 1.0677412e-4}, {"std_error", nullptr}, {"t_value", nullptr},
+                           {"p_value", nullptr},       {"lower", 0},           {"upper", 1},
+                           {"fixed", false},           {"at_bound", true}};
   r["correlation"] = {{"names", {"tau", "s2"}}, {"matrix", {{1.0, -0.5274}, {-0.5274, 1.0}}}};
   r["warnings"] = {"s2 is at its lower bound"};
   return r;
@@ -46,9 +51,8 @@ TEST(WriteReport, MarkdownAndHtmlHoldTheEstimatesAsTheTextReportPrintsThem) {
     for (const std::string& number :
          {G6(0.079194412345), G6(0.00111783456), G6(1.0677412e-4), std::string("1527.575695"),
           std::string("-3051.151"), std::string("-0.527"), std::string("<2e-16")}) {
-      const std::string shown = format == ReportFormat::kHtml && number[0] == '<'
-                                    ? "&lt;" + number.substr(1)
-                                    : number;
+      const std::string shown =
+          format == ReportFormat::kHtml && number[0] == '<' ? "&lt;" + number.substr(1) : number;
       EXPECT_NE(text->find(shown), std::string::npos) << number;
     }
     // The Wald interval, estimate ± 1.96 SE, computed here.
@@ -76,8 +80,8 @@ TEST(WriteReport, HtmlEscapesNamesAndMarkdownKeepsTablesWhole) {
 TEST(WriteReport, NothingNonFiniteIsPrintedEvenWhereTheIntervalOverflows) {
   Json r = AResult();
   r["parameters"]["big"] = {{"estimate", 1e308}, {"std_error", 1e308}, {"t_value", 1.0},
-                            {"p_value", 0.3}, {"lower", nullptr}, {"upper", nullptr},
-                            {"fixed", false}, {"at_bound", false}};
+                            {"p_value", 0.3},    {"lower", nullptr},   {"upper", nullptr},
+                            {"fixed", false},    {"at_bound", false}};
   r["correlation"]["matrix"][0][0] = "x";  // not a number: shown as missing
   for (ReportFormat format : {ReportFormat::kMarkdown, ReportFormat::kHtml}) {
     gb::Result<std::string> text = WriteReport({r, "", {}, ""}, format);
@@ -91,7 +95,8 @@ TEST(WriteReport, NothingNonFiniteIsPrintedEvenWhereTheIntervalOverflows) {
 TEST(WriteReport, AFileThatIsNotAResultIsRefusedWithItsNameAndPath) {
   Json model;
   model["states"] = Json::array();
-  gb::Result<std::string> text = WriteReport({model, "model.json", {}, ""}, ReportFormat::kMarkdown);
+  gb::Result<std::string> text =
+      WriteReport({model, "model.json", {}, ""}, ReportFormat::kMarkdown);
   ASSERT_FALSE(text.ok());
   EXPECT_EQ(text.error().ToString(),
             "model.json: greybench_result: not a greybench result file (no \"greybench_result\")");

@@ -74,9 +74,9 @@ TEST_F(WorkbenchExport, SaveReportWritesTheFitsEstimatesAsMarkdownAndHtml) {
   const estimate::EstimateSummary& fit = d_.state.estimation.result->summary;
   // The residuals the Residuals view shows, computed at the estimates.
   d_.state.view = View::kResiduals;
-  ASSERT_TRUE(d_.FramesUntil([&] { return d_.state.analysis.result.has_value() &&
-                                          !d_.state.analysis.job.active(); },
-                             std::chrono::milliseconds(kSanitized ? 300000 : 30000)));
+  ASSERT_TRUE(d_.FramesUntil(
+      [&] { return d_.state.analysis.result.has_value() && !d_.state.analysis.job.active(); },
+      std::chrono::milliseconds(kSanitized ? 300000 : 30000)));
   d_.state.view = View::kEstimate;
   d_.Frame();
   const std::optional<ImVec2> save = FindButton(d_, "Save report\xE2\x80\xA6");

@@ -5,14 +5,13 @@
 //
 // The estimation runs in AppState::estimation.job (StartEstimation); this panel only reads
 // the progress record and the installed result, and never waits for the job.
+#include <fmt/format.h>
 #include <imgui.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <string>
-
-#include <fmt/format.h>
 
 #include "ui/format.h"
 #include "ui/panels/common.h"

@@ -84,9 +84,8 @@ std::vector<report::ResidualSection> ShownResiduals(const AppState& state, std::
     *note = "Not computed: the workbench had no predictions when the report was saved.";
     return {};
   }
-  const std::size_t index =
-      std::min<std::size_t>(static_cast<std::size_t>(std::max(state.analysis.dataset, 0)),
-                            a->datasets.size() - 1);
+  const std::size_t index = std::min<std::size_t>(
+      static_cast<std::size_t>(std::max(state.analysis.dataset, 0)), a->datasets.size() - 1);
   const DatasetAnalysis& d = a->datasets[index];
   std::vector<report::ResidualSection> sections;
   for (const OutputAnalysis& o : d.outputs) {
@@ -144,8 +143,8 @@ void BrowseSaveReport(AppState& state, const FitResult& fit, bool with_residuals
   r.mode = FileBrowserMode::kSave;
   r.filters = {{"Markdown (*.md)", {".md"}}, {"HTML (*.html)", {".html", ".htm"}}};
   r.start = StartDirectory(state);
-  r.file_name = FileStem(fit.summary.model_name.empty() ? "report" : fit.summary.model_name) +
-                "-report.md";
+  r.file_name =
+      FileStem(fit.summary.model_name.empty() ? "report" : fit.summary.model_name) + "-report.md";
   r.purpose = static_cast<int>(BrowsePurpose::kSaveReport);
   OpenFileBrowser(state.shell.browser, std::move(r));
 }
@@ -230,7 +229,8 @@ std::optional<PixelRect> PixelsToReadBack(AppState& state, int framebuffer_width
   const double sy = framebuffer_height / double{display.y};
   const int x0 = std::clamp(static_cast<int>(std::floor(capture.min.x * sx)), 0, framebuffer_width);
   const int x1 = std::clamp(static_cast<int>(std::ceil(capture.max.x * sx)), 0, framebuffer_width);
-  const int y0 = std::clamp(static_cast<int>(std::floor(capture.min.y * sy)), 0, framebuffer_height);
+  const int y0 =
+      std::clamp(static_cast<int>(std::floor(capture.min.y * sy)), 0, framebuffer_height);
   const int y1 = std::clamp(static_cast<int>(std::ceil(capture.max.y * sy)), 0, framebuffer_height);
   if (x1 <= x0 || y1 <= y0) {
     AddMessage(state, Severity::kWarning,

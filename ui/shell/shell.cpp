@@ -9,7 +9,6 @@
 //   6. The File menu
 //   7. Dialogs: browser, save changes?, recovery, new project, keyboard shortcuts
 #include "ui/shell/shell.h"
-#include "ui/shell/export.h"
 #include "ui/shell/import_dialog.h"
 
 #include <imgui.h>
@@ -27,6 +26,7 @@
 #include "core/model/model.h"
 #include "core/project/project.h"
 #include "ui/panels/common.h"
+#include "ui/shell/export.h"
 
 namespace gb::ui {
 namespace fs = std::filesystem;

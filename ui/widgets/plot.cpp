@@ -554,12 +554,18 @@ report::Rgba ToRgba(ImU32 c) {
 
 report::SeriesKind ToSeriesKind(ItemKind k) {
   switch (k) {
-    case ItemKind::kLine: return report::SeriesKind::kLine;
-    case ItemKind::kBand: return report::SeriesKind::kBand;
-    case ItemKind::kMarkers: return report::SeriesKind::kMarkers;
-    case ItemKind::kStems: return report::SeriesKind::kStems;
-    case ItemKind::kErrorBars: return report::SeriesKind::kErrorBars;
-    case ItemKind::kVLines: return report::SeriesKind::kVLines;
+    case ItemKind::kLine:
+      return report::SeriesKind::kLine;
+    case ItemKind::kBand:
+      return report::SeriesKind::kBand;
+    case ItemKind::kMarkers:
+      return report::SeriesKind::kMarkers;
+    case ItemKind::kStems:
+      return report::SeriesKind::kStems;
+    case ItemKind::kErrorBars:
+      return report::SeriesKind::kErrorBars;
+    case ItemKind::kVLines:
+      return report::SeriesKind::kVLines;
   }
   return report::SeriesKind::kLine;
 }
