@@ -91,6 +91,11 @@ std::vector<std::string> NamedData(const Json& result, const std::string& result
   return files;
 }
 
+bool IsProject(const std::string& path) {
+  auto j = project::ReadJsonFile(path);
+  return j && j->is_object() && j->contains("greybench_project");
+}
+
 }  // namespace
 
 int RunReport(const ReportArgs& args) {
@@ -110,17 +115,17 @@ int RunReport(const ReportArgs& args) {
 
   auto result = project::ReadJsonFile(args.result);
   if (!result) return Fail(result.error());
+  if (Status st = report::CheckResultJson(*result, args.result); !st) return Fail(st.error());
 
   // The model and the data the residual analysis needs: --model (a model or a project file) and
   // --data, else the project or model file the result names (with the project's datasets).
   const bool explicit_model = !args.model.empty();
   std::string model = args.model;
   if (model.empty()) model = NamedFile(*result, "project_file", args.result);
+  if (model.empty()) model = NamedFile(*result, "model_file", args.result);
+  // A model file without --data: the data files the result names (a project has its own).
   std::vector<std::string> data = args.data;
-  if (model.empty()) {
-    model = NamedFile(*result, "model_file", args.result);
-    if (data.empty()) data = NamedData(*result, args.result);
-  }
+  if (data.empty() && !model.empty() && !IsProject(model)) data = NamedData(*result, args.result);
   std::vector<FileRole> files = {{args.result, "the result file"}};
   std::optional<CommandInputs> in;
   std::string note;

@@ -368,9 +368,9 @@ void Residuals(const ReportInput& in, std::vector<Block>* out) {
   }
 }
 
-Error ReportError(const ReportInput& in, const std::string& path, const std::string& message) {
+Error ReportError(const std::string& file, const std::string& path, const std::string& message) {
   Error e = InputError(message);
-  e.file = in.result_file;
+  e.file = file;
   e.path = path;
   return e;
 }
@@ -388,13 +388,18 @@ std::optional<ReportFormat> ParseReportFormat(const std::string& name) {
   return std::nullopt;
 }
 
-Result<std::string> WriteReport(const ReportInput& in, ReportFormat format) {
-  const Json& r = in.result;
+Status CheckResultJson(const Json& r, const std::string& file) {
   if (!r.is_object() || !r.contains("greybench_result"))
-    return ReportError(in, "greybench_result",
+    return ReportError(file, "greybench_result",
                        "not a greybench result file (no \"greybench_result\")");
   if (!r.contains("parameters") || !r["parameters"].is_object())
-    return ReportError(in, "parameters", "the result has no \"parameters\" object");
+    return ReportError(file, "parameters", "the result has no \"parameters\" object");
+  return Ok{};
+}
+
+Result<std::string> WriteReport(const ReportInput& in, ReportFormat format) {
+  const Json& r = in.result;
+  if (Status st = CheckResultJson(r, in.result_file); !st) return st.error();
   const std::string model = Text(r, "model");
   const std::string title = "Estimation report: " + (model.empty() ? "(unnamed model)" : model);
   std::vector<Block> blocks;

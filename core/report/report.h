@@ -43,8 +43,12 @@ struct ReportInput {
 };
 
 // The report. An input error, naming result_file and the JSON path, when the JSON is not a result
-// (no "greybench_result", no "parameters" object).
+// (CheckResultJson).
 Result<std::string> WriteReport(const ReportInput& in, ReportFormat format);
+
+// Ok when `result` has what a report needs ("greybench_result", a "parameters" object); else an
+// input error naming `file` and the JSON path.
+Status CheckResultJson(const Json& result, const std::string& file);
 
 // "md" / "markdown" and "html" / "htm" (any case); nullopt otherwise.
 std::optional<ReportFormat> ParseReportFormat(const std::string& name);
