@@ -51,7 +51,9 @@ std::string StartDirectory(const AppState& state) {
 
 void Report(AppState& state, const Status& st, const std::string& what, const std::string& path) {
   if (st) {
-    AddMessage(state, Severity::kInfo, what + " written to " + path);
+    std::string text = what + " written to " + path;
+    text[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(text[0])));
+    AddMessage(state, Severity::kInfo, text);
   } else {
     AddMessage(state, Severity::kError, "Could not write " + what + ": " + st.error().ToString());
   }
@@ -247,7 +249,7 @@ void FinishPixelCapture(AppState& state, const PixelRect& rect,
   state.plots.capture = plot::PixelCapture{};
   std::string error;
   if (WritePngFromGl(path, rect.width, rect.height, rgba.data(), &error)) {
-    AddMessage(state, Severity::kInfo, "the plot's PNG written to " + path);
+    AddMessage(state, Severity::kInfo, "The plot's PNG written to " + path);
   } else {
     AddMessage(state, Severity::kError, "Could not write the plot's PNG: " + error);
   }
