@@ -2,6 +2,8 @@
 //   greybench [PROJECT.json] [--width W --height H] [--screenshot OUT.png [--frames N]]
 // Without a project it opens the bundled case study. --screenshot draws N frames once the
 // project has loaded, writes the window's pixels to OUT.png and exits (for scripts under Xvfb).
+// The framebuffer functions of OpenGL 3 (libGL exports them; the window's context is 3.3 core).
+#define GL_GLEXT_PROTOTYPES
 #include <GLFW/glfw3.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
@@ -132,6 +134,45 @@ bool WriteScreenshot(GLFWwindow* window, const std::string& path) {
   return true;
 }
 
+// Draws one plot alone at the PNG's size in an ImGui frame of its own into an offscreen
+// framebuffer, reads it back and writes the file (ui/shell/export.h). Runs after the window's
+// frame was rendered; the window's back buffer is not touched.
+void DrawPngOffscreen(gb::ui::AppState& state, const gb::ui::PendingPng& png) {
+  namespace ui = gb::ui;
+  GLuint texture = 0, framebuffer = 0;
+  glGenTextures(1, &texture);
+  glBindTexture(GL_TEXTURE_2D, texture);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, png.width, png.height, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+               nullptr);
+  glBindTexture(GL_TEXTURE_2D, 0);
+  glGenFramebuffers(1, &framebuffer);
+  glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+  glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, texture, 0);
+  std::vector<unsigned char> rgba;
+  if (glCheckFramebufferStatus(GL_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE) {
+    ImGuiIO& io = ImGui::GetIO();
+    const ImVec2 display = io.DisplaySize, scale = io.DisplayFramebufferScale;
+    io.DisplaySize = ImVec2(static_cast<float>(png.width), static_cast<float>(png.height));
+    io.DisplayFramebufferScale = ImVec2(1.0f, 1.0f);
+    ImGui::NewFrame();
+    ui::plot::DrawFigureFrame(state.plots, png.figure);
+    ImGui::Render();
+    glViewport(0, 0, png.width, png.height);
+    glClearColor(1.0f, 1.0f, 1.0f, 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT);
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    rgba.resize(static_cast<std::size_t>(png.width) * png.height * 4);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, png.width, png.height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+    io.DisplaySize = display;
+    io.DisplayFramebufferScale = scale;
+  }
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glDeleteFramebuffers(1, &framebuffer);
+  glDeleteTextures(1, &texture);
+  ui::FinishPendingPng(state, png, rgba.empty() ? nullptr : &rgba);
+}
+
 int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
   namespace ui = gb::ui;
   // The monitor's content scale (its DPI over 96), within limits; read again every frame, so a
@@ -216,12 +257,9 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
     glClearColor(bg.x, bg.y, bg.z, 1.0f);
     glClear(GL_COLOR_BUFFER_BIT);
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
-    // A plot's "Save image as PNG": its pixels as drawn in this frame (ui/shell/export.h).
-    if (const std::optional<ui::PixelRect> r = ui::PixelsToReadBack(state, fb_w, fb_h)) {
-      std::vector<unsigned char> rgba(static_cast<std::size_t>(r->width) * r->height * 4);
-      glPixelStorei(GL_PACK_ALIGNMENT, 1);
-      glReadPixels(r->x, r->y, r->width, r->height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
-      ui::FinishPixelCapture(state, *r, rgba);
+    // A plot's "Save image as PNG": the plot alone, drawn offscreen (ui/shell/export.h).
+    if (const std::optional<ui::PendingPng> png = ui::TakePendingPng(state)) {
+      DrawPngOffscreen(state, *png);
     }
 
     if (!options.screenshot.empty() && !state.load_job.active() &&

@@ -449,23 +449,12 @@ int RenderPlot(const Options& options, const Shot& shot, gb::ui::AppState& state
       return Fail(kExitRenderFailed, st.error().ToString());
     return 0;
   }
-  const gb::report::Figure figure = chosen->figure;  // `figures` is rebuilt below
+  const gb::report::Figure figure = chosen->figure;
   ImGuiIO& io = ImGui::GetIO();
   for (int frame = 0; frame < 2; ++frame) {
     io.MousePos = ImVec2(-FLT_MAX, -FLT_MAX);
     ImGui::NewFrame();
-    ImGui::SetNextWindowPos(ImVec2(0, 0));
-    ImGui::SetNextWindowSize(io.DisplaySize);
-    ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(0, 0));
-    ImGui::PushStyleVar(ImGuiStyleVar_WindowBorderSize, 0.0f);
-    ImGui::PushStyleColor(ImGuiCol_WindowBg, IM_COL32(255, 255, 255, 255));
-    ImGui::Begin("##plot", nullptr,
-                 ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove |
-                     ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoScrollWithMouse);
-    ui::plot::PlotFigure(state.plots, "##figure", io.DisplaySize, figure);
-    ImGui::End();
-    ImGui::PopStyleColor();
-    ImGui::PopStyleVar(2);
+    ui::plot::DrawFigureFrame(state.plots, figure);
     ImGui::Render();
   }
   glClearColor(1.0f, 1.0f, 1.0f, 1.0f);

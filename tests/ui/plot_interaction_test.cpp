@@ -347,5 +347,19 @@ TEST_F(PlotMenu, SaveAsSvgLeavesARequestWithThePlotAsDrawnAndARightDragOpensNoMe
   }
 }
 
+TEST_F(PlotMenu, SaveAsPngAsksForThePlotsSizeOnScreenByDefault) {
+  Frame();
+  Frame();
+  const PlotState& st = Top();
+  RightClick(ImVec2(st.last_plot_min.x + 50.0f, st.last_plot_min.y + 50.0f));
+  ClickItem(1);
+  ASSERT_TRUE(plots_.export_request.has_value());
+  const ExportRequest& r = *plots_.export_request;
+  EXPECT_EQ(r.kind, ExportRequest::Kind::kPng);
+  EXPECT_EQ(r.png_width, static_cast<int>(std::lround(r.size.x)));
+  EXPECT_EQ(r.png_height, 280);  // the plot's height as BeginPlot was given it
+  EXPECT_GT(r.png_width, 700);
+}
+
 }  // namespace
 }  // namespace gb::ui::plot

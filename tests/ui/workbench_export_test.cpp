@@ -141,25 +141,38 @@ TEST_F(WorkbenchExport, APlotsSvgAndPngGoThroughTheBrowserAndNeverOntoTheProject
   EXPECT_EQ(Read(dir_ / "fuel_film.json"), model_before);
   EXPECT_TRUE(LastMessageIsError("fuel_film.json"));
 
-  // PNG: the plot is drawn twice more without the browser, then its rectangle is due.
+  // PNG at the size the menu asked for: due once the file is chosen, drawn alone in a frame of
+  // that size (greybench_main renders that frame offscreen; here its draw data is looked at).
   request.kind = plot::ExportRequest::Kind::kPng;
+  request.png_width = 640;
+  request.png_height = 300;
   d_.state.plots.export_request = request;
   d_.Frame();
   EXPECT_EQ(d_.state.shell.browser.request.file_name, figure.name + ".png");
+  EXPECT_FALSE(TakePendingPng(d_.state).has_value());
   FinishExport(d_.state, BrowsePurpose::kExportPlot, (dir_ / "plot.png").string());
-  std::optional<PixelRect> rect;
-  for (int frame = 0; frame < 4 && !rect; ++frame) {
-    d_.Frame();
-    rect = PixelsToReadBack(d_.state, 1280, 800);
-  }
-  ASSERT_TRUE(rect);
-  EXPECT_NEAR(rect->width, figure.size.x, 1.0);
-  EXPECT_NEAR(rect->height, figure.size.y, 1.0);
-  const std::vector<unsigned char> grey(static_cast<std::size_t>(rect->width) * rect->height * 4,
-                                        200);
-  FinishPixelCapture(d_.state, *rect, grey);
+  const std::optional<PendingPng> png = TakePendingPng(d_.state);
+  ASSERT_TRUE(png.has_value());
+  EXPECT_FALSE(TakePendingPng(d_.state).has_value());  // taken once
+  EXPECT_EQ(png->width, 640);
+  EXPECT_EQ(png->height, 300);
+  EXPECT_EQ(png->path, (dir_ / "plot.png").string());
+  ImGuiIO& io = ImGui::GetIO();
+  const ImVec2 display = io.DisplaySize;
+  io.DisplaySize = ImVec2(640, 300);
+  ImGui::NewFrame();
+  plot::DrawFigureFrame(d_.state.plots, png->figure);
+  ImGui::Render();
+  io.DisplaySize = display;
+  const ImDrawData* draw = ImGui::GetDrawData();
+  ASSERT_NE(draw, nullptr);
+  EXPECT_EQ(draw->DisplaySize.x, 640.0f);
+  EXPECT_GT(draw->TotalVtxCount, 100);  // the plot's lines, ticks and text
+  const std::vector<unsigned char> grey(640u * 300u * 4u, 200);
+  FinishPendingPng(d_.state, *png, &grey);
   EXPECT_EQ(Read(dir_ / "plot.png").substr(1, 3), "PNG");
-  EXPECT_EQ(d_.state.plots.capture.id, 0u);
+  FinishPendingPng(d_.state, *png, nullptr);  // no framebuffer: said, not written
+  EXPECT_TRUE(LastMessageIsError("no offscreen framebuffer"));
 }
 
 TEST_F(WorkbenchExport, ExportModelWritesTheModelTheViewsShow) {

@@ -17,11 +17,6 @@
 namespace gb::ui {
 namespace {
 
-// A capture whose plot is not drawn within this many frames (the view changed) is given up.
-constexpr int kMaxCaptureFrames = 30;
-// Frames the plot is drawn without the menu and the browser before its pixels are read.
-constexpr int kCaptureFrames = 2;
-
 // The files of the open project: no export may write onto one of them.
 std::vector<FileRole> ProjectInputs(const AppState& state) {
   if (!state.project) return {};
@@ -71,12 +66,10 @@ void FinishPlotExport(AppState& state, const std::string& path) {
            "the plot's SVG", path);
     return;
   }
-  // PNG: the plot as drawn, read back once it has been drawn again without the browser.
+  // PNG: drawn offscreen by the application after this frame.
   if (Status st = project::CheckWritable(path); !st) return Report(state, st, "the plot", path);
-  plot::PixelCapture& capture = state.plots.capture;
-  capture = plot::PixelCapture{};
-  capture.id = request->id;
-  capture.path = path;
+  state.shell.png_export =
+      PendingPng{std::move(request->figure), request->png_width, request->png_height, path};
 }
 
 // The residual sections of the analysis the Residuals view shows.
@@ -210,46 +203,24 @@ void FinishExport(AppState& state, BrowsePurpose purpose, const std::string& pat
   }
 }
 
-std::optional<PixelRect> PixelsToReadBack(AppState& state, int framebuffer_width,
-                                          int framebuffer_height) {
-  plot::PixelCapture& capture = state.plots.capture;
-  if (capture.id == 0) return std::nullopt;
-  const bool drawn = capture.drawn;
-  capture.drawn = false;
-  if (!drawn) {
-    if (++capture.frames > kMaxCaptureFrames) {
-      AddMessage(state, Severity::kWarning,
-                 "The plot was not saved as PNG: it is no longer shown (" + capture.path + ")");
-      capture = plot::PixelCapture{};
-    }
-    return std::nullopt;
-  }
-  if (++capture.frames < kCaptureFrames) return std::nullopt;
-  const ImVec2 display = ImGui::GetIO().DisplaySize;
-  if (!(display.x > 0 && display.y > 0)) return std::nullopt;
-  const double sx = framebuffer_width / double{display.x};
-  const double sy = framebuffer_height / double{display.y};
-  const int x0 = std::clamp(static_cast<int>(std::floor(capture.min.x * sx)), 0, framebuffer_width);
-  const int x1 = std::clamp(static_cast<int>(std::ceil(capture.max.x * sx)), 0, framebuffer_width);
-  const int y0 =
-      std::clamp(static_cast<int>(std::floor(capture.min.y * sy)), 0, framebuffer_height);
-  const int y1 = std::clamp(static_cast<int>(std::ceil(capture.max.y * sy)), 0, framebuffer_height);
-  if (x1 <= x0 || y1 <= y0) {
-    AddMessage(state, Severity::kWarning,
-               "The plot was not saved as PNG: it is outside the window (" + capture.path + ")");
-    capture = plot::PixelCapture{};
-    return std::nullopt;
-  }
-  return PixelRect{x0, framebuffer_height - y1, x1 - x0, y1 - y0};
+std::optional<PendingPng> TakePendingPng(AppState& state) {
+  std::optional<PendingPng> png = std::move(state.shell.png_export);
+  state.shell.png_export.reset();
+  return png;
 }
 
-void FinishPixelCapture(AppState& state, const PixelRect& rect,
-                        const std::vector<unsigned char>& rgba) {
-  const std::string path = state.plots.capture.path;
-  state.plots.capture = plot::PixelCapture{};
+void FinishPendingPng(AppState& state, const PendingPng& png,
+                      const std::vector<unsigned char>* rgba) {
+  if (!rgba) {
+    AddMessage(state, Severity::kError,
+               "Could not write the plot's PNG: no offscreen framebuffer of " +
+                   std::to_string(png.width) + " x " + std::to_string(png.height) +
+                   " pixels (" + png.path + ")");
+    return;
+  }
   std::string error;
-  if (WritePngFromGl(path, rect.width, rect.height, rgba.data(), &error)) {
-    AddMessage(state, Severity::kInfo, "The plot's PNG written to " + path);
+  if (WritePngFromGl(png.path, png.width, png.height, rgba->data(), &error)) {
+    AddMessage(state, Severity::kInfo, "The plot's PNG written to " + png.path);
   } else {
     AddMessage(state, Severity::kError, "Could not write the plot's PNG: " + error);
   }

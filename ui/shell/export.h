@@ -1,6 +1,7 @@
 // Exports from the workbench, each through the shell's file browser in save mode (as Save
 // project as): a plot's image from its context menu (SVG drawn from the plot's data by
-// core/report/figure.h, or PNG: the plot as drawn, read back from the frame), the estimation
+// core/report/figure.h, or PNG: the plot drawn alone offscreen at the size the menu asks for, as
+// greybench-snapshot --plot draws it), the estimation
 // report as Markdown or HTML (core/report/report.h) and the model file. No export writes onto a
 // file the open project is made of (the output guard, core/util/output_guard.h): the refusal and
 // every failure go to the Messages window, naming the file.
@@ -8,8 +9,9 @@
 //   every frame, in UpdateShell:  UpdateExports(state);   // a plot's menu asked: the browser
 //   the browser's choice:         FinishExport(state, purpose, path);
 //   greybench_main, after rendering a frame:
-//     if (auto r = PixelsToReadBack(state, fb_w, fb_h)) { glReadPixels(r->x, r->y, ...);
-//                                                         FinishPixelCapture(state, *r, pixels); }
+//     if (auto png = TakePendingPng(state)) { an offscreen framebuffer of png->width x height;
+//       NewFrame, DrawFigureFrame(state.plots, png->figure), Render, render, glReadPixels;
+//       FinishPendingPng(state, *png, &pixels); }
 #pragma once
 
 #include <optional>
@@ -38,17 +40,12 @@ void BrowseExportModel(AppState& state);
 // The File menu's Export submenu.
 void DrawExportMenu(AppState& state);
 
-// A PNG of a plot as drawn: the rectangle of the framebuffer (OpenGL's, rows from the bottom) to
-// read after the frame is rendered, once the plot asked for has been drawn without the menu and
-// the browser over it. nullopt when nothing is due.
-struct PixelRect {
-  int x = 0, y = 0, width = 0, height = 0;
-};
-std::optional<PixelRect> PixelsToReadBack(AppState& state, int framebuffer_width,
-                                          int framebuffer_height);
-// Writes the pixels read (RGBA, rows from the bottom, as glReadPixels gives them) to the PNG
-// file asked for, and says so in the Messages window.
-void FinishPixelCapture(AppState& state, const PixelRect& rect,
-                        const std::vector<unsigned char>& rgba);
+// The PNG a plot's menu asked for, once its file is chosen: taken (and cleared) by the
+// application, which draws it offscreen after the window's frame. nullopt when none is due.
+std::optional<PendingPng> TakePendingPng(AppState& state);
+// Writes the pixels drawn (RGBA, rows from the bottom, as glReadPixels gives them; null when no
+// framebuffer could be made) to the PNG file, and says so in the Messages window.
+void FinishPendingPng(AppState& state, const PendingPng& png,
+                      const std::vector<unsigned char>* rgba);
 
 }  // namespace gb::ui

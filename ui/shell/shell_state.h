@@ -44,6 +44,13 @@ struct PendingAction {
   std::string path;  // kOpen: the project to open
 };
 
+// A plot to draw alone at width x height pixels and write to `path` as PNG (ui/shell/export.h).
+struct PendingPng {
+  report::Figure figure;
+  int width = 0, height = 0;
+  std::string path;
+};
+
 // A dataset file read off the UI thread for File > Add dataset.
 struct DatasetRead {
   std::string path;
@@ -109,9 +116,11 @@ struct ShellState {
   // does not cancel the estimation.
   bool tool_window_focused = false;
   FileBrowserState browser;
-  // A plot's export, and a report, waiting for their file names (ui/shell/export.h).
+  // A plot's export, and a report, waiting for their file names, and a PNG of a plot waiting to
+  // be drawn offscreen after the frame (ui/shell/export.h).
   std::optional<plot::ExportRequest> plot_export;
   std::optional<report::ReportInput> report_export;
+  std::optional<PendingPng> png_export;
 
   // Recent projects, autosave and recovery read and write files under the user's
   // $XDG_CONFIG_HOME and $XDG_STATE_HOME; only the greybench window turns them on

@@ -608,23 +608,42 @@ report::Figure MakeFigure(const PlotContext& ctx, const PlotState& st, const Lin
 
 void DrawContextMenu(PlotContext& ctx, PlotState& st, const LinkedRange& xr) {
   ImGui::PushID(static_cast<int>(ctx.current_id));
+  const ImVec2 size(ctx.frame_max.x - ctx.frame_min.x, ctx.frame_max.y - ctx.frame_min.y);
   if (st.open_menu) {
     st.open_menu = false;
+    st.png_width = static_cast<int>(std::lround(size.x));
+    st.png_height = static_cast<int>(std::lround(size.y));
     ImGui::OpenPopup("##plot-menu");
   }
   if (ImGui::BeginPopup("##plot-menu")) {
     const bool svg = ImGui::MenuItem("Save image as SVG\xE2\x80\xA6");
     const bool png = ImGui::MenuItem("Save image as PNG\xE2\x80\xA6");
+    const bool csv = ImGui::MenuItem("Copy data as CSV");
     if (svg || png) {
       ExportRequest& r = ctx.export_request.emplace();
       r.kind = svg ? ExportRequest::Kind::kSvg : ExportRequest::Kind::kPng;
       r.name = ctx.current_name;
       r.id = ctx.current_id;
       r.figure = MakeFigure(ctx, st, xr);
-      r.size = ImVec2(ctx.frame_max.x - ctx.frame_min.x, ctx.frame_max.y - ctx.frame_min.y);
+      r.size = size;
+      r.png_width = std::clamp(st.png_width, kMinPngSize, kMaxPngSize);
+      r.png_height = std::clamp(st.png_height, kMinPngSize, kMaxPngSize);
     }
-    if (ImGui::MenuItem("Copy data as CSV"))
+    if (csv)
       ImGui::SetClipboardText(report::FigureToCsv(MakeFigure(ctx, st, xr)).c_str());
+    ImGui::Separator();
+    // The PNG's size: the plot's on screen unless changed here.
+    ImGui::TextDisabled("PNG size");
+    ImGui::SameLine();
+    ImGui::SetNextItemWidth(4.5f * ImGui::GetFontSize());
+    ImGui::DragInt("##png-width", &st.png_width, 1.0f, kMinPngSize, kMaxPngSize, "%d",
+                   ImGuiSliderFlags_AlwaysClamp);
+    ImGui::SameLine();
+    ImGui::TextUnformatted("\xC3\x97");
+    ImGui::SameLine();
+    ImGui::SetNextItemWidth(4.5f * ImGui::GetFontSize());
+    ImGui::DragInt("##png-height", &st.png_height, 1.0f, kMinPngSize, kMaxPngSize, "%d",
+                   ImGuiSliderFlags_AlwaysClamp);
     ImGui::EndPopup();
   }
   ImGui::PopID();
@@ -684,6 +703,23 @@ void PlotFigure(PlotContext& ctx, const char* id, ImVec2 size, const report::Fig
     }
   }
   EndPlot(ctx);
+}
+
+void DrawFigureFrame(PlotContext& ctx, const report::Figure& figure) {
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  ImGui::SetNextWindowPos(ImVec2(0, 0));
+  ImGui::SetNextWindowSize(display);
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(0, 0));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowBorderSize, 0.0f);
+  ImGui::PushStyleColor(ImGuiCol_WindowBg, IM_COL32(255, 255, 255, 255));
+  ImGui::Begin("##figure-frame", nullptr,
+               ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove |
+                   ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoScrollWithMouse |
+                   ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoBringToFrontOnFocus);
+  PlotFigure(ctx, "##figure", display, figure);
+  ImGui::End();
+  ImGui::PopStyleColor();
+  ImGui::PopStyleVar(2);
 }
 
 std::string PlotName(const char* title, const char* id) {
@@ -786,8 +822,7 @@ void EndPlot(PlotContext& ctx) {
 
   dl->PushClipRect(t.min, t.max, true);
   for (const Item& item : ctx.items) internal::DrawItem(ctx, dl, item, t);
-  const bool captured = ctx.capture.id != 0 && ctx.capture.id == ctx.current_id;
-  if (!captured) DrawHover(ctx, st, xr, dl, t);
+  DrawHover(ctx, st, xr, dl, t);
   if (st.box_active) {
     const ImVec2 m = ImGui::GetIO().MousePos;
     const ImVec2 a(std::min(st.box_start.x, m.x), std::min(st.box_start.y, m.y));
@@ -801,11 +836,6 @@ void EndPlot(PlotContext& ctx) {
   st.last_plot_min = t.min;
   st.last_plot_max = t.max;
   st.drawn_before = true;
-  if (captured) {
-    ctx.capture.drawn = true;
-    ctx.capture.min = ctx.frame_min;
-    ctx.capture.max = ctx.frame_max;
-  }
   const ImVec2 size(ctx.frame_max.x - ctx.frame_min.x, ctx.frame_max.y - ctx.frame_min.y);
   if (ctx.record_figures)
     ctx.recorded.push_back({ctx.current_name, ctx.current_id, MakeFigure(ctx, st, xr), size});

@@ -21,8 +21,9 @@
 // the window as usual); left drag pans; right drag zooms to a box; double-click fits the data;
 // clicking a legend entry hides or shows the item. A right click without a drag opens the
 // plot's context menu: "Save image as SVG…" and "Save image as PNG…" leave an ExportRequest in
-// the context for the application to finish (it asks for a file name); "Copy data as CSV" puts
-// the plot's data on the clipboard (report::FigureToCsv).
+// the context for the application to finish (it asks for a file name; the PNG is the plot drawn
+// alone at the size the menu's fields give, by default its size on screen); "Copy data as CSV"
+// puts the plot's data on the clipboard (report::FigureToCsv).
 //
 // Export: what a plot shows becomes a report::Figure (core/report/figure.h) at EndPlot, while
 // the items' arrays are still valid: the shown items (not those hidden in the legend), their
@@ -135,6 +136,7 @@ struct PlotState {
   bool right_down = false;  // the right button went down over the plot ...
   ImVec2 right_start;       // ... here: released near it, it opens the context menu
   bool open_menu = false;
+  int png_width = 0, png_height = 0;  // the menu's PNG size (the plot's, when it opens)
 };
 
 // An export the context menu asked for, for the application to finish.
@@ -144,19 +146,13 @@ struct ExportRequest {
   std::string name;  // the plot's name (PlotName), for a proposed file name
   ImGuiID id = 0;
   report::Figure figure;  // the plot as drawn
-  ImVec2 size;            // the plot's frame in pixels
+  ImVec2 size;            // the plot's frame in pixels (the SVG's size)
+  int png_width = 0, png_height = 0;  // kPng: the size asked for in the menu
 };
 
-// A plot whose pixels the application reads back from the frame it renders (a PNG of the plot
-// as drawn): set `id`; the plot is then drawn without the hover crosshair, and EndPlot records
-// where (`drawn`, `min`, `max`, in ImGui's display coordinates) in each frame it is drawn.
-struct PixelCapture {
-  ImGuiID id = 0;
-  std::string path;  // the application's: where the pixels go
-  int frames = 0;    // the application's: frames waited
-  bool drawn = false;
-  ImVec2 min, max;
-};
+// The PNG sizes the menu accepts, in pixels.
+inline constexpr int kMinPngSize = 64;
+inline constexpr int kMaxPngSize = 8192;
 
 // One plot's figure, recorded when PlotContext::record_figures is on.
 struct RecordedFigure {
@@ -189,7 +185,6 @@ class PlotContext {
   PlotStyle style;
   // Set by the context menu; the application takes it (and resets it) to ask for a file.
   std::optional<ExportRequest> export_request;
-  PixelCapture capture;
   // greybench-snapshot --plot: every plot drawn appends its figure to `recorded`.
   bool record_figures = false;
   std::vector<RecordedFigure> recorded;
@@ -240,6 +235,11 @@ void EndPlot(PlotContext& ctx);
 // with its items, colours and titles (greybench-snapshot --plot NAME --out F.png). The mouse
 // works as on any plot.
 void PlotFigure(PlotContext& ctx, const char* id, ImVec2 size, const report::Figure& figure);
+
+// The figure alone in a frame of its own, filling the display on a white ground: between
+// ImGui::NewFrame() and ImGui::Render() of a frame drawn for a PNG of one plot (greybench-snapshot
+// --plot, the menu's Save image as PNG).
+void DrawFigureFrame(PlotContext& ctx, const report::Figure& figure);
 
 // A plot's name for exports and greybench-snapshot --plot: its title up to its first double
 // space (views put the fit's figures after one: "ilambda    one-step RMS 0.017  ·  fit 85 %"),
