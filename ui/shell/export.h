@@ -1,10 +1,10 @@
 // Exports from the workbench, each through the shell's file browser in save mode (as Save
 // project as): a plot's image from its context menu (SVG drawn from the plot's data by
 // core/report/figure.h, or PNG: the plot drawn alone offscreen at the size the menu asks for, as
-// greybench-snapshot --plot draws it), the estimation
-// report as Markdown or HTML (core/report/report.h) and the model file. No export writes onto a
-// file the open project is made of (the output guard, core/util/output_guard.h): the refusal and
-// every failure go to the Messages window, naming the file.
+// greybench-snapshot --plot draws it), the estimation report as Markdown or HTML
+// (core/report/report.h) and the model file. No export writes onto a file the open project is
+// made of (the output guard, core/util/output_guard.h): the refusal and every failure go to the
+// Messages window, naming the file.
 //
 //   every frame, in UpdateShell:  UpdateExports(state);   // a plot's menu asked: the browser
 //   the browser's choice:         FinishExport(state, purpose, path);
