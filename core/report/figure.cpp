@@ -161,6 +161,10 @@ void WriteSeries(SvgWriter& w, const FigureSeries& s, std::size_t index, const F
     if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) return false;
     return s.kind != SeriesKind::kBand || std::isfinite(s.y2[i]);
   };
+  // Arrays of another length than x (a figure built by hand) leave the series out.
+  const bool needs_y = s.kind != SeriesKind::kVLines;
+  const bool needs_y2 = s.kind == SeriesKind::kBand || s.kind == SeriesKind::kErrorBars;
+  if ((needs_y && s.y.size() != s.x.size()) || (needs_y2 && s.y2.size() != s.x.size())) return;
   w.Put("<g class=\"series {}\" id=\"series-{}\">\n<title>{}</title>\n", KindName(s.kind),
         index + 1, XmlEscape(SeriesName(s, index)));
   const std::size_t n = s.x.size();

@@ -52,7 +52,8 @@ struct Rgba {
   std::uint8_t r = 0, g = 0, b = 0, a = 255;
 };
 
-// One item of a figure, with its own copy of the values (x ascending).
+// One item of a figure, with its own copy of the values (x ascending). y (and y2 where the kind
+// has one) as long as x; the SVG leaves out a series whose arrays are not.
 struct FigureSeries {
   SeriesKind kind = SeriesKind::kLine;
   std::string label;  // "" : no legend entry, column "series N"

@@ -167,6 +167,11 @@ TEST(FigureToSvg, EmptyOrInvertedRangesStillGiveADocument) {
   line.x = {0.5, 1.0, 2.0};
   line.y = {1e308, -1e308, kNaN};
   f.series = {line};
+  FigureSeries short_band;  // y2 missing: left out, not read past its end
+  short_band.kind = SeriesKind::kBand;
+  short_band.x = {0.1, 0.2};
+  short_band.y = {0.0, 0.0};
+  f.series.push_back(short_band);
   for (Range x : {Range{1.0, 1.0}, Range{-1e308, 1e308}}) {
     f.x = x;
     const std::string svg = FigureToSvg(f, {10, 10});
