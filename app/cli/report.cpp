@@ -157,7 +157,7 @@ int RunReport(const ReportArgs& args) {
     if (!sections) return Fail(sections.error());
     input.residuals = std::move(sections).value();
   } else {
-    std::fprintf(stderr, "greybench-cli: note: the report has no residual analysis: %s\n",
+    std::fprintf(stderr, "greybench-cli: warning: the report has no residual analysis: %s\n",
                  note.c_str());
   }
   auto text = report::WriteReport(input, *format);
