@@ -2,6 +2,8 @@
 //   greybench [PROJECT.json] [--width W --height H] [--screenshot OUT.png [--frames N]]
 // Without a project it opens the bundled case study. --screenshot draws N frames once the
 // project has loaded, writes the window's pixels to OUT.png and exits (for scripts under Xvfb).
+// The framebuffer functions of OpenGL 3 (libGL exports them; the window's context is 3.3 core).
+#define GL_GLEXT_PROTOTYPES
 #include <GLFW/glfw3.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
@@ -11,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -21,6 +24,7 @@
 #endif
 
 #include "ui/render/png.h"
+#include "ui/shell/export.h"
 #include "ui/shell/shell.h"
 #include "ui/state/app_state.h"
 #include "ui/theme.h"
@@ -130,6 +134,45 @@ bool WriteScreenshot(GLFWwindow* window, const std::string& path) {
   return true;
 }
 
+// Draws one plot alone at the PNG's size in an ImGui frame of its own into an offscreen
+// framebuffer, reads it back and writes the file (ui/shell/export.h). Runs after the window's
+// frame was rendered; the window's back buffer is not touched.
+void DrawPngOffscreen(gb::ui::AppState& state, const gb::ui::PendingPng& png) {
+  namespace ui = gb::ui;
+  GLuint texture = 0, framebuffer = 0;
+  glGenTextures(1, &texture);
+  glBindTexture(GL_TEXTURE_2D, texture);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, png.width, png.height, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+               nullptr);
+  glBindTexture(GL_TEXTURE_2D, 0);
+  glGenFramebuffers(1, &framebuffer);
+  glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+  glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, texture, 0);
+  std::vector<unsigned char> rgba;
+  if (glCheckFramebufferStatus(GL_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE) {
+    ImGuiIO& io = ImGui::GetIO();
+    const ImVec2 display = io.DisplaySize, scale = io.DisplayFramebufferScale;
+    io.DisplaySize = ImVec2(static_cast<float>(png.width), static_cast<float>(png.height));
+    io.DisplayFramebufferScale = ImVec2(1.0f, 1.0f);
+    ImGui::NewFrame();
+    ui::plot::DrawFigureFrame(state.plots, png.figure);
+    ImGui::Render();
+    glViewport(0, 0, png.width, png.height);
+    glClearColor(1.0f, 1.0f, 1.0f, 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT);
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    rgba.resize(static_cast<std::size_t>(png.width) * png.height * 4);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, png.width, png.height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+    io.DisplaySize = display;
+    io.DisplayFramebufferScale = scale;
+  }
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glDeleteFramebuffers(1, &framebuffer);
+  glDeleteTextures(1, &texture);
+  ui::FinishPendingPng(state, png, rgba.empty() ? nullptr : &rgba);
+}
+
 int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
   namespace ui = gb::ui;
   // The monitor's content scale (its DPI over 96), within limits; read again every frame, so a
@@ -214,6 +257,10 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
     glClearColor(bg.x, bg.y, bg.z, 1.0f);
     glClear(GL_COLOR_BUFFER_BIT);
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    // A plot's "Save image as PNG": the plot alone, drawn offscreen (ui/shell/export.h).
+    if (const std::optional<ui::PendingPng> png = ui::TakePendingPng(state)) {
+      DrawPngOffscreen(state, *png);
+    }
 
     if (!options.screenshot.empty() && !state.load_job.active() &&
         ++frames_drawn_loaded >= options.frames) {

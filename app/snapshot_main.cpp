@@ -35,6 +35,12 @@
 // result file as the reference instead of the session's estimate, as the view's Source and
 // Reference choices do: how a nonlinear model's view is drawn (the dyno is the fuel film's).
 //
+// --plot NAME (before an --out): that --out gets one plot of the view without the window around
+// it, NAME being the plot's title (or, for a plot without one, its id; two plots of one title
+// are told apart as "TITLE (2)"). An --out ending in .svg is the SVG drawn from the plot's data
+// (core/report/figure.h), W x H pixels; any other --out a PNG of the plot alone drawn at W x H.
+// An unknown NAME is bad input: the message lists the view's plots.
+//
 // --dialog opens one of the shell's dialogs over the view, as its menu item does (the file
 // browser lists a real folder, so its dates make that picture depend on the machine).
 //
@@ -55,12 +61,14 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "core/project/project.h"
+#include "core/report/figure.h"
 #include "core/sim/dyno.h"
-#include "core/util/output_guard.h"
 #include "core/sim/fault_schedule.h"
+#include "core/util/output_guard.h"
 #include "ui/render/fixed_gl_renderer.h"
 #include "ui/render/png.h"
 #include "ui/shell/shell.h"
@@ -77,6 +85,9 @@ constexpr int kExitRenderFailed = 1;
 constexpr int kSettleFrames = 4;
 constexpr float kFrameTime = 1.0f / 60.0f;
 constexpr int kMinSize = 64;
+// --plot: the screen the view is laid out on to record its plots' figures.
+constexpr float kRecordWidth = 1280.0f;
+constexpr float kRecordHeight = 4096.0f;
 constexpr int kMaxSize = 8192;
 // --live-until: a day of data at most (the live view runs it on this thread before drawing).
 constexpr double kMaxLiveSeconds = 86400;
@@ -84,6 +95,7 @@ constexpr double kMaxLiveSeconds = 86400;
 struct Shot {
   gb::ui::View view = gb::ui::View::kData;
   std::string out;
+  std::string plot;  // --plot NAME: one plot of the view ("" : the whole window)
 };
 
 struct Options {
@@ -106,11 +118,12 @@ struct Options {
   std::string live_csv;        // "": the dyno
   std::string live_reference;  // "": the session's estimate
   int dataset = 0;             // the Predictions and Residuals views' dataset, from 1 (0: the first)
+  std::string pending_plot;    // a --plot waiting for its --out
 };
 
 constexpr const char* kUsage =
-    "usage: greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png\n"
-    "                          [--view VIEW --out OUT.png ...]\n"
+    "usage: greybench-snapshot --project PROJECT.json --view VIEW [--plot NAME] --out OUT.png\n"
+    "                          [--view VIEW [--plot NAME] --out OUT.png|OUT.svg ...]\n"
     "                          [--width W] [--height H] [--estimate] [--dialog DIALOG]\n"
     "                          [--time T0:T1] [--profile PARAMETER]\n"
     "                          [--overlays ahead,simulation,smoothed,compare] [--dataset N]\n"
@@ -134,6 +147,11 @@ std::optional<int> ParseSize(const std::string& text) {
   return static_cast<int>(v);
 }
 
+bool IsSvg(const std::string& path) {
+  return path.size() >= 4 && (path.compare(path.size() - 4, 4, ".svg") == 0 ||
+                              path.compare(path.size() - 4, 4, ".SVG") == 0);
+}
+
 // Returns an error message, or "" when the command line is good.
 std::string ParseArgs(int argc, char** argv, Options* o) {
   for (int i = 1; i < argc; ++i) {
@@ -148,7 +166,7 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
         arg == "--height" || arg == "--dialog" || arg == "--time" || arg == "--profile" ||
         arg == "--overlays" || arg == "--live-until" || arg == "--live-fault" ||
         arg == "--live-point" || arg == "--live-seed" || arg == "--live-forgetting" ||
-        arg == "--live-csv" || arg == "--live-reference" || arg == "--dataset";
+        arg == "--live-csv" || arg == "--live-reference" || arg == "--dataset" || arg == "--plot";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
@@ -156,19 +174,29 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       o->project = value;
     } else if (arg == "--profile") {
       o->profile = value;
+    } else if (arg == "--plot") {
+      if (value.empty()) return "--plot needs the name of a plot of the view";
+      if (!o->pending_plot.empty())
+        return "--plot " + value + ": the --plot before it (" + o->pending_plot + ") has no --out";
+      o->pending_plot = value;
     } else if (arg == "--view") {
       const std::optional<gb::ui::View> view = gb::ui::ParseView(value);
       if (!view) return "unknown view '" + value + "'";
       if (!o->shots.empty() && o->shots.back().out.empty()) {
         return "--view " + value + ": the view before it has no --out";
       }
-      o->shots.push_back({*view, ""});
+      o->shots.push_back({*view, "", ""});
     } else if (arg == "--out") {
       if (o->shots.empty()) o->shots.push_back({});  // the default view, data
       if (!o->shots.back().out.empty()) {
         return "--out " + value + ": give each --out its own --view before it";
       }
       o->shots.back().out = value;
+      o->shots.back().plot = std::exchange(o->pending_plot, "");
+      if (IsSvg(value) && o->shots.back().plot.empty()) {
+        return "--out " + value +
+               ": an SVG is drawn from one plot's data; give --plot NAME before this --out";
+      }
     } else if (arg == "--dialog") {
       o->dialog = value;
     } else if (arg == "--overlays") {
@@ -251,6 +279,7 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
     return "--live-csv and --live-reference need --live-until (the time the run is drawn at)";
   if (!o->live_csv.empty() && !o->live_faults.empty())
     return "--live-fault injects into the virtual dyno, not into --live-csv's file";
+  if (!o->pending_plot.empty()) return "--plot " + o->pending_plot + ": give its --out after it";
   if (o->project.empty()) return "--project is required";
   if (o->shots.empty() || o->shots.back().out.empty()) return "--out is required";
   return "";
@@ -361,6 +390,83 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
   return status;
 }
 
+// The figures of the plots the current view draws, by name (PlotName; a name met again gets
+// " (2)", " (3)", ...), from one more frame of the settled view.
+std::vector<gb::ui::plot::RecordedFigure> RecordFigures(gb::ui::AppState& state) {
+  namespace ui = gb::ui;
+  // A plot below the fold is not drawn: the view is laid out on a tall screen, where every plot
+  // is, before its figures are recorded. (A figure does not depend on the size it was drawn at:
+  // its ranges follow the data and the zoom, the SVG chooses its own ticks.)
+  ImGuiIO& io = ImGui::GetIO();
+  const ImVec2 display = io.DisplaySize;
+  io.DisplaySize = ImVec2(std::max(display.x, kRecordWidth), kRecordHeight);
+  for (int frame = 0; frame <= kSettleFrames; ++frame) {
+    if (frame == kSettleFrames) {
+      state.plots.record_figures = true;
+      state.plots.recorded.clear();
+    }
+    io.MousePos = ImVec2(-FLT_MAX, -FLT_MAX);
+    ImGui::NewFrame();
+    ui::DrawWorkbench(state);
+    ImGui::Render();
+  }
+  io.DisplaySize = display;
+  state.plots.record_figures = false;
+  std::vector<ui::plot::RecordedFigure> figures = std::move(state.plots.recorded);
+  state.plots.recorded.clear();
+  std::vector<std::string> base;
+  for (const ui::plot::RecordedFigure& f : figures) base.push_back(f.name);
+  for (std::size_t i = 0; i < figures.size(); ++i) {
+    const auto seen =
+        std::count(base.begin(), base.begin() + static_cast<std::ptrdiff_t>(i), base[i]);
+    if (seen > 0) figures[i].name += " (" + std::to_string(seen + 1) + ")";
+  }
+  return figures;
+}
+
+// --plot NAME: the named plot of the settled view, alone, as SVG (from its data) or PNG (drawn
+// by the plot widget at the whole image's size).
+int RenderPlot(const Options& options, const Shot& shot, gb::ui::AppState& state,
+               gb::ui::FixedGlRenderer& renderer, std::vector<unsigned char>* pixels) {
+  namespace ui = gb::ui;
+  const std::vector<ui::plot::RecordedFigure> figures = RecordFigures(state);
+  const ui::plot::RecordedFigure* chosen = nullptr;
+  std::string names;
+  for (const ui::plot::RecordedFigure& f : figures) {
+    if ((f.name == shot.plot || f.figure.title == shot.plot) && !chosen) chosen = &f;
+    names += (names.empty() ? "'" : ", '") + f.name + "'";
+  }
+  const std::string view(ui::ViewName(shot.view));
+  if (!chosen) {
+    return Fail(kExitBadInput,
+                "--plot '" + shot.plot + "': the " + view + " view has no plot of that name; " +
+                    (names.empty() ? std::string("it shows no plot here") : "its plots: " + names));
+  }
+  if (IsSvg(shot.out)) {
+    const std::string svg =
+        gb::report::FigureToSvg(chosen->figure, {options.width, options.height});
+    if (gb::Status st = gb::project::WriteFileAtomic(shot.out, svg); !st)
+      return Fail(kExitRenderFailed, st.error().ToString());
+    return 0;
+  }
+  const gb::report::Figure figure = chosen->figure;
+  ImGuiIO& io = ImGui::GetIO();
+  for (int frame = 0; frame < 2; ++frame) {
+    io.MousePos = ImVec2(-FLT_MAX, -FLT_MAX);
+    ImGui::NewFrame();
+    ui::plot::DrawFigureFrame(state.plots, figure);
+    ImGui::Render();
+  }
+  glClearColor(1.0f, 1.0f, 1.0f, 1.0f);
+  glClear(GL_COLOR_BUFFER_BIT);
+  renderer.Render(ImGui::GetDrawData());
+  glFinish();
+  std::string error;
+  if (!ui::WritePngFromGl(shot.out, options.width, options.height, pixels->data(), &error))
+    return Fail(kExitRenderFailed, error);
+  return 0;
+}
+
 // Draws one view of the prepared workbench offscreen and writes its PNG. The GL context and an
 // ImGui context with the workbench's set-up are current.
 int RenderView(const Options& options, const Shot& shot, gb::ui::AppState& state,
@@ -396,6 +502,7 @@ int RenderView(const Options& options, const Shot& shot, gb::ui::AppState& state
     state.live.follow = false;
     settle();
   }
+  if (!shot.plot.empty()) return RenderPlot(options, shot, state, renderer, pixels);
   const ImVec4 bg = ImGui::GetStyle().Colors[ImGuiCol_WindowBg];
   glClearColor(bg.x, bg.y, bg.z, 1.0f);
   glClear(GL_COLOR_BUFFER_BIT);

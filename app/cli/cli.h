@@ -313,4 +313,18 @@ struct ExportModelArgs {
 };
 int RunExportModel(const ExportModelArgs& args);
 
+// report RESULT.json --out FILE: the estimation report as Markdown or HTML
+// (core/report/report.h); with the model and the data (--model, --data, else the project or
+// model file the result names) also the residual analysis of one dataset and, in HTML, its
+// figures.
+struct ReportArgs {
+  std::string result;
+  std::string model;  // a model or a project file ("": the result's project_file or model_file)
+  std::vector<std::string> data;
+  std::string dataset;  // which dataset (as predict's --dataset); "": the only one
+  std::string format;   // md or html; "": the extension of `out`
+  std::string out;
+};
+int RunReport(const ReportArgs& args);
+
 }  // namespace gb::cli

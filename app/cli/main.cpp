@@ -321,6 +321,20 @@ int Main(int argc, char** argv) {
   c_export->add_option("--out", export_model.out, "model file to write (JSON)")->required();
   c_export->callback([&] { run = [&] { return RunExportModel(export_model); }; });
 
+  ReportArgs report;
+  auto* c_report =
+      app.add_subcommand("report", "the estimation report of a result file as Markdown or HTML");
+  c_report->add_option("result", report.result, "result file of the fit (JSON)")->required();
+  c_report->add_option("--model", report.model,
+                       "model file, or a project file (default: the one the result names)");
+  c_report->add_option("--data", report.data, "data files (CSV) for the residual analysis");
+  c_report->add_option(
+      "--dataset", report.dataset,
+      "with a project: the dataset of the residual analysis (number, name or file)");
+  c_report->add_option("--format", report.format, "md or html (default: --out's extension)");
+  c_report->add_option("--out", report.out, "report file to write (.md or .html)")->required();
+  c_report->callback([&] { run = [&] { return RunReport(report); }; });
+
   MonitorArgs monitor;
   auto* c_monitor = app.add_subcommand(
       "monitor", "watch a model on-line: recursive estimates and alarms from a reference");

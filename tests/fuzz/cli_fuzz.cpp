@@ -109,6 +109,7 @@ const std::vector<Command>& Commands() {
         "--truth"}},
       {"linearise", {"--point", "--model", "--quantity", "--out"}},
       {"sweep", {"--set", "--out-csv", "--out-md", "--trend", "--delay-parameter", "--parallel"}},
+      {"report", {"--model", "--data", "--dataset", "--format", "--out"}},
   };
   return kCommands;
 }
@@ -124,8 +125,11 @@ const std::vector<std::string>& Values() {
       "mfv=0.2", "g=B_mfv_mfi", "q=A_mfv_mfv/0", "X", "tau_fv,X", "X:alpha_deg", "nope:tag",
       "tau_fv",
       // --algorithm, dyno's experiments, --point, --path, --lambda-sensor, --fault
-      "bhhh", "slsqp", "lbfgs", "bobyqa", "auto", "trust-region", "fuel", "crankshaft", "square-wave", "engine",
-      "f1", "f3", "n=2600,alpha=25", "f3,f1", "exact", "pade", "1:tau_ff*1.5"};
+      "bhhh", "slsqp", "lbfgs", "bobyqa", "auto", "trust-region", "fuel", "crankshaft",
+      "square-wave", "engine", "f1", "f3", "n=2600,alpha=25", "f3,f1", "exact", "pade",
+      "1:tau_ff*1.5",
+      // report's --format
+      "md", "html", "HTML", "pdf"};
   return kValues;
 }
 

@@ -1,8 +1,11 @@
 // The plot widget driven by synthetic mouse input in a headless ImGui context (no GL): each
 // expectation is the range computed by hand from the plot's pixel rectangle.
 #include <gtest/gtest.h>
+#include <imgui_internal.h>  // the open popup's window (the plot's menu)
 
 #include <cmath>
+#include <cstdio>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -235,6 +238,127 @@ TEST_F(PlotInteraction, TheHoverReadoutNamesTheLagPointedAtBesideATwoPointBand) 
   EXPECT_EQ(*readout, 10.0);
   // The band alone still names its nearest end.
   EXPECT_EQ(*internal::ReadoutX({items[0]}, hover.hover_x), 1.0);
+}
+
+}  // namespace
+}  // namespace gb::ui::plot
+
+namespace gb::ui::plot {
+namespace {
+
+// A right click without a drag opens the plot's menu: its items copy the plot's data as CSV and
+// ask the application for an SVG, with the values the plot was given.
+class PlotMenu : public PlotInteraction {
+ protected:
+  // Right press and release at `p`, then a frame for the popup to appear.
+  void RightClick(ImVec2 p) {
+    MouseTo(p);
+    Frame();
+    Button(1, true);
+    Frame();
+    Button(1, false);
+    Frame();
+    Frame();
+  }
+  ImGuiWindow* Menu() {
+    ImGuiContext& g = *GImGui;
+    return g.OpenPopupStack.Size == 1 ? g.OpenPopupStack[0].Window : nullptr;
+  }
+  // Clicks the menu's k-th item (rows of one line each, from the top of the popup).
+  void ClickItem(int k) {
+    ImGuiWindow* menu = Menu();
+    ASSERT_NE(menu, nullptr);
+    const ImGuiStyle& style = ImGui::GetStyle();
+    const float row = ImGui::GetFontSize() + style.ItemSpacing.y;
+    MouseTo(ImVec2(menu->Pos.x + 2.0f * style.WindowPadding.x,
+                   menu->Pos.y + style.WindowPadding.y + (static_cast<float>(k) + 0.5f) * row -
+                       0.5f * style.ItemSpacing.y));
+    Frame();
+    Button(0, true);
+    Frame();
+    Button(0, false);
+    Frame();
+  }
+};
+
+TEST_F(PlotMenu, CopyDataAsCsvPutsThePlottedValuesOnTheClipboard) {
+  Frame();
+  Frame();
+  const PlotState& st = Top();
+  RightClick(ImVec2(0.5f * (st.last_plot_min.x + st.last_plot_max.x), st.last_plot_max.y - 20.0f));
+  ASSERT_NE(Menu(), nullptr);
+  ClickItem(2);
+  EXPECT_EQ(Menu(), nullptr);
+  const std::string csv = ImGui::GetClipboardText();
+  std::istringstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "x,sine,high");
+  int rows = 0;
+  while (std::getline(in, line)) {
+    double x = 0, sine = 0, high = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf", &x, &sine, &high), 3) << line;
+    EXPECT_EQ(x, x_[rows]);
+    EXPECT_EQ(sine, y_[rows]);
+    EXPECT_EQ(high, y2_[rows]);
+    ++rows;
+  }
+  EXPECT_EQ(rows, 101);
+  EXPECT_DOUBLE_EQ(linked_.range.min, 0.0);  // the click did not zoom
+  EXPECT_DOUBLE_EQ(linked_.range.max, 20.0);
+}
+
+TEST_F(PlotMenu, SaveAsSvgLeavesARequestWithThePlotAsDrawnAndARightDragOpensNoMenu) {
+  Frame();
+  Frame();
+  const PlotState& st = Top();
+  const ImVec2 a(st.last_plot_min.x + 100.0f, st.last_plot_min.y + 40.0f);
+  MouseTo(a);
+  Frame();
+  Button(1, true);
+  Frame();
+  MouseTo(ImVec2(a.x + 200.0f, a.y + 80.0f));
+  Frame();
+  Button(1, false);
+  Frame();
+  Frame();
+  EXPECT_EQ(Menu(), nullptr);  // a box zoom
+  const Range zoomed = linked_.range;
+
+  RightClick(ImVec2(a.x + 50.0f, a.y + 50.0f));
+  ClickItem(0);
+  ASSERT_TRUE(plots_.export_request.has_value());
+  const ExportRequest& r = *plots_.export_request;
+  EXPECT_EQ(r.kind, ExportRequest::Kind::kSvg);
+  EXPECT_EQ(r.name, "top");
+  EXPECT_EQ(r.figure.x.min, zoomed.min);
+  EXPECT_EQ(r.figure.x.max, zoomed.max);
+  ASSERT_EQ(r.figure.series.size(), 2u);
+  const report::FigureSeries& sine = r.figure.series[0];
+  EXPECT_EQ(sine.label, "sine");
+  ASSERT_FALSE(sine.x.empty());
+  // The samples in view and one either side, with their values.
+  EXPECT_LT(sine.x.front(), zoomed.min);
+  EXPECT_GT(sine.x.back(), zoomed.max);
+  for (std::size_t k = 0; k < sine.x.size(); ++k) {
+    const auto i = static_cast<std::size_t>(std::lround(sine.x[k] / 0.1));
+    EXPECT_EQ(sine.x[k], x_[i]);
+    EXPECT_EQ(sine.y[k], y_[i]);
+  }
+}
+
+TEST_F(PlotMenu, SaveAsPngAsksForThePlotsSizeOnScreenByDefault) {
+  Frame();
+  Frame();
+  const PlotState& st = Top();
+  RightClick(ImVec2(st.last_plot_min.x + 50.0f, st.last_plot_min.y + 50.0f));
+  ClickItem(1);
+  ASSERT_TRUE(plots_.export_request.has_value());
+  const ExportRequest& r = *plots_.export_request;
+  EXPECT_EQ(r.kind, ExportRequest::Kind::kPng);
+  EXPECT_EQ(r.png_width, static_cast<int>(std::lround(r.size.x)));
+  EXPECT_EQ(r.png_height, 280);  // the plot's height as BeginPlot was given it
+  EXPECT_GT(r.png_width, 700);
 }
 
 }  // namespace

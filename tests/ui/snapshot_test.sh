@@ -6,7 +6,7 @@
 #
 # CASE: data | equations | small | deterministic | bad-project | bad-view | estimate |
 #       estimate-deterministic | estimate-case-study | operating-points | diagram | dialog |
-#       predictions | residuals | live | window.
+#       predictions | residuals | live | plot | window.
 # Exit 0 pass, 1 fail, 77 skipped (window test without xvfb-run).
 set -uo pipefail
 
@@ -222,6 +222,58 @@ case "$case_name" in
     done
     expect_error 2 "dialog 'print'" \
       "$snapshot" --project "$project" --view data --dialog print --out "$out/bad.png"
+    ;;
+  plot)
+    # One plot of a view without the window around it: the SVG is drawn from the plot's data
+    # (its polyline, mapped back by the attributes of plot-data, gives the data file's values),
+    # the PNG is the plot alone at the size asked for.
+    rm -f "$out/mfi.svg" "$out/acf.png"
+    "$snapshot" --project "$project" --view data --plot mfi --out "$out/mfi.svg" \
+      --view residuals --plot "Autocorrelation of z" --out "$out/acf.png" \
+      --width 640 --height 360 || fail "snapshot of one plot failed"
+    if command -v xmllint >/dev/null 2>&1; then
+      xmllint --noout "$out/mfi.svg" || fail "mfi.svg is not well-formed XML"
+    else
+      echo "xmllint not found: the SVG's XML is not checked"
+    fi
+    "$png_check" "$out/acf.png" 640 360 || fail "acf.png"
+    # The polyline's points, mapped back, against the data file's mfi column (t, mfi, ...).
+    awk -v svg="$out/mfi.svg" '
+      BEGIN {
+        while ((getline line < svg) > 0) {
+          if (match(line, /gb:plot-area="[^"]*"/)) split(substr(line, RSTART + 14, RLENGTH - 15), a, " ")
+          if (match(line, /gb:x-range="[^"]*"/)) split(substr(line, RSTART + 12, RLENGTH - 13), xr, " ")
+          if (match(line, /gb:y-range="[^"]*"/)) split(substr(line, RSTART + 12, RLENGTH - 13), yr, " ")
+          if (match(line, /<polyline points="[^"]*"/)) pts = substr(line, RSTART + 18, RLENGTH - 19)
+        }
+        n = split(pts, p, " ")
+        for (i = 1; i <= n; ++i) {
+          split(p[i], xy, ",")
+          x[i] = xr[1] + (xy[1] - a[1]) / (a[3] - a[1]) * (xr[2] - xr[1])
+          y[i] = yr[1] + (a[4] - xy[2]) / (a[4] - a[2]) * (yr[2] - yr[1])
+        }
+        FS = ","
+      }
+      /^#/ || /^t,/ { next }
+      { ++row; if (row > n) { bad = 1; print "more rows than points"; exit }
+        if ((x[row] - $1)^2 > 1e-18 || (y[row] - $2)^2 > 1e-18) {
+          bad = 1; printf "row %d: %s,%s read back as %.12g,%.12g\n", row, $1, $2, x[row], y[row]; exit } }
+      END { if (!bad && row != n) { print row " rows, " n " points"; bad = 1 } exit bad }
+    ' "$data/f1.csv" || fail "the SVG's polyline does not give the data file's values"
+    expect_error 2 "--plot 'nope': the data view has no plot of that name; its plots: 'mfi', 'ilambda'" \
+      "$snapshot" --project "$project" --view data --plot nope --out "$out/bad.svg"
+    expect_error 2 "--out $out/bad.svg: an SVG is drawn from one plot's data; give --plot NAME" \
+      "$snapshot" --project "$project" --view data --out "$out/bad.svg"
+    expect_error 2 "--plot mfi: give its --out after it" \
+      "$snapshot" --project "$project" --view data --out "$out/bad.png" --plot mfi
+    # Never onto a file of the project (a copy of it, which keeps every byte).
+    copy="$out/plot-guarded"
+    rm -rf "$copy" && mkdir -p "$copy"
+    cp "$data/project.json" "$data/fuel_film.json" "$data/f1.csv" "$copy/"
+    (cd "$copy" && sha256sum project.json fuel_film.json f1.csv) >"$out/plot-guarded.sha256"
+    expect_error 2 "--out $copy/f1.csv is .*the project" \
+      "$snapshot" --project "$copy/project.json" --view data --plot mfi --out "$copy/f1.csv"
+    (cd "$copy" && sha256sum --quiet -c "$out/plot-guarded.sha256") || fail "an input changed"
     ;;
   window)
     greybench="$6"; source_dir="$7"

@@ -5,6 +5,7 @@
 //
 // The estimation runs in AppState::estimation.job (StartEstimation); this panel only reads
 // the progress record and the installed result, and never waits for the job.
+#include <fmt/format.h>
 #include <imgui.h>
 
 #include <algorithm>
@@ -13,11 +14,10 @@
 #include <optional>
 #include <string>
 
-#include <fmt/format.h>
-
 #include "ui/format.h"
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
+#include "ui/shell/export.h"
 
 namespace gb::ui {
 namespace {
@@ -536,6 +536,8 @@ void DrawReport(AppState& state, const FitResult& r, bool previous) {
   const float s = state.fonts.scale;
   SectionHeading(state, previous ? "Report of the previous run" : "Report");
   if (ImGui::SmallButton("Copy to clipboard")) ImGui::SetClipboardText(r.report.c_str());
+  ImGui::SameLine();
+  if (ImGui::SmallButton("Save report\xE2\x80\xA6")) BrowseSaveReport(state, r, !previous);
   ImGui::SameLine();
   ImGui::TextDisabled("the text greybench-cli estimate prints");
   const float height = std::max(kMinReportHeight * s, ImGui::GetContentRegionAvail().y);

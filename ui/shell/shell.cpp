@@ -28,6 +28,7 @@
 #include "core/model/model_structure.h"
 #include "core/project/project.h"
 #include "ui/panels/common.h"
+#include "ui/shell/export.h"
 
 namespace gb::ui {
 namespace fs = std::filesystem;
@@ -398,6 +399,11 @@ void UseBrowsedFile(AppState& state, BrowsePurpose purpose, const std::string& p
       break;
     case BrowsePurpose::kNewProjectFile:
       form.project = path;
+      break;
+    case BrowsePurpose::kExportPlot:
+    case BrowsePurpose::kSaveReport:
+    case BrowsePurpose::kExportModel:
+      FinishExport(state, purpose, path);
       break;
   }
 }
@@ -1013,6 +1019,7 @@ void RemoveRecent(AppState& state, const std::string& path) {
 
 void UpdateShell(AppState& state) {
   ShellState& sh = state.shell;
+  UpdateExports(state);
   if (state.project_generation != sh.seen_generation) {
     sh.seen_generation = state.project_generation;
     if (state.project) OnProjectInstalled(state);
@@ -1139,6 +1146,8 @@ void DrawFileMenu(AppState& state) {
   }
   if (ImGui::MenuItem("Reload project", nullptr, false, open && !loading))
     RequestOpenProject(state, state.project->path);
+  ImGui::Separator();
+  DrawExportMenu(state);
   ImGui::Separator();
   if (ImGui::MenuItem("Quit", "Ctrl+Q")) RequestQuit(state);
 }

@@ -14,9 +14,11 @@
 #include "core/data/import.h"
 #include "core/data/mdf4.h"
 #include "core/model/model_structure.h"
+#include "core/report/report.h"
 #include "ui/jobs/job.h"
 #include "ui/state/data_summary.h"
 #include "ui/widgets/file_browser.h"
+#include "ui/widgets/plot.h"
 
 namespace gb::ui {
 
@@ -30,6 +32,9 @@ enum class BrowsePurpose {
   kNewModel,  // the New project dialog's fields
   kNewDataset,
   kNewProjectFile,
+  kExportPlot,  // ui/shell/export.h
+  kSaveReport,
+  kExportModel,
 };
 
 // An action that replaces or closes the open project: it waits for "save changes?" when the
@@ -38,6 +43,13 @@ struct PendingAction {
   enum class Kind { kNone, kQuit, kOpen, kNew };
   Kind kind = Kind::kNone;
   std::string path;  // kOpen: the project to open
+};
+
+// A plot to draw alone at width x height pixels and write to `path` as PNG (ui/shell/export.h).
+struct PendingPng {
+  report::Figure figure;
+  int width = 0, height = 0;
+  std::string path;
 };
 
 // A dataset file read off the UI thread for File > Add dataset.
@@ -119,6 +131,11 @@ struct ShellState {
   // does not cancel the estimation.
   bool tool_window_focused = false;
   FileBrowserState browser;
+  // A plot's export, and a report, waiting for their file names, and a PNG of a plot waiting to
+  // be drawn offscreen after the frame (ui/shell/export.h).
+  std::optional<plot::ExportRequest> plot_export;
+  std::optional<report::ReportInput> report_export;
+  std::optional<PendingPng> png_export;
 
   // Recent projects, autosave and recovery read and write files under the user's
   // $XDG_CONFIG_HOME and $XDG_STATE_HOME; only the greybench window turns them on

@@ -6,7 +6,8 @@
 //   3. Fitting the ranges to the data
 //   4. Layout: gutters, ticks, linked plots aligned on their left edge
 //   5. Drawing: grid, axes, labels, legend, hover readout
-//   6. BeginPlot / EndPlot
+//   6. Export: the plot as a report::Figure, the context menu
+//   7. BeginPlot / EndPlot
 #include "ui/widgets/plot.h"
 
 #include <imgui_internal.h>  // SetItemUsingMouseWheel: the wheel zooms instead of scrolling
@@ -159,6 +160,16 @@ void HandleInput(PlotContext& ctx, PlotState& st, LinkedRange& xr) {
   }
 
   // Box zoom with the right button: x and y, or only the axis the box is wide enough along.
+  // Released where it went down (closer than a box zoom's smallest box), it opens the menu.
+  if (ctx.hovered && ImGui::IsMouseClicked(ImGuiMouseButton_Right)) {
+    st.right_down = true;
+    st.right_start = io.MousePos;
+  }
+  if (st.right_down && !ImGui::IsMouseDown(ImGuiMouseButton_Right)) {
+    st.right_down = false;
+    st.open_menu = std::abs(io.MousePos.x - st.right_start.x) < kMinBoxPixels &&
+                   std::abs(io.MousePos.y - st.right_start.y) < kMinBoxPixels;
+  }
   if (ctx.hovered && region == Region::kPlot && ImGui::IsMouseClicked(ImGuiMouseButton_Right)) {
     st.box_active = true;
     st.box_start = io.MousePos;
@@ -531,10 +542,202 @@ void DrawHover(PlotContext& ctx, PlotState& st, LinkedRange& xr, ImDrawList* dl,
   ImGui::EndTooltip();
 }
 
+// ---------------------------------------------------------------------------------------------
+// 6. Export
+
+report::Rgba ToRgba(ImU32 c) {
+  return {static_cast<std::uint8_t>((c >> IM_COL32_R_SHIFT) & 0xFF),
+          static_cast<std::uint8_t>((c >> IM_COL32_G_SHIFT) & 0xFF),
+          static_cast<std::uint8_t>((c >> IM_COL32_B_SHIFT) & 0xFF),
+          static_cast<std::uint8_t>((c >> IM_COL32_A_SHIFT) & 0xFF)};
+}
+
+report::SeriesKind ToSeriesKind(ItemKind k) {
+  switch (k) {
+    case ItemKind::kLine:
+      return report::SeriesKind::kLine;
+    case ItemKind::kBand:
+      return report::SeriesKind::kBand;
+    case ItemKind::kMarkers:
+      return report::SeriesKind::kMarkers;
+    case ItemKind::kStems:
+      return report::SeriesKind::kStems;
+    case ItemKind::kErrorBars:
+      return report::SeriesKind::kErrorBars;
+    case ItemKind::kVLines:
+      return report::SeriesKind::kVLines;
+  }
+  return report::SeriesKind::kLine;
+}
+
+// The plot as drawn: the shown items' samples in the x range (copied: the items' arrays are
+// the caller's and valid only until EndPlot returns).
+report::Figure MakeFigure(const PlotContext& ctx, const PlotState& st, const LinkedRange& xr) {
+  const PlotOptions& o = ctx.options;
+  report::Figure f;
+  f.title = o.title ? o.title : "";
+  f.x_label = o.x_label ? o.x_label : "";
+  f.x_unit = o.x_unit ? o.x_unit : "";
+  f.y_label = o.y_label ? o.y_label : "";
+  f.y_unit = o.y_unit ? o.y_unit : "";
+  f.x = xr.range;
+  f.y = st.y;
+  int labelled = 0;
+  for (const Item& item : ctx.items) {
+    if (item.hidden) continue;
+    labelled += item.label.empty() ? 0 : 1;
+    report::FigureSeries& s = f.series.emplace_back();
+    s.kind = ToSeriesKind(item.kind);
+    s.label = item.label;
+    s.color = ToRgba(item.color);
+    s.line_weight = item.line_weight;
+    s.marker_radius = item.marker_radius;
+    s.fill_alpha = item.fill_alpha;
+    s.ref = item.ref;
+    const auto n = static_cast<std::size_t>(item.n);
+    s.x.assign(item.x, item.x + n);
+    if (item.y) s.y.assign(item.y, item.y + n);
+    if (item.y2) s.y2.assign(item.y2, item.y2 + n);
+    if (item.tags) {
+      for (std::size_t i = 0; i < n; ++i) s.tags.emplace_back(item.tags[i] ? item.tags[i] : "");
+    }
+  }
+  f.legend = o.legend == Legend::kShow || (o.legend == Legend::kAuto && labelled >= 2);
+  return report::ClipToXRange(std::move(f));
+}
+
+void DrawContextMenu(PlotContext& ctx, PlotState& st, const LinkedRange& xr) {
+  ImGui::PushID(static_cast<int>(ctx.current_id));
+  const ImVec2 size(ctx.frame_max.x - ctx.frame_min.x, ctx.frame_max.y - ctx.frame_min.y);
+  if (st.open_menu) {
+    st.open_menu = false;
+    st.png_width = static_cast<int>(std::lround(size.x));
+    st.png_height = static_cast<int>(std::lround(size.y));
+    ImGui::OpenPopup("##plot-menu");
+  }
+  if (ImGui::BeginPopup("##plot-menu")) {
+    const bool svg = ImGui::MenuItem("Save image as SVG\xE2\x80\xA6");
+    const bool png = ImGui::MenuItem("Save image as PNG\xE2\x80\xA6");
+    const bool csv = ImGui::MenuItem("Copy data as CSV");
+    if (svg || png) {
+      ExportRequest& r = ctx.export_request.emplace();
+      r.kind = svg ? ExportRequest::Kind::kSvg : ExportRequest::Kind::kPng;
+      r.name = ctx.current_name;
+      r.id = ctx.current_id;
+      r.figure = MakeFigure(ctx, st, xr);
+      r.size = size;
+      r.png_width = std::clamp(st.png_width, kMinPngSize, kMaxPngSize);
+      r.png_height = std::clamp(st.png_height, kMinPngSize, kMaxPngSize);
+    }
+    if (csv)
+      ImGui::SetClipboardText(report::FigureToCsv(MakeFigure(ctx, st, xr)).c_str());
+    ImGui::Separator();
+    // The PNG's size: the plot's on screen unless changed here.
+    ImGui::TextDisabled("PNG size");
+    ImGui::SameLine();
+    ImGui::SetNextItemWidth(4.5f * ImGui::GetFontSize());
+    ImGui::DragInt("##png-width", &st.png_width, 1.0f, kMinPngSize, kMaxPngSize, "%d",
+                   ImGuiSliderFlags_AlwaysClamp);
+    ImGui::SameLine();
+    ImGui::TextUnformatted("\xC3\x97");
+    ImGui::SameLine();
+    ImGui::SetNextItemWidth(4.5f * ImGui::GetFontSize());
+    ImGui::DragInt("##png-height", &st.png_height, 1.0f, kMinPngSize, kMaxPngSize, "%d",
+                   ImGuiSliderFlags_AlwaysClamp);
+    ImGui::EndPopup();
+  }
+  ImGui::PopID();
+}
+
 }  // namespace
 
+void PlotFigure(PlotContext& ctx, const char* id, ImVec2 size, const report::Figure& figure) {
+  PlotState& st = ctx.plots[ImGui::GetID(id)];
+  st.own_x.range = figure.x;
+  st.own_x.fit_request_frame = LinkedRange::kNoFit;
+  st.y = figure.y;
+  st.y_auto = false;
+  PlotOptions o;
+  const auto text = [](const std::string& s) { return s.empty() ? nullptr : s.c_str(); };
+  o.title = text(figure.title);
+  o.x_label = text(figure.x_label);
+  o.x_unit = text(figure.x_unit);
+  o.y_label = text(figure.y_label);
+  o.y_unit = text(figure.y_unit);
+  o.legend = figure.legend ? Legend::kShow : Legend::kHide;
+  if (!BeginPlot(ctx, id, size, o)) return;
+  std::vector<std::vector<const char*>> tags(figure.series.size());
+  for (std::size_t k = 0; k < figure.series.size(); ++k) {
+    const report::FigureSeries& s = figure.series[k];
+    const std::string label = s.label + "##series" + std::to_string(k);
+    ItemStyle style;
+    style.color = IM_COL32(s.color.r, s.color.g, s.color.b, s.color.a);
+    style.line_weight = s.line_weight;
+    style.marker_radius = s.marker_radius;
+    style.fill_alpha = s.fill_alpha;
+    const int n = static_cast<int>(s.x.size());
+    const bool has_y = s.y.size() == s.x.size(), has_y2 = s.y2.size() == s.x.size();
+    switch (s.kind) {
+      case report::SeriesKind::kLine:
+        if (has_y) PlotLine(ctx, label.c_str(), s.x.data(), s.y.data(), n, style);
+        break;
+      case report::SeriesKind::kBand:
+        if (has_y && has_y2)
+          PlotBand(ctx, label.c_str(), s.x.data(), s.y.data(), s.y2.data(), n, style);
+        break;
+      case report::SeriesKind::kMarkers:
+        if (has_y) PlotMarkers(ctx, label.c_str(), s.x.data(), s.y.data(), n, style);
+        break;
+      case report::SeriesKind::kStems:
+        if (has_y) PlotStems(ctx, label.c_str(), s.x.data(), s.y.data(), n, s.ref, style);
+        break;
+      case report::SeriesKind::kErrorBars:
+        if (has_y && has_y2)
+          PlotErrorBars(ctx, label.c_str(), s.x.data(), s.y.data(), s.y2.data(), n, style);
+        break;
+      case report::SeriesKind::kVLines:
+        for (const std::string& t : s.tags) tags[k].push_back(t.c_str());
+        PlotVLines(ctx, label.c_str(), s.x.data(), n,
+                   tags[k].size() == s.x.size() ? tags[k].data() : nullptr, style);
+        break;
+    }
+  }
+  EndPlot(ctx);
+}
+
+void DrawFigureFrame(PlotContext& ctx, const report::Figure& figure) {
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  ImGui::SetNextWindowPos(ImVec2(0, 0));
+  ImGui::SetNextWindowSize(display);
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(0, 0));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowBorderSize, 0.0f);
+  ImGui::PushStyleColor(ImGuiCol_WindowBg, IM_COL32(255, 255, 255, 255));
+  ImGui::Begin("##figure-frame", nullptr,
+               ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove |
+                   ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoScrollWithMouse |
+                   ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoBringToFrontOnFocus);
+  PlotFigure(ctx, "##figure", display, figure);
+  ImGui::End();
+  ImGui::PopStyleColor();
+  ImGui::PopStyleVar(2);
+}
+
+std::string PlotName(const char* title, const char* id) {
+  if (title && *title) {
+    // "ilambda    one-step RMS 0.017  ·  fit 85 %": the figures after a double space change
+    // with every fit; the name is what is before them.
+    std::string name = title;
+    name = name.substr(0, name.find("  "));
+    while (!name.empty() && name.back() == ' ') name.pop_back();
+    if (!name.empty()) return name;
+  }
+  std::string name = id ? id : "";
+  while (!name.empty() && name.front() == '#') name.erase(0, 1);
+  return name.empty() ? "plot" : name;
+}
+
 // ---------------------------------------------------------------------------------------------
-// 6. BeginPlot / EndPlot
+// 7. BeginPlot / EndPlot
 
 bool BeginPlot(PlotContext& ctx, const char* id, ImVec2 size, const PlotOptions& options) {
   IM_ASSERT(!ctx.in_plot && "BeginPlot() inside another plot");
@@ -558,6 +761,7 @@ bool BeginPlot(PlotContext& ctx, const char* id, ImVec2 size, const PlotOptions&
     ImGui::SetItemUsingMouseWheel();
   }
   ctx.options = options;
+  ctx.current_name = PlotName(options.title, id);
   ctx.items.clear();
   ctx.in_plot = true;
   return true;
@@ -632,6 +836,10 @@ void EndPlot(PlotContext& ctx) {
   st.last_plot_min = t.min;
   st.last_plot_max = t.max;
   st.drawn_before = true;
+  const ImVec2 size(ctx.frame_max.x - ctx.frame_min.x, ctx.frame_max.y - ctx.frame_min.y);
+  if (ctx.record_figures)
+    ctx.recorded.push_back({ctx.current_name, ctx.current_id, MakeFigure(ctx, st, xr), size});
+  DrawContextMenu(ctx, st, xr);
   ctx.items.clear();
   ctx.in_plot = false;
 }

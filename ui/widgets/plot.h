@@ -19,7 +19,15 @@
 //
 // Mouse: wheel zooms x about the cursor (over the y axis: zooms y; over the title it scrolls
 // the window as usual); left drag pans; right drag zooms to a box; double-click fits the data;
-// clicking a legend entry hides or shows the item.
+// clicking a legend entry hides or shows the item. A right click without a drag opens the
+// plot's context menu: "Save image as SVG…" and "Save image as PNG…" leave an ExportRequest in
+// the context for the application to finish (it asks for a file name; the PNG is the plot drawn
+// alone at the size the menu's fields give, by default its size on screen); "Copy data as CSV"
+// puts the plot's data on the clipboard (report::FigureToCsv).
+//
+// Export: what a plot shows becomes a report::Figure (core/report/figure.h) at EndPlot, while
+// the items' arrays are still valid: the shown items (not those hidden in the legend), their
+// samples inside the x range, the ranges, the titles and the colours.
 // Hovering shows a crosshair on every linked plot and the nearest sample of each item.
 // y follows the data in view (auto-fit) until the user zooms or pans y.
 //
@@ -31,10 +39,12 @@
 
 #include <climits>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
+#include "core/report/figure.h"
 #include "ui/widgets/plot_axis.h"
 #include "ui/widgets/plot_decimate.h"
 
@@ -123,6 +133,33 @@ struct PlotState {
   std::vector<ImVec2> legend_entry_min, legend_entry_max;  // ... and where each was drawn
   std::vector<ImGuiID> hidden;      // items the user switched off in the legend
   bool drawn_before = false;
+  bool right_down = false;  // the right button went down over the plot ...
+  ImVec2 right_start;       // ... here: released near it, it opens the context menu
+  bool open_menu = false;
+  int png_width = 0, png_height = 0;  // the menu's PNG size (the plot's, when it opens)
+};
+
+// An export the context menu asked for, for the application to finish.
+struct ExportRequest {
+  enum class Kind { kSvg, kPng };
+  Kind kind = Kind::kSvg;
+  std::string name;  // the plot's name (PlotName), for a proposed file name
+  ImGuiID id = 0;
+  report::Figure figure;  // the plot as drawn
+  ImVec2 size;            // the plot's frame in pixels (the SVG's size)
+  int png_width = 0, png_height = 0;  // kPng: the size asked for in the menu
+};
+
+// The PNG sizes the menu accepts, in pixels.
+inline constexpr int kMinPngSize = 64;
+inline constexpr int kMaxPngSize = 8192;
+
+// One plot's figure, recorded when PlotContext::record_figures is on.
+struct RecordedFigure {
+  std::string name;  // PlotName
+  ImGuiID id = 0;
+  report::Figure figure;
+  ImVec2 size;  // the frame in pixels
 };
 
 enum class ItemKind { kLine, kBand, kMarkers, kStems, kErrorBars, kVLines };
@@ -146,11 +183,17 @@ struct Item {
 class PlotContext {
  public:
   PlotStyle style;
+  // Set by the context menu; the application takes it (and resets it) to ask for a file.
+  std::optional<ExportRequest> export_request;
+  // greybench-snapshot --plot: every plot drawn appends its figure to `recorded`.
+  bool record_figures = false;
+  std::vector<RecordedFigure> recorded;
 
   // Internal to the widget (plot.cpp) from here on.
   std::unordered_map<ImGuiID, PlotState> plots;
   bool in_plot = false;
   ImGuiID current_id = 0;
+  std::string current_name;
   PlotOptions options;
   ImVec2 frame_min, frame_max;
   bool hovered = false, active = false;
@@ -187,5 +230,20 @@ void PlotVLines(PlotContext& ctx, const char* label, const double* x, int n,
 
 // Handles the mouse, fits the ranges, and draws the plot and its items.
 void EndPlot(PlotContext& ctx);
+
+// Draws a figure (e.g. one recorded with record_figures) as a plot of its own, at its ranges,
+// with its items, colours and titles (greybench-snapshot --plot NAME --out F.png). The mouse
+// works as on any plot.
+void PlotFigure(PlotContext& ctx, const char* id, ImVec2 size, const report::Figure& figure);
+
+// The figure alone in a frame of its own, filling the display on a white ground: between
+// ImGui::NewFrame() and ImGui::Render() of a frame drawn for a PNG of one plot (greybench-snapshot
+// --plot, the menu's Save image as PNG).
+void DrawFigureFrame(PlotContext& ctx, const report::Figure& figure);
+
+// A plot's name for exports and greybench-snapshot --plot: its title up to its first double
+// space (views put the fit's figures after one: "ilambda    one-step RMS 0.017  ·  fit 85 %"),
+// or else its ImGui id without the leading "##".
+std::string PlotName(const char* title, const char* id);
 
 }  // namespace gb::ui::plot

@@ -1,10 +1,10 @@
-#include "ui/widgets/plot_axis.h"
+#include "core/report/axis.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
-namespace gb::ui::plot {
+namespace gb::report {
 namespace {
 
 // Magnitudes outside [1e-4, 1e5) get a shared power of ten: beyond that, plain labels grow
@@ -96,4 +96,4 @@ std::string FormatValue(double value) {
   return buf;
 }
 
-}  // namespace gb::ui::plot
+}  // namespace gb::report

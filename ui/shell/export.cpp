@@ -1,0 +1,229 @@
+#include "ui/shell/export.h"
+
+#include <imgui.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <utility>
+
+#include "core/model/model.h"
+#include "core/project/project.h"
+#include "core/report/figure.h"
+#include "core/util/output_guard.h"
+#include "ui/render/png.h"
+
+namespace gb::ui {
+namespace {
+
+// The files of the open project: no export may write onto one of them.
+std::vector<FileRole> ProjectInputs(const AppState& state) {
+  if (!state.project) return {};
+  return project::ProjectFiles(*state.project);
+}
+
+Status CheckOutput(const AppState& state, const std::string& path) {
+  return CheckOutputs(ProjectInputs(state), {{path, "the export"}});
+}
+
+// A proposed file name from a plot's title: letters, digits, '-' and '_' kept, the rest '_'.
+std::string FileStem(const std::string& name) {
+  std::string stem;
+  for (char c : name) {
+    const bool keep = std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_';
+    stem += keep ? c : '_';
+  }
+  while (stem.find("__") != std::string::npos) stem.erase(stem.find("__"), 1);
+  while (!stem.empty() && stem.back() == '_') stem.pop_back();
+  while (!stem.empty() && stem.front() == '_') stem.erase(0, 1);
+  return stem.empty() ? "plot" : stem;
+}
+
+std::string StartDirectory(const AppState& state) {
+  return state.project ? state.project->path : std::string();
+}
+
+void Report(AppState& state, const Status& st, const std::string& what, const std::string& path) {
+  if (st) {
+    std::string text = what + " written to " + path;
+    text[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(text[0])));
+    AddMessage(state, Severity::kInfo, text);
+  } else {
+    AddMessage(state, Severity::kError, "Could not write " + what + ": " + st.error().ToString());
+  }
+}
+
+void FinishPlotExport(AppState& state, const std::string& path) {
+  std::optional<plot::ExportRequest> request = std::move(state.shell.plot_export);
+  state.shell.plot_export.reset();
+  if (!request) return;
+  if (Status st = CheckOutput(state, path); !st) return Report(state, st, "the plot", path);
+  if (request->kind == plot::ExportRequest::Kind::kSvg) {
+    const report::SvgSize size{static_cast<int>(std::lround(request->size.x)),
+                               static_cast<int>(std::lround(request->size.y))};
+    Report(state, project::WriteFileAtomic(path, report::FigureToSvg(request->figure, size)),
+           "the plot's SVG", path);
+    return;
+  }
+  // PNG: drawn offscreen by the application after this frame.
+  if (Status st = project::CheckWritable(path); !st) return Report(state, st, "the plot", path);
+  state.shell.png_export =
+      PendingPng{std::move(request->figure), request->png_width, request->png_height, path};
+}
+
+// The residual sections of the analysis the Residuals view shows.
+std::vector<report::ResidualSection> ShownResiduals(const AppState& state, std::string* note) {
+  const std::optional<Analysis>& a = state.analysis.result;
+  if (!a || a->datasets.empty()) {
+    *note = "Not computed: the workbench had no predictions when the report was saved.";
+    return {};
+  }
+  const std::size_t index = std::min<std::size_t>(
+      static_cast<std::size_t>(std::max(state.analysis.dataset, 0)), a->datasets.size() - 1);
+  const DatasetAnalysis& d = a->datasets[index];
+  std::vector<report::ResidualSection> sections;
+  for (const OutputAnalysis& o : d.outputs) {
+    if (!o.diagnostics) continue;
+    report::ResidualSection s;
+    s.output = o.name;
+    s.dataset = d.name;
+    s.diagnostics = o.diagnostics->stats;
+    s.predictions =
+        report::PredictionFigure(o.name, "", d.time, o.measured, o.predicted, o.lower, o.upper);
+    s.predictions.x_label = d.time_name.empty() ? "t" : d.time_name;
+    s.acf = report::AcfFigure(o.name, s.diagnostics.acf);
+    sections.push_back(std::move(s));
+  }
+  if (sections.empty()) {
+    *note = d.error.empty() ? "Not computed: no output of " + d.name + " could be diagnosed."
+                            : "Not computed: " + d.error;
+  }
+  return sections;
+}
+
+void FinishReport(AppState& state, std::string path) {
+  std::optional<report::ReportInput> input = std::move(state.shell.report_export);
+  state.shell.report_export.reset();
+  if (!input) return;
+  std::string ext = std::filesystem::path(path).extension().string();
+  if (!ext.empty()) ext.erase(0, 1);
+  std::optional<report::ReportFormat> format = report::ParseReportFormat(ext);
+  if (!format) {
+    // No known extension: the browser's filter says which, and names the file.
+    format = state.shell.browser.filter == 1 ? report::ReportFormat::kHtml
+                                             : report::ReportFormat::kMarkdown;
+    path += *format == report::ReportFormat::kHtml ? ".html" : ".md";
+  }
+  if (Status st = CheckOutput(state, path); !st) return Report(state, st, "the report", path);
+  Result<std::string> text = report::WriteReport(*input, *format);
+  if (!text) return Report(state, text.error(), "the report", path);
+  Report(state, project::WriteFileAtomic(path, *text), "the report", path);
+}
+
+}  // namespace
+
+void BrowseSaveReport(AppState& state, const FitResult& fit, bool with_residuals) {
+  report::ReportInput input;
+  input.result = fit.summary.ToJson();
+  if (with_residuals) {
+    input.residuals = ShownResiduals(state, &input.residuals_note);
+  } else {
+    input.residuals_note = "Not included: the views show another fit's values.";
+  }
+  state.shell.report_export = std::move(input);
+  FileBrowserRequest r;
+  r.title = "Save the report";
+  r.confirm = "Save";
+  r.mode = FileBrowserMode::kSave;
+  r.filters = {{"Markdown (*.md)", {".md"}}, {"HTML (*.html)", {".html", ".htm"}}};
+  r.start = StartDirectory(state);
+  r.file_name =
+      FileStem(fit.summary.model_name.empty() ? "report" : fit.summary.model_name) + "-report.md";
+  r.purpose = static_cast<int>(BrowsePurpose::kSaveReport);
+  OpenFileBrowser(state.shell.browser, std::move(r));
+}
+
+void UpdateExports(AppState& state) {
+  std::optional<plot::ExportRequest>& asked = state.plots.export_request;
+  if (!asked) return;
+  plot::ExportRequest request = std::move(*asked);
+  asked.reset();
+  const bool svg = request.kind == plot::ExportRequest::Kind::kSvg;
+  FileBrowserRequest r;
+  r.title = svg ? "Save the plot as SVG" : "Save the plot as PNG";
+  r.confirm = "Save";
+  r.mode = FileBrowserMode::kSave;
+  r.filters = {svg ? FileFilter{"SVG images (*.svg)", {".svg"}}
+                   : FileFilter{"PNG images (*.png)", {".png"}}};
+  r.start = StartDirectory(state);
+  r.file_name = FileStem(request.name) + (svg ? ".svg" : ".png");
+  r.purpose = static_cast<int>(BrowsePurpose::kExportPlot);
+  state.shell.plot_export = std::move(request);
+  OpenFileBrowser(state.shell.browser, std::move(r));
+}
+
+void BrowseExportModel(AppState& state) {
+  if (!state.model) return;
+  FileBrowserRequest r;
+  r.title = "Export the model";
+  r.confirm = "Save";
+  r.mode = FileBrowserMode::kSave;
+  r.filters = {{"Models (*.json)", {".json"}}};
+  r.start = StartDirectory(state);
+  r.file_name = FileStem(state.model->name.empty() ? "model" : state.model->name) + ".json";
+  r.purpose = static_cast<int>(BrowsePurpose::kExportModel);
+  OpenFileBrowser(state.shell.browser, std::move(r));
+}
+
+void DrawExportMenu(AppState& state) {
+  if (!ImGui::BeginMenu("Export", state.project.has_value())) return;
+  if (ImGui::MenuItem("Export model\xE2\x80\xA6", nullptr, false, state.model.has_value()))
+    BrowseExportModel(state);
+  ImGui::EndMenu();
+}
+
+void FinishExport(AppState& state, BrowsePurpose purpose, const std::string& path) {
+  switch (purpose) {
+    case BrowsePurpose::kExportPlot:
+      FinishPlotExport(state, path);
+      break;
+    case BrowsePurpose::kSaveReport:
+      FinishReport(state, path);
+      break;
+    case BrowsePurpose::kExportModel: {
+      if (!state.model) break;
+      Status st = CheckOutput(state, path);
+      if (st) st = model::SaveModelFile(*state.model, path);
+      Report(state, st, "the model", path);
+      break;
+    }
+    default:
+      break;
+  }
+}
+
+std::optional<PendingPng> TakePendingPng(AppState& state) {
+  std::optional<PendingPng> png = std::move(state.shell.png_export);
+  state.shell.png_export.reset();
+  return png;
+}
+
+void FinishPendingPng(AppState& state, const PendingPng& png,
+                      const std::vector<unsigned char>* rgba) {
+  if (!rgba) {
+    AddMessage(state, Severity::kError,
+               "Could not write the plot's PNG: no offscreen framebuffer of " +
+                   std::to_string(png.width) + " x " + std::to_string(png.height) +
+                   " pixels (" + png.path + ")");
+    return;
+  }
+  std::string error;
+  if (WritePngFromGl(png.path, png.width, png.height, rgba->data(), &error)) {
+    AddMessage(state, Severity::kInfo, "The plot's PNG written to " + png.path);
+  } else {
+    AddMessage(state, Severity::kError, "Could not write the plot's PNG: " + error);
+  }
+}
+
+}  // namespace gb::ui

@@ -1,0 +1,51 @@
+// Exports from the workbench, each through the shell's file browser in save mode (as Save
+// project as): a plot's image from its context menu (SVG drawn from the plot's data by
+// core/report/figure.h, or PNG: the plot drawn alone offscreen at the size the menu asks for, as
+// greybench-snapshot --plot draws it), the estimation report as Markdown or HTML
+// (core/report/report.h) and the model file. No export writes onto a file the open project is
+// made of (the output guard, core/util/output_guard.h): the refusal and every failure go to the
+// Messages window, naming the file.
+//
+//   every frame, in UpdateShell:  UpdateExports(state);   // a plot's menu asked: the browser
+//   the browser's choice:         FinishExport(state, purpose, path);
+//   greybench_main, after rendering a frame:
+//     if (auto png = TakePendingPng(state)) { an offscreen framebuffer of png->width x height;
+//       NewFrame, DrawFigureFrame(state.plots, png->figure), Render, render, glReadPixels;
+//       FinishPendingPng(state, *png, &pixels); }
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ui/shell/shell_state.h"
+#include "ui/state/app_state.h"
+
+namespace gb::ui {
+
+// Opens the file browser for a plot's export its context menu asked for.
+void UpdateExports(AppState& state);
+
+// The file browser chose `path` for an export purpose (kExportPlot, kSaveReport, kExportModel).
+void FinishExport(AppState& state, BrowsePurpose purpose, const std::string& path);
+
+// The Estimate view's "Save report…": the report of `fit` (core/report/report.h), Markdown or
+// HTML by the name's extension (else by the browser's filter). With `with_residuals`, also the
+// residual analysis the Residuals view shows (its dataset, at the parameter values the views
+// show: after a fit, its estimates).
+void BrowseSaveReport(AppState& state, const FitResult& fit, bool with_residuals);
+
+// File > Export model: the model the views show (with its edits) as a model file.
+void BrowseExportModel(AppState& state);
+// The File menu's Export submenu.
+void DrawExportMenu(AppState& state);
+
+// The PNG a plot's menu asked for, once its file is chosen: taken (and cleared) by the
+// application, which draws it offscreen after the window's frame. nullopt when none is due.
+std::optional<PendingPng> TakePendingPng(AppState& state);
+// Writes the pixels drawn (RGBA, rows from the bottom, as glReadPixels gives them; null when no
+// framebuffer could be made) to the PNG file, and says so in the Messages window.
+void FinishPendingPng(AppState& state, const PendingPng& png,
+                      const std::vector<unsigned char>* rgba);
+
+}  // namespace gb::ui
