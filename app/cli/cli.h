@@ -11,6 +11,7 @@
 
 #include "core/data/dataset.h"
 #include "core/data/import.h"
+#include "core/diagnose/residuals.h"
 #include "core/filter/kalman.h"
 #include "core/filter/likelihood.h"
 #include "core/filter/predict.h"
@@ -274,6 +275,10 @@ Result<filter::OneStepPredictions> PredictOneStep(const EvaluatedSeries& e,
 // The smoothed states from that trace: Rauch-Tung-Striebel, or its extended form for the EKF.
 Result<filter::SmoothedStates> SmoothStates(const EvaluatedSeries& e,
                                             const filter::FilterTrace& trace);
+// The series' inputs as the residual diagnostics take them (diagnose, report): their values are
+// copied into `values`, which the result points into.
+std::vector<diagnose::InputSeries> DiagnoseInputs(const EvaluatedSeries& e,
+                                                  std::vector<std::vector<double>>* values);
 
 struct PredictArgs {
   std::string initial_states;  // --initial-states ("" = the project's)

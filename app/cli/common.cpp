@@ -205,4 +205,17 @@ Result<LoadedLikelihood> LoadLikelihood(const CommandInputs& in,
   return LoadedLikelihood{std::move(*lik), std::move(theta)};
 }
 
+std::vector<diagnose::InputSeries> DiagnoseInputs(const EvaluatedSeries& e,
+                                                  std::vector<std::vector<double>>* values) {
+  const model::ModelSpec& m = e.spec();
+  const data::Series& s = *e.series;
+  values->clear();
+  for (std::size_t i = 0; i < m.inputs.size(); ++i)
+    values->emplace_back(s.U.row(static_cast<Eigen::Index>(i)).begin(),
+                         s.U.row(static_cast<Eigen::Index>(i)).end());
+  std::vector<diagnose::InputSeries> inputs;
+  for (std::size_t i = 0; i < m.inputs.size(); ++i) inputs.push_back({m.inputs[i], (*values)[i]});
+  return inputs;
+}
+
 }  // namespace gb::cli

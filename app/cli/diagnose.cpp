@@ -88,11 +88,7 @@ int RunDiagnose(const DiagnoseArgs& args) {
   const model::ModelSpec& m = e->spec();
   const data::Series& s = *e->series;
   std::vector<std::vector<double>> input_values;
-  for (std::size_t i = 0; i < m.inputs.size(); ++i)
-    input_values.emplace_back(s.U.row(i).begin(), s.U.row(i).end());
-  std::vector<diagnose::InputSeries> inputs;
-  for (std::size_t i = 0; i < m.inputs.size(); ++i)
-    inputs.push_back({m.inputs[i], input_values[i]});
+  const std::vector<diagnose::InputSeries> inputs = DiagnoseInputs(*e, &input_values);
 
   Json out;
   out["greybench_diagnostics"] = 1;

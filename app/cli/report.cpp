@@ -39,11 +39,7 @@ Result<std::vector<report::ResidualSection>> ResidualSections(const CommandInput
   const model::ModelSpec& m = e->spec();
   const data::Series& s = *e->series;
   std::vector<std::vector<double>> input_values;
-  for (std::size_t i = 0; i < m.inputs.size(); ++i)
-    input_values.emplace_back(s.U.row(i).begin(), s.U.row(i).end());
-  std::vector<diagnose::InputSeries> inputs;
-  for (std::size_t i = 0; i < m.inputs.size(); ++i)
-    inputs.push_back({m.inputs[i], input_values[i]});
+  const std::vector<diagnose::InputSeries> inputs = DiagnoseInputs(*e, &input_values);
   const auto row = [](const Eigen::MatrixXd& x, std::size_t o) {
     return std::vector<double>(x.row(static_cast<Eigen::Index>(o)).begin(),
                                x.row(static_cast<Eigen::Index>(o)).end());

@@ -57,6 +57,19 @@ namespace {
 using namespace internal;
 using Clock = std::chrono::steady_clock;
 
+// A parameter's row of the summary at `value`: its name, bounds, unit and whether it is fixed
+// (standard errors and tests are the caller's).
+ParameterEstimate EstimateOf(const model::Parameter& p, double value) {
+  ParameterEstimate e;
+  e.name = p.name;
+  e.estimate = value;
+  e.lower = p.lower;
+  e.upper = p.upper;
+  e.fixed = p.fixed;
+  e.unit = p.unit;
+  return e;
+}
+
 // ---- 3. start points -------------------------------------------------------------------------
 
 // The model's start and `extra` more, spread by a Latin hypercube over each free parameter's
@@ -1181,13 +1194,7 @@ class EstimateRun {
     for (int i = 0; i < fitter_->k(); ++i) free_pos[fitter_->free()[i]] = i;
     for (std::size_t i = 0; i < spec_.parameters.size(); ++i) {
       const auto& p = spec_.parameters[i];
-      ParameterEstimate e;
-      e.name = p.name;
-      e.estimate = s_.theta[i];
-      e.lower = p.lower;
-      e.upper = p.upper;
-      e.fixed = p.fixed;
-      e.unit = p.unit;
+      ParameterEstimate e = EstimateOf(p, s_.theta[i]);
       const int fi = free_pos[i];
       if (fi >= 0) {
         e.at_bound = u.at_bound[fi];
@@ -1357,17 +1364,8 @@ Result<EstimateSummary> StoppedSummary(const filter::Likelihood& likelihood,
   s.aic = -2 * s.loglik + 2 * s.n_free;
   s.bic = -2 * s.loglik + s.n_free * std::log(static_cast<double>(std::max<long>(1, s.n_obs)));
   s.parameters.clear();
-  for (std::size_t i = 0; i < spec.parameters.size(); ++i) {
-    const model::Parameter& p = spec.parameters[i];
-    ParameterEstimate e;
-    e.name = p.name;
-    e.estimate = best.theta[i];
-    e.lower = p.lower;
-    e.upper = p.upper;
-    e.fixed = p.fixed;
-    e.unit = p.unit;
-    s.parameters.push_back(std::move(e));
-  }
+  for (std::size_t i = 0; i < spec.parameters.size(); ++i)
+    s.parameters.push_back(EstimateOf(spec.parameters[i], best.theta[i]));
   s.delays.clear();
   for (std::size_t o = 0; o < spec.outputs.size(); ++o)
     s.delays.push_back({spec.outputs[o], o < delay.size() ? delay[o] : 0,

@@ -10,29 +10,6 @@
 namespace gb::ui {
 namespace {
 
-// The fit's θ and delays belong to a model with the same parameters and outputs (an edit in
-// the Parameters view changes values and bounds, never the names).
-// The fit is of this model: its parameters are the model's, in order (followed by the records'
-// copies in a fit with initial states per record), and so are its outputs.
-bool FitMatchesModel(const FitResult& fit, const model::ModelSpec& m) {
-  const estimate::EstimateSummary& s = fit.summary;
-  const bool copies = !fit.series_parameters.empty();
-  if (s.theta.size() != s.parameters.size() ||
-      (copies ? s.parameters.size() < m.parameters.size()
-              : s.parameters.size() != m.parameters.size()))
-    return false;
-  for (const std::vector<int>& row : fit.series_parameters)
-    if (row.size() != s.parameters.size()) return false;
-  for (std::size_t i = 0; i < m.parameters.size(); ++i) {
-    if (s.parameters[i].name != m.parameters[i].name) return false;
-  }
-  if (s.delays.size() != m.outputs.size()) return false;
-  for (std::size_t o = 0; o < m.outputs.size(); ++o) {
-    if (s.delays[o].output != m.outputs[o]) return false;
-  }
-  return true;
-}
-
 void StartAnalysis(AppState& state, AnalysisRequest request) {
   AnalysisInput input;
   input.request = request;

@@ -153,6 +153,23 @@ EstimationRun RunEstimation(const EstimationInput& input, EstimationProgress& pr
   return run;
 }
 
+bool FitMatchesModel(const FitResult& fit, const model::ModelSpec& m) {
+  const estimate::EstimateSummary& s = fit.summary;
+  const bool copies = !fit.series_parameters.empty();
+  if (s.theta.size() != s.parameters.size() ||
+      (copies ? s.parameters.size() < m.parameters.size()
+              : s.parameters.size() != m.parameters.size()))
+    return false;
+  for (const std::vector<int>& row : fit.series_parameters)
+    if (row.size() != s.parameters.size()) return false;
+  for (std::size_t i = 0; i < m.parameters.size(); ++i)
+    if (s.parameters[i].name != m.parameters[i].name) return false;
+  if (s.delays.size() != m.outputs.size()) return false;
+  for (std::size_t o = 0; o < m.outputs.size(); ++o)
+    if (s.delays[o].output != m.outputs[o]) return false;
+  return true;
+}
+
 FitResult MakeFitResult(estimate::EstimateSummary summary, Trace trace, EstimationSettings settings,
                         int model_revision, bool deterministic) {
   FitResult r;

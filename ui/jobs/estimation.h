@@ -163,6 +163,12 @@ struct FitResult {
   std::vector<std::vector<int>> series_parameters;
 };
 
+// The fit is of this model: its parameters are the model's, in order (followed by the records'
+// copies in a fit with initial states per record), and so are its outputs (an edit in the
+// Parameters view changes values and bounds, never the names), so its θ and delays can be shown
+// with it.
+bool FitMatchesModel(const FitResult& fit, const model::ModelSpec& m);
+
 // Prepares a summary for drawing. With `deterministic` (greybench-snapshot) the elapsed time
 // in the report is replaced by a fixed placeholder, so the same inputs give the same picture.
 FitResult MakeFitResult(estimate::EstimateSummary summary, Trace trace, EstimationSettings settings,

@@ -162,4 +162,17 @@ std::string GroupedCount(long long n) {
   return n < 0 ? "-" + out : out;
 }
 
+void UndoRedoButtons(bool can_undo, bool can_redo, bool* undo, bool* redo) {
+  ImGui::BeginDisabled(!can_undo);
+  if (ImGui::Button("Undo")) *undo = true;
+  ImGui::EndDisabled();
+  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("Ctrl+Z");
+  ImGui::SameLine();
+  ImGui::BeginDisabled(!can_redo);
+  if (ImGui::Button("Redo")) *redo = true;
+  ImGui::EndDisabled();
+  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("Ctrl+Y");
+  ImGui::SameLine();
+}
+
 }  // namespace gb::ui

@@ -44,4 +44,8 @@ void SameLineIfFits(float width, float spacing);
 // The width of ImGui::Checkbox(label).
 float CheckboxWidth(const char* label);
 
+// A view's Undo and Redo buttons (disabled when there is nothing to take back or do again; the
+// tooltips name the shortcuts): a click sets *undo or *redo. The next item follows on the line.
+void UndoRedoButtons(bool can_undo, bool can_redo, bool* undo, bool* redo);
+
 }  // namespace gb::ui

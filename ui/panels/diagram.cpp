@@ -229,16 +229,7 @@ void AskForCanvasFont(AppState& state) {
 
 void DrawToolbar(AppState& state) {
   DiagramViewState& v = state.diagram_view;
-  ImGui::BeginDisabled(v.undo.empty());
-  if (ImGui::Button("Undo")) v.undo_requested = true;
-  ImGui::EndDisabled();
-  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("Ctrl+Z");
-  ImGui::SameLine();
-  ImGui::BeginDisabled(v.redo.empty());
-  if (ImGui::Button("Redo")) v.redo_requested = true;
-  ImGui::EndDisabled();
-  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("Ctrl+Y");
-  ImGui::SameLine();
+  UndoRedoButtons(!v.undo.empty(), !v.redo.empty(), &v.undo_requested, &v.redo_requested);
   if (ImGui::Button("Fit view")) v.editor.RequestFit();
   ImGui::SameLine();
   ImGui::BeginDisabled(!state.model);

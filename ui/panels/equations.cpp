@@ -277,16 +277,7 @@ void MonoLabel(AppState& state, const std::string& text) {
 // The toolbar: undo and redo of the view's edits, and their shortcuts.
 void DrawEquationsToolbar(AppState& state) {
   EquationsViewState& v = state.equations_view;
-  ImGui::BeginDisabled(v.undo.empty());
-  if (ImGui::Button("Undo")) v.undo_requested = true;
-  ImGui::EndDisabled();
-  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("Ctrl+Z");
-  ImGui::SameLine();
-  ImGui::BeginDisabled(v.redo.empty());
-  if (ImGui::Button("Redo")) v.redo_requested = true;
-  ImGui::EndDisabled();
-  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("Ctrl+Y");
-  ImGui::SameLine();
+  UndoRedoButtons(!v.undo.empty(), !v.redo.empty(), &v.undo_requested, &v.redo_requested);
   ImGui::AlignTextToFramePadding();
   ImGui::TextDisabled("Model name");
   ImGui::SameLine();

@@ -17,23 +17,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The fit's parameters and outputs are the model's (followed by the records' copies in a fit
-// with initial states per record): its estimates can be shown with this model.
-bool FitIsOfModel(const FitResult& fit, const model::ModelSpec& m) {
-  const estimate::EstimateSummary& s = fit.summary;
-  const bool copies = !fit.series_parameters.empty();
-  if (s.theta.size() != s.parameters.size() ||
-      (copies ? s.parameters.size() < m.parameters.size()
-              : s.parameters.size() != m.parameters.size()))
-    return false;
-  for (std::size_t i = 0; i < m.parameters.size(); ++i)
-    if (s.parameters[i].name != m.parameters[i].name) return false;
-  if (s.delays.size() != m.outputs.size()) return false;
-  for (std::size_t o = 0; o < m.outputs.size(); ++o)
-    if (s.delays[o].output != m.outputs[o]) return false;
-  return true;
-}
-
 std::string FitName(const KeptFit& k) { return fmt::format("fit {}", k.number); }
 
 // Writes the fit beside the project; a fit that cannot be written stays in the list and says why.
@@ -139,7 +122,7 @@ void InstallFits(AppState& state, std::vector<KeptFit> fits, const std::vector<s
   e.next_number = 1;
   for (KeptFit& k : e.fits) {
     e.next_number = std::max(e.next_number, k.number + 1);
-    if (state.model && FitIsOfModel(k.fit, *state.model)) k.fit.model_revision = state.model_revision;
+    if (state.model && FitMatchesModel(k.fit, *state.model)) k.fit.model_revision = state.model_revision;
   }
   for (int i = static_cast<int>(e.fits.size()) - 1; i >= 0 && e.shown < 0; --i)
     if (e.fits[static_cast<std::size_t>(i)].fit.model_revision == state.model_revision) e.shown = i;
@@ -160,7 +143,7 @@ bool ShowFit(AppState& state, std::size_t index, std::string* why) {
   if (index >= e.fits.size()) return refuse("there is no such fit");
   if (e.job.active()) return refuse("an estimation is under way");
   KeptFit& k = e.fits[index];
-  if (!state.model || !FitIsOfModel(k.fit, *state.model)) {
+  if (!state.model || !FitMatchesModel(k.fit, *state.model)) {
     if (state.diagram_view.model_from_diagram)
       return refuse(FitName(k) + " was fitted with another model, and this project's model is "
                     "drawn as a block diagram: open the fit's model file (" +
