@@ -27,6 +27,8 @@ namespace gb::project {
 // "DIR/engine.fits" for "DIR/engine.json" ("" for an unsaved project: "").
 std::string FitsFolder(const std::string& project_path);
 
+// The implicit move constructor moves two ordered_json members (see Project, project.h).
+// NOLINTNEXTLINE(bugprone-exception-escape)
 struct KeptFitFile {
   std::string path;  // the result file
   int number = 0;    // NNN of fit-NNN.json

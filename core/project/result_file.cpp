@@ -99,7 +99,8 @@ const Json& Member(const Json& j, const char* key) {
 
 }  // namespace
 
-Result<NestedFit> ReadNestedFit(const Json& j, const std::string& path) {
+Result<NestedFit> ReadNestedFit(const Json& result, const std::string& path) {
+  const Json& j = result;
   auto fail = [&](const std::string& where, const std::string& what) {
     return ResultFileError(path, where, what);
   };

@@ -42,8 +42,10 @@ std::vector<double> Multiples(Range range, double step) {
   std::vector<double> values;
   const double first = std::ceil(range.min / step - 1e-9);
   const double last = std::floor(range.max / step + 1e-9);
-  for (double k = first; k <= last; k += 1.0) {
-    double v = k * step;
+  // A whole count of steps (the range and the step are finite: NiceTicks' caller checks).
+  const auto steps = static_cast<long long>(last - first);
+  for (long long i = 0; i <= steps; ++i) {
+    double v = (first + static_cast<double>(i)) * step;
     if (std::abs(v) < step * 1e-9) v = 0.0;
     values.push_back(v);
   }
