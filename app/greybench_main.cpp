@@ -1,4 +1,4 @@
-// greybench: the workbench in a GLFW window (CONTRACT section 6).
+// greybench: the workbench in a GLFW window (user guide §6).
 //   greybench [PROJECT.json] [--width W --height H] [--screenshot OUT.png [--frames N]]
 // Without a project it opens the bundled case study. --screenshot draws N frames once the
 // project has loaded, writes the window's pixels to OUT.png and exits (for scripts under Xvfb).

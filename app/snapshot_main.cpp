@@ -1,5 +1,5 @@
 // greybench-snapshot: renders one view of the workbench offscreen (OSMesa) to a PNG.
-// CONTRACT section 6:
+// user guide §6:
 //   greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png [--width W --height H]
 //                      [--estimate] [--dialog DIALOG] [--time T0:T1] [--profile PARAMETER]
 //                      [--live-until T [--live-fault TIME:PARAMETER*FACTOR[/RAMP] ...]

@@ -25,7 +25,7 @@ namespace {
 
 using namespace gb;
 
-// The fuel-film model of CONTRACT section 2 at the paper's point f1, fixed delay of 5 samples.
+// The fuel-film model of user guide §2 at the paper's point f1, fixed delay of 5 samples.
 const char* kFuelFilm = R"json({
   "greybench_model": 1, "states": ["mfv", "mff"], "inputs": ["mfi"], "outputs": ["ilambda"],
   "parameters": {"tau_fv": 0.075, "tau_ff": 0.375, "X": 0.175, "Kb": 0.8421,

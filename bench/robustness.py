@@ -25,7 +25,7 @@ The reference optimum is the better log-likelihood of (a) and (b). The generic f
 optimum" when its log-likelihood >= best - LOGLIK_TOL (0.01).
 
 Comparable log-likelihoods: with the delay scanned over [0, 10] the estimator scores every candidate
-on the observations k >= 10 (CONTRACT section 1); with a fixed delay d it would score k >= d. The
+on the observations k >= 10 (user guide §1); with a fixed delay d it would score k >= d. The
 truth fit of a fuel-film problem therefore reads a copy of the data whose first 10 outputs are NA
 (missing), so both fits use the same observations. (`loglik` at the generic estimate with the delay
 fixed on that copy reproduces the generic fit's log-likelihood to the last digit.) The script checks

@@ -1,4 +1,4 @@
-// greybench-cli commands (CONTRACT section 4). Each Run* returns the process exit status:
+// greybench-cli commands (user guide §4). Each Run* returns the process exit status:
 // 0 success, 1 numerical failure or non-convergence, 2 bad input.
 #pragma once
 

@@ -57,7 +57,8 @@ int RunLoglik(const LoglikArgs& args) {
       g[model.parameters[free[f]].name] = gradient(static_cast<Eigen::Index>(f));
     out["gradient"] = g;
   }
-  if (lik->nonlinear()) out["filter"] = "ekf";  // a linear model's output is as CONTRACT gives it
+  // A linear model's output is as user guide §4 gives it.
+  if (lik->nonlinear()) out["filter"] = "ekf";
   std::printf("%s\n", out.dump().c_str());
   return 0;
 }

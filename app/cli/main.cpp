@@ -217,7 +217,7 @@ int Main(int argc, char** argv) {
                     "data files (CSV), fitted jointly (with a project: its estimation datasets "
                     "unless given)");
   c_est->add_option("--set", est.sets, "NAME=VALUE: override a start (or fixed) value");
-  c_est->add_option("--out", est.out, "result file (JSON, CONTRACT section 5)");
+  c_est->add_option("--out", est.out, "result file (JSON, user guide §5)");
   AddInitialStates(c_est, &est.initial_states);
   c_est->add_option("--start", est.start,
                     "start the free parameters at a result file's estimates (--set overrides)");

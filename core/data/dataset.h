@@ -1,4 +1,4 @@
-// Measured data: CSV files (CONTRACT section 3) read once into an immutable Dataset, and the
+// Measured data: CSV files (user guide §3) read once into an immutable Dataset, and the
 // binding of a Dataset's columns to a model's inputs and outputs.
 //
 // File format

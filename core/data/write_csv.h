@@ -1,4 +1,4 @@
-// Writing data files in the format ReadCsvFile reads (CONTRACT section 3): comma-separated,
+// Writing data files in the format ReadCsvFile reads (user guide §3): comma-separated,
 // a header line, numbers with 17 significant digits (exact round trip), `NA` for missing values.
 #pragma once
 

@@ -31,7 +31,7 @@
 //               everywhere, so the extended Kalman filter's linearisation is defined; w = 0 gives
 //               min/max, whose derivative jumps at the limits)
 //   delay       in: u            out: u delayed by `delay` whole samples; allowed only directly in
-//               front of output blocks (CONTRACT 1: y_k = h(x_{k-d}, u_{k-d}) + e_k)
+//               front of output blocks (user guide §1: y_k = h(x_{k-d}, u_{k-d}) + e_k)
 //   noise       out (a noise port): σ = sigma; linked to the noise in-port of a lag, integrator
 //               or state block it adds σ dω to that state's equation (diffusion.<state> = sigma)
 //

@@ -31,7 +31,7 @@
 //     scale, where a valley of capacities and resistances is straighter, and is kept where it is
 //     higher (Fitter::FitOnLogScale; building 3: from 0.0077 below the optimum to it).
 //
-// Output delays with a range [min, max] (CONTRACT section 1) are estimated by profile likelihood:
+// Output delays with a range [min, max] (user guide §1) are estimated by profile likelihood:
 // the delay to start at is the best of the grid at the start values; the fit alternates between
 // θ at a fixed delay and the best delay at that θ until the delay stops changing; then θ is re-
 // optimised to convergence at every other delay of the range (warm-started from the nearest
@@ -253,7 +253,7 @@ struct EstimateSummary {
   std::vector<std::size_t> DifferMost(std::size_t o, std::size_t n) const;
 
   std::string Report() const;  // readable, in the spirit of CTSM's summary
-  Json ToJson() const;         // CONTRACT section 5
+  Json ToJson() const;         // user guide §5
   // A result file read back (the inverse of ToJson; the ODE solver's rejected steps and the
   // steady-state start's θ, which it does not write, stay empty). Errors name `file` and the
   // JSON path; a partial result (a checkpoint) is refused: it holds estimates only.

@@ -1,5 +1,5 @@
-// EstimateSummary::Report (readable, in the spirit of CTSM's summary) and ToJson (CONTRACT
-// section 5). No NaN is ever printed as a number: missing values are blank / null.
+// EstimateSummary::Report (readable, in the spirit of CTSM's summary) and ToJson (the user guide
+// §5). No NaN is ever printed as a number: missing values are blank / null.
 #include <algorithm>
 #include <cmath>
 

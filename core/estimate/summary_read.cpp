@@ -1,4 +1,4 @@
-// EstimateSummary::FromJson: a result file (CONTRACT section 5) read back into the summary that
+// EstimateSummary::FromJson: a result file (user guide §5) read back into the summary that
 // wrote it, so that a kept fit reopens with its report, table and correlations. The inverse of
 // ToJson (summary_format.cpp) for everything ToJson writes; what it does not write (the ODE
 // solver's rejected steps and right-hand sides, the steady-state start's θ) stays empty.

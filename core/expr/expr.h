@@ -1,4 +1,4 @@
-// The expression language of model files (CONTRACT section 2).
+// The expression language of model files (user guide §2).
 //
 //   expr    := sum
 //   sum     := product (('+' | '-') product)*

@@ -1,4 +1,4 @@
-// The Kalman filter and the innovations log-likelihood (CONTRACT section 1).
+// The Kalman filter and the innovations log-likelihood (user guide §1).
 //
 // For a linear model (core/model/linear_model.h) at one θ and one bound data series:
 //

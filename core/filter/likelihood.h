@@ -1,5 +1,5 @@
 // The log-likelihood of a model over several independent data series, with output delays
-// (CONTRACT section 1): log L(θ) = Σ_series log L_series(θ). A linear model (LinearModel) runs
+// (user guide §1): log L(θ) = Σ_series log L_series(θ). A linear model (LinearModel) runs
 // the exact Kalman filter (kalman.h) with exact scores (score.h); any other model
 // (NonlinearModel) runs the extended Kalman filter (ekf.h), whose scores are its forward
 // sensitivities (ekf_score.h; differences for the iterated EKF, see EvaluateWithScore).

@@ -1,4 +1,4 @@
-// Model files (CONTRACT section 2): the stochastic differential equation
+// Model files (user guide §2): the stochastic differential equation
 //
 //   dx = f(x, u, θ, t) dt + σ(x, u, θ, t) dω   ω: independent standard Wiener processes, one per state
 //   y_k = h(x_{k-d}, u_{k-d}, θ, t) + e_k       e_k ~ N(0, S(u, θ, t)), S diagonal, d = output delay

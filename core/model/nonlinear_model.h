@@ -1,4 +1,4 @@
-// Any model (CONTRACT section 2) compiled for the extended Kalman filter (core/filter/ekf.h):
+// Any model (user guide §2) compiled for the extended Kalman filter (core/filter/ekf.h):
 //
 //   dx = f(x, u, θ, t) dt + diag(σ(x, u, θ, t)) dω
 //   y  = h(x, u, θ, t) + e,   e ~ N(0, diag(S(u, θ, t)))

@@ -2,7 +2,7 @@
 // writing (read as `tail -f` reads it), or of standard input, parsed as their bytes arrive and
 // bound to a model's inputs and outputs, one Sample per row, for a recursive estimator.
 //
-// Format: CONTRACT section 3, with the rules of core/data/dataset.h (they share its code):
+// Format: user guide §3, with the rules of core/data/dataset.h (they share its code):
 // comments and blank lines skipped; the first other line is the header, whose separator (',' ';'
 // or TAB) is detected from it; quoted fields, a UTF-8 byte-order mark, LF, CRLF or CR line ends
 // and spaces around fields accepted; the time column is the first named `t` or `time` (any case);

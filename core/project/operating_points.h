@@ -1,6 +1,6 @@
 // The operating-point sweep a project names: which datasets (one per operating point) one model
 // is fitted to, and which relations are drawn across the points. A project key beside those of
-// CONTRACT section 7 (kept in Project::extra):
+// user guide §3a (kept in Project::extra):
 //
 //   "operating_points": {
 //     "datasets":  ["../data/fuel_f1.csv", "../data/fuel_f2.csv", ...],

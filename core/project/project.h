@@ -1,4 +1,4 @@
-// Project files (CONTRACT section 7): a name, a model (a path or an inline model object) and
+// Project files (user guide §3a): a name, a model (a path or an inline model object) and
 // datasets, with paths relative to the project file.
 //
 //   {"greybench_project": 1, "name": "Fuel film f1",
@@ -66,7 +66,7 @@ std::string ResolvePath(const std::string& base_dir, const std::string& path);
 // Reads a JSON file with errors of the form `FILE:LINE:COL: JSON syntax error: ...`.
 Result<Json> ReadJsonFile(const std::string& path);
 
-// The project file for `p` saved at `path` (CONTRACT section 7), the inverse of LoadProject:
+// The project file for `p` saved at `path` (user guide §3a), the inverse of LoadProject:
 //   "name"     p.name;
 //   "model"    when p.model_path is set, that file's path (the caller has checked that it holds
 //              the model to save); otherwise p.model_json inline;

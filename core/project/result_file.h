@@ -1,4 +1,4 @@
-// Reading a result file (CONTRACT section 5) back: its estimates as start values or as the
+// Reading a result file (user guide §5) back: its estimates as start values or as the
 // reference of a monitor (core/online/monitor.h).
 #pragma once
 

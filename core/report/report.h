@@ -8,7 +8,7 @@
 // the main figures inline as SVG (core/report/figure.h): the one-step predictions with ± 2 SD
 // and the measured values, and the ACF of the standardised residuals with its 95 % band.
 //
-// Input: a result file's JSON (CONTRACT section 5; EstimateSummary::ToJson gives the same for a
+// Input: a result file's JSON (user guide §5; EstimateSummary::ToJson gives the same for a
 // fit in memory). Numbers are printed as the text report prints them (estimates and errors to 6
 // significant digits, t to 3, p-values to 3 or "<2e-16", log L to 6 decimals); a value the result
 // lacks (null) is printed as "–", never as a number.

@@ -12,7 +12,7 @@ source "$(dirname "${BASH_SOURCE[0]}")/expect.bash"
 model=$data/cli/fuel.json
 csv=$data/cli/fuel.csv
 
-# --- data files (CONTRACT section 3) ---------------------------------------------------------
+# --- data files (user guide §3) ---------------------------------------------------------
 printf 't,ilambda\n0,1\n0.0125,2\n' >"$tmp/no_input.csv"
 expect 2 "no_input.csv.*column 'mfi'.*not in the file" -- loglik "$model" "$tmp/no_input.csv"
 
@@ -36,7 +36,7 @@ expect 2 "notime.csv.*time column" -- loglik "$model" "$tmp/notime.csv"
 
 expect 2 "nowhere.csv.*(cannot|no such)" -- loglik "$model" "$tmp/nowhere.csv"
 
-# --- model files (CONTRACT section 2) --------------------------------------------------------
+# --- model files (user guide §2) --------------------------------------------------------
 edit() {  # edit NAME PYTHON-EXPRESSION-ON-m: writes $tmp/NAME.json from the fuel model
   python3 - "$model" "$tmp/$1.json" "$2" <<'PY'
 import json, sys

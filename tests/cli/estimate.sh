@@ -16,7 +16,7 @@ source "$(dirname "${BASH_SOURCE[0]}")/expect.bash"
 "$cli" estimate "$data/cli/fuel.json" "$tmp/d.csv" --out "$tmp/full.json" >"$tmp/full.txt"
 check "estimate exits 0" test $? -eq 0
 check "the report has the coefficient table" grep -q "Std. Error" "$tmp/full.txt"
-check "the result file is CONTRACT section 5" python3 - "$tmp/full.json" <<'PY'
+check "the result file is user guide §5" python3 - "$tmp/full.json" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
 assert r["greybench_result"] == 1 and r["converged"] is True

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # greybench-cli on numerical faults (issue 8): non-finite numbers in data cells, parameter values,
 # --set and expressions, a degenerate innovation variance, an estimate on its bound, and output
-# files that cannot be written. Each gives the exit status of CONTRACT section 4 (2 bad input,
+# files that cannot be written. Each gives the exit status of user guide §4 (2 bad input,
 # 1 numerical) with a message naming the place, or a flagged result; never a crash or a hang,
 # never a NaN printed as a number, never a half-written or stray file.
 # Usage: faults.sh GREYBENCH_CLI TEST_DATA_DIR

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# greybench-cli predict and diagnose (CONTRACT section 4): the CSV's columns, residual = output -
+# greybench-cli predict and diagnose (user guide §4): the CSV's columns, residual = output -
 # prediction, the Gaussian log-likelihood rebuilt from the CSV's predictions and sds equals
 # `loglik`, `loglik --gradient` against differences, --set / --result / delay choice, diagnose's JSON
 # keys, and bad input.

@@ -97,7 +97,7 @@ TEST(Estimate, RecoversTheFuelFilmModelAndItsDelayFromSimulatedPrbsData) {
                                   {"Kb", 0.8421}, {"s11", 0.1098e-2}, {"s12", 0.3910e-3},
                                   {"s2", 1.2570e-4}},
                              3.0);
-  // The result file holds what CONTRACT section 5 lists.
+  // The result file holds what user guide §5 lists.
   const Json j = s->ToJson();
   EXPECT_EQ(j["greybench_result"], 1);
   EXPECT_TRUE(j["parameters"]["mfi0"]["std_error"].is_null());

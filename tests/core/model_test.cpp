@@ -14,7 +14,7 @@
 namespace gb::model {
 namespace {
 
-// The fuel-film model of CONTRACT section 2 (paper eq. 13-14).
+// The fuel-film model of user guide §2 (paper eq. 13-14).
 const char* kFuelFilm = R"json({
   "greybench_model": 1,
   "name": "Fuel film, eq. 13-14",

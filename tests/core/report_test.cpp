@@ -14,7 +14,7 @@ std::string G6(double v) {
   return buf;
 }
 
-// A result file's JSON as CONTRACT section 5 describes it, written by hand.
+// A result file's JSON as user guide §5 describes it, written by hand.
 Json AResult() {
   Json r;
   r["greybench_result"] = 1;

@@ -32,7 +32,7 @@
 // delay that maximises the log-likelihood at θ over the estimation records (all datasets when
 // every one is a validation record; as greybench-cli predict).
 // Observations before each output's largest delay are scored by no candidate, so they carry
-// no residual (CONTRACT section 1).
+// no residual (user guide §1).
 //
 // Cancelling: JobControl::cancel stops the filter within a few thousand samples; the run then
 // returns with `cancelled` set and no result. No ImGui here: the tests use it without a UI.

@@ -1,4 +1,4 @@
-// The equations view: the model as written in its JSON (CONTRACT section 2). Its formulas
+// The equations view: the model as written in its JSON (user guide §2). Its formulas
 // (drift, diffusion, observation, measurement variance, initial state) are edited in place:
 // every keystroke is validated by core (the same parser as the model file), a refused formula
 // is kept as a draft with the parser's reason and a caret at the column, and a valid formula is

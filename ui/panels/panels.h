@@ -1,4 +1,4 @@
-// The views of the workbench (CONTRACT section 6), one free function per view, each in its own
+// The views of the workbench (user guide §6), one free function per view, each in its own
 // file ui/panels/<view>.cpp. A panel draws into the current ImGui window (the area right of the
 // sidebar, below the view's title), reads AppState and records edits in it; it keeps no data of
 // its own between frames and never blocks.

@@ -35,7 +35,7 @@
 
 namespace gb::ui {
 
-// The views of CONTRACT section 6 in the order of the workflow, then the Live view (on-line
+// The views of user guide §6 in the order of the workflow, then the Live view (on-line
 // monitoring, beyond the contract's list).
 enum class View {
   kData,
