@@ -305,21 +305,24 @@ void DrawPlots(AppState& state, const Trace& trace, const FitResult* result) {
   const float s = state.fonts.scale;
   const float spacing = ImGui::GetStyle().ItemSpacing.x;
   const int n_profiles = result ? static_cast<int>(result->profiles.size()) : 0;
-  const float n = static_cast<float>(1 + n_profiles);
+  // A fit read back from its result file has no trace (the file does not keep one).
+  const bool has_trace = trace.size() > 0 || !result;
+  if (!has_trace && n_profiles == 0) return;
+  const float n = static_cast<float>((has_trace ? 1 : 0) + n_profiles);
   const float width = std::floor((ImGui::GetContentRegionAvail().x - spacing * (n - 1.0f)) / n);
   const ImVec2 size(std::max(120.0f * s, width), kPlotHeight * s);
-  DrawTracePlot(state, trace, size);
+  if (has_trace) DrawTracePlot(state, trace, size);
   for (int i = 0; i < n_profiles; ++i) {
-    ImGui::SameLine();
+    if (i > 0 || has_trace) ImGui::SameLine();
     const auto k = static_cast<std::size_t>(i);
     if (state.estimation.profile_x.size() != result->profiles.size())
       state.estimation.profile_x.assign(result->profiles.size(), plot::LinkedRange{});
     DrawProfilePlot(state, result->profiles[k], &state.estimation.profile_x[k], size);
   }
-  TraceLegend(state, trace);
+  if (has_trace) TraceLegend(state, trace);
   for (int i = 0; i < n_profiles; ++i) {
     if (!result->profiles[static_cast<std::size_t>(i)].any_lower_bound) continue;
-    ImGui::SameLine(0, 1.6f * ImGui::GetFontSize());
+    if (has_trace) ImGui::SameLine(0, 1.6f * ImGui::GetFontSize());
     ImGui::TextDisabled(
         "Fits at the other delays stop after a few iterations: their log L is a lower bound.");
     break;

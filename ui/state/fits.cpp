@@ -242,8 +242,14 @@ std::string FitCommand(const AppState& state, std::size_t index, std::string* wh
   }
   const KeptFit& k = fits[index];
   const auto project_file = k.result.find("project_file");
-  if (k.file.empty() || project_file == k.result.end() || !project_file->is_string()) {
+  if (k.file.empty()) {
     if (why) *why = "the fit is not written yet: save the project first";
+    return "";
+  }
+  if (project_file == k.result.end() || !project_file->is_string()) {
+    if (why)
+      *why = k.file + " names no project file (written by greybench-cli estimate MODEL DATA): "
+             "that command fits it again";
     return "";
   }
   std::error_code ec;
