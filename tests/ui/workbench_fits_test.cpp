@@ -45,6 +45,14 @@ class FitsTest : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
   std::string Project() const { return (dir_ / "project.json").string(); }
+  // Opens the project as the window does (its fits kept on disk), fitting on one thread.
+  ::testing::AssertionResult OpenKeeping(WorkbenchDriver& d) const {
+    d.state.estimation.keep_on_disk = true;
+    d.Open(Project());
+    d.state.estimation.settings.threads = 1;
+    if (!d.state.model) return ::testing::AssertionFailure() << d.state.model_error;
+    return ::testing::AssertionSuccess();
+  }
   fs::path Folder() const { return dir_ / "project.fits"; }
 
   fs::path dir_;
@@ -63,10 +71,7 @@ class FitsTest : public ::testing::Test {
 
 TEST_F(FitsTest, TwoFitsAreKeptBesideTheProjectReopenAndAreComparedByTheLikelihoodRatioTest) {
   WorkbenchDriver d;
-  d.state.estimation.keep_on_disk = true;
-  d.Open(Project());
-  ASSERT_TRUE(d.state.model) << d.state.model_error;
-  d.state.estimation.settings.threads = 1;
+  ASSERT_TRUE(OpenKeeping(d));
   d.state.view = View::kEstimate;
 
   // Fit 1: the model as it is. Fit 2: s11 fixed at its start value (a nested model).
@@ -147,10 +152,7 @@ TEST_F(FitsTest, TwoFitsAreKeptBesideTheProjectReopenAndAreComparedByTheLikeliho
 
 TEST_F(FitsTest, AFitOfAnotherModelBringsItsModelBackWhenShown) {
   WorkbenchDriver d;
-  d.state.estimation.keep_on_disk = true;
-  d.Open(Project());
-  ASSERT_TRUE(d.state.model);
-  d.state.estimation.settings.threads = 1;
+  ASSERT_TRUE(OpenKeeping(d));
   ASSERT_TRUE(FitAndKeep(d));
   const estimate::EstimateSummary first = d.state.estimation.result->summary;
 
@@ -176,10 +178,7 @@ TEST_F(FitsTest, AFitOfAnotherModelBringsItsModelBackWhenShown) {
 
 TEST_F(FitsTest, SavedAsAnotherFileTheProjectTakesItsFitsAlong) {
   WorkbenchDriver d;
-  d.state.estimation.keep_on_disk = true;
-  d.Open(Project());
-  ASSERT_TRUE(d.state.model);
-  d.state.estimation.settings.threads = 1;
+  ASSERT_TRUE(OpenKeeping(d));
   ASSERT_TRUE(FitAndKeep(d));
   ASSERT_FALSE(d.state.estimation.fits[0].file.empty());
   // Saved as another file: its fits folder is another, and the fit is written there too.
@@ -193,10 +192,7 @@ TEST_F(FitsTest, SavedAsAnotherFileTheProjectTakesItsFitsAlong) {
 // same data again (from the files kept beside the project) and reaches the same log L.
 TEST_F(FitsTest, CopyAsCommandRunInAShellFitsAgainToTheSameLogL) {
   WorkbenchDriver d;
-  d.state.estimation.keep_on_disk = true;
-  d.Open(Project());
-  ASSERT_TRUE(d.state.model);
-  d.state.estimation.settings.threads = 1;
+  ASSERT_TRUE(OpenKeeping(d));
   // Edited in the workbench and not saved: the command must fit the model as it was fitted.
   d.state.parameters_view.pending.push_back({"s11", ParameterField::kFixed, std::nullopt, true, ""});
   ApplyParameterEdits(d.state);
@@ -218,9 +214,7 @@ TEST_F(FitsTest, CopyAsCommandRunInAShellFitsAgainToTheSameLogL) {
 TEST_F(FitsTest, AKeptFitThatCannotBeReadIsNamedAndTheOthersOpen) {
   {
     WorkbenchDriver d;
-    d.state.estimation.keep_on_disk = true;
-    d.Open(Project());
-    d.state.estimation.settings.threads = 1;
+    ASSERT_TRUE(OpenKeeping(d));
     ASSERT_TRUE(FitAndKeep(d));
   }
   fs::copy_file(Folder() / "fit-001.json", Folder() / "fit-002.json");
