@@ -186,6 +186,16 @@ TEST_F(FitsTest, SavedAsAnotherFileTheProjectTakesItsFitsAlong) {
   ASSERT_TRUE(SaveProjectAs(d.state, copy).ok());
   EXPECT_TRUE(fs::exists(dir_ / "copy.fits" / "fit-001.json"));
   EXPECT_TRUE(fs::exists(Folder() / "fit-001.json")) << "the first project's fit stays";
+  // A fit read back, saved as a third file: its own project still names the data it was fitted to.
+  WorkbenchDriver again;
+  again.state.estimation.keep_on_disk = true;
+  again.Open(copy);
+  ASSERT_EQ(again.state.estimation.fits.size(), 1u);
+  ASSERT_TRUE(SaveProjectAs(again.state, (dir_ / "third.json").string()).ok());
+  auto own = project::LoadProject((dir_ / "third.fits" / "fit-001.project.json").string());
+  ASSERT_TRUE(own.ok()) << own.error().ToString();
+  ASSERT_EQ(own->datasets.size(), 1u);
+  EXPECT_EQ(fs::path(own->datasets[0].file).filename(), "f1.csv");
 }
 
 // The command Copy as command puts on the clipboard, run in a shell, fits the same model to the

@@ -186,9 +186,9 @@ void InstallEstimation(AppState& state, EstimationRun run) {
   ResolveMessages(state, MessageTopic::kEstimation);
   Trace trace = std::move(e.live_trace);
   e.live_trace = Trace{};
-  FitResult fit = MakeFitResult(*run.summary, std::move(trace), e.settings, e.started_revision,
-                                state.deterministic);
-  fit.series_parameters = run.series_parameters;
+  FitResult fit = MakeFitResult(std::move(*run.summary), std::move(trace), e.settings,
+                                e.started_revision, state.deterministic);
+  fit.series_parameters = std::move(run.series_parameters);
   KeepFit(state, std::move(fit), run);
   e.profile_x.assign(e.result->profiles.size(), plot::LinkedRange{});
 }

@@ -107,7 +107,8 @@ struct KeptFit {
   FitResult fit;         // its model_revision is the model's when it matches the model, else -1
   Json result;           // its result file's content (what `greybench-cli compare` reads)
   Json model;            // the model it was fitted with (model::ToJson)
-  std::vector<data::DatasetSpec> datasets;  // as they were fitted (empty for a fit read back)
+  // As they were fitted (for a fit read back: read from its own project when Save as rewrites it).
+  std::vector<data::DatasetSpec> datasets;
   std::string file;      // its result file; "" until written (a project never saved)
   int number = 0;        // NNN of fit-NNN.json; the session's count until written
   std::string finished;  // local time it finished ("" in a snapshot)

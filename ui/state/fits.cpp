@@ -19,6 +19,16 @@ namespace fs = std::filesystem;
 
 std::string FitName(const KeptFit& k) { return fmt::format("fit {}", k.number); }
 
+// The fit's own project file (its "project_file", beside its result file), absolute; "" when it
+// is not written or names none.
+std::string ProjectFileOf(const KeptFit& k) {
+  const auto project_file = k.result.find("project_file");
+  if (k.file.empty() || project_file == k.result.end() || !project_file->is_string()) return "";
+  std::error_code ec;
+  return project::ResolvePath(fs::absolute(fs::path(k.file), ec).parent_path().string(),
+                              project_file->get<std::string>());
+}
+
 // Writes the fit beside the project; a fit that cannot be written stays in the list and says why.
 void WriteFit(AppState& state, KeptFit& k) {
   if (!state.estimation.keep_on_disk || !state.project || state.project->path.empty()) return;
@@ -98,13 +108,6 @@ void ReadFits(const std::string& path, bool deterministic, ProjectLoad* out) {
         auto copies = project::PerRecordInitialStates(std::move(spec).value(), records);
         if (copies) k.fit.series_parameters = std::move(copies->index);
       }
-    }
-    // The datasets as they were fitted, from the fit's own project (for Save as).
-    const auto project_file = f.result.find("project_file");
-    if (project_file != f.result.end() && project_file->is_string()) {
-      Result<project::Project> p = project::LoadProject(project::ResolvePath(
-          fs::path(f.path).parent_path().string(), project_file->get<std::string>()));
-      if (p) k.datasets = p->datasets;
     }
     k.result = std::move(f.result);
     k.model = std::move(f.model);
@@ -241,12 +244,12 @@ std::string FitCommand(const AppState& state, std::size_t index, std::string* wh
     return "";
   }
   const KeptFit& k = fits[index];
-  const auto project_file = k.result.find("project_file");
   if (k.file.empty()) {
     if (why) *why = "the fit is not written yet: save the project first";
     return "";
   }
-  if (project_file == k.result.end() || !project_file->is_string()) {
+  const std::string project_file = ProjectFileOf(k);
+  if (project_file.empty()) {
     if (why)
       *why = k.file + " names no project file (written by greybench-cli estimate MODEL DATA): "
              "that command fits it again";
@@ -254,8 +257,7 @@ std::string FitCommand(const AppState& state, std::size_t index, std::string* wh
   }
   std::error_code ec;
   const fs::path folder = fs::absolute(fs::path(k.file), ec).parent_path();
-  std::string cmd = "greybench-cli estimate " +
-                    ShellWord((folder / project_file->get<std::string>()).string());
+  std::string cmd = "greybench-cli estimate " + ShellWord(project_file);
   const auto settings = k.result.find("settings");
   if (settings != k.result.end() && settings->is_object()) {
     cmd += " --algorithm " + settings->value("algorithm", std::string("auto"));
@@ -275,6 +277,10 @@ void WriteUnwrittenFits(AppState& state) {
   for (KeptFit& k : state.estimation.fits) {
     // Not written yet, or written beside the project's old file (Save as).
     if (!k.file.empty() && fs::absolute(fs::path(k.file).parent_path(), ec) == folder) continue;
+    // A fit read back: its datasets as they were fitted, from its own project.
+    if (k.datasets.empty())
+      if (const std::string own = ProjectFileOf(k); !own.empty())
+        if (Result<project::Project> p = project::LoadProject(own)) k.datasets = p->datasets;
     k.file.clear();
     WriteFit(state, k);
   }
