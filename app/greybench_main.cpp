@@ -4,11 +4,6 @@
 // project has loaded, writes the window's pixels to OUT.png and exits (for scripts under Xvfb).
 // The framebuffer functions of OpenGL 3 (libGL exports them; the window's context is 3.3 core).
 #define GL_GLEXT_PROTOTYPES
-#include <GLFW/glfw3.h>
-#include <backends/imgui_impl_glfw.h>
-#include <backends/imgui_impl_opengl3.h>
-#include <imgui.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -17,6 +12,11 @@
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <GLFW/glfw3.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <imgui.h>
 
 #include "core/util/sanitizers.h"
 #if GREYBENCH_ASAN

@@ -48,10 +48,6 @@
 // deterministic: every elapsed time, in the views and in the report text, is drawn as the
 // placeholder "– s"), the fonts of SetUpWorkbench(), and a software rasteriser, so the same
 // inputs give the same PNG bytes.
-#include <GL/osmesa.h>
-#include <fmt/format.h>
-#include <imgui.h>
-
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
@@ -63,6 +59,10 @@
 #include <string_view>
 #include <utility>
 #include <vector>
+
+#include <GL/osmesa.h>
+#include <fmt/format.h>
+#include <imgui.h>
 
 #include "core/project/project.h"
 #include "core/report/figure.h"
@@ -117,8 +117,8 @@ struct Options {
   std::optional<double> live_forgetting;
   std::string live_csv;        // "": the dyno
   std::string live_reference;  // "": the session's estimate
-  int dataset = 0;             // the Predictions and Residuals views' dataset, from 1 (0: the first)
-  std::string pending_plot;    // a --plot waiting for its --out
+  int dataset = 0;           // the Predictions and Residuals views' dataset, from 1 (0: the first)
+  std::string pending_plot;  // a --plot waiting for its --out
 };
 
 constexpr const char* kUsage =
@@ -322,8 +322,9 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
     if (!d.data) return Fail(kExitBadInput, d.error);
   }
   if (options.dataset > static_cast<int>(state.datasets.size())) {
-    return Fail(kExitBadInput, "--dataset " + std::to_string(options.dataset) + ": the project has " +
-                                   std::to_string(state.datasets.size()) + " datasets");
+    return Fail(kExitBadInput, "--dataset " + std::to_string(options.dataset) +
+                                   ": the project has " + std::to_string(state.datasets.size()) +
+                                   " datasets");
   }
   if (options.dataset > 0) {
     state.analysis.dataset = options.dataset - 1;

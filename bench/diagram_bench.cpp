@@ -7,10 +7,10 @@
 //
 // The diagram: 80 chains of 247 gains from one input, each into a lag and an output (19 921
 // blocks, 19 920 links), built through AddBlock and Connect.
-#include <benchmark/benchmark.h>
-
 #include <string>
 #include <vector>
+
+#include <benchmark/benchmark.h>
 
 #include "core/diagram/diagram.h"
 

@@ -32,7 +32,11 @@ void BM_EstimateFuelFilmCaseStudy(benchmark::State& state) {
   state.counters["loglik"] = loglik;
   state.counters["evaluations"] = evaluations;
 }
-BENCHMARK(BM_EstimateFuelFilmCaseStudy)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_EstimateFuelFilmCaseStudy)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 

@@ -7,13 +7,13 @@
 // benchmarks, a PRBS input of order 10 at 80 Hz) into a temporary directory.
 // Run from the repository root:
 //   build/bench/frame_bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
-#include <benchmark/benchmark.h>
-#include <unistd.h>
-
 #include <chrono>
 #include <filesystem>
 #include <limits>
 #include <string>
+
+#include <benchmark/benchmark.h>
+#include <unistd.h>
 
 #include "core/data/write_csv.h"
 #include "core/design/prbs.h"

@@ -10,7 +10,6 @@
 // 2 BDF) so that the methods are measured side by side; BM_FuelFilmExactVsEkf compares the
 // exact filter with the EKF on the same linear model and data.
 #include <benchmark/benchmark.h>
-
 #include <fmt/format.h>
 
 #include "core/design/prbs.h"
@@ -65,8 +64,8 @@ struct Fixture {
   std::vector<double> theta;
 };
 
-Fixture Make(const std::string& model_json, int n_samples, double ts, double bit_period,
-             double low, double high) {
+Fixture Make(const std::string& model_json, int n_samples, double ts, double bit_period, double low,
+             double high) {
   auto spec = model::ParseModel(Json::parse(model_json), "bench.json");
   auto lm = std::make_shared<const model::LinearModel>(*model::LinearModel::Compile(*spec));
   design::PrbsOptions o;

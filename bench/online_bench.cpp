@@ -6,10 +6,10 @@
 // its fit). Rows per second of CPU; the dyno's real time is 80 rows/s (fuel) and 16 rows/s
 // (crankshaft), the tanks' 0.25 rows/s.
 //   build/bench/online_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
-#include <benchmark/benchmark.h>
-
 #include <string>
 #include <vector>
+
+#include <benchmark/benchmark.h>
 
 #include "core/data/dataset.h"
 #include "core/estimate/estimate.h"
@@ -96,7 +96,6 @@ struct NonlinearCase {
   std::vector<online::Sample> rows;
 };
 
-
 // "tanks": the bundled model at its recorded estimates; "bioreactor": fitted here.
 const NonlinearCase& LoadNonlinear(const std::string& which) {
   static std::vector<std::pair<std::string, NonlinearCase>> cache;
@@ -106,7 +105,8 @@ const NonlinearCase& LoadNonlinear(const std::string& which) {
   const bool tanks = which == "tanks";
   auto spec = model::LoadModelFile(tanks ? root + "/assets/models/cascaded_tanks.json"
                                          : root + "/tests/data/bioreactor/fedbatch.json");
-  auto model = std::make_shared<const model::NonlinearModel>(*model::NonlinearModel::Compile(*spec));
+  auto model =
+      std::make_shared<const model::NonlinearModel>(*model::NonlinearModel::Compile(*spec));
   auto dataset = data::ReadCsvFile(tanks ? root + "/assets/data/tanks_estimation.csv"
                                          : root + "/tests/data/bioreactor/fedbatch.csv");
   auto series = *data::Bind(**dataset, spec->inputs, spec->outputs);
@@ -115,8 +115,8 @@ const NonlinearCase& LoadNonlinear(const std::string& which) {
     c.reference = *online::LoadReference(root + "/tests/data/tanks/estimates.json", *spec);
   } else {
     auto lik = filter::Likelihood::Create(model, {series});
-    c.reference = online::ReferenceFromSummary(
-        *estimate::Estimate(*lik, estimate::EstimateOptions{}), *spec);
+    c.reference =
+        online::ReferenceFromSummary(*estimate::Estimate(*lik, estimate::EstimateOptions{}), *spec);
   }
   cache.emplace_back(which, std::move(c));
   return cache.back().second;

@@ -3,11 +3,11 @@
 // fits the first rows of a bundled data file there; the release suite fits the whole record.
 #pragma once
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 #include <string>
+
+#include <unistd.h>
 
 #include "core/util/sanitizers.h"
 

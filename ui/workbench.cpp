@@ -8,13 +8,13 @@
 //   5. DrawWorkbench
 #include "ui/workbench.h"
 
-#include <imgui_stdlib.h>
-
 #include <algorithm>
 #include <cmath>
 #include <optional>
 #include <string>
 #include <utility>
+
+#include <imgui_stdlib.h>
 
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
@@ -225,9 +225,9 @@ void DrawMessagesWindow(AppState& state) {
         ImGui::TextDisabled("%s", m.time.c_str());
         ImGui::SameLine();
       }
-      ImGui::TextColored(m.resolved ? ImGui::GetStyle().Colors[ImGuiCol_TextDisabled]
-                                    : SeverityColor(m.severity),
-                         "%s", tag);
+      ImGui::TextColored(
+          m.resolved ? ImGui::GetStyle().Colors[ImGuiCol_TextDisabled] : SeverityColor(m.severity),
+          "%s", tag);
       ImGui::SameLine();
       ImGui::PushTextWrapPos(0.0f);
       if (m.resolved) {

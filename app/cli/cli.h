@@ -41,9 +41,9 @@ int GuardOutputs(const std::vector<FileRole>& inputs, const std::vector<FileRole
 // datasets with their keys and roles (core/data/import.h). Data files given after a project
 // replace its datasets.
 struct CommandInputs {
-  std::string model_path;    // "" when the project holds the model inline
-  Json inline_model;         // the project's inline model
-  std::string project_path;  // "" without a project
+  std::string model_path;                   // "" when the project holds the model inline
+  Json inline_model;                        // the project's inline model
+  std::string project_path;                 // "" without a project
   std::vector<data::DatasetSpec> datasets;  // every dataset, in order
   // Every file the project is made of (project::ProjectFiles: its diagram file too); empty
   // without a project.
@@ -136,7 +136,7 @@ int RunPrbs(const PrbsArgs& args);
 
 struct EstimateArgs {
   std::string initial_states;  // --initial-states ("" = the project's)
-  bool steady_start = false;  // EstimateOptions::steady_start
+  bool steady_start = false;   // EstimateOptions::steady_start
   double steady_window = 5.0;
   std::string model;
   std::vector<std::string> data;
@@ -172,7 +172,7 @@ int RunCompare(const CompareArgs& args);
 // checked when the command line is parsed (main.cpp), the limits of the record's size and the
 // simulated world's step by RunDyno.
 struct DynoArgs {
-  std::string experiment;  // fuel, crankshaft, square-wave, engine
+  std::string experiment;            // fuel, crankshaft, square-wave, engine
   std::optional<std::string> point;  // fuel, engine (default f1); engine also n=RPM,alpha=DEG
   // engine: a sweep along these points (comma-separated names, or n=..,alpha=.. joined by ';'),
   // `hold` s at each (>= 0, default 20) and `ramp` s between (> 0, default 40).
@@ -221,16 +221,16 @@ struct MonitorArgs {
   std::string model;
   std::vector<std::string> sets;
   std::string reference;
-  std::string follow;             // a file to follow; "-" (as `source`): standard input
-  std::string source;             // the positional "-"
+  std::string follow;  // a file to follow; "-" (as `source`): standard input
+  std::string source;  // the positional "-"
   double forgetting = 0.999;
   std::vector<std::string> track;  // parameter names (empty: all that can be)
-  double false_alarms = 0.125;    // per hour, all tests together
-  double change = 0.25;           // relative parameter change worth an alarm
-  std::optional<double> idle;     // --follow: stop after this many seconds without a new row
-                                  // (> 0; none: never)
-  int every = 1;                  // write every this-many-th update (alarms always)
-  std::string out;                // JSON Lines; empty or "-": stdout
+  double false_alarms = 0.125;     // per hour, all tests together
+  double change = 0.25;            // relative parameter change worth an alarm
+  std::optional<double> idle;      // --follow: stop after this many seconds without a new row
+                                   // (> 0; none: never)
+  int every = 1;                   // write every this-many-th update (alarms always)
+  std::string out;                 // JSON Lines; empty or "-": stdout
 };
 int RunMonitor(const MonitorArgs& args);
 
@@ -258,9 +258,9 @@ struct EvaluatedSeries {
   std::shared_ptr<const data::Series> series;
   std::vector<double> theta;
   model::StateSpace ss;
-  filter::FilterSettings settings;   // with the chosen delay per output
-  std::string delay_source;          // "model file", "result file" or "profile likelihood ..."
-  int initial_samples = 0;  // a validation record: the rows its own initial state is from
+  filter::FilterSettings settings;  // with the chosen delay per output
+  std::string delay_source;         // "model file", "result file" or "profile likelihood ..."
+  int initial_samples = 0;          // a validation record: the rows its own initial state is from
 };
 Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
                                             const data::DatasetSpec& dataset,
@@ -282,8 +282,8 @@ std::vector<diagnose::InputSeries> DiagnoseInputs(const EvaluatedSeries& e,
 
 struct PredictArgs {
   std::string initial_states;  // --initial-states ("" = the project's)
-  std::string model;  // or a project
-  std::string data;   // "" with a project: its dataset chosen by `dataset`
+  std::string model;           // or a project
+  std::string data;            // "" with a project: its dataset chosen by `dataset`
   std::string dataset;
   std::vector<std::string> sets;
   std::string result;
@@ -299,8 +299,8 @@ int RunPredict(const PredictArgs& args);
 
 struct DiagnoseArgs {
   std::string initial_states;  // --initial-states ("" = the project's)
-  std::string model;  // or a project
-  std::string data;   // "" with a project: its dataset chosen by `dataset`
+  std::string model;           // or a project
+  std::string data;            // "" with a project: its dataset chosen by `dataset`
   std::string dataset;
   std::vector<std::string> sets;
   std::string result;

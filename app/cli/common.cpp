@@ -130,9 +130,10 @@ Result<data::DatasetSpec> ChooseDataset(const CommandInputs& in, const std::stri
   };
   if (choice.empty()) {
     if (in.datasets.size() == 1) return in.datasets.front();
-    return InputError(fmt::format("the project has {} datasets: choose one with --dataset (its "
-                                  "number, name or file name): {}",
-                                  in.datasets.size(), list()));
+    return InputError(
+        fmt::format("the project has {} datasets: choose one with --dataset (its "
+                    "number, name or file name): {}",
+                    in.datasets.size(), list()));
   }
   int number = 0;
   const auto [ptr, ec] = std::from_chars(choice.data(), choice.data() + choice.size(), number);
@@ -145,7 +146,8 @@ Result<data::DatasetSpec> ChooseDataset(const CommandInputs& in, const std::stri
         std::filesystem::path(d.file).filename().string() == choice || d.file == choice)
       return d;
   }
-  return InputError(fmt::format("--dataset {}: no such dataset; the datasets are: {}", choice, list()));
+  return InputError(
+      fmt::format("--dataset {}: no such dataset; the datasets are: {}", choice, list()));
 }
 
 Result<project::RecordInitialStates> FittedModel(const CommandInputs& in, model::ModelSpec spec) {
@@ -176,7 +178,6 @@ Result<model::ModelSpec> LoadModelWithOverrides(const std::string& path,
   if (!spec) return spec.error();
   return ApplySets(std::move(*spec), sets);
 }
-
 
 Result<LoadedLikelihood> LoadLikelihood(const CommandInputs& in,
                                         const std::vector<std::string>& sets,

@@ -66,10 +66,10 @@ Json DiagnosticsJson(const diagnose::ResidualDiagnostics& d) {
 }  // namespace
 
 int RunDiagnose(const DiagnoseArgs& args) {
-  auto in = ResolveInputs(args.model,
-                          args.data.empty() ? std::vector<std::string>{}
-                                            : std::vector<std::string>{args.data},
-                          args.initial_states);
+  auto in = ResolveInputs(
+      args.model,
+      args.data.empty() ? std::vector<std::string>{} : std::vector<std::string>{args.data},
+      args.initial_states);
   if (!in) return Fail(in.error());
   std::vector<FileRole> files = in->Files();
   files.push_back({args.result, "the --result file"});

@@ -1,3 +1,5 @@
+#include "core/sim/dyno.h"
+
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
@@ -15,7 +17,6 @@
 
 #include "app/cli/cli.h"
 #include "core/data/write_csv.h"
-#include "core/sim/dyno.h"
 #include "core/sim/engine.h"
 #include "core/sim/fault_schedule.h"
 #include "core/sim/live_dyno.h"

@@ -1,3 +1,5 @@
+#include "core/estimate/estimate.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -10,7 +12,6 @@
 #include <fmt/ranges.h>
 
 #include "app/cli/cli.h"
-#include "core/estimate/estimate.h"
 #include "core/project/project.h"
 #include "core/project/result_file.h"
 #include "core/util/file.h"
@@ -81,13 +82,20 @@ int RunEstimate(const EstimateArgs& args) {
       (void)project::WriteFileAtomic(args.checkpoint, j.dump(1) + "\n");
     };
   }
-  if (args.algorithm == "auto") options.algorithm = estimate::Algorithm::kAuto;
-  else if (args.algorithm == "bhhh") options.algorithm = estimate::Algorithm::kBhhh;
-  else if (args.algorithm == "lbfgs") options.algorithm = estimate::Algorithm::kLbfgs;
-  else if (args.algorithm == "slsqp") options.algorithm = estimate::Algorithm::kSlsqp;
-  else if (args.algorithm == "bobyqa") options.algorithm = estimate::Algorithm::kBobyqa;
-  else if (args.algorithm == "trust-region") options.algorithm = estimate::Algorithm::kTrustRegion;
-  else return Fail(InputError("--algorithm: use auto, bhhh, slsqp, lbfgs, bobyqa or trust-region"));
+  if (args.algorithm == "auto")
+    options.algorithm = estimate::Algorithm::kAuto;
+  else if (args.algorithm == "bhhh")
+    options.algorithm = estimate::Algorithm::kBhhh;
+  else if (args.algorithm == "lbfgs")
+    options.algorithm = estimate::Algorithm::kLbfgs;
+  else if (args.algorithm == "slsqp")
+    options.algorithm = estimate::Algorithm::kSlsqp;
+  else if (args.algorithm == "bobyqa")
+    options.algorithm = estimate::Algorithm::kBobyqa;
+  else if (args.algorithm == "trust-region")
+    options.algorithm = estimate::Algorithm::kTrustRegion;
+  else
+    return Fail(InputError("--algorithm: use auto, bhhh, slsqp, lbfgs, bobyqa or trust-region"));
   auto summary = estimate::Estimate(*lik, options);
   if (!summary) return Fail(summary.error());
   std::printf("%s", summary->Report().c_str());
@@ -123,9 +131,10 @@ int RunCompare(const CompareArgs& args) {
   auto b = read(args.b);
   if (!b) return Fail(b.error());
   if (a->n_free == b->n_free)
-    return Fail(InputError(fmt::format("{} and {} have the same number of free parameters ({}): "
-                                       "a likelihood-ratio test needs nested models",
-                                       args.a, args.b, a->n_free)));
+    return Fail(
+        InputError(fmt::format("{} and {} have the same number of free parameters ({}): "
+                               "a likelihood-ratio test needs nested models",
+                               args.a, args.b, a->n_free)));
   const bool a_restricted = a->n_free < b->n_free;
   const project::NestedFit& r = a_restricted ? *a : *b;
   const project::NestedFit& f = a_restricted ? *b : *a;
@@ -138,15 +147,18 @@ int RunCompare(const CompareArgs& args) {
               r.path.c_str(), r.loglik, r.n_free, f.path.c_str(), f.loglik, f.n_free);
   std::printf("%s", test->Report().c_str());
   if (by_name_only)
-    std::printf("  note: a result file does not record its data's fingerprint (written by an "
-                "older greybench): the data were matched by file name and count only.\n");
+    std::printf(
+        "  note: a result file does not record its data's fingerprint (written by an "
+        "older greybench): the data were matched by file name and count only.\n");
   if (r.model != f.model)
-    std::printf("  note: the models have different names (%s, %s); they were found nested by "
-                "their parameters only.\n",
-                r.model.c_str(), f.model.c_str());
+    std::printf(
+        "  note: the models have different names (%s, %s); they were found nested by "
+        "their parameters only.\n",
+        r.model.c_str(), f.model.c_str());
   if (f.loglik < r.loglik)
-    std::printf("  note: the full model's log-likelihood is below the restricted one's: its fit "
-                "did not reach the optimum, or the models are not nested.\n");
+    std::printf(
+        "  note: the full model's log-likelihood is below the restricted one's: its fit "
+        "did not reach the optimum, or the models are not nested.\n");
   return 0;
 }
 

@@ -1,8 +1,8 @@
 // greybench-cli export-model: the model a project's block diagram compiles to.
-#include <fmt/format.h>
-
 #include <cstddef>
 #include <cstdio>
+
+#include <fmt/format.h>
 
 #include "app/cli/cli.h"
 #include "core/diagram/diagram.h"

@@ -1,3 +1,5 @@
+#include "core/model/linearise.h"
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -5,7 +7,6 @@
 #include <fmt/format.h>
 
 #include "app/cli/cli.h"
-#include "core/model/linearise.h"
 #include "core/online/monitor.h"
 #include "core/project/project.h"
 
@@ -98,10 +99,12 @@ int RunLinearise(const LineariseArgs& args) {
   std::printf("Steady state:\n");
   for (std::size_t i = 0; i < s.states.size(); ++i)
     std::printf("  %-10s %s\n", s.states[i].c_str(),
-                Cell(lin->x(static_cast<Eigen::Index>(i)), lin->se_x(static_cast<Eigen::Index>(i))).c_str());
+                Cell(lin->x(static_cast<Eigen::Index>(i)), lin->se_x(static_cast<Eigen::Index>(i)))
+                    .c_str());
   for (std::size_t j = 0; j < s.inputs.size(); ++j)
     std::printf("  %-10s %s\n", s.inputs[j].c_str(),
-                Cell(lin->u(static_cast<Eigen::Index>(j)), lin->se_u(static_cast<Eigen::Index>(j))).c_str());
+                Cell(lin->u(static_cast<Eigen::Index>(j)), lin->se_u(static_cast<Eigen::Index>(j)))
+                    .c_str());
   for (std::size_t o = 0; o < s.outputs.size(); ++o)
     std::printf("  %-10s %12.5g\n", s.outputs[o].c_str(), lin->y(static_cast<Eigen::Index>(o)));
   PrintMatrix("A = df/dx", lin->A, lin->se_A, s.states, s.states);
@@ -151,7 +154,8 @@ int RunLinearise(const LineariseArgs& args) {
           {"value", lin->quantities[k]},
           {"std_error", std::isnan(lin->se_quantities[k]) ? Json() : Json(lin->se_quantities[k])}};
     j["quantities"] = q;
-    if (auto st = project::WriteFileAtomic(args.out, j.dump(1) + "\n"); !st) return Fail(st.error());
+    if (auto st = project::WriteFileAtomic(args.out, j.dump(1) + "\n"); !st)
+      return Fail(st.error());
   }
   return 0;
 }

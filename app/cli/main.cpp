@@ -41,9 +41,10 @@ std::string WhyEmptyValue(const CLI::App& app) {
     for (const CLI::Option* opt : sub->get_options())
       for (const std::string& value : opt->results())
         if (value.empty())
-          return fmt::format("{} {}: the value is empty; give a value, or leave the option out "
-                             "for its default",
-                             sub->get_name(), opt->get_name());
+          return fmt::format(
+              "{} {}: the value is empty; give a value, or leave the option out "
+              "for its default",
+              sub->get_name(), opt->get_name());
   return "";
 }
 
@@ -58,9 +59,10 @@ std::string WhyDashOutput(const CLI::App& app, bool live) {
       if (o.rfind("--out", 0) != 0 && o != "--states" && o != "--checkpoint") continue;
       for (const std::string& value : opt->results())
         if (value == "-")
-          return fmt::format("{} {} -: {} writes files, not standard output; give a file name "
-                             "(./- for a file of that name)",
-                             name, o, name);
+          return fmt::format(
+              "{} {} -: {} writes files, not standard output; give a file name "
+              "(./- for a file of that name)",
+              name, o, name);
     }
   }
   return "";
@@ -168,7 +170,8 @@ int Main(int argc, char** argv) {
   BenchArgs bench;
   auto* c_bench = app.add_subcommand("bench", "time one log-likelihood evaluation (median)");
   c_bench->add_option("model", bench.model, "model file (JSON), or a project file")->required();
-  c_bench->add_option("data", bench.data, "data files (CSV; with a project: its estimation datasets unless given)");
+  c_bench->add_option("data", bench.data,
+                      "data files (CSV; with a project: its estimation datasets unless given)");
   c_bench->add_option("--set", bench.sets, "NAME=VALUE: override a parameter's value");
   c_bench->add_option("--repeat", bench.repeat, "timed evaluations (default 21; 1..10000)")
       ->check(Number({.lo = 1, .hi = 10000, .whole = true}));
@@ -196,8 +199,7 @@ int Main(int argc, char** argv) {
       ->required()
       ->check(Number({.lo = 0, .lo_open = true}));
   c_prbs
-      ->add_option("--duration", prbs.duration,
-                   "length of the signal (at most 50 million samples)")
+      ->add_option("--duration", prbs.duration, "length of the signal (at most 50 million samples)")
       ->required()
       ->check(Number({.lo = 0, .lo_open = true}));
   c_prbs->add_option("--low", prbs.low, "level of a 0 bit")->required()->check(Number({}));
@@ -231,17 +233,20 @@ int Main(int argc, char** argv) {
                    "(default 5)")
       ->check(Number(kPositive))
       ->needs(steady);
-  c_est->add_option("--threads", est.threads,
-                    "threads for the score and the Hessian, 1..1024 (default: all cores)")
+  c_est
+      ->add_option("--threads", est.threads,
+                   "threads for the score and the Hessian, 1..1024 (default: all cores)")
       ->check(Number({.lo = 1, .hi = estimate::kMaxThreads, .whole = true}));
-  c_est->add_option("--multistart", est.multistart,
-                    "extra starts spread over the bounds, 0..10000 (default 0)")
+  c_est
+      ->add_option("--multistart", est.multistart,
+                   "extra starts spread over the bounds, 0..10000 (default 0)")
       ->check(Number({.lo = 0, .hi = estimate::kMaxStarts, .whole = true}));
-  c_est->add_option("--starts-on-bound", est.starts_on_bound,
-                    "without --multistart: where the fit ends with parameters that ran off (onto "
-                    "a bound, towards +-inf, or where the data do not determine them), fits with "
-                    "them put back to their starts, then if needed this many extra starts, "
-                    "0..10000 (default 8; 0: neither)")
+  c_est
+      ->add_option("--starts-on-bound", est.starts_on_bound,
+                   "without --multistart: where the fit ends with parameters that ran off (onto "
+                   "a bound, towards +-inf, or where the data do not determine them), fits with "
+                   "them put back to their starts, then if needed this many extra starts, "
+                   "0..10000 (default 8; 0: neither)")
       ->check(Number({.lo = 0, .hi = estimate::kMaxStarts, .whole = true}));
   c_est->add_flag("--progress", est.progress,
                   "print the stage, iteration, evaluations and best log L to stderr after every "
@@ -255,13 +260,18 @@ int Main(int argc, char** argv) {
   c_est->add_flag("--log-scale", est.log_scale,
                   "fit the parameters with a positive lower bound on a log scale (for comparison: "
                   "docs/benchmarks.md, issue 33)");
-  c_est->add_option("--max-evaluations", est.max_evaluations,
-                    "log-likelihood evaluations per fit, 1..100000000 (default 20000)")
+  c_est
+      ->add_option("--max-evaluations", est.max_evaluations,
+                   "log-likelihood evaluations per fit, 1..100000000 (default 20000)")
       ->check(Number({.lo = 1, .hi = 1e8, .whole = true}));
-  c_est->add_option("--algorithm", est.algorithm, "auto (default: BHHH with BFGS corrections), bhhh, slsqp, lbfgs, bobyqa or trust-region (auto, then a trust-region Newton end game on the exact Hessian)");
-  c_est->add_option("--ftol", est.ftol,
-                    "relative tolerance on -log L, 0..0.1 (default 1e-12; 0: only the step "
-                    "tolerance stops)")
+  c_est->add_option(
+      "--algorithm", est.algorithm,
+      "auto (default: BHHH with BFGS corrections), bhhh, slsqp, lbfgs, bobyqa or trust-region "
+      "(auto, then a trust-region Newton end game on the exact Hessian)");
+  c_est
+      ->add_option("--ftol", est.ftol,
+                   "relative tolerance on -log L, 0..0.1 (default 1e-12; 0: only the step "
+                   "tolerance stops)")
       ->check(Number({.lo = 0, .hi = 0.1}));
   auto* profile = c_est->add_flag("--profile-intervals", est.profile_intervals,
                                   "likelihood-ratio (profile) intervals for every free parameter");
@@ -281,10 +291,11 @@ int Main(int argc, char** argv) {
   c_pred->add_option("model", predict.model, "model file (JSON), or a project file")->required();
   c_pred->add_option("data", predict.data, "data file (CSV; with a project: one of its datasets)");
   c_pred->add_option("--dataset", predict.dataset,
-                  "with a project: the dataset (its number from 1, name or file name)");
+                     "with a project: the dataset (its number from 1, name or file name)");
   AddInitialStates(c_pred, &predict.initial_states);
   c_pred->add_option("--set", predict.sets, "NAME=VALUE: override a parameter's value");
-  c_pred->add_option("--result", predict.result, "take the estimates (and delays) from a result file");
+  c_pred->add_option("--result", predict.result,
+                     "take the estimates (and delays) from a result file");
   c_pred->add_option("--out", predict.out, "output CSV: t, then o, o_pred, o_sd, o_residual")
       ->required();
   c_pred
@@ -299,23 +310,29 @@ int Main(int argc, char** argv) {
   c_pred->callback([&] { run = [&] { return RunPredict(predict); }; });
 
   DiagnoseArgs diag;
-  auto* c_diag = app.add_subcommand("diagnose", "residual diagnostics: ACF, PACF, CCF, periodogram, tests");
+  auto* c_diag =
+      app.add_subcommand("diagnose", "residual diagnostics: ACF, PACF, CCF, periodogram, tests");
   c_diag->add_option("model", diag.model, "model file (JSON), or a project file")->required();
   c_diag->add_option("data", diag.data, "data file (CSV; with a project: one of its datasets)");
   c_diag->add_option("--dataset", diag.dataset,
-                  "with a project: the dataset (its number from 1, name or file name)");
+                     "with a project: the dataset (its number from 1, name or file name)");
   AddInitialStates(c_diag, &diag.initial_states);
   c_diag->add_option("--set", diag.sets, "NAME=VALUE: override a parameter's value");
   c_diag->add_option("--result", diag.result, "take the estimates (and delays) from a result file");
-  c_diag->add_option("--max-lag", diag.max_lag, "lags of ACF, PACF and CCF, >= 1 (default min(40, n/4))")
+  c_diag
+      ->add_option("--max-lag", diag.max_lag,
+                   "lags of ACF, PACF and CCF, >= 1 (default min(40, n/4))")
       ->check(Number(kCount));
-  c_diag->add_option("--lb-lags", diag.ljung_box_lags, "Ljung-Box lags, >= 1 (default min(20, max lag))")
+  c_diag
+      ->add_option("--lb-lags", diag.ljung_box_lags,
+                   "Ljung-Box lags, >= 1 (default min(20, max lag))")
       ->check(Number(kCount));
   c_diag->add_option("--out", diag.out, "output JSON with every series and test")->required();
   c_diag->callback([&] { run = [&] { return RunDiagnose(diag); }; });
 
   ExportModelArgs export_model;
-  auto* c_export = app.add_subcommand("export-model", "write the model a project's diagram compiles to");
+  auto* c_export =
+      app.add_subcommand("export-model", "write the model a project's diagram compiles to");
   c_export->add_option("project", export_model.project, "project file (JSON) with a \"diagram\"")
       ->required();
   c_export->add_option("--out", export_model.out, "model file to write (JSON)")->required();
@@ -382,8 +399,7 @@ int Main(int argc, char** argv) {
                      "engine: a slow sweep through two or more points (f3,f1,f7 or "
                      "'n=2600,alpha=25;n=3600,alpha=35'); not with --point");
   c_dyno
-      ->add_option("--hold", dyno.hold,
-                   "engine sweep (--path): seconds at each point (default 20)")
+      ->add_option("--hold", dyno.hold, "engine sweep (--path): seconds at each point (default 20)")
       ->check(Number({.lo = 0, .unit = "seconds"}));
   c_dyno
       ->add_option("--ramp", dyno.ramp,
@@ -457,14 +473,16 @@ int Main(int argc, char** argv) {
   auto* c_lin = app.add_subcommand(
       "linearise", "the linearised model (A, B, C, D) of a fitted model at an operating point");
   c_lin->add_option("result", linearise.result, "result file of the fit (JSON)")->required();
-  c_lin->add_option("--point", linearise.point,
-                    "NAME=VALUE,...: states, inputs or outputs that fix the steady state")
+  c_lin
+      ->add_option("--point", linearise.point,
+                   "NAME=VALUE,...: states, inputs or outputs that fix the steady state")
       ->required();
   c_lin->add_option("--model", linearise.model,
                     "model file (default: the result file's model_file)");
-  c_lin->add_option("--quantity", linearise.quantities,
-                    "NAME=EXPRESSION of A_x_x, B_x_u, C_y_x, D_y_u, states, inputs, outputs and "
-                    "parameters (repeatable)")
+  c_lin
+      ->add_option("--quantity", linearise.quantities,
+                   "NAME=EXPRESSION of A_x_x, B_x_u, C_y_x, D_y_u, states, inputs, outputs and "
+                   "parameters (repeatable)")
       ->allow_extra_args(false);
   c_lin->add_option("--out", linearise.out, "write the linearisation as JSON");
   c_lin->callback([&] { run = [&] { return RunLinearise(linearise); }; });
@@ -478,7 +496,8 @@ int Main(int argc, char** argv) {
   c_sweep->add_option("--set", sweep.sets, "NAME=VALUE: override a start (or fixed) value");
   c_sweep->add_option("--out-csv", sweep.out_csv, "table of estimates (CSV)");
   c_sweep->add_option("--out-md", sweep.out_md, "table of estimates (Markdown)");
-  c_sweep->add_option("--trend", sweep.trend, "PARAMETER:TAG fitted linearly (default X:alpha_deg)");
+  c_sweep->add_option("--trend", sweep.trend,
+                      "PARAMETER:TAG fitted linearly (default X:alpha_deg)");
   c_sweep->add_option("--delay-parameter", sweep.delay_parameter,
                       "a parameter that is the delay in seconds (a continuous delay): the delay "
                       "relation fits its estimates");

@@ -2,8 +2,6 @@
 // standard input.
 #include "core/online/monitor.h"
 
-#include <fmt/format.h>
-
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -12,6 +10,8 @@
 #include <cstring>
 #include <optional>
 #include <thread>
+
+#include <fmt/format.h>
 
 #include "app/cli/cli.h"
 #include "core/online/follow.h"
@@ -53,8 +53,9 @@ Status CheckOptions(const MonitorArgs& args) {
       return InputError(
           "monitor: --idle is for --follow (standard input ends when its writer closes it)");
     if (!(*args.idle > 0.0) || !std::isfinite(*args.idle))
-      return bad("--idle", *args.idle, "a positive, finite number of seconds (leave it out to "
-                                       "follow the file until interrupted)");
+      return bad("--idle", *args.idle,
+                 "a positive, finite number of seconds (leave it out to "
+                 "follow the file until interrupted)");
   }
   return Ok{};
 }
@@ -148,7 +149,8 @@ int RunMonitor(const MonitorArgs& args) {
         std::string list;
         for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
         std::fprintf(stderr, "greybench-cli: monitor: %s; tracking %s\n",
-                     monitor->estimator().Method().c_str(), list.empty() ? "nothing" : list.c_str());
+                     monitor->estimator().Method().c_str(),
+                     list.empty() ? "nothing" : list.c_str());
         for (std::size_t a = 0; a < names.size(); ++a) {
           if (monitor->parameter_block()[a] == 0) {
             const char* why = !(monitor->reference_sd()[a] > 0.0)
@@ -165,9 +167,10 @@ int RunMonitor(const MonitorArgs& args) {
           const double asked = 100.0 * args.change;
           const std::string lowered =
               relative < asked * (1.0 - 1e-9)
-                  ? fmt::format(" (--change asks {:.3g} %: a larger change shows within too few "
-                                "rows for a calibrated test, and is found sooner)",
-                                asked)
+                  ? fmt::format(
+                        " (--change asks {:.3g} %: a larger change shows within too few "
+                        "rows for a calibrated test, and is found sooner)",
+                        asked)
                   : "";
           std::fprintf(stderr,
                        "greybench-cli: monitor: %s: score test for a change of %.3g (%.3g %%)%s, "

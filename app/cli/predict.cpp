@@ -1,3 +1,5 @@
+#include "core/filter/predict.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -7,10 +9,9 @@
 #include <fmt/format.h>
 
 #include "app/cli/cli.h"
+#include "core/data/write_csv.h"
 #include "core/filter/ekf_predict.h"
 #include "core/filter/initial_state.h"
-#include "core/data/write_csv.h"
-#include "core/filter/predict.h"
 #include "core/project/problem.h"
 #include "core/project/project.h"
 #include "core/project/result_file.h"
@@ -79,7 +80,8 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
   if (!fitted_model->index.empty() && dataset.role == data::Role::kEstimation) {
     const auto fitted = data::WithRole(in.datasets, data::Role::kEstimation);
     for (std::size_t r = 0; r < fitted.size(); ++r)
-      if (fitted[r].file == dataset.file && fitted[r].name == dataset.name) record = static_cast<int>(r);
+      if (fitted[r].file == dataset.file && fitted[r].name == dataset.name)
+        record = static_cast<int>(r);
   }
   std::vector<int> result_delay(spec->outputs.size(), -1);
   if (!result_path.empty()) {
@@ -92,7 +94,8 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
   EvaluatedSeries out;
   out.theta = spec->Values();
   if (record > 0)
-    out.theta = filter::SeriesTheta(out.theta, fitted_model->index[static_cast<std::size_t>(record)]);
+    out.theta =
+        filter::SeriesTheta(out.theta, fitted_model->index[static_cast<std::size_t>(record)]);
   auto problem = project::LoadProblem(std::move(*spec), std::vector{dataset});
   if (!problem) return problem.error();
   auto lik = project::MakeLikelihood(*problem);
@@ -139,9 +142,9 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
   if (dataset.role == data::Role::kValidation) {
     const int n = filter::InitialStateSamples(static_cast<int>(out.series->size()));
     Result<filter::InitialStateEstimate> start =
-        out.nonlinear
-            ? filter::EkfEstimateInitialState(*out.nonlinear, out.theta, *out.series, out.settings, n)
-            : filter::EstimateInitialState(out.ss, *out.series, out.settings, n);
+        out.nonlinear ? filter::EkfEstimateInitialState(*out.nonlinear, out.theta, *out.series,
+                                                        out.settings, n)
+                      : filter::EstimateInitialState(out.ss, *out.series, out.settings, n);
     if (!start) return start.error();
     out.settings.x0 = start->x0;
     out.settings.P0 = start->P0;
@@ -180,18 +183,19 @@ std::vector<std::string> DescribeEvaluation(const EvaluatedSeries& e, const std:
     delays += fmt::format("{}{}={}", o ? " " : "", m.outputs[o], e.settings.delay[o]);
   lines.push_back(fmt::format("output delay (samples): {} (from the {})", delays, e.delay_source));
   if (e.initial_samples > 0) {
-    lines.push_back(fmt::format("initial state: a validation record's own, from its first {} "
-                                "rows (smoothed back to its start)",
-                                e.initial_samples));
+    lines.push_back(
+        fmt::format("initial state: a validation record's own, from its first {} "
+                    "rows (smoothed back to its start)",
+                    e.initial_samples));
   }
   return lines;
 }
 
 int RunPredict(const PredictArgs& args) {
-  auto in = ResolveInputs(args.model,
-                          args.data.empty() ? std::vector<std::string>{}
-                                            : std::vector<std::string>{args.data},
-                          args.initial_states);
+  auto in = ResolveInputs(
+      args.model,
+      args.data.empty() ? std::vector<std::string>{} : std::vector<std::string>{args.data},
+      args.initial_states);
   if (!in) return Fail(in.error());
   std::vector<FileRole> inputs = in->Files();
   inputs.push_back({args.result, "the --result file"});
@@ -204,13 +208,15 @@ int RunPredict(const PredictArgs& args) {
   const data::Series& s = *original;
   const int N = static_cast<int>(s.size());
   if (args.simulate_after < 0 || args.simulate_after >= N)
-    return Fail(InputError(fmt::format("--simulate-after {}: expected a number of rows from 1 to "
-                                       "{} ({} has {} rows)", args.simulate_after, N - 1,
-                                       s.source, N)));
+    return Fail(
+        InputError(fmt::format("--simulate-after {}: expected a number of rows from 1 to "
+                               "{} ({} has {} rows)",
+                               args.simulate_after, N - 1, s.source, N)));
   if (args.simulate_after > 0) {
     // The filter sees no output after the first rows: its predictions are the simulation.
     auto masked = std::make_shared<data::Series>(s);
-    masked->Y.rightCols(N - args.simulate_after).setConstant(std::numeric_limits<double>::quiet_NaN());
+    masked->Y.rightCols(N - args.simulate_after)
+        .setConstant(std::numeric_limits<double>::quiet_NaN());
     e->series = masked;
   }
   filter::FilterTrace trace;
@@ -240,18 +246,19 @@ int RunPredict(const PredictArgs& args) {
         spread += d * d;
       }
       const double value = count ? std::sqrt(sum / count) : std::nan("");
-      const double fit = count > 1 && spread > 0 ? 100 * (1 - std::sqrt(sum / spread)) : std::nan("");
+      const double fit =
+          count > 1 && spread > 0 ? 100 * (1 - std::sqrt(sum / spread)) : std::nan("");
       Json figures = {{"rms", value}, {"n", count}};
       if (std::isfinite(fit)) figures["fit_percent"] = fit;
       rms[m.outputs[o]] = figures;
-      rms_lines.push_back(fmt::format("simulation of {} from row {} on (state from the first {} "
-                                      "rows): RMS error {:.6g}{} over {} rows",
-                                      m.outputs[o], args.simulate_after + 1, args.simulate_after,
-                                      value,
-                                      std::isfinite(fit) ? fmt::format(", fit {:.1f} %", fit) : "",
-                                      count));
+      rms_lines.push_back(
+          fmt::format("simulation of {} from row {} on (state from the first {} "
+                      "rows): RMS error {:.6g}{} over {} rows",
+                      m.outputs[o], args.simulate_after + 1, args.simulate_after, value,
+                      std::isfinite(fit) ? fmt::format(", fit {:.1f} %", fit) : "", count));
     }
-    std::printf("%s\n", Json{{"simulate_after", args.simulate_after}, {"outputs", rms}}.dump().c_str());
+    std::printf("%s\n",
+                Json{{"simulate_after", args.simulate_after}, {"outputs", rms}}.dump().c_str());
   }
   std::vector<std::vector<double>> storage;
   std::vector<std::string> names;
@@ -270,8 +277,8 @@ int RunPredict(const PredictArgs& args) {
   }
   std::vector<data::CsvColumn> cols = {{"t", s.time}};
   for (std::size_t c = 0; c < storage.size(); ++c) cols.push_back({names[c], storage[c]});
-  std::vector<std::string> comments = DescribeEvaluation(
-      *e, args.simulate_after > 0 ? "simulation" : "one-step predictions");
+  std::vector<std::string> comments =
+      DescribeEvaluation(*e, args.simulate_after > 0 ? "simulation" : "one-step predictions");
   comments.insert(comments.end(), rms_lines.begin(), rms_lines.end());
   comments.push_back(fmt::format("log-likelihood {:.10g} over {} observations", pred->loglik.loglik,
                                  pred->loglik.n_obs));

@@ -3,10 +3,10 @@
 // are at hand.
 #include "core/report/report.h"
 
-#include <fmt/format.h>
-
 #include <cstdio>
 #include <filesystem>
+
+#include <fmt/format.h>
 
 #include "app/cli/cli.h"
 #include "core/diagnose/residuals.h"

@@ -1,3 +1,5 @@
+#include "core/sim/simulate.h"
+
 #include <cstdint>
 #include <optional>
 
@@ -8,7 +10,6 @@
 #include "core/design/prbs.h"
 #include "core/model/linear_model.h"
 #include "core/sim/sde.h"
-#include "core/sim/simulate.h"
 
 namespace gb::cli {
 
@@ -107,10 +108,10 @@ int RunPrbs(const PrbsArgs& args) {
   auto signal = design::MakePrbs(o);
   if (!signal) return Fail(signal.error());
   const std::vector<data::CsvColumn> cols = {{"t", signal->t}, {args.name, signal->u}};
-  const std::vector<std::string> comments = {fmt::format(
-      "PRBS order {}, bit period {}, period {} ({} bits), levels {} / {}, seed {}", o.order,
-      o.bit_period, design::PrbsPeriod(o.order, o.bit_period), (1u << o.order) - 1u, o.low,
-      o.high, o.seed)};
+  const std::vector<std::string> comments = {
+      fmt::format("PRBS order {}, bit period {}, period {} ({} bits), levels {} / {}, seed {}",
+                  o.order, o.bit_period, design::PrbsPeriod(o.order, o.bit_period),
+                  (1u << o.order) - 1u, o.low, o.high, o.seed)};
   if (auto st = data::WriteCsvFile(args.out, cols, comments); !st) return Fail(st.error());
   return 0;
 }

@@ -1,10 +1,11 @@
+#include "core/estimate/sweep.h"
+
 #include <cstdio>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
 #include "app/cli/cli.h"
-#include "core/estimate/sweep.h"
 #include "core/project/project.h"
 
 namespace gb::cli {
@@ -25,8 +26,8 @@ int RunSweep(const SweepArgs& args) {
   const std::string trend = args.trend.value_or("X:alpha_deg");
   const auto colon = trend.find(':');
   if (colon == std::string::npos || colon == 0 || colon + 1 == trend.size())
-    return Fail(InputError(fmt::format("--trend '{}': expected PARAMETER:TAG, e.g. X:alpha_deg",
-                                       trend)));
+    return Fail(
+        InputError(fmt::format("--trend '{}': expected PARAMETER:TAG, e.g. X:alpha_deg", trend)));
   options.trend_parameter = trend.substr(0, colon);
   options.trend_tag = trend.substr(colon + 1);
   options.delay_parameter = args.delay_parameter;
@@ -72,7 +73,8 @@ int RunSweep(const SweepArgs& args) {
   if (!args.out_md.empty())
     if (auto st = project::WriteFileAtomic(args.out_md, md); !st) return Fail(st.error());
   if (!args.out_csv.empty())
-    if (auto st = project::WriteFileAtomic(args.out_csv, result->Csv()); !st) return Fail(st.error());
+    if (auto st = project::WriteFileAtomic(args.out_csv, result->Csv()); !st)
+      return Fail(st.error());
   for (const auto& r : result->rows)
     if (!r.summary.converged) return 1;
   return 0;

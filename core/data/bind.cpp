@@ -1,11 +1,11 @@
 // Grouping sample intervals and binding a Dataset's columns to a model's inputs and outputs.
-#include <fmt/format.h>
-
 #include <cassert>
 #include <cmath>
 #include <iterator>
 #include <map>
 #include <utility>
+
+#include <fmt/format.h>
 
 #include "core/data/dataset.h"
 

@@ -8,8 +8,6 @@
 //   Header                 ReadHeader: column names and the time column
 //   Rows                   NotANumberReason, SplitRow, ParseCsv
 //   Files                  ReadCsvFile, Dataset::Find
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
@@ -17,6 +15,8 @@
 #include <cstdio>
 #include <cstring>
 #include <system_error>
+
+#include <fmt/format.h>
 
 #include "core/data/dataset.h"
 #include "core/data/internal.h"
@@ -275,8 +275,8 @@ bool IsTimeWord(std::string_view name) {
 
 // Names the columns of `d` (every field but the time column) from `names` (the header's, or
 // those a headerless file is given), and finds the time column as `format` says.
-Status NameColumns(const std::vector<std::string_view>& names, int line_no,
-                   const CsvFormat& format, Dataset* d) {
+Status NameColumns(const std::vector<std::string_view>& names, int line_no, const CsvFormat& format,
+                   Dataset* d) {
   int time_index = -1;
   if (format.sample_time > 0) {
     // No time column: every field is a column; the time is called t.
@@ -342,10 +342,10 @@ Result<std::vector<std::string>> FieldNames(const std::vector<std::string_view>&
   std::vector<std::string> names;
   if (!format.columns.empty()) {
     if (format.columns.size() != n_fields) {
-      return FileError(source, line_no, 0,
-                       fmt::format("{} column names are given, but line {} has {} field{}",
-                                   format.columns.size(), line_no, n_fields,
-                                   n_fields == 1 ? "" : "s"));
+      return FileError(
+          source, line_no, 0,
+          fmt::format("{} column names are given, but line {} has {} field{}",
+                      format.columns.size(), line_no, n_fields, n_fields == 1 ? "" : "s"));
     }
     names = format.columns;
   } else if (!header.empty()) {
@@ -367,8 +367,8 @@ std::optional<double> TimeUnitScale(std::string_view name, std::string* unknown_
   return scale;
 }
 
-Status internal::ReadHeader(FieldSplitter& splitter, std::string_view line, int line_no,
-                            Dataset* d, const CsvFormat& format) {
+Status internal::ReadHeader(FieldSplitter& splitter, std::string_view line, int line_no, Dataset* d,
+                            const CsvFormat& format) {
   int bad_field = 0;
   std::string problem;
   if (!splitter.Split(line, &bad_field, &problem)) {
@@ -449,8 +449,8 @@ Status internal::SplitRow(FieldSplitter& splitter, std::string_view line, int li
   if (previous_line > 0 && !(*t > previous_time)) {
     if (header.time_scale == 1) {
       return FileError(header.source, line_no, header.time_field,
-                       fmt::format("time {} does not increase (previous row, line {}, has {})",
-                                   *t, previous_line, previous_time));
+                       fmt::format("time {} does not increase (previous row, line {}, has {})", *t,
+                                   previous_line, previous_time));
     }
     return FileError(header.source, line_no, header.time_field,
                      fmt::format("time {} ({} s) does not increase (previous row, line {}, is at "
@@ -475,12 +475,11 @@ Result<std::shared_ptr<const Dataset>> ParseCsv(std::string_view text, std::stri
   bool found_first = false;
   while (!found_first && lines.Next(&line)) found_first = !IsSkipped(line);
   if (!found_first) {
-    return FileError(d->source, 0, 0,
-                     text.find_first_not_of(" \t\r\n") == std::string_view::npos
-                         ? "the file is empty"
-                         : format.header
-                               ? "the file has no header: it holds only comments and blank lines"
-                               : "the file has no rows: it holds only comments and blank lines");
+    return FileError(
+        d->source, 0, 0,
+        text.find_first_not_of(" \t\r\n") == std::string_view::npos ? "the file is empty"
+        : format.header ? "the file has no header: it holds only comments and blank lines"
+                        : "the file has no rows: it holds only comments and blank lines");
   }
   char separator = format.separator != 0 ? format.separator : DetectSeparator(line);
   if (format.decimal == ',' && separator == ',') separator = ';';
@@ -586,7 +585,8 @@ CsvFormat SniffCsv(std::string_view text) {
   for (char candidate : {';', '\t', ','}) {
     const int n = count_outside_quotes(sample.front(), candidate);
     bool consistent = n > 0;
-    for (std::string_view l : sample) consistent = consistent && count_outside_quotes(l, candidate) == n;
+    for (std::string_view l : sample)
+      consistent = consistent && count_outside_quotes(l, candidate) == n;
     if (consistent) {
       format.separator = candidate;
       break;

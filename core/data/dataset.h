@@ -44,9 +44,9 @@
 namespace gb::data {
 
 struct Column {
-  std::string name;               // trimmed, quotes removed
-  int field = 0;                  // 1-based field number in the file
-  std::vector<double> values;     // one per row; NaN where missing or not a number
+  std::string name;            // trimmed, quotes removed
+  int field = 0;               // 1-based field number in the file
+  std::vector<double> values;  // one per row; NaN where missing or not a number
   // The first cell that is neither a number nor a missing marker (0 = none).
   int bad_line = 0;
   std::string bad_text;
@@ -57,16 +57,16 @@ struct Column {
 
 // Immutable once read.
 struct Dataset {
-  std::string source;              // the path as the user gave it (used in messages)
-  int header_line = 0;             // 1-based line of the header; 0 for a file without one
-  std::string time_name;           // as written in the header; "t" when the rows are timed by
-                                   // a sample time (time_field 0: no column)
+  std::string source;     // the path as the user gave it (used in messages)
+  int header_line = 0;    // 1-based line of the header; 0 for a file without one
+  std::string time_name;  // as written in the header; "t" when the rows are timed by
+                          // a sample time (time_field 0: no column)
   int time_field = 0;
-  double time_scale = 1;           // seconds per unit of the time column (`time [ms]`: 0.001)
-  char decimal = '.';              // the decimal mark the cells were read with
-  std::vector<double> time;        // strictly increasing, in seconds when the column had a unit
-  std::vector<int> row_line;       // 1-based file line of each row
-  std::vector<Column> columns;     // every column except the time column, in file order
+  double time_scale = 1;        // seconds per unit of the time column (`time [ms]`: 0.001)
+  char decimal = '.';           // the decimal mark the cells were read with
+  std::vector<double> time;     // strictly increasing, in seconds when the column had a unit
+  std::vector<int> row_line;    // 1-based file line of each row
+  std::vector<Column> columns;  // every column except the time column, in file order
 
   std::size_t rows() const { return time.size(); }
   // Index into `columns` of the column named `name`, or -1. If the name occurs twice: -2.
@@ -76,16 +76,16 @@ struct Dataset {
 // How a CSV file is laid out, where it is not the default form above. The default CsvFormat
 // reads exactly as described there.
 struct CsvFormat {
-  bool header = true;              // false: the first line that is not a comment is data
-  char separator = 0;              // ',', ';' or '\t'; 0: detected from the first line
-  char decimal = '.';              // '.' or ',' (then the separator cannot be ',')
+  bool header = true;  // false: the first line that is not a comment is data
+  char separator = 0;  // ',', ';' or '\t'; 0: detected from the first line
+  char decimal = '.';  // '.' or ',' (then the separator cannot be ',')
   // The fields' names in file order: required to match the fields' count. Without a header they
   // name the columns (default c1, c2, ...); with one they replace the header's names.
   std::vector<std::string> columns;
   // The time column's name; "": the first named t or time, else the first such name with a unit
   // (time_unit.h's names: `time [ms]`, `t_s`, `Zeit (min)`).
   std::string time;
-  double sample_time = 0;          // > 0: there is no time column; row k is at k * sample_time
+  double sample_time = 0;  // > 0: there is no time column; row k is at k * sample_time
   // Only the rows with range[0] <= t <= range[1] (seconds) are kept (maybe none); every row is
   // still checked.
   std::optional<std::array<double, 2>> range;
@@ -130,8 +130,8 @@ std::string NotANumberReason(std::string_view text, char decimal = '.');
 // O(N log G) for G groups otherwise.
 struct Intervals {
   static constexpr double kIntervalRelTol = 1e-10;
-  std::vector<double> distinct;    // the groups' intervals
-  std::vector<int> group;          // group of interval k (between rows k and k+1), size N-1
+  std::vector<double> distinct;  // the groups' intervals
+  std::vector<int> group;        // group of interval k (between rows k and k+1), size N-1
 };
 Intervals GroupIntervals(std::span<const double> time);
 
@@ -139,9 +139,9 @@ Intervals GroupIntervals(std::span<const double> time);
 // Immutable once built.
 struct Series {
   std::string source;
-  std::vector<double> time;        // size N
-  Eigen::MatrixXd U;               // n_inputs x N, every entry finite
-  Eigen::MatrixXd Y;               // n_outputs x N, NaN = missing observation
+  std::vector<double> time;  // size N
+  Eigen::MatrixXd U;         // n_inputs x N, every entry finite
+  Eigen::MatrixXd Y;         // n_outputs x N, NaN = missing observation
   Intervals intervals;
   // For messages only (both may be empty, e.g. for a series built in memory):
   std::vector<std::string> outputs;  // the names of Y's rows

@@ -7,8 +7,6 @@
 //   Preparation   Prepare: map, range, detrend, resample (Decimate)
 #include "core/data/import.h"
 
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -16,6 +14,8 @@
 #include <iterator>
 #include <numbers>
 #include <set>
+
+#include <fmt/format.h>
 
 #include "core/data/internal.h"
 #include "core/data/mdf4.h"
@@ -27,16 +27,15 @@ namespace {
 Error KeyError(const DatasetSpec& spec, const std::string& key, std::string message) {
   Error e = InputError(std::move(message));
   e.file = spec.origin_file;
-  e.path = spec.origin_path.empty() ? key : key.empty() ? spec.origin_path
-                                                        : spec.origin_path + "." + key;
+  e.path = spec.origin_path.empty() ? key
+           : key.empty()            ? spec.origin_path
+                                    : spec.origin_path + "." + key;
   return e;
 }
 
 }  // namespace
 
-const char* RoleName(Role role) {
-  return role == Role::kValidation ? "validation" : "estimation";
-}
+const char* RoleName(Role role) { return role == Role::kValidation ? "validation" : "estimation"; }
 
 DatasetSpec PlainDataset(std::string file) {
   DatasetSpec spec;
@@ -76,8 +75,8 @@ Result<DatasetSpec> ParseDatasetSpec(const Json& entry, const std::string& origi
     return spec;
   }
   if (!entry.is_object()) {
-    return KeyError(spec, "",
-                    "expected a file name (a string) or an object such as {\"file\": \"run1.csv\"}");
+    return KeyError(
+        spec, "", "expected a file name (a string) or an object such as {\"file\": \"run1.csv\"}");
   }
   spec.plain = false;
   const auto positive = [&](const Json& v, const std::string& key, double* out) -> Status {
@@ -147,7 +146,8 @@ Result<DatasetSpec> ParseDatasetSpec(const Json& entry, const std::string& origi
         return KeyError(spec, key, "expected [t0, t1], two times in seconds");
       const double t0 = v[0].get<double>(), t1 = v[1].get<double>();
       if (!std::isfinite(t0) || !std::isfinite(t1) || !(t0 < t1))
-        return KeyError(spec, key, fmt::format("expected t0 < t1, both finite; got [{}, {}]", t0, t1));
+        return KeyError(spec, key,
+                        fmt::format("expected t0 < t1, both finite; got [{}, {}]", t0, t1));
       spec.range = std::array<double, 2>{t0, t1};
     } else if (key == "detrend") {
       const auto how = [&](const Json& w, const std::string& at) -> Result<Detrend> {
@@ -174,13 +174,17 @@ Result<DatasetSpec> ParseDatasetSpec(const Json& entry, const std::string& origi
       if (Status s = positive(v, key, &spec.resample); !s) return s.error();
     } else if (key == "interpolation") {
       const std::string s = v.is_string() ? v.get<std::string>() : "";
-      if (s != "hold" && s != "linear") return KeyError(spec, key, "expected \"hold\" or \"linear\"");
+      if (s != "hold" && s != "linear")
+        return KeyError(spec, key, "expected \"hold\" or \"linear\"");
       spec.interpolation = s;
     } else if (key == "role") {
       const std::string s = v.is_string() ? v.get<std::string>() : "";
-      if (s == "estimation") spec.role = Role::kEstimation;
-      else if (s == "validation") spec.role = Role::kValidation;
-      else return KeyError(spec, key, "expected \"estimation\" or \"validation\"");
+      if (s == "estimation")
+        spec.role = Role::kEstimation;
+      else if (s == "validation")
+        spec.role = Role::kValidation;
+      else
+        return KeyError(spec, key, "expected \"estimation\" or \"validation\"");
     } else {
       return KeyError(spec, key,
                       "unknown key (a dataset has file, name, header, separator, decimal, "
@@ -190,7 +194,8 @@ Result<DatasetSpec> ParseDatasetSpec(const Json& entry, const std::string& origi
   }
   if (spec.file.empty()) return KeyError(spec, "", "the dataset names no file: add \"file\"");
   if (!spec.time.empty() && spec.sample_time > 0)
-    return KeyError(spec, "sample_time", "give either \"time\" (a column) or \"sample_time\", not both");
+    return KeyError(spec, "sample_time",
+                    "give either \"time\" (a column) or \"sample_time\", not both");
   if (spec.decimal == ',' && spec.separator == ',')
     return KeyError(spec, "decimal", "a decimal comma needs another separator than \",\"");
   if (spec.header == false && spec.columns.empty() && !spec.time.empty()) {
@@ -246,8 +251,10 @@ CsvFormat FormatOf(const DatasetSpec& spec, std::string_view text) {
   if (spec.decimal) format.decimal = *spec.decimal;
   if (format.decimal == ',' && format.separator == ',') {
     // A guessed decimal comma gives way to a given ',' separator, and the other way round.
-    if (spec.separator) format.decimal = '.';
-    else format.separator = ';';
+    if (spec.separator)
+      format.decimal = '.';
+    else
+      format.separator = ';';
   }
   format.columns = spec.columns;
   format.time = spec.time;
@@ -346,26 +353,23 @@ Status Map(const DatasetSpec& spec, Dataset* d) {
     for (const std::string& n : names) {
       const int index = d->Find(n);
       if (index == -2)
-        return KeyError(spec, key, fmt::format("column '{}' appears more than once in the file", n));
+        return KeyError(spec, key,
+                        fmt::format("column '{}' appears more than once in the file", n));
       if (index < 0) {
-        Error err = KeyError(spec, key,
-                             fmt::format("column '{}' is not in the file; its columns are {}", n,
-                                         ColumnNames(*d)));
+        Error err = KeyError(
+            spec, key,
+            fmt::format("column '{}' is not in the file; its columns are {}", n, ColumnNames(*d)));
         if (const expr::Node* at = expr::FindFirstVariable(*e, {n})) err.expr_col = at->column;
         return err;
       }
       used.push_back(&d->columns[static_cast<std::size_t>(index)]);
     }
     const std::vector<std::string> slot_names(names.begin(), names.end());
-    Result<expr::Tape> tape = expr::Tape::Compile(std::span<const expr::ExprPtr>(&*e, 1),
-                                                  [&](const std::string& n) {
-                                                    const auto at = std::find(
-                                                        slot_names.begin(), slot_names.end(), n);
-                                                    return at == slot_names.end()
-                                                               ? -1
-                                                               : static_cast<int>(
-                                                                     at - slot_names.begin());
-                                                  });
+    Result<expr::Tape> tape =
+        expr::Tape::Compile(std::span<const expr::ExprPtr>(&*e, 1), [&](const std::string& n) {
+          const auto at = std::find(slot_names.begin(), slot_names.end(), n);
+          return at == slot_names.end() ? -1 : static_cast<int>(at - slot_names.begin());
+        });
     if (!tape) {
       Error err = KeyError(spec, key, tape.error().message);
       err.expr_col = tape.error().expr_col;
@@ -445,9 +449,9 @@ Status DetrendColumns(const DatasetSpec& spec, Dataset* d) {
     if (index == -2)
       return KeyError(spec, "detrend." + name, "the column appears more than once in the file");
     if (index < 0) {
-      return KeyError(spec, "detrend." + name,
-                      fmt::format("column '{}' is not in the file; its columns are {}", name,
-                                  ColumnNames(*d)));
+      return KeyError(
+          spec, "detrend." + name,
+          fmt::format("column '{}' is not in the file; its columns are {}", name, ColumnNames(*d)));
     }
     Detrend1(d->time, how, &d->columns[static_cast<std::size_t>(index)].values);
   }
@@ -535,7 +539,7 @@ std::vector<double> Decimate(std::span<const double> time, std::span<const doubl
       weights += w;
     }
     out.push_back(weights >= 0.5 * all && weights > 0 ? sum / weights
-                                                       : std::numeric_limits<double>::quiet_NaN());
+                                                      : std::numeric_limits<double>::quiet_NaN());
   }
   return out;
 }

@@ -28,9 +28,9 @@
 //
 // Preparation runs in that order: the file is read (header, separator, decimal, columns, time
 // or sample_time), keeping the rows of `range` (every row is still checked), then `map` adds its
-// columns (replacing one of the same name), `detrend` subtracts each named column's mean or least-squares line over those rows
-// (missing cells left out), and `resample` decimates. The result is a Dataset like any other:
-// Bind binds its columns by name.
+// columns (replacing one of the same name), `detrend` subtracts each named column's mean or
+// least-squares line over those rows (missing cells left out), and `resample` decimates. The result
+// is a Dataset like any other: Bind binds its columns by name.
 #pragma once
 
 #include <array>
@@ -110,9 +110,10 @@ Mdf4Format Mdf4FormatOf(const DatasetSpec& spec);
 // bytes are MDF's magic.
 bool IsMdfFile(const std::string& path);
 
-// Reads and prepares the recording (a CSV file, or an MDF file: mdf4.h's Mdf4ToDataset). A plain spec reads exactly as ReadCsvFile(spec.file).
-// Errors in the file name the file and line; errors of a key name the project file and the key's
-// JSON path (`case.json: datasets[0].map.ilambda: column 'Lamda' is not in the file; ...`).
+// Reads and prepares the recording (a CSV file, or an MDF file: mdf4.h's Mdf4ToDataset). A plain
+// spec reads exactly as ReadCsvFile(spec.file). Errors in the file name the file and line; errors
+// of a key name the project file and the key's JSON path (`case.json: datasets[0].map.ilambda:
+// column 'Lamda' is not in the file; ...`).
 Result<std::shared_ptr<const Dataset>> ReadDataset(const DatasetSpec& spec);
 
 // The preparation steps on a dataset already read, in the rows of its range (map, detrend and

@@ -14,9 +14,6 @@
 //   Dataset              Mdf4ToDataset: channels on one time base
 #include "core/data/mdf4.h"
 
-#include <fmt/format.h>
-#include <zlib.h>
-
 #include <algorithm>
 #include <bit>
 #include <cerrno>
@@ -29,6 +26,9 @@
 #include <map>
 #include <set>
 #include <system_error>
+
+#include <fmt/format.h>
+#include <zlib.h>
 
 #include "core/util/file.h"
 

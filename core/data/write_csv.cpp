@@ -21,8 +21,10 @@ std::string FormatCsv(std::span<const CsvColumn> columns, std::span<const std::s
       assert(columns[i].values.size() == rows && "CSV columns have equal lengths");
       if (i) out += ',';
       const double v = columns[i].values[r];
-      if (std::isnan(v)) out += "NA";
-      else fmt::format_to(std::back_inserter(out), "{}", v);  // shortest exact representation
+      if (std::isnan(v))
+        out += "NA";
+      else
+        fmt::format_to(std::back_inserter(out), "{}", v);  // shortest exact representation
     }
     out += '\n';
   }

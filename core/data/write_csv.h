@@ -20,6 +20,7 @@ Status WriteCsvFile(const std::string& path, std::span<const CsvColumn> columns,
                     std::span<const std::string> comments = {});
 
 // The same text, for callers that print it.
-std::string FormatCsv(std::span<const CsvColumn> columns, std::span<const std::string> comments = {});
+std::string FormatCsv(std::span<const CsvColumn> columns,
+                      std::span<const std::string> comments = {});
 
 }  // namespace gb::data

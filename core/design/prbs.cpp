@@ -12,12 +12,31 @@ namespace {
 // Tap positions (1-based, the register's bit n is the output) of primitive polynomials
 // x^n + ... + 1, one per order; maximal length is verified for every order by the tests.
 const std::vector<std::vector<int>>& Taps() {
-  static const std::vector<std::vector<int>> kTaps = {
-      {},              {},               {2, 1},          {3, 2},          {4, 3},
-      {5, 3},          {6, 5},           {7, 6},          {8, 6, 5, 4},    {9, 5},
-      {10, 7},         {11, 9},          {12, 6, 4, 1},   {13, 4, 3, 1},   {14, 5, 3, 1},
-      {15, 14},        {16, 15, 13, 4},  {17, 14},        {18, 11},        {19, 6, 2, 1},
-      {20, 17},        {21, 19},         {22, 21},        {23, 18},        {24, 23, 22, 17}};
+  static const std::vector<std::vector<int>> kTaps = {{},
+                                                      {},
+                                                      {2, 1},
+                                                      {3, 2},
+                                                      {4, 3},
+                                                      {5, 3},
+                                                      {6, 5},
+                                                      {7, 6},
+                                                      {8, 6, 5, 4},
+                                                      {9, 5},
+                                                      {10, 7},
+                                                      {11, 9},
+                                                      {12, 6, 4, 1},
+                                                      {13, 4, 3, 1},
+                                                      {14, 5, 3, 1},
+                                                      {15, 14},
+                                                      {16, 15, 13, 4},
+                                                      {17, 14},
+                                                      {18, 11},
+                                                      {19, 6, 2, 1},
+                                                      {20, 17},
+                                                      {21, 19},
+                                                      {22, 21},
+                                                      {23, 18},
+                                                      {24, 23, 22, 17}};
   return kTaps;
 }
 
@@ -87,8 +106,10 @@ bool PrbsOptions::IsValid(std::string* why) const {
                             duration, sample_time));
   if (!std::isfinite(low) || !std::isfinite(high)) return fail("--low and --high must be finite");
   if (bit_period < sample_time * (1 - 1e-9))
-    return fail(fmt::format("the bit period {} is shorter than the sample time {}: bits would be "
-                            "lost between samples", bit_period, sample_time));
+    return fail(
+        fmt::format("the bit period {} is shorter than the sample time {}: bits would be "
+                    "lost between samples",
+                    bit_period, sample_time));
   return true;
 }
 

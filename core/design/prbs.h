@@ -42,13 +42,13 @@ class PrbsRegister {
 
 struct PrbsOptions {
   int order = 6;
-  double bit_period = 0.5;     // T_prbs, in the time unit of the data
-  double sample_time = 0.0125; // T_s
-  double duration = 10.0;      // samples are taken at t = k T_s for 0 <= t < duration
-  double low = -1.0;           // the level of a 0 bit
-  double high = 1.0;           // the level of a 1 bit
+  double bit_period = 0.5;      // T_prbs, in the time unit of the data
+  double sample_time = 0.0125;  // T_s
+  double duration = 10.0;       // samples are taken at t = k T_s for 0 <= t < duration
+  double low = -1.0;            // the level of a 0 bit
+  double high = 1.0;            // the level of a 1 bit
   std::uint32_t seed = 1;
-  std::string name = "u";      // the column name when written
+  std::string name = "u";  // the column name when written
   bool IsValid(std::string* why) const;
 };
 

@@ -1,11 +1,11 @@
 // Sections: 1. expression building  2. the compiler (structure, signals, equations, model)
 //           3. Compile  4. FromModel
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <map>
 #include <set>
 #include <unordered_set>
+
+#include <fmt/format.h>
 
 #include "core/diagram/diagram.h"
 #include "core/diagram/internal.h"
@@ -298,7 +298,8 @@ class Compiler {
         ExprPtr u = InSignal(b, 0);
         ExprPtr k = Field(b, "k", "the orifice coefficient k is not set");
         if (!u || !k) return nullptr;
-        return Binary(Op::kMul, k, Call(expr::Func::kSqrt, {Call(expr::Func::kMax, {u, expr::Constant(0)})}));
+        return Binary(Op::kMul, k,
+                      Call(expr::Func::kSqrt, {Call(expr::Func::kMax, {u, expr::Constant(0)})}));
       }
       case BlockKind::kSaturation:
         return Saturate(b);
@@ -321,8 +322,8 @@ class Compiler {
     auto softplus = [&](const ExprPtr& limit) {  // w log(1 + e^{(u - limit)/w})
       ExprPtr arg = Binary(Op::kDiv, Binary(Op::kSub, u, limit), w);
       return Binary(Op::kMul, w,
-                    Call(expr::Func::kLog, {Binary(Op::kAdd, expr::Constant(1),
-                                                   Call(expr::Func::kExp, {arg}))}));
+                    Call(expr::Func::kLog,
+                         {Binary(Op::kAdd, expr::Constant(1), Call(expr::Func::kExp, {arg}))}));
     };
     return Binary(Op::kSub, Binary(Op::kAdd, lo, softplus(lo)), softplus(hi));
   }

@@ -1,10 +1,10 @@
 // Sections: 1. kinds and ports  2. shared helpers (names, fields, loops)  3. edits
 #include "core/diagram/diagram.h"
 
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <cctype>
+
+#include <fmt/format.h>
 
 #include "core/diagram/internal.h"
 
@@ -19,13 +19,20 @@ struct KindInfo {
   const char* name;
 };
 constexpr KindInfo kKinds[] = {
-    {BlockKind::kInput, "input"}, {BlockKind::kOutput, "output"},
-    {BlockKind::kGain, "gain"},   {BlockKind::kSum, "sum"},
-    {BlockKind::kLag, "lag"},     {BlockKind::kIntegrator, "integrator"},
-    {BlockKind::kState, "state"}, {BlockKind::kSplit, "split"},
-    {BlockKind::kDelay, "delay"}, {BlockKind::kNoise, "noise"},
-    {BlockKind::kProduct, "product"}, {BlockKind::kQuotient, "quotient"},
-    {BlockKind::kFunction, "function"}, {BlockKind::kOrifice, "orifice"},
+    {BlockKind::kInput, "input"},
+    {BlockKind::kOutput, "output"},
+    {BlockKind::kGain, "gain"},
+    {BlockKind::kSum, "sum"},
+    {BlockKind::kLag, "lag"},
+    {BlockKind::kIntegrator, "integrator"},
+    {BlockKind::kState, "state"},
+    {BlockKind::kSplit, "split"},
+    {BlockKind::kDelay, "delay"},
+    {BlockKind::kNoise, "noise"},
+    {BlockKind::kProduct, "product"},
+    {BlockKind::kQuotient, "quotient"},
+    {BlockKind::kFunction, "function"},
+    {BlockKind::kOrifice, "orifice"},
     {BlockKind::kSaturation, "saturation"},
 };
 
@@ -374,13 +381,15 @@ bool ClosesAlgebraicLoop(const BlockDiagram& d, int from_block, int to_block) {
 
 Json InitialCovarianceJson(const BlockDiagram& d) {
   switch (d.initial_covariance) {
-    case model::InitialCovariance::kStationary: return "stationary";
+    case model::InitialCovariance::kStationary:
+      return "stationary";
     case model::InitialCovariance::kExplicit: {
       Json j = Json::object();
       for (const auto& [state, variance] : d.initial_variance) j[state] = variance;
       return j;
     }
-    case model::InitialCovariance::kCtsm: break;
+    case model::InitialCovariance::kCtsm:
+      break;
   }
   return "ctsm";
 }
@@ -604,9 +613,9 @@ Status SetPortNames(BlockDiagram* d, int block, const std::vector<std::string>& 
   Block* b = FindMutable(d, block);
   if (!b) return NoSuchBlock(block);
   if (!HasPortNames(b->kind))
-    return Refuse(fmt::format("block {}.ports", block),
-                  BlockLabel(*b) +
-                      " has fixed ports (only state, output and function blocks name theirs)");
+    return Refuse(
+        fmt::format("block {}.ports", block),
+        BlockLabel(*b) + " has fixed ports (only state, output and function blocks name theirs)");
   Block renamed = *b;
   renamed.ports = ports;
   if (auto s = CheckBlock(*d, renamed, b->id); !s) return s;

@@ -186,10 +186,10 @@ struct BlockDiagram {
   void AppendedBlock();  // after blocks.push_back: indexes it (Reindex when the index is stale)
   void AppendedLink();   // after links.push_back
   struct Index {
-    std::unordered_map<int, std::size_t> block, link;  // id -> position
-    std::unordered_map<std::uint64_t, std::size_t> into;  // in-port -> its (first) link
+    std::unordered_map<int, std::size_t> block, link;        // id -> position
+    std::unordered_map<std::uint64_t, std::size_t> into;     // in-port -> its (first) link
     std::unordered_map<int, std::vector<std::size_t>> from;  // block -> its links out
-    std::size_t blocks = 0, links = 0;                   // the sizes it was made for
+    std::size_t blocks = 0, links = 0;                       // the sizes it was made for
   } index;
 };
 

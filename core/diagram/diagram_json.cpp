@@ -1,10 +1,10 @@
 // Sections: 1. writing  2. reading  3. files and projects
-#include <fmt/format.h>
-
 #include <cstdint>
 #include <filesystem>
 #include <limits>
 #include <set>
+
+#include <fmt/format.h>
 
 #include "core/diagram/diagram.h"
 #include "core/diagram/internal.h"
@@ -229,16 +229,16 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
       } else if (it->is_string()) {
         d.initial_variance[it.key()] = it->get<std::string>();
       } else {
-        return r.Fail(path, "expected a variance (a number or an expression), found " +
-                                TypeName(*it));
+        return r.Fail(path,
+                      "expected a variance (a number or an expression), found " + TypeName(*it));
       }
     }
     if (v.is_object()) d.initial_covariance = model::InitialCovariance::kExplicit;
   }
   if (j.contains("ekf")) {
     if (!j["ekf"].is_object())
-      return r.Fail("ekf", "expected an object such as {\"rtol\": 1e-6}, found " +
-                               TypeName(j["ekf"]));
+      return r.Fail("ekf",
+                    "expected an object such as {\"rtol\": 1e-6}, found " + TypeName(j["ekf"]));
     d.ekf = j["ekf"];
   }
   if (j.contains("robust_huber")) {

@@ -139,8 +139,15 @@ class HessianByDifferences {
   HessianByDifferences(Fitter& f, const std::vector<double>& z, double f0,
                        const std::vector<int>& delay, const std::vector<int>& active,
                        std::vector<double> h, int threads)
-      : f_(f), z_(z), f0_(f0), delay_(delay), active_(active), h_(std::move(h)),
-        threads_(threads), dir_(active.size(), 0), dropped_(active.size(), false) {}
+      : f_(f),
+        z_(z),
+        f0_(f0),
+        delay_(delay),
+        active_(active),
+        h_(std::move(h)),
+        threads_(threads),
+        dir_(active.size(), 0),
+        dropped_(active.size(), false) {}
 
   int direction(int a) const { return dir_[a]; }  // 0 central, +1 forward, -1 backward
   bool dropped(int a) const { return dropped_[a]; }
@@ -297,8 +304,15 @@ class HessianByGradients {
   HessianByGradients(Fitter& f, const std::vector<double>& z, const Eigen::VectorXd& g0,
                      const std::vector<int>& delay, const std::vector<int>& active,
                      std::vector<double> h, int threads)
-      : f_(f), z_(z), g0_(g0), delay_(delay), active_(active), h_(std::move(h)),
-        threads_(threads), dir_(active.size(), 0), dropped_(active.size(), false) {}
+      : f_(f),
+        z_(z),
+        g0_(g0),
+        delay_(delay),
+        active_(active),
+        h_(std::move(h)),
+        threads_(threads),
+        dir_(active.size(), 0),
+        dropped_(active.size(), false) {}
 
   int direction(int a) const { return dir_[a]; }  // 0 central, +1 forward, -1 backward
   bool dropped(int a) const { return dropped_[a]; }
@@ -380,8 +394,8 @@ class HessianByGradients {
 struct Uncertainty {
   std::vector<std::optional<double>> std_error;  // per free parameter
   std::vector<bool> at_bound;
-  std::vector<int> with_se;                      // free-parameter indices that have an SE
-  Eigen::MatrixXd covariance;                    // over with_se
+  std::vector<int> with_se;    // free-parameter indices that have an SE
+  Eigen::MatrixXd covariance;  // over with_se
   std::vector<std::string> warnings;
   // Where the Hessian has a clearly negative eigenvalue: its eigenvector (scaled units, per free
   // parameter, zero for those at a bound), along which the objective increases.
@@ -400,8 +414,8 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
   const int k = f.k();
   u.std_error.assign(k, std::nullopt);
   u.at_bound.assign(k, false);
-  std::vector<int> active;       // free parameters not at a bound
-  std::vector<double> h;         // their steps (scaled units)
+  std::vector<int> active;  // free parameters not at a bound
+  std::vector<double> h;    // their steps (scaled units)
   for (int i = 0; i < k; ++i) {
     if (AtBound(f, z, i)) {
       u.at_bound[i] = true;
@@ -467,8 +481,9 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
     }
   }
   if (!H.allFinite()) {  // every point finite, yet the differences overflow
-    u.warnings.push_back("the Hessian could not be computed (the differences of the "
-                         "log-likelihood near the estimate overflow): no standard errors");
+    u.warnings.push_back(
+        "the Hessian could not be computed (the differences of the "
+        "log-likelihood near the estimate overflow): no standard errors");
     return u;
   }
   u.hessian_scaled = Eigen::MatrixXd::Constant(k, k, NAN);
@@ -491,10 +506,13 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
   std::vector<int> keep;
   for (int a = 0; a < m; ++a) {
     if (dropped[a]) continue;
-    if (H(a, a) > 0) keep.push_back(a);
+    if (H(a, a) > 0)
+      keep.push_back(a);
     else
-      u.warnings.push_back(fmt::format("the log-likelihood is flat or curves upward in {}: the "
-                                       "data do not determine it (no standard error)", name(a)));
+      u.warnings.push_back(
+          fmt::format("the log-likelihood is flat or curves upward in {}: the "
+                      "data do not determine it (no standard error)",
+                      name(a)));
   }
   // Scale to unit diagonal and look for directions the data do not determine.
   for (int iter = 0; iter < m && !keep.empty(); ++iter) {
@@ -516,7 +534,8 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
     u.warnings.push_back(fmt::format(
         "not identifiable: the data do not determine {} separately (only a combination of "
         "them); no standard errors for {}. Fix one of them or add an experiment that separates "
-        "them.", names, involved.size() > 1 ? "them" : "it"));
+        "them.",
+        names, involved.size() > 1 ? "them" : "it"));
     std::vector<int> next;
     for (int i = 0; i < n; ++i)
       if (std::find(involved.begin(), involved.end(), i) == involved.end()) next.push_back(keep[i]);
@@ -529,14 +548,16 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
     for (int j = 0; j < n; ++j) Hk(i, j) = H(keep[i], keep[j]);
   const Eigen::LLT<Eigen::MatrixXd> llt(Hk);
   if (llt.info() != Eigen::Success) {
-    u.warnings.push_back("the Hessian is not positive definite at the estimate (not a maximum?): "
-                         "no standard errors");
+    u.warnings.push_back(
+        "the Hessian is not positive definite at the estimate (not a maximum?): "
+        "no standard errors");
     return u;
   }
   u.covariance = llt.solve(Eigen::MatrixXd::Identity(n, n));
   if (g0.size() == k) {
     Eigen::VectorXd g_natural(n);
-    for (int i = 0; i < n; ++i) g_natural(i) = g0(active[keep[i]]) / f.Slope(active[keep[i]], z[active[keep[i]]]);
+    for (int i = 0; i < n; ++i)
+      g_natural(i) = g0(active[keep[i]]) / f.Slope(active[keep[i]], z[active[keep[i]]]);
     u.newton_decrement = 0.5 * g_natural.dot(u.covariance * g_natural);
   }
   for (int i = 0; i < n; ++i) {
@@ -547,7 +568,6 @@ Uncertainty ComputeUncertainty(Fitter& f, const std::vector<double>& z, double f
   return u;
 }
 
-
 // From a saddle point `at` (the objective curves upward along `uphill`, scaled units): the first
 // of a few steps along ±uphill, from long to short, that raises the objective, and a full fit from
 // there if it ends higher than `at`. nullopt when no step helps.
@@ -557,7 +577,8 @@ std::optional<FitResult> EscapeSaddle(Fitter& f, const FitResult& at, const Eige
   for (double step : {0.5, 0.1, 0.02, 0.004}) {
     for (int sign : {1, -1}) {
       std::vector<double> z = at.z;
-      for (int i = 0; i < f.k(); ++i) z[i] = std::clamp(z[i] + sign * step * v(i), f.lower(i), f.upper(i));
+      for (int i = 0; i < f.k(); ++i)
+        z[i] = std::clamp(z[i] + sign * step * v(i), f.lower(i), f.upper(i));
       if (!(f.Objective(z, delay) > at.loglik)) continue;
       FitResult r = f.Fit(z, delay, "fitting");
       if (r.cancelled || r.loglik > at.loglik + kSameOptimum) return r;
@@ -575,9 +596,10 @@ void AddProfileWarnings(const ParameterEstimate& e, std::vector<std::string>* wa
   for (auto [end, at_bound, side] : {std::tuple{pi.lower, pi.lower_at_bound, "lower"},
                                      std::tuple{pi.upper, pi.upper_at_bound, "upper"}}) {
     if (!end && at_bound)
-      warnings->push_back(fmt::format("the profile of {} stays within the {:.0f} % threshold down "
-                                      "to its {} bound: the data do not bound it on that side",
-                                      e.name, 100 * pi.level, side));
+      warnings->push_back(
+          fmt::format("the profile of {} stays within the {:.0f} % threshold down "
+                      "to its {} bound: the data do not bound it on that side",
+                      e.name, 100 * pi.level, side));
   }
   if (!e.std_error) return;
   const double zq = boost::math::quantile(boost::math::normal(), 0.5 + pi.level / 2);
@@ -601,10 +623,12 @@ void RecommendProfiles(const std::vector<ParameterEstimate>& parameters,
   for (const auto& e : parameters)
     if (!e.fixed && (e.at_bound || !e.std_error)) which += (which.empty() ? "" : ", ") + e.name;
   if (!which.empty())
-    warnings->push_back(fmt::format("the standard errors assume a quadratic log-likelihood, which "
-                                    "does not hold at a bound or where the data hardly determine "
-                                    "a parameter ({}): use profile intervals "
-                                    "(--profile-intervals)", which));
+    warnings->push_back(
+        fmt::format("the standard errors assume a quadratic log-likelihood, which "
+                    "does not hold at a bound or where the data hardly determine "
+                    "a parameter ({}): use profile intervals "
+                    "(--profile-intervals)",
+                    which));
 }
 
 // ---- 5. Estimate -----------------------------------------------------------------------------
@@ -622,7 +646,8 @@ struct Reached {
 // estimate `best` (its fit may have gone on from there: a saddle left, the exact Hessian's refit).
 std::vector<Optimum> DistinctOptima(const Fitter& f, std::vector<Reached> reached,
                                     const FitResult& best, const std::vector<int>& delay) {
-  std::erase_if(reached, [&](const Reached& r) { return r.delay != delay || !std::isfinite(r.loglik); });
+  std::erase_if(reached,
+                [&](const Reached& r) { return r.delay != delay || !std::isfinite(r.loglik); });
   std::stable_sort(reached.begin(), reached.end(),
                    [](const Reached& a, const Reached& b) { return a.loglik > b.loglik; });
   std::vector<Optimum> optima;
@@ -651,7 +676,10 @@ std::vector<Optimum> DistinctOptima(const Fitter& f, std::vector<Reached> reache
 class EstimateRun {
  public:
   EstimateRun(const filter::Likelihood& shared, const EstimateOptions& options)
-      : lik_(shared), options_(options), spec_(lik_.spec()), start_time_(Clock::now()),
+      : lik_(shared),
+        options_(options),
+        spec_(lik_.spec()),
+        start_time_(Clock::now()),
         threads_(options.threads > 0 ? options.threads : HardwareThreads()) {
     lik_.set_cancel(options.cancel);
   }
@@ -659,22 +687,23 @@ class EstimateRun {
   Result<EstimateSummary> Run() {
     if (Status ready = Prepare(); !ready) return ready.error();
     if (Cancelled()) return CancelledSummary();
-    FitPlainStart();                                                                  // 1.
+    FitPlainStart();  // 1.
     Settle();
     reached_ = {{best_.loglik, best_.z, best_.converged, delay_}};
     if (options_.multistart > 0 && !best_.cancelled) ExtraStarts(options_.multistart, 0);  // 2.
-    if (scanning_ && !best_.cancelled) DelayProfile();                               // 3.
-    RefitPlainStart();                                                                // 4.
-    ReleaseRunaways();                                                                // 5.
-    StartsOnBound();                                                                  // 6.
-    Polish();                                                                         // 7.
+    if (scanning_ && !best_.cancelled) DelayProfile();                                     // 3.
+    RefitPlainStart();                                                                     // 4.
+    ReleaseRunaways();                                                                     // 5.
+    StartsOnBound();                                                                       // 6.
+    Polish();                                                                              // 7.
     s_.starts = static_cast<int>(reached_.size());
     if (best_.cancelled || Cancelled()) return CancelledSummary();
     if (!std::isfinite(best_.loglik))
-      return NumericalError("the log-likelihood could not be evaluated anywhere the optimiser went");
-    Uncertainty u = Uncertainties();                                                  // 8.
+      return NumericalError(
+          "the log-likelihood could not be evaluated anywhere the optimiser went");
+    Uncertainty u = Uncertainties();  // 8.
     if (Cancelled()) return CancelledSummary();
-    return Summarise(std::move(u));                                                   // 9.
+    return Summarise(std::move(u));  // 9.
   }
 
  private:
@@ -753,7 +782,7 @@ class EstimateRun {
       const int jobs = static_cast<int>(first.size());
       ParallelFor(jobs, threads_, [&](int j) {
         first[j] = fitter_->FitAlongside(z_start_, first_delays[j], "fitting",
-                                       std::max(1, threads_ / jobs));
+                                         std::max(1, threads_ / jobs));
       });
     }
     plain_evaluations_ =  // what a fit from a start costs here
@@ -771,7 +800,8 @@ class EstimateRun {
 
   // θ and the delay in turn until the delay settles (each delay's fit warm-started from the last).
   void Settle() {
-    for (int round = 0; scanning_ && !best_.cancelled && !fitter_->Cancelled() && round < 10; ++round) {
+    for (int round = 0; scanning_ && !best_.cancelled && !fitter_->Cancelled() && round < 10;
+         ++round) {
       auto profile = lik_.Profile(fitter_->Theta(best_.z));
       if (!profile || profile->best < 0) break;
       const auto& next = profile->candidates[profile->best].delay;
@@ -803,7 +833,8 @@ class EstimateRun {
   // on the best two of them instead, as before, cost building 3 two fits of thousands of
   // iterations from starts a thousand log-L units below the estimate, and never found more.)
   // Returns the index of the start that became the estimate (-1: none).
-  int FitStarts(const std::vector<std::vector<double>>& starts, int explore, const std::string& stage) {
+  int FitStarts(const std::vector<std::vector<double>>& starts, int explore,
+                const std::string& stage) {
     const int n = static_cast<int>(starts.size());
     std::vector<FitResult> fits(n);
     // Within twice the evaluations the plain start's fit took (side by side where there are
@@ -891,7 +922,8 @@ class EstimateRun {
       int nearest = INT_MAX;
       for (const auto* list : {&a, &b})
         for (const Fitted& f : *list)
-          if (distance(f.delay, candidate) < nearest) nearest = distance(f.delay, candidate), start = &f;
+          if (distance(f.delay, candidate) < nearest)
+            nearest = distance(f.delay, candidate), start = &f;
       return start;
     };
     auto record = [&](const std::vector<int>& candidate, const FitResult& r) {
@@ -927,7 +959,7 @@ class EstimateRun {
           if (fitter_->Cancelled()) break;
           const Fitted* start = nearest_of(candidate, fitted, own);
           FitResult r = fitter_->FitAlongside(start->z, candidate, "delay profile", lane_threads, 0,
-                                            model_of(start));
+                                              model_of(start));
           if (std::isfinite(r.loglik)) own.push_back({candidate, r.z, r.model});
           results[side].push_back(std::move(r));
         }
@@ -946,7 +978,8 @@ class EstimateRun {
     // threads.
     while (next < grid.size() && !best_.cancelled) {
       std::size_t end = next;
-      while (end < grid.size() && distance(grid[end], delay_best) == distance(grid[next], delay_best))
+      while (end < grid.size() &&
+             distance(grid[end], delay_best) == distance(grid[next], delay_best))
         ++end;
       std::vector<std::vector<int>> wave;
       for (std::size_t c = next; c < end; ++c)
@@ -965,7 +998,7 @@ class EstimateRun {
       std::vector<FitResult> results(n);
       ParallelFor(n, threads_, [&](int w) {
         results[w] = fitter_->FitAlongside(starts[w]->z, wave[w], "delay profile",
-                                         std::max(1, threads_ / n), 0, model_of(starts[w]));
+                                           std::max(1, threads_ / n), 0, model_of(starts[w]));
       });
       for (int w = 0; w < n && !best_.cancelled; ++w) record(wave[w], results[w]);
     }
@@ -978,8 +1011,10 @@ class EstimateRun {
     if (scanning_ && !best_.cancelled && !fitter_->Cancelled() && delay_ != delay_of_start_) {
       FitResult r = fitter_->Fit(z_start_, delay_, "fitting");
       delay_of_start_ = delay_;
-      if (r.cancelled) best_.cancelled = true;
-      else if (r.loglik > best_.loglik + kSameOptimum) best_ = r;
+      if (r.cancelled)
+        best_.cancelled = true;
+      else if (r.loglik > best_.loglik + kSameOptimum)
+        best_ = r;
     }
   }
 
@@ -1047,7 +1082,8 @@ class EstimateRun {
       const double range = std::isfinite(fitter_->upper(i) - fitter_->lower(i))
                                ? fitter_->upper(i) - fitter_->lower(i)
                                : std::max({1.0, std::abs(z0), std::abs(z - z0)});
-      const double se = u.std_error[i] ? *u.std_error[i] / fitter_->Slope(i, z) : HUGE_VAL;  // scaled units
+      const double se =
+          u.std_error[i] ? *u.std_error[i] / fitter_->Slope(i, z) : HUGE_VAL;  // scaled units
       const bool onto_bound = u.at_bound[i] && !AtBound(*fitter_, z_start_, i);
       // Far out on a scale without bounds: towards ±inf.
       const bool far = !std::isfinite(fitter_->lower(i)) && !std::isfinite(fitter_->upper(i)) &&
@@ -1071,10 +1107,9 @@ class EstimateRun {
       return;
     bool wanted = OnABound(*fitter_, best_.z);
     if (!runaways_.empty())
-      wanted = !released_into_best_ &&
-               std::any_of(runaways_.begin(), runaways_.end(), [&](int i) {
-                 return !std::isfinite(fitter_->lower(i)) || !std::isfinite(fitter_->upper(i));
-               });
+      wanted = !released_into_best_ && std::any_of(runaways_.begin(), runaways_.end(), [&](int i) {
+        return !std::isfinite(fitter_->lower(i)) || !std::isfinite(fitter_->upper(i));
+      });
     if (wanted) {
       s_.starts_for_bound = true;
       // A better optimum from them may have run off in turn.
@@ -1133,9 +1168,11 @@ class EstimateRun {
       std::optional<FitResult> higher;
       if (u.uphill) {
         higher = EscapeSaddle(*fitter_, best_, *u.uphill, delay_);
-      } else if (u.newton_decrement > kNegligibleImprovement && (options_.algorithm == Algorithm::kAuto ||
-                                                                    options_.algorithm == Algorithm::kTrustRegion)) {
-        FitResult r = fitter_->Fit(best_.z, delay_, "fitting", kMaxBhhhIterations, &u.hessian_scaled);
+      } else if (u.newton_decrement > kNegligibleImprovement &&
+                 (options_.algorithm == Algorithm::kAuto ||
+                  options_.algorithm == Algorithm::kTrustRegion)) {
+        FitResult r =
+            fitter_->Fit(best_.z, delay_, "fitting", kMaxBhhhIterations, &u.hessian_scaled);
         if (r.cancelled || r.loglik > best_.loglik) higher = std::move(r);
       }
       if (!higher || higher->cancelled) break;
@@ -1172,9 +1209,10 @@ class EstimateRun {
       return NumericalError("the log-likelihood cannot be evaluated at the estimate");
     for (std::size_t i = 0; i < s_.theta.size(); ++i)
       if (!std::isfinite(s_.theta[i]))
-        return NumericalError(fmt::format("the estimate of {} is not a finite number ({}): the fit "
-                                          "ran off; give the parameter bounds or another start",
-                                          spec_.parameters[i].name, s_.theta[i]));
+        return NumericalError(
+            fmt::format("the estimate of {} is not a finite number ({}): the fit "
+                        "ran off; give the parameter bounds or another start",
+                        spec_.parameters[i].name, s_.theta[i]));
     if (u.uphill) {
       std::string along;
       for (int i = 0; i < fitter_->k(); ++i)
@@ -1182,10 +1220,12 @@ class EstimateRun {
           along += (along.empty() ? "" : ", ") + spec_.parameters[fitter_->free()[i]].name;
       s_.converged = false;
       s_.message = "the fit ended at a saddle point of the log-likelihood";
-      u.warnings.insert(u.warnings.begin(),
-                        fmt::format("the estimate is a saddle point, not a maximum: the log-likelihood "
-                                    "curves upward along a combination of {}. Try other start values "
-                                    "or --multistart 8", along));
+      u.warnings.insert(
+          u.warnings.begin(),
+          fmt::format("the estimate is a saddle point, not a maximum: the log-likelihood "
+                      "curves upward along a combination of {}. Try other start values "
+                      "or --multistart 8",
+                      along));
     }
     s_.warnings = u.warnings;
     const double dof = static_cast<double>(std::max<long>(1, s_.n_obs - s_.n_free));
@@ -1199,12 +1239,15 @@ class EstimateRun {
       if (fi >= 0) {
         e.at_bound = u.at_bound[fi];
         if (e.at_bound)
-          s_.warnings.push_back(fmt::format("{} is at its {} bound ({}): its standard error is not "
-                                           "reported", p.name,
-                                           std::abs(e.estimate - p.lower.value_or(NAN)) <
-                                                   std::abs(e.estimate - p.upper.value_or(NAN))
-                                               ? "lower" : "upper",
-                                           e.estimate));
+          s_.warnings.push_back(
+              fmt::format("{} is at its {} bound ({}): its standard error is not "
+                          "reported",
+                          p.name,
+                          std::abs(e.estimate - p.lower.value_or(NAN)) <
+                                  std::abs(e.estimate - p.upper.value_or(NAN))
+                              ? "lower"
+                              : "upper",
+                          e.estimate));
         if (u.std_error[fi]) {
           e.std_error = *u.std_error[fi];
           e.t_value = e.estimate / *e.std_error;
@@ -1226,9 +1269,10 @@ class EstimateRun {
     for (int a = 0; a < n_se; ++a)
       for (int b = a + 1; b < n_se; ++b)
         if (std::abs(s_.correlation(a, b)) > kHighCorrelation)
-          s_.warnings.push_back(fmt::format("{} and {} are correlated (r = {:.3f}): the data barely "
-                                           "separate them", s_.correlation_names[a],
-                                           s_.correlation_names[b], s_.correlation(a, b)));
+          s_.warnings.push_back(
+              fmt::format("{} and {} are correlated (r = {:.3f}): the data barely "
+                          "separate them",
+                          s_.correlation_names[a], s_.correlation_names[b], s_.correlation(a, b)));
 
     for (std::size_t o = 0; o < spec_.outputs.size(); ++o) {
       DelayEstimate d;
@@ -1246,7 +1290,8 @@ class EstimateRun {
           DelayProfilePoint pt;
           pt.delay = candidate[o];
           pt.converged = point.converged || candidate == delay_;
-          if (std::isfinite(point.loglik)) pt.loglik = candidate == delay_ ? s_.loglik : point.loglik;
+          if (std::isfinite(point.loglik))
+            pt.loglik = candidate == delay_ ? s_.loglik : point.loglik;
           d.profile.push_back(pt);
         }
       }
@@ -1257,12 +1302,15 @@ class EstimateRun {
     for (std::size_t o = 0; o < s_.delays.size(); ++o) {
       const model::DelaySpec& range = spec_.output_delay[o];
       if (range.IsScan() && (delay_[o] == range.min || delay_[o] == range.max) && range.min > 0)
-        s_.warnings.push_back(fmt::format("the delay of {} ({} samples) is at the end of its scanned "
-                                         "range [{}, {}]: widen the range", spec_.outputs[o],
-                                         delay_[o], range.min, range.max));
+        s_.warnings.push_back(
+            fmt::format("the delay of {} ({} samples) is at the end of its scanned "
+                        "range [{}, {}]: widen the range",
+                        spec_.outputs[o], delay_[o], range.min, range.max));
       else if (range.IsScan() && delay_[o] == range.max)
-        s_.warnings.push_back(fmt::format("the delay of {} ({} samples) is at the top of its scanned "
-                                         "range: widen the range", spec_.outputs[o], delay_[o]));
+        s_.warnings.push_back(
+            fmt::format("the delay of {} ({} samples) is at the top of its scanned "
+                        "range: widen the range",
+                        spec_.outputs[o], delay_[o]));
     }
     if (options_.profile_intervals) {
       fitter_->Report("profile intervals", best_.z, best_.loglik, delay_);
@@ -1310,19 +1358,19 @@ class EstimateRun {
   const int threads_;
   std::optional<Fitter> fitter_;  // from Prepare on
   filter::OdeCounts ode_at_start_;
-  bool scanning_ = false;          // an output's delay is scanned
+  bool scanning_ = false;  // an output's delay is scanned
   EstimateSummary s_;
-  std::vector<int> delay_;         // the delay of the best fit
-  std::vector<int> second_delay_;  // the runner-up at the start values (empty: none)
+  std::vector<int> delay_;           // the delay of the best fit
+  std::vector<int> second_delay_;    // the runner-up at the start values (empty: none)
   std::vector<int> delay_of_start_;  // the delay the plain start was last fitted at
   std::vector<double> z_start_;
-  int plain_evaluations_ = 0;      // what a fit from a start costs here
+  int plain_evaluations_ = 0;  // what a fit from a start costs here
   FitResult best_;
-  FitResult runner_up_;            // the plain start's fit at the other delay, if any
-  std::vector<Reached> reached_;   // the fits from the starts (the plain start's first)
-  std::vector<int> runaways_;      // the parameters that ran off at the estimate (ReleaseRunaways)
-  bool landed_in_best_ = false;    // FitStarts' last fits all ended at the estimate's optimum
-  bool released_into_best_ = false;  // so did every fit of the released runaways' last round
+  FitResult runner_up_;           // the plain start's fit at the other delay, if any
+  std::vector<Reached> reached_;  // the fits from the starts (the plain start's first)
+  std::vector<int> runaways_;     // the parameters that ran off at the estimate (ReleaseRunaways)
+  bool landed_in_best_ = false;   // FitStarts' last fits all ended at the estimate's optimum
+  bool released_into_best_ = false;     // so did every fit of the released runaways' last round
   std::optional<Uncertainty> at_best_;  // AtBest()'s, at at_best_z_ and at_best_delay_
   std::vector<double> at_best_z_;
   std::vector<int> at_best_delay_;
@@ -1368,17 +1416,18 @@ Result<EstimateSummary> StoppedSummary(const filter::Likelihood& likelihood,
     s.parameters.push_back(EstimateOf(spec.parameters[i], best.theta[i]));
   s.delays.clear();
   for (std::size_t o = 0; o < spec.outputs.size(); ++o)
-    s.delays.push_back({spec.outputs[o], o < delay.size() ? delay[o] : 0,
-                        spec.output_delay[o].IsScan(), {}});
+    s.delays.push_back(
+        {spec.outputs[o], o < delay.size() ? delay[o] : 0, spec.output_delay[o].IsScan(), {}});
   s.optima = {Optimum{s.loglik, 1, false, s.theta}};
   s.starts_at_best = 1;
   s.correlation_names.clear();
   s.correlation.resize(0, 0);
   s.covariance.resize(0, 0);
-  s.warnings = {fmt::format("the fit was stopped by the user after {} iterations ({}): these are "
-                            "the best values it had reached, not an optimum, so no standard errors "
-                            "are given; run the estimation again from them to finish it",
-                            s.iterations, best.stage.empty() ? "fitting" : best.stage)};
+  s.warnings = {
+      fmt::format("the fit was stopped by the user after {} iterations ({}): these are "
+                  "the best values it had reached, not an optimum, so no standard errors "
+                  "are given; run the estimation again from them to finish it",
+                  s.iterations, best.stage.empty() ? "fitting" : best.stage)};
   return s;
 }
 
@@ -1387,9 +1436,10 @@ Result<EstimateSummary> StoppedSummary(const filter::Likelihood& likelihood,
 Result<LikelihoodRatioTest> CompareNested(double loglik_restricted, int n_free_restricted,
                                           double loglik_full, int n_free_full) {
   if (n_free_full <= n_free_restricted)
-    return InputError(fmt::format("the larger model must have more free parameters ({} vs {}): "
-                                  "give the restricted model first",
-                                  n_free_full, n_free_restricted));
+    return InputError(
+        fmt::format("the larger model must have more free parameters ({} vs {}): "
+                    "give the restricted model first",
+                    n_free_full, n_free_restricted));
   LikelihoodRatioTest t;
   t.statistic = 2 * (loglik_full - loglik_restricted);
   t.df = n_free_full - n_free_restricted;

@@ -156,7 +156,7 @@ struct EstimateOptions {
 struct ProfilePoint {
   double value = 0.0;
   double loglik = 0.0;
-  bool converged = true;   // false: that fit stopped early (its value is a lower bound)
+  bool converged = true;  // false: that fit stopped early (its value is a lower bound)
 };
 
 struct ProfileInterval {
@@ -166,7 +166,7 @@ struct ProfileInterval {
   // gave up (not at_bound; the warning says why).
   std::optional<double> lower, upper;
   bool lower_at_bound = false, upper_at_bound = false;
-  std::vector<ProfilePoint> curve;   // every value fitted, sorted, the estimate included
+  std::vector<ProfilePoint> curve;  // every value fitted, sorted, the estimate included
   std::vector<std::string> warnings;
 };
 
@@ -210,12 +210,12 @@ struct EstimateSummary {
   bool cancelled = false;
   std::string model_name;
   std::vector<std::string> datasets;
-  double loglik = 0.0;      // log L at the estimate (without the priors)
+  double loglik = 0.0;                  // log L at the estimate (without the priors)
   std::optional<double> log_posterior;  // with priors: log L + Σ log prior (a MAP estimate)
   long n_obs = 0;
-  int n_free = 0;           // free parameters + scanned delays
-  double aic = 0.0;         // -2 log L + 2 n_free
-  double bic = 0.0;         // -2 log L + n_free log(n_obs)
+  int n_free = 0;    // free parameters + scanned delays
+  double aic = 0.0;  // -2 log L + 2 n_free
+  double bic = 0.0;  // -2 log L + n_free log(n_obs)
   int iterations = 0;
   int evaluations = 0;
   double elapsed_s = 0.0;
@@ -227,9 +227,9 @@ struct EstimateSummary {
   // The scores were exact (the Kalman filter's, or the EKF's forward sensitivities); false:
   // central differences of log L (the iterated EKF, or EstimateOptions::score_differences).
   bool exact_scores = true;
-  int starts = 1;           // start points fitted (the model's and the multistart ones)
+  int starts = 1;                 // start points fitted (the model's and the multistart ones)
   bool starts_for_bound = false;  // the extra starts were starts_on_bound's (not multistart's)
-  int starts_at_best = 1;   // of them, those that reached the best optimum (within 1e-3 in log L)
+  int starts_at_best = 1;  // of them, those that reached the best optimum (within 1e-3 in log L)
   // Times a better optimum was found by putting parameters that ran off (onto a bound, or where
   // the data do not determine them) back to their start values.
   int releases = 0;
@@ -241,8 +241,8 @@ struct EstimateSummary {
   std::vector<double> theta;                   // all parameters at the estimate
   std::vector<std::string> correlation_names;  // parameters with a standard error
   Eigen::MatrixXd correlation;
-  Eigen::MatrixXd covariance;                  // of the parameters in correlation_names
-  std::vector<DelayEstimate> delays;           // one per output
+  Eigen::MatrixXd covariance;         // of the parameters in correlation_names
+  std::vector<DelayEstimate> delays;  // one per output
   std::vector<std::string> warnings;
   // With EstimateOptions::steady_start: how the start values were moved (printed after the data).
   std::optional<SteadyStartResult> steady_start;
@@ -263,7 +263,8 @@ struct EstimateSummary {
 // Fits the model of `likelihood` to its data. Fails only for invalid options or when the log-
 // likelihood cannot be evaluated at the start values; a fit that does not converge returns a
 // summary with converged = false and a message saying why.
-Result<EstimateSummary> Estimate(const filter::Likelihood& likelihood, const EstimateOptions& options);
+Result<EstimateSummary> Estimate(const filter::Likelihood& likelihood,
+                                 const EstimateOptions& options);
 
 // The summary of a fit the user stopped (Estimate's summary with `cancelled` set) at the best
 // point it had reported (Progress::theta and ::delay): log L evaluated there once more, the
@@ -289,9 +290,9 @@ Result<std::vector<ProfileInterval>> ProfileIntervals(const filter::Likelihood& 
 
 // The likelihood-ratio test of a restricted model (fewer free parameters) against a full one.
 struct LikelihoodRatioTest {
-  double statistic = 0.0;   // 2 (log L_full - log L_restricted)
-  int df = 0;               // n_free(full) - n_free(restricted)
-  double p_value = 1.0;     // P(χ²_df > statistic)
+  double statistic = 0.0;  // 2 (log L_full - log L_restricted)
+  int df = 0;              // n_free(full) - n_free(restricted)
+  double p_value = 1.0;    // P(χ²_df > statistic)
   std::string Report() const;
 };
 Result<LikelihoodRatioTest> CompareNested(double loglik_restricted, int n_free_restricted,

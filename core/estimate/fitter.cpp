@@ -21,7 +21,7 @@ namespace {
 // searches usable: 1e300 would swamp them, and a zero gradient reads as a stationary point. The
 // optimiser then shortens its step or turns away, as it would from a steep wall.
 double FailedObjective(const std::vector<double>& z, std::vector<double>& grad,
-                              const FitResult& best, double worst_loglik) {
+                       const FitResult& best, double worst_loglik) {
   if (!std::isfinite(best.loglik)) {
     std::fill(grad.begin(), grad.end(), 0.0);
     return kFailedObjective;
@@ -35,7 +35,6 @@ double FailedObjective(const std::vector<double>& z, std::vector<double>& grad,
   }
   return -worst_loglik + gap;
 }
-
 
 }  // namespace
 
@@ -79,21 +78,21 @@ Eigen::VectorXd TrustRegionStep(const Eigen::MatrixXd& B, const Eigen::VectorXd&
 }
 
 Fitter::Fitter(const filter::Likelihood& lik, const EstimateOptions& options,
-       std::span<const double> theta_base, std::span<const int> held)
+               std::span<const double> theta_base, std::span<const int> held)
     : lik_(lik), options_(options) {
   const auto& spec = lik.spec();
   theta0_ = theta_base.empty() ? spec.Values()
                                : std::vector<double>(theta_base.begin(), theta_base.end());
   for (std::size_t i = 0; i < spec.parameters.size(); ++i) {
     const auto& p = spec.parameters[i];
-    if (p.fixed || std::find(held.begin(), held.end(), static_cast<int>(i)) != held.end())
-      continue;
+    if (p.fixed || std::find(held.begin(), held.end(), static_cast<int>(i)) != held.end()) continue;
     free_.push_back(static_cast<int>(i));
     const double start = theta0_[i];
     const bool log = options.log_scale && p.lower && *p.lower > 0 && start > 0;
-    const double s = log ? 1.0
-                     : start != 0 ? std::abs(start)
-                     : (p.lower && p.upper) ? (*p.upper - *p.lower) / 10 : 1.0;
+    const double s = log                    ? 1.0
+                     : start != 0           ? std::abs(start)
+                     : (p.lower && p.upper) ? (*p.upper - *p.lower) / 10
+                                            : 1.0;
     log_.push_back(log ? 1 : 0);
     scale_.push_back(s);
     if (log) {
@@ -117,8 +116,8 @@ FitResult Fitter::FitAlongside(std::vector<double> z, const std::vector<int>& de
 }
 
 FitResult Fitter::ExploreAlongside(std::vector<double> z, const std::vector<int>& delay,
-                                   int iterations, int threads,
-                                   const Eigen::MatrixXd* first_model, double level) {
+                                   int iterations, int threads, const Eigen::MatrixXd* first_model,
+                                   double level) {
   return Alongside(threads, kExploreEvaluations * iterations, /*report=*/false, [&](Fitter& f) {
     const bool watch = std::isfinite(level);
     FitResult r = f.FitBhhh(std::move(z), delay, "fitting", iterations, /*bfgs_updates=*/true,
@@ -148,8 +147,14 @@ FitResult Fitter::ExploreAlongside(std::vector<double> z, const std::vector<int>
 }
 
 Fitter::Fitter(const Fitter& base, const EstimateOptions& options)
-    : lik_(base.lik_), options_(options), theta0_(base.theta0_), free_(base.free_),
-      scale_(base.scale_), lower_(base.lower_), upper_(base.upper_), log_(base.log_),
+    : lik_(base.lik_),
+      options_(options),
+      theta0_(base.theta0_),
+      free_(base.free_),
+      scale_(base.scale_),
+      lower_(base.lower_),
+      upper_(base.upper_),
+      log_(base.log_),
       priors_(base.priors_) {
   threads_ = options.threads > 0 ? options.threads : HardwareThreads();
 }
@@ -163,7 +168,7 @@ double Fitter::LogLik(const std::vector<double>& z, const std::vector<int>& dela
 }
 
 void Fitter::AddPriorDerivatives(const std::vector<double>& z, Eigen::VectorXd* g,
-                         Eigen::MatrixXd* info) const {
+                                 Eigen::MatrixXd* info) const {
   for (const auto& [i, prior] : priors_) {
     // d/dz log N(θ | m, s²) = -(θ - m) / s² dθ/dz; the information (θ' / s)² (Fisher's: the
     // second derivative of the log scale's transform does not enter it).
@@ -174,8 +179,7 @@ void Fitter::AddPriorDerivatives(const std::vector<double>& z, Eigen::VectorXd* 
 }
 
 bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay, double* f,
-            Eigen::VectorXd* g, Eigen::MatrixXd* info, bool split,
-            bool* exact) {
+                    Eigen::VectorXd* g, Eigen::MatrixXd* info, bool split, bool* exact) {
   if (exact) *exact = true;
   if (Cancelled()) return false;
   // The iterated extended Kalman filter has no exact score: differences of its terms, as where
@@ -195,8 +199,8 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   std::vector<char> ok(chunks, 0);
   evaluations_.fetch_add(1);
   ParallelFor(chunks, chunks, [&](int c) {
-    auto l = lik_.EvaluateWithScore(theta, delay, which[c], &g_part[c],
-                                    info ? &J_part[c] : nullptr);
+    auto l =
+        lik_.EvaluateWithScore(theta, delay, which[c], &g_part[c], info ? &J_part[c] : nullptr);
     ok[c] = l.ok();
     if (l) value[c] = l->loglik;
   });
@@ -223,8 +227,8 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   return std::isfinite(*f) && g->allFinite() && (!info || info->allFinite());
 }
 
-bool Fitter::ScoresByDifferences(const std::vector<double>& z, const std::vector<int>& delay, double* f,
-                         Eigen::VectorXd* g, Eigen::MatrixXd* info) {
+bool Fitter::ScoresByDifferences(const std::vector<double>& z, const std::vector<int>& delay,
+                                 double* f, Eigen::VectorXd* g, Eigen::MatrixXd* info) {
   std::vector<double> f0_terms;
   evaluations_.fetch_add(1);
   auto l0 = lik_.Evaluate(Theta(z), delay, &f0_terms);
@@ -259,7 +263,8 @@ bool Fitter::ScoresByDifferences(const std::vector<double>& z, const std::vector
     }
     const std::vector<double>* a = plus >= 0 ? &terms[plus] : &f0_terms;
     const std::vector<double>* b = minus >= 0 ? &terms[minus] : &f0_terms;
-    const double width = (plus >= 0 ? points[plus].step : 0.0) - (minus >= 0 ? points[minus].step : 0.0);
+    const double width =
+        (plus >= 0 ? points[plus].step : 0.0) - (minus >= 0 ? points[minus].step : 0.0);
     if (width == 0.0) return false;
     for (Eigen::Index j = 0; j < n; ++j) S(j, i) = ((*a)[j] - (*b)[j]) / width;
   }
@@ -271,7 +276,7 @@ bool Fitter::ScoresByDifferences(const std::vector<double>& z, const std::vector
 }
 
 Eigen::VectorXd Fitter::NewtonStep(const Eigen::MatrixXd& info, const Eigen::VectorXd& g,
-                                  const std::vector<int>& F) {
+                                   const std::vector<int>& F) {
   const int m = static_cast<int>(F.size());
   Eigen::MatrixXd I(m, m);
   Eigen::VectorXd gF(m);
@@ -292,27 +297,28 @@ Eigen::VectorXd Fitter::NewtonStep(const Eigen::MatrixXd& info, const Eigen::Vec
   return {};
 }
 
-FitResult Fitter::FitBhhh(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
-                  int max_iterations, bool bfgs_updates,
-                  const Eigen::MatrixXd* first_model, bool hand_over) {
+FitResult Fitter::FitBhhh(std::vector<double> z, const std::vector<int>& delay,
+                          const std::string& stage, int max_iterations, bool bfgs_updates,
+                          const Eigen::MatrixXd* first_model, bool hand_over) {
   Eigen::MatrixXd B;  // the curvature model of -objective (scaled units)
-  FitResult r = BhhhLoop(std::move(z), delay, stage, max_iterations, bfgs_updates, first_model, hand_over, B);
+  FitResult r =
+      BhhhLoop(std::move(z), delay, stage, max_iterations, bfgs_updates, first_model, hand_over, B);
   r.model = std::move(B);
   return r;
 }
 
-FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
-                   int max_iterations, bool bfgs_updates, const Eigen::MatrixXd* first_model,
-                   bool hand_over, Eigen::MatrixXd& B) {
+FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
+                           const std::string& stage, int max_iterations, bool bfgs_updates,
+                           const Eigen::MatrixXd* first_model, bool hand_over, Eigen::MatrixXd& B) {
   FitResult r;
   const int evaluations_before = evaluations();
-  Eigen::VectorXd g_last;            // the gradient at the last accepted point
+  Eigen::VectorXd g_last;  // the gradient at the last accepted point
   std::vector<double> z_last;
-  bool reset = true;                 // take BHHH's information afresh
+  bool reset = true;  // take BHHH's information afresh
   if (StartInBox(&z, delay, &r)) return r;
   double last_expected = HUGE_VAL;
   std::vector<double> recent_gains;  // of the accepted steps
-  bool scored_ahead = false;  // f_ahead, g_ahead (and info_ahead) are the scores at z
+  bool scored_ahead = false;         // f_ahead, g_ahead (and info_ahead) are the scores at z
   double f_ahead = 0;
   Eigen::VectorXd g_ahead;
   Eigen::MatrixXd info_ahead;
@@ -453,8 +459,9 @@ FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
         continue;
       }
       r.converged = expected < kNegligibleImprovement;
-      r.message = r.converged ? "at the precision of the log-likelihood (no further increase is possible)"
-                              : "the line search found no increase of the log-likelihood";
+      r.message = r.converged
+                      ? "at the precision of the log-likelihood (no further increase is possible)"
+                      : "the line search found no increase of the log-likelihood";
       return r;
     }
     const double gain = f_new - f;
@@ -478,8 +485,9 @@ FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
       const double last = recent_gains.back();
       const double rate = std::pow(last / recent_gains[first], 1.0 / (kCrawlWindow - 1));
       const double steps_left = last <= kNegligibleGain ? 0.0
-                                : rate >= 1 || !(rate > 0) ? HUGE_VAL
-                                : std::log(kNegligibleGain / last) / std::log(rate);
+                                : rate >= 1 || !(rate > 0)
+                                    ? HUGE_VAL
+                                    : std::log(kNegligibleGain / last) / std::log(rate);
       if (sum < kCrawlGain && steps_left > std::max(k(), kCrawlWindow)) {
         r.crawling = true;
         r.message = "gaining too slowly";
@@ -488,9 +496,9 @@ FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
     }
   }
   r.converged = last_expected < kNegligibleImprovement;
-  r.message = r.converged ? "the expected improvement left is negligible"
-                          : fmt::format("stopped after {} iterations without converging",
-                                        max_iterations);
+  r.message = r.converged
+                  ? "the expected improvement left is negligible"
+                  : fmt::format("stopped after {} iterations without converging", max_iterations);
   return r;
 }
 
@@ -546,8 +554,10 @@ void Fitter::SplitAtBounds(const std::vector<double>& z, const Eigen::VectorXd& 
     // bound stays free, and every step clamps it after a dozen halvings.
     const bool at_lower = z[i] <= lower_[i] + kNearBound && g(i) <= 0;
     const bool at_upper = z[i] >= upper_[i] - kNearBound && g(i) >= 0;
-    if (!at_lower && !at_upper) free_set->push_back(i);
-    else held->emplace_back(i, at_lower ? lower_[i] : upper_[i]);
+    if (!at_lower && !at_upper)
+      free_set->push_back(i);
+    else
+      held->emplace_back(i, at_lower ? lower_[i] : upper_[i]);
   }
 }
 
@@ -569,8 +579,10 @@ void Fitter::BfgsUpdate(const Eigen::VectorXd& s, const Eigen::VectorXd& y, Eige
 bool Fitter::OverEvaluationLimit(int evaluations_before, std::string* message) const {
   const int used = evaluations() - evaluations_before;
   if (options_.max_evaluations <= 0 || used <= options_.max_evaluations) return false;
-  *message = fmt::format("stopped after {} evaluations without converging (raise the evaluation "
-                         "limit)", used);
+  *message = fmt::format(
+      "stopped after {} evaluations without converging (raise the evaluation "
+      "limit)",
+      used);
   return true;
 }
 
@@ -593,10 +605,10 @@ FitResult Fitter::FitTrustRegion(std::vector<double> z, const std::vector<int>& 
   r.loglik = f;
   Eigen::VectorXd D = Eigen::VectorXd::Zero(k());  // the trust region's scaling, √diag B at most
   double radius = -1;                              // set by the first step
-  bool exact_here = false;   // B is the exact Hessian at z
-  bool been_exact = false;   // B was the exact Hessian once (then SR1 updates: it may be indefinite)
-  int since_exact = 0;       // accepted steps since B last was the exact Hessian
-  int tiny_gains = 0;        // accepted steps in a row that gained and promised next to nothing
+  bool exact_here = false;                         // B is the exact Hessian at z
+  bool been_exact = false;  // B was the exact Hessian once (then SR1 updates: it may be indefinite)
+  int since_exact = 0;      // accepted steps since B last was the exact Hessian
+  int tiny_gains = 0;       // accepted steps in a row that gained and promised next to nothing
   auto finish = [&](bool converged, std::string message) {
     r.converged = converged;
     r.message = std::move(message);
@@ -674,8 +686,10 @@ FitResult Fitter::FitTrustRegion(std::vector<double> z, const std::vector<int>& 
       f_new = -HUGE_VAL;
     if (Cancelled()) continue;
     const double ratio = predicted > 0 ? (f_new - f) / predicted : -1.0;
-    if (!(ratio >= kShrinkRatio)) radius = kShrinkRatio * std::min(radius, step_norm);
-    else if (ratio > kGrowRatio && step_norm > 0.99 * radius) radius *= 2;
+    if (!(ratio >= kShrinkRatio))
+      radius = kShrinkRatio * std::min(radius, step_norm);
+    else if (ratio > kGrowRatio && step_norm > 0.99 * radius)
+      radius *= 2;
     if (!(ratio > kAcceptRatio && f_new > f)) {
       // No increase: the radius shrank. Below the rounding of the parameters nothing is left to
       // try but the exact Hessian, once.
@@ -696,7 +710,7 @@ FitResult Fitter::FitTrustRegion(std::vector<double> z, const std::vector<int>& 
     }
     // Accepted: the model learns from the gradient's change along the step.
     const Eigen::VectorXd y = g - g_new;  // change of the gradient of -objective
-    if (been_exact) {  // SR1: keeps the curvature's sign, which a saddle needs
+    if (been_exact) {                     // SR1: keeps the curvature's sign, which a saddle needs
       const Eigen::VectorXd v = y - B * s;
       const double vs = v.dot(s);
       if (std::abs(vs) > 1e-8 * v.norm() * s.norm()) B += v * v.transpose() / vs;
@@ -714,23 +728,24 @@ FitResult Fitter::FitTrustRegion(std::vector<double> z, const std::vector<int>& 
     // Steps that gain nothing measurable where the model (from the exact Hessian) promises
     // little more: converged. (A flat or nearly singular direction keeps the Newton decrement
     // large while the steps along it gain nothing.)
-    tiny_gains = gain < kNegligibleImprovement && predicted < kNegligibleImprovement ? tiny_gains + 1 : 0;
-    if (been_exact && tiny_gains >= 3)
-      return finish(true, "the log-likelihood stopped increasing");
+    tiny_gains =
+        gain < kNegligibleImprovement && predicted < kNegligibleImprovement ? tiny_gains + 1 : 0;
+    if (been_exact && tiny_gains >= 3) return finish(true, "the log-likelihood stopped increasing");
   }
-  return finish(false, fmt::format("stopped after {} iterations without converging",
-                                   max_iterations));
+  return finish(false,
+                fmt::format("stopped after {} iterations without converging", max_iterations));
 }
 
-FitResult Fitter::Fit(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
-              int max_iterations,
-              const Eigen::MatrixXd* first_model) {
-  if (options_.algorithm == Algorithm::kBhhh) return FitBhhh(std::move(z), delay, stage, max_iterations);
+FitResult Fitter::Fit(std::vector<double> z, const std::vector<int>& delay,
+                      const std::string& stage, int max_iterations,
+                      const Eigen::MatrixXd* first_model) {
+  if (options_.algorithm == Algorithm::kBhhh)
+    return FitBhhh(std::move(z), delay, stage, max_iterations);
   if (options_.algorithm == Algorithm::kAuto) {
     // BHHH with BFGS corrections from the start; where it cannot finish (flat or bound-limited
     // directions), L-BFGS to the full tolerance from its best point.
-    FitResult r = FitBhhh(std::move(z), delay, stage, max_iterations, /*bfgs_updates=*/true,
-                          first_model);
+    FitResult r =
+        FitBhhh(std::move(z), delay, stage, max_iterations, /*bfgs_updates=*/true, first_model);
     if (r.converged || r.cancelled || !std::isfinite(r.loglik)) return r;
     FitResult finished = FitNlopt(r.z, delay, stage, Algorithm::kLbfgs, options_.ftol_rel);
     return finished.loglik >= r.loglik ? finished : r;
@@ -747,7 +762,6 @@ FitResult Fitter::Fit(std::vector<double> z, const std::vector<int>& delay, cons
   }
   return FitNlopt(std::move(z), delay, stage, options_.algorithm, options_.ftol_rel);
 }
-
 
 FitResult Fitter::FitNlopt(std::vector<double> z, const std::vector<int>& delay,
                            const std::string& stage, Algorithm algorithm, double ftol_rel) {
@@ -809,13 +823,21 @@ FitResult Fitter::FitNlopt(std::vector<double> z, const std::vector<int>& delay,
     result.converged = r == nlopt::FTOL_REACHED || r == nlopt::XTOL_REACHED ||
                        r == nlopt::SUCCESS || r == nlopt::STOPVAL_REACHED;
     switch (r) {
-      case nlopt::FTOL_REACHED: result.message = "relative tolerance on the objective reached"; break;
-      case nlopt::XTOL_REACHED: result.message = "relative tolerance on the parameters reached"; break;
-      case nlopt::MAXEVAL_REACHED:
-        result.message = fmt::format("stopped after {} evaluations without converging "
-                                     "(raise the evaluation limit)", options_.max_evaluations);
+      case nlopt::FTOL_REACHED:
+        result.message = "relative tolerance on the objective reached";
         break;
-      default: result.message = "the optimiser reported success"; break;
+      case nlopt::XTOL_REACHED:
+        result.message = "relative tolerance on the parameters reached";
+        break;
+      case nlopt::MAXEVAL_REACHED:
+        result.message = fmt::format(
+            "stopped after {} evaluations without converging "
+            "(raise the evaluation limit)",
+            options_.max_evaluations);
+        break;
+      default:
+        result.message = "the optimiser reported success";
+        break;
     }
   } catch (const nlopt::forced_stop&) {
     result.cancelled = true;
@@ -836,7 +858,7 @@ FitResult Fitter::FitNlopt(std::vector<double> z, const std::vector<int>& delay,
 }
 
 void Fitter::Report(const std::string& stage, const std::vector<double>& z, double loglik,
-            const std::vector<int>& delay) {
+                    const std::vector<int>& delay) {
   if (!options_.progress) return;
   Progress p;
   p.iteration = iterations_;

@@ -20,9 +20,9 @@
 
 namespace gb::estimate::internal {
 
-inline constexpr double kFailedObjective = 1e300;   // -log L reported to NLopt where log L fails
-                                             // before any point could be evaluated
-inline constexpr double kGradientStep = 1e-5;       // ≈ eps^(1/3): central differences in scaled units
+inline constexpr double kFailedObjective = 1e300;  // -log L reported to NLopt where log L fails
+                                                   // before any point could be evaluated
+inline constexpr double kGradientStep = 1e-5;  // ≈ eps^(1/3): central differences in scaled units
 inline constexpr int kMaxBhhhIterations = 500;
 // Fits whose log-likelihoods differ by less than this reached the same optimum (log L units; one
 // standard error is worth 0.5).
@@ -66,26 +66,27 @@ inline constexpr double kNegligibleGain = 1e-6;
 inline constexpr double kAcceptRatio = 1e-4;
 inline constexpr double kShrinkRatio = 0.25;
 inline constexpr double kGrowRatio = 0.75;
-inline constexpr double kArmijo = 1e-4;             // sufficient increase along the BHHH direction
+inline constexpr double kArmijo = 1e-4;  // sufficient increase along the BHHH direction
 inline constexpr int kMaxHalvings = 40;
-inline constexpr double kFirstDamping = 1e-10;      // Levenberg damping of a singular BHHH information,
-inline constexpr int kDampingSteps = 8;             // then x100 per step up to 1e4
-inline constexpr double kNearBound = 1e-6;          // scaled: a parameter this close is on its bound
+inline constexpr double kFirstDamping = 1e-10;  // Levenberg damping of a singular BHHH information,
+inline constexpr int kDampingSteps = 8;         // then x100 per step up to 1e4
+inline constexpr double kNearBound = 1e-6;      // scaled: a parameter this close is on its bound
 // An expected improvement of log L below this (in log-likelihood units, far below the 0.5 that
 // one standard error is worth) counts as converged when rounding stops further progress.
 inline constexpr double kNegligibleImprovement = 1e-4;
-inline constexpr double kHessianStep = 1e-4;        // ≈ eps^(1/4): second differences, relative
+inline constexpr double kHessianStep = 1e-4;          // ≈ eps^(1/4): second differences, relative
 inline constexpr double kGradientHessianStep = 1e-5;  // ≈ eps^(1/3): differences of the gradient
 // An eigenvalue of the Hessian below -this x its largest magnitude marks a saddle.
 inline constexpr double kNegativeCurvature = 1e-6;
-inline constexpr double kAtBoundTol = 1e-7;         // relative distance to a bound that counts as on it
-inline constexpr double kUndeterminedEig = 1e-9;    // eigenvalue of the scaled Hessian below: undetermined
+inline constexpr double kAtBoundTol = 1e-7;  // relative distance to a bound that counts as on it
+inline constexpr double kUndeterminedEig =
+    1e-9;  // eigenvalue of the scaled Hessian below: undetermined
 inline constexpr double kHighCorrelation = 0.99;
 
 // The step e that maximises g'e - ½ e'Be subject to ‖e‖ ≤ radius, B symmetric and possibly
-// indefinite (Moré & Sorensen 1983): with B = Q Λ Q' and γ = Q'g, e(λ) = Q (γ_i / (λ_i + λ)) for the
-// smallest λ ≥ max(0, -λ_min) with ‖e(λ)‖ ≤ radius, found by bisection on the monotone ‖e(λ)‖. In
-// the hard case (negative curvature whose eigenvector g does not reach) the step is completed to
+// indefinite (Moré & Sorensen 1983): with B = Q Λ Q' and γ = Q'g, e(λ) = Q (γ_i / (λ_i + λ)) for
+// the smallest λ ≥ max(0, -λ_min) with ‖e(λ)‖ ≤ radius, found by bisection on the monotone ‖e(λ)‖.
+// In the hard case (negative curvature whose eigenvector g does not reach) the step is completed to
 // the radius along that eigenvector.
 Eigen::VectorXd TrustRegionStep(const Eigen::MatrixXd& B, const Eigen::VectorXd& g, double radius);
 
@@ -187,8 +188,7 @@ class Fitter {
   // threads (each evaluates the filter once more, with its share of the sensitivities). False
   // where log L or its score cannot be evaluated.
   bool Scores(const std::vector<double>& z, const std::vector<int>& delay, double* f,
-              Eigen::VectorXd* g, Eigen::MatrixXd* info, bool split = true,
-              bool* exact = nullptr);
+              Eigen::VectorXd* g, Eigen::MatrixXd* info, bool split = true, bool* exact = nullptr);
 
   // Scores where the exact score cannot be computed but log L can (a derivative of the model's
   // entries that is infinite at z, such as d sqrt(s)/ds at s = 0 on a bound): every per-term
@@ -206,8 +206,8 @@ class Fitter {
   // whose gradient points outward is held there), with a backtracking line search.
   // With `hand_over`, it stops (crawling, not converged) where its last kCrawlWindow steps
   // gained less than kCrawlGain together and shrink so slowly that reaching kNegligibleGain would
-  // take more steps than an exact Hessian costs gradients: a trust-region end game on the exact Hessian finishes
-  // in a few steps what its curvature model would take hundreds for.
+  // take more steps than an exact Hessian costs gradients: a trust-region end game on the exact
+  // Hessian finishes in a few steps what its curvature model would take hundreds for.
   FitResult FitBhhh(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
                     int max_iterations, bool bfgs_updates = false,
                     const Eigen::MatrixXd* first_model = nullptr, bool hand_over = false);
@@ -218,9 +218,9 @@ class Fitter {
                      bool hand_over, Eigen::MatrixXd& B);
 
   // The trust-region algorithm's end game: a trust-region Newton method on a curvature model B
-  // of -objective (scaled units). B starts as BHHH's information (its finite entries replaced by `first_model`'s) and
-  // learns from the gradient's changes along accepted steps (BFGS updates, SR1 once B has been the
-  // exact Hessian, which may be indefinite). Every step solves
+  // of -objective (scaled units). B starts as BHHH's information (its finite entries replaced by
+  // `first_model`'s) and learns from the gradient's changes along accepted steps (BFGS updates, SR1
+  // once B has been the exact Hessian, which may be indefinite). Every step solves
   //   max_d  g'd - ½ d'Bd   subject to  ‖D d‖ ≤ Δ
   // exactly (Moré & Sorensen, by B's eigendecomposition) over the parameters not held at a bound,
   // D = √diag B as the largest seen (the scaling of MINPACK's Levenberg-Marquardt), and the radius

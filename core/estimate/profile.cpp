@@ -27,10 +27,10 @@ namespace {
 using internal::FitResult;
 using internal::Fitter;
 
-constexpr int kMaxStepsOut = 40;        // points fitted walking out before giving up
-constexpr int kMaxRefinements = 30;     // Illinois iterations
-constexpr double kLoglikTol = 1e-3;     // |P(v) - threshold| accepted at an end
-constexpr double kWidthTol = 1e-9;      // relative width of the bracket accepted at an end
+constexpr int kMaxStepsOut = 40;     // points fitted walking out before giving up
+constexpr int kMaxRefinements = 30;  // Illinois iterations
+constexpr double kLoglikTol = 1e-3;  // |P(v) - threshold| accepted at an end
+constexpr double kWidthTol = 1e-9;   // relative width of the bracket accepted at an end
 
 // One side of one parameter's profile.
 class ProfileSide {
@@ -38,8 +38,13 @@ class ProfileSide {
   ProfileSide(const filter::Likelihood& lik, const EstimateOptions& options,
               const std::vector<double>& theta_hat, const std::vector<int>& delay, int p,
               double loglik_max, double threshold, double first_step, int sign)
-      : lik_(lik), options_(options), delay_(delay), p_(p), threshold_(threshold),
-        first_step_(first_step), sign_(sign) {
+      : lik_(lik),
+        options_(options),
+        delay_(delay),
+        p_(p),
+        threshold_(threshold),
+        first_step_(first_step),
+        sign_(sign) {
     const auto& par = lik.spec().parameters[p];
     bound_ = sign > 0 ? par.upper : par.lower;
     prior_ = par.prior;
@@ -71,9 +76,10 @@ class ProfileSide {
         points_.pop_back(), thetas_.pop_back();
         step /= 4;
         if (step < 1e-8 * std::max(1.0, std::abs(v0))) {
-          warnings.push_back(fmt::format("the profile of {} cannot be computed {} {} (the model "
-                                         "fails there): that end is missing", name,
-                                         sign_ > 0 ? "above" : "below", points_.back().value));
+          warnings.push_back(
+              fmt::format("the profile of {} cannot be computed {} {} (the model "
+                          "fails there): that end is missing",
+                          name, sign_ > 0 ? "above" : "below", points_.back().value));
           return;
         }
         continue;
@@ -97,9 +103,10 @@ class ProfileSide {
       }
       step = next;
     }
-    warnings.push_back(fmt::format("the profile of {} stays within the threshold for {} steps {} "
-                                   "the estimate: that end is missing (the data hardly bound it)",
-                                   name, kMaxStepsOut, sign_ > 0 ? "above" : "below"));
+    warnings.push_back(
+        fmt::format("the profile of {} stays within the threshold for {} steps {} "
+                    "the estimate: that end is missing (the data hardly bound it)",
+                    name, kMaxStepsOut, sign_ > 0 ? "above" : "below"));
   }
 
  private:
@@ -131,7 +138,8 @@ class ProfileSide {
       const double va = points_[a].value, vb = points_[b].value;
       if (std::abs(vb - va) <= kWidthTol * std::max(std::abs(va), std::abs(vb))) break;
       double v = vb - fb * (vb - va) / (fb - fa);
-      if (!(std::isfinite(v)) || sign_ * (v - va) <= 0 || sign_ * (v - vb) >= 0) v = 0.5 * (va + vb);
+      if (!(std::isfinite(v)) || sign_ * (v - va) <= 0 || sign_ * (v - vb) >= 0)
+        v = 0.5 * (va + vb);
       const std::size_t from = std::abs(v - va) < std::abs(v - vb) ? a : b;
       const ProfilePoint& pt = Fit(v, from);
       if (!std::isfinite(pt.loglik)) break;
@@ -165,8 +173,8 @@ class ProfileSide {
   int sign_;
   std::optional<double> bound_;
   std::optional<model::Parameter::Prior> prior_;
-  std::vector<ProfilePoint> points_;           // the estimate first, then in the order fitted
-  std::vector<std::vector<double>> thetas_;    // all parameters at each point
+  std::vector<ProfilePoint> points_;         // the estimate first, then in the order fitted
+  std::vector<std::vector<double>> thetas_;  // all parameters at each point
 };
 
 }  // namespace
@@ -178,7 +186,8 @@ Result<std::vector<ProfileInterval>> ProfileIntervals(const filter::Likelihood& 
                                                       const EstimateOptions& fit_options) {
   const model::ModelSpec& spec = lik.spec();
   if (!(level > 0 && level < 1))
-    return InputError(fmt::format("the profile interval's level must be in (0, 1), found {}", level));
+    return InputError(
+        fmt::format("the profile interval's level must be in (0, 1), found {}", level));
   if (at.theta.size() != spec.parameters.size() || at.parameters.size() != spec.parameters.size())
     return InputError("the estimate is not of this model (its parameters differ)");
   std::vector<int> which;
@@ -213,13 +222,11 @@ Result<std::vector<ProfileInterval>> ProfileIntervals(const filter::Likelihood& 
     const auto& par = spec.parameters[p];
     const ParameterEstimate& e = at.parameters[p];
     double step = e.std_error && *e.std_error > 0 ? *e.std_error : 0.1 * std::abs(e.estimate);
-    if (!(step > 0))
-      step = par.lower && par.upper ? 0.1 * (*par.upper - *par.lower) : 0.1;
+    if (!(step > 0)) step = par.lower && par.upper ? 0.1 * (*par.upper - *par.lower) : 0.1;
     sides[t].emplace(lik, fit_options, at.theta, delay, p, loglik_max, threshold, step,
                      tasks[t].sign);
   }
-  ParallelFor(static_cast<int>(tasks.size()), fit_options.threads,
-              [&](int t) { sides[t]->Run(); });
+  ParallelFor(static_cast<int>(tasks.size()), fit_options.threads, [&](int t) { sides[t]->Run(); });
   if (fit_options.cancel && fit_options.cancel->load()) return NumericalError("cancelled");
 
   std::vector<ProfileInterval> out;
@@ -243,8 +250,8 @@ Result<std::vector<ProfileInterval>> ProfileIntervals(const filter::Likelihood& 
       if (pt.loglik > loglik_max + kLoglikTol) {
         r.warnings.push_back(fmt::format(
             "the profile of {} reaches {:.4f} at {} = {:.6g}, above the estimate's {:.4f}: the "
-            "fit had not found the maximum; estimate again from there", name, pt.loglik, name,
-            pt.value, loglik_max));
+            "fit had not found the maximum; estimate again from there",
+            name, pt.loglik, name, pt.value, loglik_max));
         break;
       }
     }

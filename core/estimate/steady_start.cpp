@@ -32,9 +32,10 @@ std::vector<Window> CutWindows(const std::vector<std::shared_ptr<const data::Ser
       while (end < n && s->time[end] < s->time[begin] + seconds) ++end;
       if (end == begin) ++end;
       Window w;
-      w.u = s->U.middleCols(static_cast<Eigen::Index>(begin), static_cast<Eigen::Index>(end - begin))
-                .rowwise()
-                .mean();
+      w.u =
+          s->U.middleCols(static_cast<Eigen::Index>(begin), static_cast<Eigen::Index>(end - begin))
+              .rowwise()
+              .mean();
       w.y.resize(s->Y.rows());
       for (Eigen::Index o = 0; o < s->Y.rows(); ++o) {
         double sum = 0;
@@ -164,8 +165,8 @@ int Minimise(Residuals& residuals, const std::vector<Free>& free, const Eigen::M
       for (std::size_t k = 0; k < free.size(); ++k) {
         const Free& f = free[k];
         const auto i = static_cast<std::size_t>(f.index);
-        trial[i] = std::clamp(trial[i] + dz(static_cast<Eigen::Index>(k)) * f.scale, f.lower,
-                              f.upper);
+        trial[i] =
+            std::clamp(trial[i] + dz(static_cast<Eigen::Index>(k)) * f.scale, f.lower, f.upper);
       }
       Eigen::VectorXd rt;
       if (dz.allFinite() && residuals.At(trial, &rt, false) && rt.squaredNorm() < cost) {
@@ -194,29 +195,28 @@ std::string SteadyStartResult::Report() const {
       "Steady-state start: {} parameter{} from {} windows of length {:g}{}, scaled RMS misfit "
       "{:.4g} -> {:.4g} ({} iteration{})",
       fitted.size(), fitted.size() == 1 ? "" : "s", windows, window_seconds,
-      windows_left_out > 0 ? fmt::format(" ({} left out: no steady state at the starts)",
-                                         windows_left_out)
-                           : "",
+      windows_left_out > 0
+          ? fmt::format(" ({} left out: no steady state at the starts)", windows_left_out)
+          : "",
       misfit_start, misfit, iterations, iterations == 1 ? "" : "s");
   if (undetermined > 0)
-    out += fmt::format(", {} combination{} of them left at the starts (the levels do not fix "
-                       "{})",
-                       undetermined, undetermined == 1 ? "" : "s",
-                       undetermined == 1 ? "it" : "them");
+    out += fmt::format(
+        ", {} combination{} of them left at the starts (the levels do not fix "
+        "{})",
+        undetermined, undetermined == 1 ? "" : "s", undetermined == 1 ? "it" : "them");
   for (std::size_t k = 0; k < fitted.size(); ++k)
-    out += fmt::format("{} {} {:.6g} -> {:.6g}", k == 0 ? ":" : ",", fitted[k].name,
-                       fitted[k].from, fitted[k].to);
+    out += fmt::format("{} {} {:.6g} -> {:.6g}", k == 0 ? ":" : ",", fitted[k].name, fitted[k].from,
+                       fitted[k].to);
   return out;
 }
 
 Json SteadyStartResult::ToJson() const {
   Json moved = Json::object();
   for (const Moved& m : fitted) moved[m.name] = {{"from", m.from}, {"to", m.to}};
-  return {{"window", window_seconds},     {"windows", windows},
-          {"windows_left_out", windows_left_out}, {"misfit_start", misfit_start},
-          {"misfit", misfit},             {"iterations", iterations},
-          {"undetermined", undetermined},
-          {"parameters", moved}};
+  return {
+      {"window", window_seconds},     {"windows", windows}, {"windows_left_out", windows_left_out},
+      {"misfit_start", misfit_start}, {"misfit", misfit},   {"iterations", iterations},
+      {"undetermined", undetermined}, {"parameters", moved}};
 }
 
 Result<SteadyStartResult> SteadyStart(const filter::Likelihood& likelihood,
@@ -229,10 +229,10 @@ Result<SteadyStartResult> SteadyStart(const filter::Likelihood& likelihood,
   return SteadyStart(*compiled, theta, likelihood.series(), options);
 }
 
-Result<SteadyStartResult> SteadyStart(const model::NonlinearModel& model,
-                                      std::span<const double> theta,
-                                      const std::vector<std::shared_ptr<const data::Series>>& series,
-                                      const SteadyStartOptions& options) {
+Result<SteadyStartResult> SteadyStart(
+    const model::NonlinearModel& model, std::span<const double> theta,
+    const std::vector<std::shared_ptr<const data::Series>>& series,
+    const SteadyStartOptions& options) {
   const model::ModelSpec& spec = model.spec();
   if (static_cast<int>(theta.size()) != model.n_parameters())
     return InputError("steady-state start: one value per parameter is needed");
@@ -254,8 +254,8 @@ Result<SteadyStartResult> SteadyStart(const model::NonlinearModel& model,
     if (!x) x = solver->Solve(theta, w.u, x0, &y);
     if (!x || !y.allFinite()) {
       if (first_failure.empty())
-        first_failure = fmt::format("{}: {}", w.where, x ? "the outputs are not finite there"
-                                                         : x.error().message);
+        first_failure = fmt::format("{}: {}", w.where,
+                                    x ? "the outputs are not finite there" : x.error().message);
       continue;
     }
     w.guess = guess = *x;
@@ -267,9 +267,10 @@ Result<SteadyStartResult> SteadyStart(const model::NonlinearModel& model,
   result.windows = static_cast<int>(windows.size());
   result.windows_left_out = static_cast<int>(all.size() - windows.size());
   if (windows.empty())
-    return InputError(fmt::format("steady-state start: no window of the records has a steady "
-                                  "state at the start values (the first: {})",
-                                  first_failure.empty() ? "the records are empty" : first_failure));
+    return InputError(
+        fmt::format("steady-state start: no window of the records has a steady "
+                    "state at the start values (the first: {})",
+                    first_failure.empty() ? "the records are empty" : first_failure));
 
   Residuals residuals(*solver, windows, OutputScales(series, model.n_outputs()));
   Eigen::VectorXd r0;
@@ -298,8 +299,9 @@ Result<SteadyStartResult> SteadyStart(const model::NonlinearModel& model,
     }
   }
   if (free.empty())
-    return InputError("steady-state start: no free parameter moves the model's steady states "
-                      "(they are set by the inputs alone)");
+    return InputError(
+        "steady-state start: no free parameter moves the model's steady states "
+        "(they are set by the inputs alone)");
 
   // Levenberg-Marquardt on z_k = θ_k / scale_k over every such parameter.
   const auto nf = static_cast<Eigen::Index>(free.size());

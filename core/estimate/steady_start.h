@@ -72,10 +72,10 @@ struct SteadyStartResult {
 
 // Fails when the model has no free parameter the steady states depend on, or no window has a
 // steady state at the starts (the message names the first such window and why).
-Result<SteadyStartResult> SteadyStart(const model::NonlinearModel& model,
-                                      std::span<const double> theta,
-                                      const std::vector<std::shared_ptr<const data::Series>>& series,
-                                      const SteadyStartOptions& options = {});
+Result<SteadyStartResult> SteadyStart(
+    const model::NonlinearModel& model, std::span<const double> theta,
+    const std::vector<std::shared_ptr<const data::Series>>& series,
+    const SteadyStartOptions& options = {});
 // The same on a likelihood's model and records at θ (a linear model is compiled as a nonlinear
 // one for it).
 Result<SteadyStartResult> SteadyStart(const filter::Likelihood& likelihood,

@@ -58,11 +58,12 @@ std::string EstimateSummary::Report() const {
   line(fmt::format("{} iterations, {} log-likelihood evaluations, {:.2f} s", iterations,
                    evaluations, elapsed_s));
   if (extended) {
-    line(fmt::format("Filter: extended Kalman filter{} (nonlinear model); ODE {}, rtol {:g}, "
-                     "atol {:g}: {} steps over {} intervals, {} stiff (BDF)",
-                     ekf.iterations > 1 ? fmt::format(", iterated ({} passes)", ekf.iterations) : "",
-                     model::OdeMethodName(ekf.method), ekf.rtol, ekf.atol, ode.steps, ode.intervals,
-                     ode.stiff_intervals));
+    line(
+        fmt::format("Filter: extended Kalman filter{} (nonlinear model); ODE {}, rtol {:g}, "
+                    "atol {:g}: {} steps over {} intervals, {} stiff (BDF)",
+                    ekf.iterations > 1 ? fmt::format(", iterated ({} passes)", ekf.iterations) : "",
+                    model::OdeMethodName(ekf.method), ekf.rtol, ekf.atol, ode.steps, ode.intervals,
+                    ode.stiff_intervals));
   } else {
     line("Filter: Kalman filter, exact discretisation (the model is linear)");
   }
@@ -77,14 +78,16 @@ std::string EstimateSummary::Report() const {
     line(fmt::format("MAP estimate (priors on some parameters): log posterior {:.6f}",
                      *log_posterior));
   if (starts > 1)
-    line(fmt::format("{}: {} of {} starts reached the best optimum", 
-                     starts_for_bound ? "Extra starts (parameters ran off or ended on a bound)"
+    line(fmt::format("{}: {} of {} starts reached the best optimum",
+                     starts_for_bound      ? "Extra starts (parameters ran off or ended on a bound)"
                      : released_starts > 0 ? "Starts with the parameters that ran off put back"
                                            : "Multistart",
                      starts_at_best, starts));
   if (releases > 0)
-    line(fmt::format("Parameters that ran off, put back to their start values: a better optimum "
-                     "{} time{}", releases, releases == 1 ? "" : "s"));
+    line(
+        fmt::format("Parameters that ran off, put back to their start values: a better optimum "
+                    "{} time{}",
+                    releases, releases == 1 ? "" : "s"));
   if (optima.size() > 1) {
     // Each other optimum with the free parameters that differ most from the estimate.
     line(fmt::format("Distinct optima reached ({} of the starts, the estimate's first):",
@@ -92,9 +95,9 @@ std::string EstimateSummary::Report() const {
     const std::size_t listed = std::min<std::size_t>(optima.size(), kListedOptima);
     for (std::size_t o = 0; o < listed; ++o) {
       const Optimum& opt = optima[o];
-      std::string text = fmt::format("  {:.6f}  {} start{}{}", opt.loglik, opt.starts,
-                                     opt.starts == 1 ? "" : "s",
-                                     opt.converged ? "" : " (stopped early)");
+      std::string text =
+          fmt::format("  {:.6f}  {} start{}{}", opt.loglik, opt.starts, opt.starts == 1 ? "" : "s",
+                      opt.converged ? "" : " (stopped early)");
       std::string most;
       for (const std::size_t i : o > 0 ? DifferMost(o, 3) : std::vector<std::size_t>{})
         most += fmt::format("{}{} {:.4g} (estimate {:.4g})", most.empty() ? "" : ", ",
@@ -135,8 +138,10 @@ std::string EstimateSummary::Report() const {
       if (p.profile) level = p.profile->level;
     const double zq = boost::math::quantile(boost::math::normal(), 0.5 + level / 2);
     line("");
-    line(fmt::format("{:.0f} % intervals: profile likelihood (likelihood ratio) and Wald (estimate "
-                     "+- {:.3f} SE):", 100 * level, zq));
+    line(
+        fmt::format("{:.0f} % intervals: profile likelihood (likelihood ratio) and Wald (estimate "
+                    "+- {:.3f} SE):",
+                    100 * level, zq));
     line(fmt::format("{:<{}} {:>13} {:>13}   {:>13} {:>13}", "", w, "profile lower",
                      "profile upper", "Wald lower", "Wald upper"));
     auto end = [](const std::optional<double>& v, bool at_bound) {
@@ -151,8 +156,8 @@ std::string EstimateSummary::Report() const {
         wald_hi = Num(p.estimate + zq * *p.std_error);
       }
       line(fmt::format("{:<{}} {:>13} {:>13}   {:>13} {:>13}", p.name, w,
-                       end(pi.lower, pi.lower_at_bound), end(pi.upper, pi.upper_at_bound),
-                       wald_lo, wald_hi));
+                       end(pi.lower, pi.lower_at_bound), end(pi.upper, pi.upper_at_bound), wald_lo,
+                       wald_hi));
     }
     line("(bound): the profile stays within the threshold up to the parameter's bound.");
   }
@@ -160,8 +165,10 @@ std::string EstimateSummary::Report() const {
   for (const auto& d : delays) {
     if (!d.scanned) continue;
     line("");
-    line(fmt::format("Profile log-likelihood of the {} delay (\">\": fit stopped early, a lower "
-                     "bound):", d.output));
+    line(
+        fmt::format("Profile log-likelihood of the {} delay (\">\": fit stopped early, a lower "
+                    "bound):",
+                    d.output));
     double best = -INFINITY;
     for (const auto& pt : d.profile)
       if (pt.loglik) best = std::max(best, *pt.loglik);
@@ -184,8 +191,8 @@ std::string EstimateSummary::Report() const {
     for (std::size_t a = 0; a < correlation_names.size(); ++a) {
       std::string row = fmt::format("{:<{}}", correlation_names[a], w);
       for (std::size_t b = 0; b <= a; ++b)
-        row += fmt::format(" {:>7.3f}", correlation(static_cast<Eigen::Index>(a),
-                                                   static_cast<Eigen::Index>(b)));
+        row += fmt::format(" {:>7.3f}",
+                           correlation(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)));
       line(row);
     }
   }
@@ -227,7 +234,9 @@ Json EstimateSummary::ToJson() const {
   }
   j["filter"]["scores"] = exact_scores ? "exact" : "differences";
   if (log_posterior) j["log_posterior"] = *log_posterior;
-  j["starts"] = {{"total", starts}, {"at_best", starts_at_best}, {"on_bound", starts_for_bound},
+  j["starts"] = {{"total", starts},
+                 {"at_best", starts_at_best},
+                 {"on_bound", starts_for_bound},
                  {"releases", releases},
                  {"released", released_starts}};
   Json optima_json = Json::array();
@@ -235,8 +244,10 @@ Json EstimateSummary::ToJson() const {
     Json values = Json::object();
     for (std::size_t i = 0; i < parameters.size() && i < opt.theta.size(); ++i)
       values[parameters[i].name] = opt.theta[i];
-    optima_json.push_back({{"loglik", opt.loglik}, {"starts", opt.starts},
-                           {"converged", opt.converged}, {"parameters", values}});
+    optima_json.push_back({{"loglik", opt.loglik},
+                           {"starts", opt.starts},
+                           {"converged", opt.converged},
+                           {"parameters", values}});
   }
   j["optima"] = std::move(optima_json);
   if (steady_start) j["steady_start"] = steady_start->ToJson();
@@ -254,8 +265,8 @@ Json EstimateSummary::ToJson() const {
     if (!p.unit.empty()) e["unit"] = p.unit;
     if (p.profile) {
       const auto& pi = *p.profile;
-      e["profile_interval"] = {{"lower", OptJson(pi.lower)}, {"upper", OptJson(pi.upper)},
-                               {"level", pi.level}};
+      e["profile_interval"] = {
+          {"lower", OptJson(pi.lower)}, {"upper", OptJson(pi.upper)}, {"level", pi.level}};
       Json points = Json::array();
       for (const auto& pt : pi.curve) points.push_back({pt.value, pt.loglik, pt.converged});
       e["profile"] = {{"lower_at_bound", pi.lower_at_bound},
@@ -279,7 +290,8 @@ Json EstimateSummary::ToJson() const {
     e["scanned"] = d.scanned;
     Json prof = Json::array();
     for (const auto& pt : d.profile)
-      prof.push_back({{"delay", pt.delay}, {"loglik", OptJson(pt.loglik)}, {"converged", pt.converged}});
+      prof.push_back(
+          {{"delay", pt.delay}, {"loglik", OptJson(pt.loglik)}, {"converged", pt.converged}});
     e["profile"] = prof;
     delays_json[d.output] = e;
   }

@@ -86,10 +86,9 @@ class Reader {
   std::string path_;
 };
 
-#define GB_TRY(expr)                  \
-  do {                                \
-    if (Status st_ = (expr); !st_)    \
-      return st_.error();             \
+#define GB_TRY(expr)                                   \
+  do {                                                 \
+    if (Status st_ = (expr); !st_) return st_.error(); \
   } while (false)
 
 Status ReadFilter(const Reader& r, EstimateSummary* s) {
@@ -108,10 +107,14 @@ Status ReadFilter(const Reader& r, EstimateSummary* s) {
   s->extended = true;
   std::string ode = "auto";
   GB_TRY(fr.String("ode", &ode));
-  if (ode == "explicit") s->ekf.method = model::OdeMethod::kExplicit;
-  else if (ode == "bdf") s->ekf.method = model::OdeMethod::kBdf;
-  else if (ode == "auto") s->ekf.method = model::OdeMethod::kAuto;
-  else return fr.Fail("ode", "expected \"auto\", \"explicit\" or \"bdf\"");
+  if (ode == "explicit")
+    s->ekf.method = model::OdeMethod::kExplicit;
+  else if (ode == "bdf")
+    s->ekf.method = model::OdeMethod::kBdf;
+  else if (ode == "auto")
+    s->ekf.method = model::OdeMethod::kAuto;
+  else
+    return fr.Fail("ode", "expected \"auto\", \"explicit\" or \"bdf\"");
   GB_TRY(fr.Number("rtol", &s->ekf.rtol));
   GB_TRY(fr.Number("atol", &s->ekf.atol));
   GB_TRY(fr.Whole("iterations", &s->ekf.iterations));
@@ -136,7 +139,8 @@ Status ReadProfile(const Reader& e, ProfileInterval* pi) {
   GB_TRY(pr.Bool("upper_at_bound", &pi->upper_at_bound, false));
   const Json* points = pr.Find("points");
   if (!points) return Ok{};
-  if (!points->is_array()) return pr.Fail("points", "expected an array of [value, log L, converged]");
+  if (!points->is_array())
+    return pr.Fail("points", "expected an array of [value, log L, converged]");
   for (std::size_t i = 0; i < points->size(); ++i) {
     const Json& p = (*points)[i];
     if (!p.is_array() || p.size() != 3 || !p[0].is_number() || !p[1].is_number() ||
@@ -302,8 +306,9 @@ Result<EstimateSummary> EstimateSummary::FromJson(const Json& j, const std::stri
   if (!j.is_object() || !j.contains("greybench_result"))
     return r.Fail("", "not a greybench result file (no \"greybench_result\")");
   if (j.value("partial", false))
-    return r.Fail("partial", "a partial result (a checkpoint of a fit that did not finish) holds "
-                             "estimates only");
+    return r.Fail("partial",
+                  "a partial result (a checkpoint of a fit that did not finish) holds "
+                  "estimates only");
   EstimateSummary s;
   GB_TRY(r.String("model", &s.model_name, false));
   GB_TRY(r.Strings("datasets", &s.datasets));

@@ -1,13 +1,13 @@
 #include "core/estimate/sweep.h"
 
-#include <fmt/format.h>
-
-#include <Eigen/Dense>
 #include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
 
 #include "core/project/problem.h"
 #include "core/util/file.h"
@@ -93,7 +93,8 @@ Result<OperatingPoint> ReadOperatingPoint(const std::string& path) {
   return point;
 }
 
-Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<data::DatasetSpec>& datasets,
+Result<SweepResult> Sweep(const model::ModelSpec& spec,
+                          const std::vector<data::DatasetSpec>& datasets,
                           const SweepOptions& options) {
   SweepResult result;
   result.rows.resize(datasets.size());

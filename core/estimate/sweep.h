@@ -85,7 +85,8 @@ struct SweepOptions {
 
 // Fits `spec` to every dataset. A dataset that cannot be read or fitted fails the sweep with
 // its name in the message (unless the sweep was cancelled: then the result says so).
-Result<SweepResult> Sweep(const model::ModelSpec& spec, const std::vector<data::DatasetSpec>& datasets,
+Result<SweepResult> Sweep(const model::ModelSpec& spec,
+                          const std::vector<data::DatasetSpec>& datasets,
                           const SweepOptions& options);
 
 // y = a + b x by ordinary least squares (with_intercept), or y = b x through the origin; the

@@ -7,7 +7,8 @@
 //   g  = ∫_0^Δ e^{As} ds c
 //   ZOH (u held at u_k):          Γ0 = ∫_0^Δ e^{As} ds B,                 Γ1 = 0
 //   FOH (u linear from u_k to u_{k+1}):
-//                                 Γ1 = ∫_0^Δ e^{A(Δ-s)} (s/Δ) ds B,       Γ0 = ∫_0^Δ e^{As} ds B - Γ1
+//                                 Γ1 = ∫_0^Δ e^{A(Δ-s)} (s/Δ) ds B,       Γ0 = ∫_0^Δ e^{As} ds B -
+//                                 Γ1
 //   Q  = ∫_0^Δ e^{As} σσ' e^{A's} ds                                      (Van Loan)
 //
 // Φ, Γ0, Γ1 and g come from one matrix exponential of the augmented matrix
@@ -30,11 +31,11 @@
 namespace gb::filter {
 
 struct Discrete {
-  Eigen::MatrixXd Phi;      // n x n
-  Eigen::MatrixXd Gamma0;   // n x m
-  Eigen::MatrixXd Gamma1;   // n x m (zero for ZOH)
-  Eigen::VectorXd g;        // n
-  Eigen::MatrixXd Q;        // n x n, symmetric
+  Eigen::MatrixXd Phi;     // n x n
+  Eigen::MatrixXd Gamma0;  // n x m
+  Eigen::MatrixXd Gamma1;  // n x m (zero for ZOH)
+  Eigen::VectorXd g;       // n
+  Eigen::MatrixXd Q;       // n x n, symmetric
 };
 
 // `sigma2` is the diagonal of σσ' (σ_i²). Preconditions: dt > 0; sizes consistent.

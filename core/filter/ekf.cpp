@@ -31,7 +31,8 @@ Result<Loglik> Run::operator()() const {
   const int n = model.n_states();
   const int p = model.n_outputs();
   const int N = static_cast<int>(series.size());
-  assert(series.U.rows() == model.n_inputs() && series.Y.rows() == p && "series bound to the model");
+  assert(series.U.rows() == model.n_inputs() && series.Y.rows() == p &&
+         "series bound to the model");
   assert(static_cast<int>(theta.size()) == model.n_parameters());
   auto window = ObservationWindowOf(series, p, settings);
   if (!window) return window.error();
@@ -55,7 +56,10 @@ Result<Loglik> Run::operator()() const {
 
   std::vector<double> meas(model.measurement_size());
   auto measure = [&](int j, const Eigen::VectorXd& at) { return propagator.Measure(j, at, meas); };
-  auto H_row = [&](int o) { return Eigen::Map<const Eigen::RowVectorXd>(meas.data() + p + static_cast<std::ptrdiff_t>(o) * n, n); };
+  auto H_row = [&](int o) {
+    return Eigen::Map<const Eigen::RowVectorXd>(
+        meas.data() + p + static_cast<std::ptrdiff_t>(o) * n, n);
+  };
   auto S_of = [&](int o) { return meas[p + p * n + o]; };
 
   const double huber = settings.huber.value_or(0.0);
@@ -99,7 +103,8 @@ Result<Loglik> Run::operator()() const {
         const double yhat = meas[o] + H.dot(x - x_prior);
         PHt.noalias() = P * H.transpose();
         const double R = H.dot(PHt) + S_of(o);
-        if (!(R > 0.0)) return internal::NotPositiveInnovationVariance(series, o, j + window->delay[o], R);
+        if (!(R > 0.0))
+          return internal::NotPositiveInnovationVariance(series, o, j + window->delay[o], R);
         const double eps = y - yhat;
         logdet += std::log(R);
         r2 += eps * eps / R;
@@ -120,7 +125,8 @@ Result<Loglik> Run::operator()() const {
           const double yhat = h_lin[o] + H.dot(x - x_lin);
           PHt.noalias() = P * H.transpose();
           const double R = H.dot(PHt) + S_of(o);
-          if (!(R > 0.0)) return internal::NotPositiveInnovationVariance(series, o, j + window->delay[o], R);
+          if (!(R > 0.0))
+            return internal::NotPositiveInnovationVariance(series, o, j + window->delay[o], R);
           x.noalias() += PHt * ((y - yhat) / R);
           P.noalias() -= (1.0 / R) * PHt * PHt.transpose();
         }

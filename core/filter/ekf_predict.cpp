@@ -36,7 +36,8 @@ Status Store(MomentPropagator& propagator, const data::Series& series,
   for (int o = 0; o < p; ++o) {
     const int k = j + delay[o];
     if (k >= N) continue;
-    const Eigen::Map<const Eigen::RowVectorXd> H(meas.data() + p + static_cast<std::ptrdiff_t>(o) * n, n);
+    const Eigen::Map<const Eigen::RowVectorXd> H(
+        meas.data() + p + static_cast<std::ptrdiff_t>(o) * n, n);
     out->y_pred(o, k) = meas[o];
     out->y_sd(o, k) = std::sqrt((H * P * H.transpose()).value() + meas[p + p * n + o]);
   }
@@ -58,8 +59,8 @@ Result<OneStepPredictions> EkfPredictOneStep(const model::NonlinearModel& model,
 Result<HorizonPredictions> EkfPredictAhead(const model::NonlinearModel& model,
                                            std::span<const double> theta,
                                            const data::Series& series,
-                                           const FilterSettings& settings,
-                                           const FilterTrace& trace, int horizon) {
+                                           const FilterSettings& settings, const FilterTrace& trace,
+                                           int horizon) {
   assert(horizon >= 0 && "the prediction horizon is a number of samples >= 0");
   const int n = model.n_states(), p = model.n_outputs();
   const int N = static_cast<int>(series.size());
@@ -148,7 +149,8 @@ Result<SmoothedStates> EkfSmooth(const model::NonlinearModel& model, std::span<c
     for (int o = 0; o < p; ++o) {
       const int k = j + delay[o];
       if (k >= N) continue;
-      const Eigen::Map<const Eigen::RowVectorXd> H(meas.data() + p + static_cast<std::ptrdiff_t>(o) * n, n);
+      const Eigen::Map<const Eigen::RowVectorXd> H(
+          meas.data() + p + static_cast<std::ptrdiff_t>(o) * n, n);
       out.y(o, k) = meas[o];
       out.y_sd(o, k) = std::sqrt(std::max((H * out.P[j] * H.transpose()).value(), 0.0));
     }

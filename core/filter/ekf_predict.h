@@ -37,8 +37,8 @@ Result<OneStepPredictions> EkfPredictOneStep(const model::NonlinearModel& model,
 Result<HorizonPredictions> EkfPredictAhead(const model::NonlinearModel& model,
                                            std::span<const double> theta,
                                            const data::Series& series,
-                                           const FilterSettings& settings,
-                                           const FilterTrace& trace, int horizon);
+                                           const FilterSettings& settings, const FilterTrace& trace,
+                                           int horizon);
 
 // Smoothed states and outputs from a trace EkfRunFilter made for the same θ, series, settings.
 // Fails where the moment equations fail (they did not for the filter, but are integrated again

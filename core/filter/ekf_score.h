@@ -17,8 +17,9 @@
 // mean that depends on θ through the update itself (core/filter/likelihood.h then differences).
 #pragma once
 
-#include <Eigen/Core>
 #include <span>
+
+#include <Eigen/Core>
 
 #include "core/data/dataset.h"
 #include "core/filter/kalman.h"

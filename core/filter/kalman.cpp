@@ -129,8 +129,8 @@ class LogProduct {
     mantissa_ *= r;
     const auto bits = std::bit_cast<std::uint64_t>(mantissa_);
     exponent_ += static_cast<std::int64_t>((bits >> 52) & 0x7ff) - 1023;
-    mantissa_ = std::bit_cast<double>((bits & ~(std::uint64_t{0x7ff} << 52)) |
-                                      (std::uint64_t{1023} << 52));
+    mantissa_ =
+        std::bit_cast<double>((bits & ~(std::uint64_t{0x7ff} << 52)) | (std::uint64_t{1023} << 52));
   }
   double Log() const { return std::log(mantissa_) + exponent_ * kLn2 + direct_; }
 
@@ -264,8 +264,10 @@ Result<Loglik> FilterLoop(const Context& ctx, FilterTrace* trace) {
         P.noalias() -= (1.0 / R) * PCt * PCt.transpose();
       }
       const double eps = y - yhat;
-      if (per_step_log) logdet += std::log(R);
-      else log_product.Multiply(R);
+      if (per_step_log)
+        logdet += std::log(R);
+      else
+        log_product.Multiply(R);
       r2 += eps * eps / R;
       ++p_j;
       x.noalias() += PCt * (eps / R);
@@ -354,7 +356,7 @@ Result<Loglik> Run(const model::StateSpace& ss, const data::Series& series,
   const auto disc = DiscretizeIntervals(ss, series, settings.hold);
   if (!disc) return disc.error();
   auto P0 = settings.P0.size() > 0 ? Result<Eigen::MatrixXd>(settings.P0)
-                                    : InitialCovarianceFrom(ss, series, settings, &*disc);
+                                   : InitialCovarianceFrom(ss, series, settings, &*disc);
   if (!P0) return P0.error();
   if (terms) terms->assign(series.size(), 0.0);
   const Context ctx{

@@ -53,9 +53,9 @@ namespace gb::filter {
 struct FilterSettings {
   model::InputHold hold = model::InputHold::kZoh;
   model::InitialCovariance initial_covariance = model::InitialCovariance::kCtsm;
-  std::optional<double> huber;        // Huber threshold c, or Gaussian
-  std::vector<int> delay;             // per output, samples (empty = all 0)
-  std::vector<int> first_obs;         // per output (empty = same as delay)
+  std::optional<double> huber;  // Huber threshold c, or Gaussian
+  std::vector<int> delay;       // per output, samples (empty = all 0)
+  std::vector<int> first_obs;   // per output (empty = same as delay)
   // When set to true (from any thread), the filter stops within a few thousand samples and
   // returns an Error with kind kNumerical and message "cancelled".
   const std::atomic<bool>* cancel = nullptr;
@@ -77,16 +77,16 @@ struct FilterSettings {
 
 struct Loglik {
   double loglik = 0.0;
-  long n_obs = 0;                     // scalar observations used
+  long n_obs = 0;  // scalar observations used
 };
 
 // Everything the filter computed, for predictions, residuals and the smoother.
 // Matrices over rows: column k is row k of the data. NaN where a value does not exist.
 struct FilterTrace {
-  Eigen::MatrixXd y_pred;             // p x N: E[y_{o,k} | observations before state index k-d_o]
-  Eigen::MatrixXd y_var;              // p x N: its variance (including S_o)
-  Eigen::MatrixXd x_pred;             // n x N: E[x_j | observations at state indices < j]
-  Eigen::MatrixXd x_filt;             // n x N: E[x_j | observations at state indices <= j]
+  Eigen::MatrixXd y_pred;               // p x N: E[y_{o,k} | observations before state index k-d_o]
+  Eigen::MatrixXd y_var;                // p x N: its variance (including S_o)
+  Eigen::MatrixXd x_pred;               // n x N: E[x_j | observations at state indices < j]
+  Eigen::MatrixXd x_filt;               // n x N: E[x_j | observations at state indices <= j]
   std::vector<Eigen::MatrixXd> P_pred;  // N of n x n
   std::vector<Eigen::MatrixXd> P_filt;  // N of n x n
 };

@@ -145,9 +145,9 @@ std::vector<double> Likelihood::SeriesTheta(std::span<const double> theta, std::
 
 Likelihood::SeriesFree Likelihood::FreeOf(std::span<const int> free, std::size_t s) const {
   SeriesFree out;
-  const std::vector<int>* index =
-      s < series_parameters_.size() && !series_parameters_[s].empty() ? &series_parameters_[s]
-                                                                        : nullptr;
+  const std::vector<int>* index = s < series_parameters_.size() && !series_parameters_[s].empty()
+                                      ? &series_parameters_[s]
+                                      : nullptr;
   for (std::size_t f = 0; f < free.size(); ++f) {
     if (!index) {
       out.params.push_back(free[f]);
@@ -179,20 +179,22 @@ Result<std::vector<model::StateSpace>> Likelihood::LinearAt(std::span<const doub
 Result<Loglik> Likelihood::EvaluateAt(const std::vector<model::StateSpace>& ss,
                                       std::span<const int> delay,
                                       std::vector<double>* terms) const {
-  return SumOverSeries(delay, terms, [&](std::size_t i, const data::Series& s,
-                                         const FilterSettings& settings, std::vector<double>* t) {
-    return LogLikelihood(ss[ss.size() == 1 ? 0 : i], s, settings, t);
-  });
+  return SumOverSeries(delay, terms,
+                       [&](std::size_t i, const data::Series& s, const FilterSettings& settings,
+                           std::vector<double>* t) {
+                         return LogLikelihood(ss[ss.size() == 1 ? 0 : i], s, settings, t);
+                       });
 }
 
 Result<Loglik> Likelihood::EvaluateEkf(std::span<const double> theta, std::span<const int> delay,
                                        std::vector<double>* terms) const {
   OdeCounts counts;
-  auto total = SumOverSeries(delay, terms, [&](std::size_t i, const data::Series& s,
-                                               const FilterSettings& settings,
-                                               std::vector<double>* t) {
-    return EkfLogLikelihood(*nonlinear_, SeriesTheta(theta, i), s, settings, t, &counts);
-  });
+  auto total = SumOverSeries(delay, terms,
+                             [&](std::size_t i, const data::Series& s,
+                                 const FilterSettings& settings, std::vector<double>* t) {
+                               return EkfLogLikelihood(*nonlinear_, SeriesTheta(theta, i), s,
+                                                       settings, t, &counts);
+                             });
   counts_->Add(counts);
   return total;
 }
@@ -227,19 +229,24 @@ Result<Loglik> Likelihood::EkfScore(std::span<const double> theta, std::span<con
     down = terms;
     if (can_up) {
       shifted[i] = theta[i] + h;
-      if (EvaluateEkf(shifted, delay, &up)) hi = shifted[i];
-      else up = terms;
+      if (EvaluateEkf(shifted, delay, &up))
+        hi = shifted[i];
+      else
+        up = terms;
     }
     if (can_down) {
       shifted[i] = theta[i] - h;
-      if (EvaluateEkf(shifted, delay, &down)) lo = shifted[i];
-      else down = terms;
+      if (EvaluateEkf(shifted, delay, &down))
+        lo = shifted[i];
+      else
+        down = terms;
     }
     shifted[i] = theta[i];
     if (hi == lo)
       return NumericalError(fmt::format(
           "the log-likelihood cannot be differentiated in {} at {:g}: the filter fails on both "
-          "sides (or there is no room between the bounds)", par.name, theta[i]));
+          "sides (or there is no room between the bounds)",
+          par.name, theta[i]));
     for (Eigen::Index r = 0; r < rows; ++r) J(r, f) = (up[r] - down[r]) / (hi - lo);
   }
   *gradient = J.colwise().sum().transpose();
@@ -342,7 +349,6 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
         return LogLikelihoodScore(*ss, *dss, s, settings, g, J);
       });
 }
-
 
 Result<DelayProfile> Likelihood::Profile(std::span<const double> theta) const {
   std::optional<std::vector<model::StateSpace>> ss;

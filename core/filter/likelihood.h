@@ -30,7 +30,7 @@ struct DelayCandidate {
   double loglik = 0.0;
   long n_obs = 0;
   bool ok = false;
-  std::string message;     // why it failed, when !ok
+  std::string message;  // why it failed, when !ok
 };
 
 struct DelayProfile {
@@ -145,7 +145,7 @@ class Likelihood {
   struct Counts;
   std::shared_ptr<Counts> counts_;  // the ODE work, shared by copies
   std::vector<std::shared_ptr<const data::Series>> series_;
-  FilterSettings settings_;  // first_obs = each output's max delay
+  FilterSettings settings_;                          // first_obs = each output's max delay
   std::vector<std::vector<int>> series_parameters_;  // see set_series_parameters
 };
 

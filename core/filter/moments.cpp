@@ -148,10 +148,14 @@ class MomentPropagator::Moments final : public OdeSystem {
     const model::NonlinearSensitivity& sens = *sens_;
     dJ_ = Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJtheta(l), n_, n_);
     for (int m = 0; m < n_; ++m)
-      dJ_.noalias() += S(m) * Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJx(m), n_, n_);
-    dsigma_.noalias() = Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynSigmaX(), n_, n_) * S;
+      dJ_.noalias() +=
+          S(m) * Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynJx(m), n_, n_);
+    dsigma_.noalias() =
+        Eigen::Map<const Eigen::MatrixXd>(dense_.data() + sens.DynSigmaX(), n_, n_) * S;
     dsigma_ += Eigen::Map<const Eigen::VectorXd>(
-        dense_.data() + sens.DynSigmaTheta() + static_cast<std::size_t>(l) * static_cast<std::size_t>(n_), n_);
+        dense_.data() + sens.DynSigmaTheta() +
+            static_cast<std::size_t>(l) * static_cast<std::size_t>(n_),
+        n_);
   }
 
   // ∂F/∂z without the terms of ∂J/∂x̂ and ∂σ/∂x̂ (second derivatives): [J 0; 0 L(J)] with
@@ -160,7 +164,9 @@ class MomentPropagator::Moments final : public OdeSystem {
     const int N = size();
     std::fill(jac.begin(), jac.end(), 0.0);
     if (!EvaluateAt(t, z.data())) return;
-    auto at = [&](int row, int col) -> double& { return jac[static_cast<std::size_t>(col) * N + row]; };
+    auto at = [&](int row, int col) -> double& {
+      return jac[static_cast<std::size_t>(col) * N + row];
+    };
     for (int i = 0; i < n_; ++i)
       for (int j = 0; j < n_; ++j) at(i, j) = J_(i, j);
     // (J P + P J')_ab = Σ_k J_ak P_kb + Σ_k J_bk P_ak; P_cd (c >= d) stands for P_cd and P_dc.
@@ -303,7 +309,8 @@ Status MomentPropagator::Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P,
     Eigen::Map<Eigen::MatrixXd>(z_.data() + moments_->moments_size(), n, n).setIdentity();
   }
   for (int q = 0; q < K; ++q) {
-    const std::span<double> block = std::span<double>(z_).subspan(moments_->sensitivity_offset() + q * ms);
+    const std::span<double> block =
+        std::span<double>(z_).subspan(moments_->sensitivity_offset() + q * ms);
     std::copy(ds->x.col(q).data(), ds->x.col(q).data() + n, block.begin());
     moments_->Pack(ds->P[q], block);
   }
@@ -316,16 +323,18 @@ Status MomentPropagator::Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P,
     // the solver's.
     const std::string why = moments_->failure() ? moments_->failure()->message : s.error().message;
     return data::AtRow(NumericalError(fmt::format(
-                     "the moment equations could not be integrated from row {} (t = {:g}) to "
-                     "the next: {}",
-                     j + 1, series_.time[j], why)),
-                 series_, j);
+                           "the moment equations could not be integrated from row {} (t = {:g}) to "
+                           "the next: {}",
+                           j + 1, series_.time[j], why)),
+                       series_, j);
   }
   *x = Eigen::Map<const Eigen::VectorXd>(z_.data(), n);
   moments_->Unpack(z_, P);
-  if (Phi && transition) *Phi = Eigen::Map<const Eigen::MatrixXd>(z_.data() + moments_->moments_size(), n, n);
+  if (Phi && transition)
+    *Phi = Eigen::Map<const Eigen::MatrixXd>(z_.data() + moments_->moments_size(), n, n);
   for (int q = 0; q < K; ++q) {
-    const std::span<const double> block = std::span<const double>(z_).subspan(moments_->sensitivity_offset() + q * ms);
+    const std::span<const double> block =
+        std::span<const double>(z_).subspan(moments_->sensitivity_offset() + q * ms);
     ds->x.col(q) = Eigen::Map<const Eigen::VectorXd>(block.data(), n);
     moments_->Unpack(block, &ds->P[q]);
   }
@@ -339,7 +348,8 @@ Status MomentPropagator::Initial(model::InitialCovariance kind, Eigen::VectorXd*
   std::vector<double> initial(model_.initial_size());
   model_.Initial(slots_, initial);
   for (std::size_t k = 0; k < initial.size(); ++k) {
-    if (!std::isfinite(initial[k])) return model_.NotFinite(Program::kInitial, k, initial[k], slots_);
+    if (!std::isfinite(initial[k]))
+      return model_.NotFinite(Program::kInitial, k, initial[k], slots_);
   }
   *x = Eigen::Map<const Eigen::VectorXd>(initial.data(), n);
   P->setZero(n, n);
@@ -387,9 +397,10 @@ Status MomentPropagator::Initial(model::InitialCovariance kind, Eigen::VectorXd*
     case model::InitialCovariance::kExplicit:
       for (int i = 0; i < n; ++i) {
         if (initial[n + i] < 0)
-          return NumericalError(fmt::format("{} = {:g} is negative at these parameter values (a "
-                                            "variance)", model_.spec().initial_variance[i].path,
-                                            initial[n + i]));
+          return NumericalError(
+              fmt::format("{} = {:g} is negative at these parameter values (a "
+                          "variance)",
+                          model_.spec().initial_variance[i].path, initial[n + i]));
         (*P)(i, i) = initial[n + i];
       }
       for (int q = 0; q < K; ++q)
@@ -410,7 +421,8 @@ Status MomentPropagator::MeasureSensitivities(int j, const Eigen::VectorXd& x,
   const auto& program = sensitivity_->measurement();
   measure_scratch_.resize(program.nonzeros());
   program.Eval(slots_, dense, measure_scratch_);
-  if (auto bad = sensitivity_->NotFinite(program, dense, slots_)) return data::AtRow(*bad, series_, j);
+  if (auto bad = sensitivity_->NotFinite(program, dense, slots_))
+    return data::AtRow(*bad, series_, j);
   return Ok{};
 }
 

@@ -18,7 +18,7 @@
 namespace gb::filter {
 namespace {
 
-constexpr long kMaxSteps = 100000;         // per interval
+constexpr long kMaxSteps = 100000;          // per interval
 constexpr double kMinStepFraction = 1e-14;  // of the interval
 
 using State = std::vector<double>;
@@ -42,7 +42,8 @@ class PartialErrorChecker {
                Time dt) const {
     double worst = 0.0;
     for (std::size_t i = 0; i < controlled_; ++i) {
-      const double scale = atol_ + rtol_ * (std::abs(x_old[i]) + std::abs(dt) * std::abs(dxdt_old[i]));
+      const double scale =
+          atol_ + rtol_ * (std::abs(x_old[i]) + std::abs(dt) * std::abs(dxdt_old[i]));
       worst = std::max(worst, std::abs(x_err[i]) / scale);
     }
     return worst;
@@ -70,7 +71,10 @@ std::string FlagName(int flag) {
 struct OdeSolver::Explicit {
   Explicit(double atol, double rtol, int size, int controlled)
       : stepper(PartialErrorChecker(atol, rtol, static_cast<std::size_t>(controlled))),
-        x(size), dxdt(size), x_new(size), dxdt_new(size) {}
+        x(size),
+        dxdt(size),
+        x_new(size),
+        dxdt_new(size) {}
   Controlled stepper;
   State x, dxdt, x_new, dxdt_new;
   double dt_hint = 0.0;  // the step size the last interval ended with (0: none yet)
@@ -78,7 +82,8 @@ struct OdeSolver::Explicit {
 
 Status OdeSolver::AdvanceExplicit(OdeSystem& system, double t0, double t1, std::span<double> z) {
   if (!explicit_)
-    explicit_ = std::make_unique<Explicit>(options_.atol, options_.rtol, size_, system.controlled_size());
+    explicit_ =
+        std::make_unique<Explicit>(options_.atol, options_.rtol, size_, system.controlled_size());
   Explicit& e = *explicit_;
   bool finite = true;
   auto rhs = [&](const State& x, State& dxdt, double t) {
@@ -119,8 +124,8 @@ Status OdeSolver::AdvanceExplicit(OdeSystem& system, double t0, double t1, std::
       ++counts_.rejected;
     }
     if (!(dt > kMinStepFraction * length))
-      return NumericalError(fmt::format("the step size fell below {:g} of the sample interval",
-                                        kMinStepFraction));
+      return NumericalError(
+          fmt::format("the step size fell below {:g} of the sample interval", kMinStepFraction));
   }
   std::copy(e.x.begin(), e.x.end(), z.begin());
   return Ok{};
@@ -173,7 +178,8 @@ Status OdeSolver::AdvanceBdf(OdeSystem& system, double t0, double t1, std::span<
     b.y = N_VNew_Serial(size_, b.context);
     b.matrix = SUNDenseMatrix(size_, size_, b.context);
     b.memory = CVodeCreate(CV_BDF, b.context);
-    if (!b.y || !b.matrix || !b.memory) return NumericalError("the BDF solver could not be created");
+    if (!b.y || !b.matrix || !b.memory)
+      return NumericalError("the BDF solver could not be created");
     b.solver = SUNLinSol_Dense(b.y, b.matrix, b.context);
     if (!b.solver) return NumericalError("the BDF solver could not be created");
   }
@@ -190,14 +196,12 @@ Status OdeSolver::AdvanceBdf(OdeSystem& system, double t0, double t1, std::span<
     if (flag >= 0) flag = CVodeSetJacFn(b.memory, &Bdf::Jacobian);
     if (flag >= 0) flag = CVodeSetMaxNumSteps(b.memory, kMaxSteps);
     if (flag < 0)
-      return NumericalError(fmt::format("the BDF solver could not be set up ({})",
-                                        FlagName(flag)));
+      return NumericalError(fmt::format("the BDF solver could not be set up ({})", FlagName(flag)));
     b.initialised = true;
   } else {
     flag = CVodeReInit(b.memory, t0, b.y);
     if (flag < 0)
-      return NumericalError(fmt::format("the BDF solver could not restart ({})",
-                                        FlagName(flag)));
+      return NumericalError(fmt::format("the BDF solver could not restart ({})", FlagName(flag)));
   }
   CVodeSetStopTime(b.memory, t1);
   sunrealtype t_reached = t0;
@@ -211,8 +215,8 @@ Status OdeSolver::AdvanceBdf(OdeSystem& system, double t0, double t1, std::span<
   counts_.rhs += b.rhs;
   b.system = nullptr;
   if (flag < 0)
-    return NumericalError(fmt::format("the BDF solver failed at t = {:g} ({})", t_reached,
-                                      FlagName(flag)));
+    return NumericalError(
+        fmt::format("the BDF solver failed at t = {:g} ({})", t_reached, FlagName(flag)));
   std::copy(N_VGetArrayPointer(b.y), N_VGetArrayPointer(b.y) + size_, z.begin());
   return Ok{};
 }

@@ -260,7 +260,7 @@ Result<Loglik> ScoreLoop(const Context& ctx, Eigen::VectorXd* gradient, Eigen::M
       x_next += ddi.g;
       if (m > 0) AddInputs(ddi.Gamma0, ddi.Gamma1, u, m, foh, x_next);
       dx[i] = x_next;
-      if (steady) continue;  // dP_i is rec_dP[i] again
+      if (steady) continue;                      // dP_i is rec_dP[i] again
       T.noalias() = ddi.Phi * PhiP.transpose();  // dΦ P Φ' (P symmetric)
       PhidP.noalias() = dd.Phi * dP[i];
       dP[i].noalias() = PhidP * dd.Phi.transpose();

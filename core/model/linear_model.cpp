@@ -30,9 +30,8 @@ Status SplitAffine(const ModelSpec& spec, const Formula& f, const std::vector<st
     for (const auto& w : var_set) {
       if (!used.count(w)) continue;
       const expr::Node* at = expr::FindFirstVariable(f.expr, {v});
-      const std::string how =
-          w == v ? fmt::format("it is not linear in '{}'", v)
-                 : fmt::format("it multiplies '{}' by '{}'", v, w);
+      const std::string how = w == v ? fmt::format("it is not linear in '{}'", v)
+                                     : fmt::format("it multiplies '{}' by '{}'", v, w);
       return ModelError(spec, f,
                         fmt::format("the model is not affine in the states and inputs: {}", how),
                         at ? at->column : 0);
@@ -47,7 +46,8 @@ Status SplitAffine(const ModelSpec& spec, const Formula& f, const std::vector<st
   for (const auto& w : var_set) {
     if (!used.count(w)) continue;
     const expr::Node* at = expr::FindFirstVariable(f.expr, {w});
-    return ModelError(spec, f, fmt::format("the model is not linear: {} depends on '{}'", f.path, w),
+    return ModelError(spec, f,
+                      fmt::format("the model is not linear: {} depends on '{}'", f.path, w),
                       at ? at->column : 0);
   }
   return Ok{};
@@ -103,13 +103,14 @@ Result<LinearModel> LinearModel::Compile(ModelSpec spec) {
   };
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j)
-      add(f_coef[i][j], fmt::format("A[{},{}] (from drift.{})", spec.states[i], spec.states[j],
-                                    spec.states[i]));
+      add(f_coef[i][j],
+          fmt::format("A[{},{}] (from drift.{})", spec.states[i], spec.states[j], spec.states[i]));
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < m; ++j)
-      add(f_coef[i][n + j], fmt::format("B[{},{}] (from drift.{})", spec.states[i], spec.inputs[j],
-                                        spec.states[i]));
-  for (int i = 0; i < n; ++i) add(f_const[i], fmt::format("the constant term of drift.{}", spec.states[i]));
+      add(f_coef[i][n + j],
+          fmt::format("B[{},{}] (from drift.{})", spec.states[i], spec.inputs[j], spec.states[i]));
+  for (int i = 0; i < n; ++i)
+    add(f_const[i], fmt::format("the constant term of drift.{}", spec.states[i]));
   for (int i = 0; i < p; ++i)
     for (int j = 0; j < n; ++j)
       add(h_coef[i][j], fmt::format("C[{},{}] (from observation.{})", spec.outputs[i],
@@ -121,7 +122,8 @@ Result<LinearModel> LinearModel::Compile(ModelSpec spec) {
   for (int i = 0; i < p; ++i)
     add(h_const[i], fmt::format("the constant term of observation.{}", spec.outputs[i]));
   for (int i = 0; i < n; ++i) add(spec.diffusion[i].expr, spec.diffusion[i].path);
-  for (int i = 0; i < p; ++i) add(spec.measurement_variance[i].expr, spec.measurement_variance[i].path);
+  for (int i = 0; i < p; ++i)
+    add(spec.measurement_variance[i].expr, spec.measurement_variance[i].path);
   for (int i = 0; i < n; ++i) add(spec.initial_state[i].expr, spec.initial_state[i].path);
   if (spec.initial_covariance == InitialCovariance::kExplicit)
     for (int i = 0; i < n; ++i) add(spec.initial_variance[i].expr, spec.initial_variance[i].path);
@@ -204,13 +206,17 @@ Result<StateSpace> LinearModel::Evaluate(std::span<const double> theta) const {
   const std::size_t p0_offset = v.size() - ss.P0_diag.size();
   for (int i = 0; i < ss.S.size(); ++i) {
     if (ss.S(i) < 0)
-      return NumericalError(fmt::format("{} = {:g} is negative at these parameter values (a "
-                                        "variance)", entry_names_[s_offset + i], ss.S(i)));
+      return NumericalError(
+          fmt::format("{} = {:g} is negative at these parameter values (a "
+                      "variance)",
+                      entry_names_[s_offset + i], ss.S(i)));
   }
   for (int i = 0; i < ss.P0_diag.size(); ++i) {
     if (ss.P0_diag(i) < 0)
-      return NumericalError(fmt::format("{} = {:g} is negative at these parameter values (a "
-                                        "variance)", entry_names_[p0_offset + i], ss.P0_diag(i)));
+      return NumericalError(
+          fmt::format("{} = {:g} is negative at these parameter values (a "
+                      "variance)",
+                      entry_names_[p0_offset + i], ss.P0_diag(i)));
   }
   return ss;
 }

@@ -33,10 +33,10 @@ namespace gb::model {
 struct StateSpace {
   Eigen::MatrixXd A, B, C, D;
   Eigen::VectorXd c, d;
-  Eigen::VectorXd sigma;      // diffusion coefficients (σσ' = diag(sigma²))
-  Eigen::VectorXd S;          // measurement variances, >= 0
+  Eigen::VectorXd sigma;  // diffusion coefficients (σσ' = diag(sigma²))
+  Eigen::VectorXd S;      // measurement variances, >= 0
   Eigen::VectorXd x0;
-  Eigen::VectorXd P0_diag;    // initial variances when the model gives them explicitly, else empty
+  Eigen::VectorXd P0_diag;  // initial variances when the model gives them explicitly, else empty
   int n_states() const { return static_cast<int>(A.rows()); }
   int n_inputs() const { return static_cast<int>(B.cols()); }
   int n_outputs() const { return static_cast<int>(C.rows()); }

@@ -55,9 +55,10 @@ Result<std::vector<std::pair<std::string, double>>> ParseOperatingPoint(const st
     if (name.empty())
       return InputError(fmt::format("operating point: '{}' has no name before '='", item));
     if (std::find(names.begin(), names.end(), name) == names.end()) {
-      std::string msg = fmt::format("operating point: '{}' is not a state, input or output of the "
-                                    "model",
-                                    name);
+      std::string msg = fmt::format(
+          "operating point: '{}' is not a state, input or output of the "
+          "model",
+          name);
       if (auto s = Suggest(name, names)) msg += fmt::format(" (did you mean '{}'?)", *s);
       return InputError(msg);
     }
@@ -152,9 +153,11 @@ class Point {
     input_tape_.Eval(slots_, inp_);
     Evaluated e;
     e.f = Eigen::Map<const Eigen::VectorXd>(dyn_.data(), n_);
-    e.A = Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(dyn_.data() + n_, n_, n_);
+    e.A =
+        Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(dyn_.data() + n_, n_, n_);
     e.h = Eigen::Map<const Eigen::VectorXd>(mea_.data(), p_);
-    e.C = Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(mea_.data() + p_, p_, n_);
+    e.C =
+        Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(mea_.data() + p_, p_, n_);
     e.B = Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(inp_.data(), n_, m_);
     e.D = Eigen::Map<const Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(
         inp_.data() + static_cast<std::ptrdiff_t>(n_) * m_, p_, m_);
@@ -174,7 +177,7 @@ constexpr int kNewtonIterations = 200;
 constexpr int kHalvings = 40;
 
 struct Unknowns {
-  std::vector<int> states, inputs;            // indices solved for
+  std::vector<int> states, inputs;              // indices solved for
   std::vector<std::pair<int, double>> outputs;  // output index, value it must take
 };
 
@@ -198,12 +201,14 @@ void Residual(const Evaluated& e, const Unknowns& k, Eigen::VectorXd* F, Eigen::
   Eigen::Index c = 0;
   for (int i : k.states) {
     J->col(c).head(n) = e.A.col(i);
-    for (Eigen::Index r = 0; r < q; ++r) (*J)(n + r, c) = e.C(k.outputs[static_cast<std::size_t>(r)].first, i);
+    for (Eigen::Index r = 0; r < q; ++r)
+      (*J)(n + r, c) = e.C(k.outputs[static_cast<std::size_t>(r)].first, i);
     ++c;
   }
   for (int j : k.inputs) {
     J->col(c).head(n) = e.B.col(j);
-    for (Eigen::Index r = 0; r < q; ++r) (*J)(n + r, c) = e.D(k.outputs[static_cast<std::size_t>(r)].first, j);
+    for (Eigen::Index r = 0; r < q; ++r)
+      (*J)(n + r, c) = e.D(k.outputs[static_cast<std::size_t>(r)].first, j);
     ++c;
   }
 }
@@ -419,7 +424,8 @@ Result<Linearisation> Linearise(const NonlinearModel& model, std::span<const dou
   }
   Eigen::VectorXd x0(n), u0 = Eigen::VectorXd::Zero(m);
   for (int i = 0; i < n; ++i) x0(i) = init[static_cast<std::size_t>(i)];
-  std::vector<bool> state_given(static_cast<std::size_t>(n)), input_given(static_cast<std::size_t>(m));
+  std::vector<bool> state_given(static_cast<std::size_t>(n)),
+      input_given(static_cast<std::size_t>(m));
   Unknowns k;
   for (const auto& [name, value] : point) {
     if (int i = s.StateIndex(name); i >= 0) {
@@ -510,7 +516,8 @@ Result<Linearisation> Linearise(const NonlinearModel& model, std::span<const dou
     const double step = 1e-4 * std::max({std::abs(th[static_cast<std::size_t>(idx)]), sd, 1e-8});
     Eigen::VectorXd side[2];
     for (int sgn = 0; sgn < 2; ++sgn) {
-      th[static_cast<std::size_t>(idx)] = theta[static_cast<std::size_t>(idx)] + (sgn ? step : -step);
+      th[static_cast<std::size_t>(idx)] =
+          theta[static_cast<std::size_t>(idx)] + (sgn ? step : -step);
       at.SetTheta(th);
       auto st = SolveSteady(at, k, nominal->x, nominal->u);
       if (!st) return st.error();

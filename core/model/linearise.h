@@ -11,8 +11,9 @@
 //
 // Quantities: named expressions of the entries (A_p_n is ∂f_p/∂n, B_mff_mfi, C_ilambda_mfv, ...),
 // of the point's states, inputs and outputs, and of the parameters, e.g. the fuel film's
-// "tau_ff": "-1/A_mff_mff" or "Kb": "-C_ilambda_mfv" (the Padé approximant of the delay passes -v straight through); they name what a linear model fitted at one
-// point estimates, so that the two can be compared.
+// "tau_ff": "-1/A_mff_mff" or "Kb": "-C_ilambda_mfv" (the Padé approximant of the delay passes -v
+// straight through); they name what a linear model fitted at one point estimates, so that the two
+// can be compared.
 //
 // Uncertainty (the delta method): with the covariance Σ of the free parameters' estimates, each
 // entry and quantity g gets the standard error sqrt(∇g' Σ ∇g), ∇g by central differences of the

@@ -38,18 +38,24 @@ class Parser {
 
 std::string JsonTypeName(const Json& j) {
   switch (j.type()) {
-    case Json::value_t::null: return "null";
-    case Json::value_t::boolean: return "true/false";
-    case Json::value_t::string: return "a string";
-    case Json::value_t::array: return "a list";
-    case Json::value_t::object: return "an object";
-    default: return "a number";
+    case Json::value_t::null:
+      return "null";
+    case Json::value_t::boolean:
+      return "true/false";
+    case Json::value_t::string:
+      return "a string";
+    case Json::value_t::array:
+      return "a list";
+    case Json::value_t::object:
+      return "an object";
+    default:
+      return "a number";
   }
 }
 
 const std::set<std::string>& ReservedNames() {
   static const std::set<std::string> kReserved = {"exp",  "log", "sqrt", "sin", "cos", "tan",
-                                                   "tanh", "abs", "pow",  "min", "max", "sign"};
+                                                  "tanh", "abs", "pow",  "min", "max", "sign"};
   return kReserved;
 }
 
@@ -66,8 +72,8 @@ std::string JoinNames(const std::vector<std::string>& v) {
 
 // ---- 2. names and parameters -----------------------------------------------------------------
 
-Result<std::vector<std::string>> ReadNames(const Parser& p, const Json& j,
-                                           const std::string& key, bool required) {
+Result<std::vector<std::string>> ReadNames(const Parser& p, const Json& j, const std::string& key,
+                                           bool required) {
   std::vector<std::string> names;
   if (!j.contains(key)) {
     if (required) return p.Fail(key, "missing: the model must list its " + key);
@@ -81,7 +87,8 @@ Result<std::vector<std::string>> ReadNames(const Parser& p, const Json& j,
     std::string name = a[i].get<std::string>();
     if (!IsIdentifier(name))
       return p.Fail(path, fmt::format("'{}' is not a valid name (letters, digits and _, not "
-                                      "starting with a digit)", name));
+                                      "starting with a digit)",
+                                      name));
     if (ReservedNames().count(name))
       return p.Fail(path, fmt::format("'{}' is the name of a function and cannot name a {}", name,
                                       key.substr(0, key.size() - 1)));
@@ -111,14 +118,17 @@ Result<Parameter> ReadParameter(const Parser& p, const std::string& name, const 
     return par;
   }
   if (!v.is_object())
-    return p.Fail(base, "expected an object like {\"value\": 1, \"lower\": 0, \"upper\": 10}, "
-                        "found " + JsonTypeName(v));
-  static const std::set<std::string> kKeys = {"value", "lower", "upper", "fixed", "unit",
-                                              "description", "prior"};
+    return p.Fail(base,
+                  "expected an object like {\"value\": 1, \"lower\": 0, \"upper\": 10}, "
+                  "found " +
+                      JsonTypeName(v));
+  static const std::set<std::string> kKeys = {"value", "lower",       "upper", "fixed",
+                                              "unit",  "description", "prior"};
   for (auto it = v.begin(); it != v.end(); ++it) {
     if (!kKeys.count(it.key()))
-      return p.Fail(base + "." + it.key(), "unknown field (a parameter has value, lower, upper, "
-                                           "fixed, unit, description, prior)");
+      return p.Fail(base + "." + it.key(),
+                    "unknown field (a parameter has value, lower, upper, "
+                    "fixed, unit, description, prior)");
   }
   if (!v.contains("value")) return p.Fail(base, "the parameter has no \"value\"");
   auto value = ReadNumber(p, v["value"], base + ".value");
@@ -145,8 +155,8 @@ Result<Parameter> ReadParameter(const Parser& p, const std::string& name, const 
     const Json& pr = v["prior"];
     const std::string path = base + ".prior";
     if (!pr.is_object())
-      return p.Fail(path, "expected an object like {\"mean\": 0.1, \"sd\": 0.02}, found " +
-                              JsonTypeName(pr));
+      return p.Fail(
+          path, "expected an object like {\"mean\": 0.1, \"sd\": 0.02}, found " + JsonTypeName(pr));
     for (auto it = pr.begin(); it != pr.end(); ++it)
       if (it.key() != "mean" && it.key() != "sd")
         return p.Fail(path + "." + it.key(), "unknown field (a prior has mean and sd)");
@@ -156,16 +166,20 @@ Result<Parameter> ReadParameter(const Parser& p, const std::string& name, const 
     if (!mean) return mean.error();
     auto sd = ReadNumber(p, pr["sd"], path + ".sd");
     if (!sd) return sd.error();
-    if (!(*sd > 0)) return p.Fail(path + ".sd", fmt::format("the prior's sd must be > 0, found {}", *sd));
+    if (!(*sd > 0))
+      return p.Fail(path + ".sd", fmt::format("the prior's sd must be > 0, found {}", *sd));
     par.prior = Parameter::Prior{*mean, *sd};
   }
   if (par.lower && par.upper && !(*par.lower < *par.upper))
     return p.Fail(base, fmt::format("the bounds are inverted or empty: lower {} is not below "
-                                    "upper {}", *par.lower, *par.upper));
-  if (!par.fixed && ((par.lower && par.value < *par.lower) || (par.upper && par.value > *par.upper)))
-    return p.Fail(base + ".value", fmt::format("the start value {} is outside the bounds [{}, {}]",
-                                               par.value, par.lower ? fmt::format("{}", *par.lower) : "-inf",
-                                               par.upper ? fmt::format("{}", *par.upper) : "inf"));
+                                    "upper {}",
+                                    *par.lower, *par.upper));
+  if (!par.fixed &&
+      ((par.lower && par.value < *par.lower) || (par.upper && par.value > *par.upper)))
+    return p.Fail(base + ".value",
+                  fmt::format("the start value {} is outside the bounds [{}, {}]", par.value,
+                              par.lower ? fmt::format("{}", *par.lower) : "-inf",
+                              par.upper ? fmt::format("{}", *par.upper) : "inf"));
   return par;
 }
 
@@ -174,8 +188,8 @@ Result<Parameter> ReadParameter(const Parser& p, const std::string& name, const 
 constexpr const char* kTimeName = "t";  // the time, in expressions
 
 struct NameTable {
-  std::set<std::string> known;         // states, inputs and parameters
-  std::vector<std::string> all;        // for suggestions
+  std::set<std::string> known;   // states, inputs and parameters
+  std::vector<std::string> all;  // for suggestions
   std::set<std::string> states_inputs;
 };
 
@@ -206,28 +220,32 @@ Result<Formula> ReadFormula(const Parser& p, const Json& v, const std::string& p
   std::set<std::string> unknown;
   std::set<std::string> not_allowed;
   for (const auto& n : used) {
-    if (!names.known.count(n)) unknown.insert(n);
-    else if (!allowed.count(n)) not_allowed.insert(n);
+    if (!names.known.count(n))
+      unknown.insert(n);
+    else if (!allowed.count(n))
+      not_allowed.insert(n);
   }
   if (!unknown.empty()) {
     const expr::Node* node = expr::FindFirstVariable(f.expr, unknown);
     std::string msg = fmt::format("unknown name '{}'", node->name);
-    if (auto s = Suggest(node->name, names.all)) msg += fmt::format(" (did you mean '{}'?)", *s);
-    else msg += " (not a state, input or parameter of the model)";
+    if (auto s = Suggest(node->name, names.all))
+      msg += fmt::format(" (did you mean '{}'?)", *s);
+    else
+      msg += " (not a state, input or parameter of the model)";
     return p.Fail(path, msg, node->column);
   }
   if (!not_allowed.empty()) {
     const expr::Node* node = expr::FindFirstVariable(f.expr, not_allowed);
-    return p.Fail(path, fmt::format("'{}' cannot appear here: {} may only use {}", node->name,
-                                    path.substr(0, path.find('.')), allowed_what),
+    return p.Fail(path,
+                  fmt::format("'{}' cannot appear here: {} may only use {}", node->name,
+                              path.substr(0, path.find('.')), allowed_what),
                   node->column);
   }
   return f;
 }
 
 // Reads an object of expressions keyed by `keys` (states or outputs).
-Result<std::vector<Formula>> ReadFormulaMap(const Parser& p, const Json& j,
-                                            const std::string& key,
+Result<std::vector<Formula>> ReadFormulaMap(const Parser& p, const Json& j, const std::string& key,
                                             const std::vector<std::string>& keys,
                                             const std::string& keys_what, bool required_each,
                                             const std::string& default_text, const NameTable& names,
@@ -238,16 +256,20 @@ Result<std::vector<Formula>> ReadFormulaMap(const Parser& p, const Json& j,
   if (j.contains(key)) {
     obj = j[key];
     if (!obj.is_object())
-      return p.Fail(key, fmt::format("expected an object mapping each {} to an expression, found {}",
-                                     keys_what, JsonTypeName(obj)));
+      return p.Fail(key,
+                    fmt::format("expected an object mapping each {} to an expression, found {}",
+                                keys_what, JsonTypeName(obj)));
   } else if (required_each && !keys.empty()) {
-    return p.Fail(key, fmt::format("missing: the model needs an expression for each {}", keys_what));
+    return p.Fail(key,
+                  fmt::format("missing: the model needs an expression for each {}", keys_what));
   }
   for (auto it = obj.begin(); it != obj.end(); ++it) {
     if (IndexOf(keys, it.key()) < 0) {
       std::string msg = fmt::format("'{}' is not a {} of the model", it.key(), keys_what);
-      if (auto s = Suggest(it.key(), keys)) msg += fmt::format(" (did you mean '{}'?)", *s);
-      else msg += fmt::format(" (they are: {})", JoinNames(keys));
+      if (auto s = Suggest(it.key(), keys))
+        msg += fmt::format(" (did you mean '{}'?)", *s);
+      else
+        msg += fmt::format(" (they are: {})", JoinNames(keys));
       return p.Fail(key + "." + it.key(), msg);
     }
   }
@@ -272,7 +294,8 @@ Result<std::vector<Formula>> ReadFormulaMap(const Parser& p, const Json& j,
 
 Result<DelaySpec> ReadDelay(const Parser& p, const Json& v, const std::string& path) {
   auto whole = [&](const Json& x, const std::string& at) -> Result<int> {
-    if (!x.is_number_integer() && !(x.is_number() && std::floor(x.get<double>()) == x.get<double>()))
+    if (!x.is_number_integer() &&
+        !(x.is_number() && std::floor(x.get<double>()) == x.get<double>()))
       return p.Fail(at, "expected a whole number of samples, found " +
                             (x.is_number() ? fmt::format("{}", x.get<double>()) : JsonTypeName(x)));
     const double d = x.get<double>();
@@ -305,7 +328,6 @@ Result<DelaySpec> ReadDelay(const Parser& p, const Json& v, const std::string& p
   return d;
 }
 
-
 // The "ekf" object: {"ode": ..., "rtol": ..., "atol": ..., "iterations": ...}, every key optional.
 Result<EkfOptions> ReadEkfOptions(const Parser& p, const Json& v) {
   if (!v.is_object()) return p.Fail("ekf", "expected an object, found " + JsonTypeName(v));
@@ -314,10 +336,14 @@ Result<EkfOptions> ReadEkfOptions(const Parser& p, const Json& v) {
     const std::string path = "ekf." + it.key();
     if (it.key() == "ode") {
       const std::string s = it.value().is_string() ? it.value().get<std::string>() : "";
-      if (s == "auto") o.method = OdeMethod::kAuto;
-      else if (s == "explicit") o.method = OdeMethod::kExplicit;
-      else if (s == "bdf") o.method = OdeMethod::kBdf;
-      else return p.Fail(path, "expected \"auto\", \"explicit\" or \"bdf\"");
+      if (s == "auto")
+        o.method = OdeMethod::kAuto;
+      else if (s == "explicit")
+        o.method = OdeMethod::kExplicit;
+      else if (s == "bdf")
+        o.method = OdeMethod::kBdf;
+      else
+        return p.Fail(path, "expected \"auto\", \"explicit\" or \"bdf\"");
     } else if (it.key() == "rtol" || it.key() == "atol") {
       auto x = ReadNumber(p, it.value(), path);
       if (!x) return x.error();
@@ -343,8 +369,9 @@ Result<EkfOptions> ReadEkfOptions(const Parser& p, const Json& v) {
 
 bool IsIdentifier(const std::string& s) {
   if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
-  return std::all_of(s.begin(), s.end(),
-                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+  });
 }
 
 bool IsFunctionName(const std::string& s) { return ReservedNames().count(s) > 0; }
@@ -376,27 +403,43 @@ bool ModelSpec::HasDelayScan() const {
 
 const char* OdeMethodName(OdeMethod m) {
   switch (m) {
-    case OdeMethod::kExplicit: return "explicit";
-    case OdeMethod::kBdf: return "bdf";
-    case OdeMethod::kAuto: break;
+    case OdeMethod::kExplicit:
+      return "explicit";
+    case OdeMethod::kBdf:
+      return "bdf";
+    case OdeMethod::kAuto:
+      break;
   }
   return "auto";
 }
 
 Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
   const Parser p(source);
-  if (!j.is_object()) return p.Fail("", "a model file holds a JSON object, found " + JsonTypeName(j));
+  if (!j.is_object())
+    return p.Fail("", "a model file holds a JSON object, found " + JsonTypeName(j));
   if (!j.contains("greybench_model"))
     return p.Fail("", "not a greybench model: the key \"greybench_model\": 1 is missing");
   if (!j["greybench_model"].is_number_integer() || j["greybench_model"].get<std::int64_t>() != 1)
     return p.Fail("greybench_model", "unsupported model version (this greybench reads version 1)");
 
-  static const std::set<std::string> kKeys = {
-      "greybench_model", "name",          "description",       "states",
-      "inputs",          "outputs",       "parameters",        "drift",
-      "diffusion",       "observation",   "measurement_variance", "output_delay",
-      "initial_state",   "initial_covariance", "input_hold",   "robust_huber",
-      "time_unit",       "ekf"};
+  static const std::set<std::string> kKeys = {"greybench_model",
+                                              "name",
+                                              "description",
+                                              "states",
+                                              "inputs",
+                                              "outputs",
+                                              "parameters",
+                                              "drift",
+                                              "diffusion",
+                                              "observation",
+                                              "measurement_variance",
+                                              "output_delay",
+                                              "initial_state",
+                                              "initial_covariance",
+                                              "input_hold",
+                                              "robust_huber",
+                                              "time_unit",
+                                              "ekf"};
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (kKeys.count(it.key())) continue;
     std::string msg = fmt::format("unknown key '{}'", it.key());
@@ -408,7 +451,8 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
   ModelSpec m;
   m.source = source;
   if (j.contains("name")) {
-    if (!j["name"].is_string()) return p.Fail("name", "expected a string, found " + JsonTypeName(j["name"]));
+    if (!j["name"].is_string())
+      return p.Fail("name", "expected a string, found " + JsonTypeName(j["name"]));
     m.name = j["name"].get<std::string>();
   }
   {
@@ -432,10 +476,12 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
       const std::string path = "parameters." + it.key();
       if (!IsIdentifier(it.key()))
         return p.Fail(path, fmt::format("'{}' is not a valid name (letters, digits and _, not "
-                                        "starting with a digit)", it.key()));
+                                        "starting with a digit)",
+                                        it.key()));
       if (ReservedNames().count(it.key()))
         return p.Fail(path, fmt::format("'{}' is the name of a function and cannot name a "
-                                        "parameter", it.key()));
+                                        "parameter",
+                                        it.key()));
       auto par = ReadParameter(p, it.key(), it.value());
       if (!par) return par.error();
       m.parameters.push_back(std::move(*par));
@@ -448,7 +494,8 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
   auto claim = [&](const std::string& n, const std::string& path, const char* what) -> Status {
     if (!names.known.insert(n).second)
       return p.Fail(path, fmt::format("'{}' is used twice: as a {} and as another state, input or "
-                                      "parameter", n, what));
+                                      "parameter",
+                                      n, what));
     names.all.push_back(n);
     return Ok{};
   };
@@ -472,8 +519,8 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
   std::set<std::string> params_inputs = params_only;
   params_inputs.insert(m.inputs.begin(), m.inputs.end());
   if (time_free) params_inputs.insert(kTimeName);
-  const char* everything_what = time_free ? "states, inputs, parameters and the time t"
-                                          : "states, inputs and parameters";
+  const char* everything_what =
+      time_free ? "states, inputs, parameters and the time t" : "states, inputs and parameters";
 
   auto drift = ReadFormulaMap(p, j, "drift", m.states, "state", true, "0", names, everything,
                               everything_what);
@@ -487,14 +534,13 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
                                     everything, everything_what);
   if (!observation) return observation.error();
   m.observation = std::move(*observation);
-  auto variance = ReadFormulaMap(p, j, "measurement_variance", m.outputs, "output", true, "0",
-                                 names, params_inputs,
-                                 time_free ? "inputs, parameters and the time t"
-                                           : "inputs and parameters");
+  auto variance = ReadFormulaMap(
+      p, j, "measurement_variance", m.outputs, "output", true, "0", names, params_inputs,
+      time_free ? "inputs, parameters and the time t" : "inputs and parameters");
   if (!variance) return variance.error();
   m.measurement_variance = std::move(*variance);
-  auto x0 = ReadFormulaMap(p, j, "initial_state", m.states, "state", false, "0", names,
-                           params_only, "parameters");
+  auto x0 = ReadFormulaMap(p, j, "initial_state", m.states, "state", false, "0", names, params_only,
+                           "parameters");
   if (!x0) return x0.error();
   m.initial_state = std::move(*x0);
 
@@ -502,11 +548,14 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
     const auto& ic = j["initial_covariance"];
     if (ic.is_string()) {
       const std::string s = ic.get<std::string>();
-      if (s == "ctsm") m.initial_covariance = InitialCovariance::kCtsm;
-      else if (s == "stationary") m.initial_covariance = InitialCovariance::kStationary;
+      if (s == "ctsm")
+        m.initial_covariance = InitialCovariance::kCtsm;
+      else if (s == "stationary")
+        m.initial_covariance = InitialCovariance::kStationary;
       else
         return p.Fail("initial_covariance", fmt::format("unknown value '{}' (use \"ctsm\", "
-                                                        "\"stationary\" or an object of variances)", s));
+                                                        "\"stationary\" or an object of variances)",
+                                                        s));
     } else if (ic.is_object()) {
       m.initial_covariance = InitialCovariance::kExplicit;
       auto v = ReadFormulaMap(p, j, "initial_covariance", m.states, "state", true, "0", names,
@@ -514,8 +563,10 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
       if (!v) return v.error();
       m.initial_variance = std::move(*v);
     } else {
-      return p.Fail("initial_covariance", "expected \"ctsm\", \"stationary\" or an object of "
-                                          "per-state variances, found " + JsonTypeName(ic));
+      return p.Fail("initial_covariance",
+                    "expected \"ctsm\", \"stationary\" or an object of "
+                    "per-state variances, found " +
+                        JsonTypeName(ic));
     }
   }
 
@@ -523,8 +574,8 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
   if (j.contains("output_delay")) {
     const auto& od = j["output_delay"];
     if (!od.is_object())
-      return p.Fail("output_delay", "expected an object mapping outputs to delays, found " +
-                                        JsonTypeName(od));
+      return p.Fail("output_delay",
+                    "expected an object mapping outputs to delays, found " + JsonTypeName(od));
     for (auto it = od.begin(); it != od.end(); ++it) {
       const int o = IndexOf(m.outputs, it.key());
       if (o < 0)
@@ -540,15 +591,20 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
   if (j.contains("input_hold")) {
     const auto& h = j["input_hold"];
     const std::string s = h.is_string() ? h.get<std::string>() : "";
-    if (s == "zoh") m.input_hold = InputHold::kZoh;
-    else if (s == "foh") m.input_hold = InputHold::kFoh;
-    else return p.Fail("input_hold", "expected \"zoh\" or \"foh\"");
+    if (s == "zoh")
+      m.input_hold = InputHold::kZoh;
+    else if (s == "foh")
+      m.input_hold = InputHold::kFoh;
+    else
+      return p.Fail("input_hold", "expected \"zoh\" or \"foh\"");
   }
 
   if (j.contains("robust_huber") && !j["robust_huber"].is_null()) {
     auto c = ReadNumber(p, j["robust_huber"], "robust_huber");
     if (!c) return c.error();
-    if (*c <= 0) return p.Fail("robust_huber", fmt::format("the Huber threshold must be positive, not {}", *c));
+    if (*c <= 0)
+      return p.Fail("robust_huber",
+                    fmt::format("the Huber threshold must be positive, not {}", *c));
     m.robust_huber = *c;
   }
 
@@ -592,8 +648,7 @@ Json ToJson(const ModelSpec& m) {
   j["inputs"] = m.inputs;
   j["outputs"] = m.outputs;
   j["parameters"] = ParametersToJson(m.parameters);
-  auto put = [](Json* obj, const std::vector<std::string>& keys,
-                const std::vector<Formula>& fs) {
+  auto put = [](Json* obj, const std::vector<std::string>& keys, const std::vector<Formula>& fs) {
     *obj = Json::object();
     for (std::size_t i = 0; i < keys.size(); ++i) (*obj)[keys[i]] = fs[i].text;
   };
@@ -603,15 +658,23 @@ Json ToJson(const ModelSpec& m) {
   put(&j["measurement_variance"], m.outputs, m.measurement_variance);
   put(&j["initial_state"], m.states, m.initial_state);
   switch (m.initial_covariance) {
-    case InitialCovariance::kCtsm: j["initial_covariance"] = "ctsm"; break;
-    case InitialCovariance::kStationary: j["initial_covariance"] = "stationary"; break;
-    case InitialCovariance::kExplicit: put(&j["initial_covariance"], m.states, m.initial_variance); break;
+    case InitialCovariance::kCtsm:
+      j["initial_covariance"] = "ctsm";
+      break;
+    case InitialCovariance::kStationary:
+      j["initial_covariance"] = "stationary";
+      break;
+    case InitialCovariance::kExplicit:
+      put(&j["initial_covariance"], m.states, m.initial_variance);
+      break;
   }
   Json delays = Json::object();
   for (std::size_t o = 0; o < m.outputs.size(); ++o) {
     const auto& d = m.output_delay[o];
-    if (d.IsScan()) delays[m.outputs[o]] = {{"min", d.min}, {"max", d.max}};
-    else if (d.min != 0) delays[m.outputs[o]] = d.min;
+    if (d.IsScan())
+      delays[m.outputs[o]] = {{"min", d.min}, {"max", d.max}};
+    else if (d.min != 0)
+      delays[m.outputs[o]] = d.min;
   }
   if (!delays.empty()) j["output_delay"] = delays;
   j["input_hold"] = m.input_hold == InputHold::kZoh ? "zoh" : "foh";
@@ -659,14 +722,16 @@ Status SetParameter(ModelSpec* m, const std::string& name, double value) {
   return Ok{};
 }
 
-std::optional<std::string> Suggest(const std::string& name, const std::vector<std::string>& candidates) {
+std::optional<std::string> Suggest(const std::string& name,
+                                   const std::vector<std::string>& candidates) {
   auto distance = [](const std::string& a, const std::string& b) {
     std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
     for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
     for (std::size_t i = 1; i <= a.size(); ++i) {
       cur[0] = i;
       for (std::size_t j = 1; j <= b.size(); ++j) {
-        const std::size_t sub = prev[j - 1] + (std::tolower(a[i - 1]) == std::tolower(b[j - 1]) ? 0 : 1);
+        const std::size_t sub =
+            prev[j - 1] + (std::tolower(a[i - 1]) == std::tolower(b[j - 1]) ? 0 : 1);
         cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, sub});
       }
       std::swap(prev, cur);

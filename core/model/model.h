@@ -1,7 +1,8 @@
 // Model files (user guide §2): the stochastic differential equation
 //
-//   dx = f(x, u, θ, t) dt + σ(x, u, θ, t) dω   ω: independent standard Wiener processes, one per state
-//   y_k = h(x_{k-d}, u_{k-d}, θ, t) + e_k       e_k ~ N(0, S(u, θ, t)), S diagonal, d = output delay
+//   dx = f(x, u, θ, t) dt + σ(x, u, θ, t) dω   ω: independent standard Wiener processes, one per
+//   state y_k = h(x_{k-d}, u_{k-d}, θ, t) + e_k       e_k ~ N(0, S(u, θ, t)), S diagonal, d =
+//   output delay
 //
 // Drift and observation may use states, inputs, parameters and the time `t` (the data's time
 // column; a model that names a state, input or parameter `t` means that one instead). The
@@ -28,18 +29,17 @@
 #include <string>
 #include <vector>
 
-#include "core/util/json.h"
-
 #include "core/expr/expr.h"
+#include "core/util/json.h"
 #include "core/util/result.h"
 
 namespace gb::model {
 
 struct Parameter {
   std::string name;
-  double value = 0.0;             // start value, or the value of a fixed parameter
-  std::optional<double> lower;    // absent: unbounded below
-  std::optional<double> upper;    // absent: unbounded above
+  double value = 0.0;           // start value, or the value of a fixed parameter
+  std::optional<double> lower;  // absent: unbounded below
+  std::optional<double> upper;  // absent: unbounded above
   bool fixed = false;
   std::string unit;
   std::string description;
@@ -61,7 +61,7 @@ struct Parameter {
 struct Formula {
   std::string text;
   expr::ExprPtr expr;
-  std::string path;               // JSON path, e.g. "drift.mff"
+  std::string path;  // JSON path, e.g. "drift.mff"
 };
 
 // A fixed output delay (min == max) or a range to scan by profile likelihood.
@@ -92,24 +92,24 @@ struct EkfOptions {
 enum class InitialCovariance { kCtsm, kStationary, kExplicit };
 
 struct ModelSpec {
-  std::string source;             // file the model came from ("" if not from a file)
+  std::string source;  // file the model came from ("" if not from a file)
   std::string name;
   std::vector<std::string> states;
   std::vector<std::string> inputs;
   std::vector<std::string> outputs;
-  std::vector<Parameter> parameters;     // in file order; θ vectors use this order
+  std::vector<Parameter> parameters;  // in file order; θ vectors use this order
 
-  std::vector<Formula> drift;            // one per state
-  std::vector<Formula> diffusion;        // one per state ("0" where the file gives none)
-  std::vector<Formula> observation;      // one per output
+  std::vector<Formula> drift;                 // one per state
+  std::vector<Formula> diffusion;             // one per state ("0" where the file gives none)
+  std::vector<Formula> observation;           // one per output
   std::vector<Formula> measurement_variance;  // one per output
-  std::vector<Formula> initial_state;    // one per state ("0" where the file gives none)
+  std::vector<Formula> initial_state;         // one per state ("0" where the file gives none)
   InitialCovariance initial_covariance = InitialCovariance::kCtsm;
-  std::vector<Formula> initial_variance; // one per state when kExplicit (variances)
-  std::vector<DelaySpec> output_delay;   // one per output (0 where the file gives none)
+  std::vector<Formula> initial_variance;  // one per state when kExplicit (variances)
+  std::vector<DelaySpec> output_delay;    // one per output (0 where the file gives none)
   InputHold input_hold = InputHold::kZoh;
-  std::optional<double> robust_huber;    // Huber threshold c > 0; absent: Gaussian
-  EkfOptions ekf;                        // nonlinear models only
+  std::optional<double> robust_huber;  // Huber threshold c > 0; absent: Gaussian
+  EkfOptions ekf;                      // nonlinear models only
 
   int ParameterIndex(const std::string& name) const;  // -1 if absent
   int StateIndex(const std::string& name) const;
@@ -143,6 +143,7 @@ bool IsIdentifier(const std::string& s);
 bool IsFunctionName(const std::string& s);
 
 // The closest name in `candidates` to `name` by edit distance, if close enough to suggest.
-std::optional<std::string> Suggest(const std::string& name, const std::vector<std::string>& candidates);
+std::optional<std::string> Suggest(const std::string& name,
+                                   const std::vector<std::string>& candidates);
 
 }  // namespace gb::model

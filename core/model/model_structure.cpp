@@ -2,12 +2,12 @@
 //           fields  5. models to start from
 #include "core/model/model_structure.h"
 
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <functional>
+
+#include <fmt/format.h>
 
 namespace gb::model {
 namespace {

@@ -20,8 +20,8 @@ Result<NonlinearModel> NonlinearModel::Compile(ModelSpec spec) {
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j < n; ++j) {
       dyn.exprs.push_back(expr::Differentiate(spec.drift[i].expr, spec.states[j]));
-      dyn.names.push_back(fmt::format("the derivative of {} with respect to {}",
-                                      spec.drift[i].path, spec.states[j]));
+      dyn.names.push_back(fmt::format("the derivative of {} with respect to {}", spec.drift[i].path,
+                                      spec.states[j]));
     }
   }
   for (int i = 0; i < n; ++i) {
@@ -95,10 +95,14 @@ Result<NonlinearModel> NonlinearModel::Compile(ModelSpec spec) {
 
 const NonlinearModel::Entries& NonlinearModel::EntriesOf(Program program) const {
   switch (program) {
-    case Program::kDynamics: return dynamics_entries_;
-    case Program::kMeasurement: return measurement_entries_;
-    case Program::kNoise: return noise_entries_;
-    case Program::kInitial: break;
+    case Program::kDynamics:
+      return dynamics_entries_;
+    case Program::kMeasurement:
+      return measurement_entries_;
+    case Program::kNoise:
+      return noise_entries_;
+    case Program::kInitial:
+      break;
   }
   return initial_entries_;
 }
@@ -136,7 +140,8 @@ Error NonlinearModel::NotFinite(Program program, std::size_t k, double value,
                                 std::span<const double> slots) const {
   const Entries& entries = EntriesOf(program);
   std::vector<std::string> names(static_cast<std::size_t>(n_slots()));
-  for (int slot = 0; slot < n_slots(); ++slot) names[static_cast<std::size_t>(slot)] = SlotName(slot);
+  for (int slot = 0; slot < n_slots(); ++slot)
+    names[static_cast<std::size_t>(slot)] = SlotName(slot);
   return NotFiniteEntry(entries.names[k], value, entries.exprs[k], names, slots, spec_.source);
 }
 

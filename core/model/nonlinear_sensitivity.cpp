@@ -66,14 +66,15 @@ Result<NonlinearSensitivity> NonlinearSensitivity::Compile(const NonlinearModel&
   for (size_t i = 0; i < n; ++i) {
     const Formula& drift = spec.drift[i];
     for (size_t l = 0; l < np; ++l)
-      dyn.Add(at(0, l, n, i), expr::Differentiate(drift.expr, par(l)), Derivative(drift.path, par(l)));
+      dyn.Add(at(0, l, n, i), expr::Differentiate(drift.expr, par(l)),
+              Derivative(drift.path, par(l)));
     for (size_t j = 0; j < n; ++j) {
       const expr::ExprPtr Jij = expr::Differentiate(drift.expr, spec.states[j]);
       if (constant(Jij)) continue;  // its derivatives are all zero
       const std::string name = Derivative(drift.path, spec.states[j]);
       for (size_t m = 0; m < n; ++m)
-        dyn.Add(at(s.DynJx(static_cast<int>(m)), j, n, i),
-                expr::Differentiate(Jij, spec.states[m]), Derivative(name, spec.states[m]));
+        dyn.Add(at(s.DynJx(static_cast<int>(m)), j, n, i), expr::Differentiate(Jij, spec.states[m]),
+                Derivative(name, spec.states[m]));
       for (size_t l = 0; l < np; ++l)
         dyn.Add(at(s.DynJtheta(static_cast<int>(l)), j, n, i), expr::Differentiate(Jij, par(l)),
                 Derivative(name, par(l)));
@@ -151,7 +152,8 @@ std::optional<Error> NonlinearSensitivity::NotFinite(const Program& program,
   for (std::size_t k = 0; k < program.positions_.size(); ++k) {
     const double value = dense[program.positions_[k]];
     if (!std::isfinite(value))
-      return NotFiniteEntry(program.names_[k], value, program.exprs_[k], slot_names_, slots, source_);
+      return NotFiniteEntry(program.names_[k], value, program.exprs_[k], slot_names_, slots,
+                            source_);
   }
   return std::nullopt;
 }

@@ -1,12 +1,12 @@
 // Sections: 1. the augmented model  2. set-up  3. one row at a time
 #include "core/online/augmented.h"
 
-#include <fmt/format.h>
-
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <set>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
 
 #include "core/online/internal.h"
 

@@ -44,11 +44,12 @@
 // rediscretise_sd, forgetting_start, hold) do not apply.
 #pragma once
 
-#include <Eigen/Core>
 #include <memory>
 #include <span>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "core/model/nonlinear_model.h"
 #include "core/online/ekf_stream.h"

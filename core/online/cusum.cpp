@@ -15,10 +15,10 @@
 #include <utility>
 #include <vector>
 
-#include <fmt/format.h>
 #include <Eigen/Dense>
 #include <boost/math/distributions/normal.hpp>
 #include <boost/math/tools/toms748_solve.hpp>
+#include <fmt/format.h>
 
 namespace gb::online {
 namespace {

@@ -1,15 +1,15 @@
 // Sections: 1. set-up and the start  2. one row at a time  3. the held filter
 #include "core/online/ekf_stream.h"
 
-#include <fmt/format.h>
-
-#include <Eigen/Dense>
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <complex>
 #include <limits>
 #include <optional>
+
+#include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
+#include <fmt/format.h>
 
 #include "core/filter/discretize.h"
 #include "core/filter/ekf_score.h"

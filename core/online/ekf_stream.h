@@ -26,11 +26,12 @@
 //           sensitivities, as the batch filter starts.
 #pragma once
 
-#include <Eigen/Core>
 #include <memory>
 #include <span>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "core/filter/ode.h"
 #include "core/model/nonlinear_model.h"

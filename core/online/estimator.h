@@ -3,10 +3,11 @@
 // what one row did, and the interface the monitor (monitor.h) drives.
 #pragma once
 
-#include <Eigen/Core>
 #include <span>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "core/estimate/estimate.h"
 #include "core/model/model.h"

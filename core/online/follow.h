@@ -43,14 +43,14 @@
 // None of these types is thread-safe; each belongs to the thread that reads the source.
 #pragma once
 
-#include <sys/types.h>
-
 #include <cstddef>
 #include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <sys/types.h>
 
 #include "core/data/dataset.h"
 #include "core/util/result.h"

@@ -1,13 +1,13 @@
 #include "core/online/monitor.h"
 
-#include <fmt/format.h>
-
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 #include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <fmt/format.h>
 
 #include "core/online/augmented.h"
 #include "core/online/ekf_stream.h"
@@ -49,7 +49,6 @@ std::string CombinationOf(const Eigen::VectorXd& v, const std::vector<std::strin
     out += (a == 0 ? "" : a + 1 == listed.size() ? " and " : ", ") + listed[a];
   return out;
 }
-
 
 // The score tests standardise by the tracked block's covariance given the other free parameters
 // (cov, NaN-free), which says how much each row tells about each tracked parameter. When it is
@@ -105,9 +104,10 @@ bool MonitorOptions::IsValid(std::string* why) const {
     return false;
   }
   if (!(parameter_change > 0.0) || !std::isfinite(parameter_change)) {
-    *why = fmt::format("the parameter change worth an alarm must be a positive relative change, "
-                       "not {:g}",
-                       parameter_change);
+    *why = fmt::format(
+        "the parameter change worth an alarm must be a positive relative change, "
+        "not {:g}",
+        parameter_change);
     return false;
   }
   return true;
@@ -135,8 +135,8 @@ Result<Monitor> Monitor::Create(std::shared_ptr<const model::NonlinearModel> mod
   if (!options.IsValid(&why)) return InputError(why);
   auto estimator = AugmentedEkf::Create(model, reference, options.recursive);
   if (!estimator) return estimator.error();
-  auto ref = HeldEkf::Create(std::move(model), reference, estimator->tracked(),
-                             options.recursive.start);
+  auto ref =
+      HeldEkf::Create(std::move(model), reference, estimator->tracked(), options.recursive.start);
   if (!ref) return ref.error();
   return Build(std::make_unique<AugmentedEkf>(std::move(*estimator)),
                std::make_unique<HeldEkf>(std::move(*ref)), reference, options);
@@ -166,8 +166,7 @@ Result<Monitor> Monitor::Build(std::unique_ptr<OnlineEstimator> estimator,
     m.test_sd_.push_back(std::sqrt(std::max(m.ref_cov_(i, i), 0.0)));
   }
   m.ref_cov_ = m.ref_cov_.unaryExpr([](double v) { return std::isnan(v) ? 0.0 : v; });
-  if (Status s = RefuseSingular(m.ref_cov_, marginal, m.estimator_->tracked_names(), reference);
-      !s)
+  if (Status s = RefuseSingular(m.ref_cov_, marginal, m.estimator_->tracked_names(), reference); !s)
     return s.error();
   const std::size_t k = m.ref_theta_.size();
   m.delta_.resize(k);
@@ -475,8 +474,8 @@ Result<Eigen::MatrixXd> CovarianceOfFile(const std::string& path, const Json& j,
   for (std::size_t x = 0; x < m; ++x)
     for (std::size_t y = 0; y < m; ++y)
       if (at[x] >= 0 && at[y] >= 0 && at[x] != at[y])
-        covariance(at[x], at[y]) = r(static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y)) *
-                                   se[at[x]] * se[at[y]];
+        covariance(at[x], at[y]) =
+            r(static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y)) * se[at[x]] * se[at[y]];
   return covariance;
 }
 

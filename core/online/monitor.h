@@ -53,11 +53,10 @@
 // The alarm state is sticky: `alarm` stays true from the first alarm until Acknowledge().
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <memory>
 
 #include "core/model/linear_model.h"
 #include "core/model/nonlinear_model.h"

@@ -2,15 +2,15 @@
 //           sensitivities, one row at a time  3. the parameter step
 #include "core/online/recursive.h"
 
-#include <fmt/format.h>
-
-#include <Eigen/Dense>
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <complex>
 #include <limits>
 #include <set>
+
+#include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
+#include <fmt/format.h>
 
 #include "core/filter/internal.h"
 #include "core/filter/score.h"

@@ -41,11 +41,12 @@
 // filter runs but θ is not updated, so the state and its sensitivities settle first.
 #pragma once
 
-#include <Eigen/Core>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "core/estimate/estimate.h"
 #include "core/filter/discretize.h"

@@ -1,12 +1,12 @@
 #include "core/project/kept_fits.h"
 
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <ctime>
 #include <filesystem>
 #include <optional>
 #include <system_error>
+
+#include <fmt/format.h>
 
 #include "core/project/project.h"
 #include "core/project/result_file.h"
@@ -87,7 +87,8 @@ Result<KeptFitFile> WriteKeptFit(const std::string& folder, Json result, const J
     fs::remove(model_path, ec);
     fs::remove(project_path, ec);
   };
-  if (Status st = WriteFileAtomic(model_path.string(), model.dump(1) + "\n"); !st) return st.error();
+  if (Status st = WriteFileAtomic(model_path.string(), model.dump(1) + "\n"); !st)
+    return st.error();
   if (Status st = SaveProject(project, fs::absolute(project_path, ec).string()); !st) {
     remove_written();
     return st.error();
@@ -122,7 +123,8 @@ std::vector<KeptFitFile> ReadKeptFits(const std::string& folder, std::vector<Err
     }
     const auto model_file = result->find("model_file");
     if (model_file == result->end() || !model_file->is_string()) {
-      problems->push_back(ResultFileError(kept.path, "model_file", "expected the model's file name"));
+      problems->push_back(
+          ResultFileError(kept.path, "model_file", "expected the model's file name"));
       continue;
     }
     Result<Json> model = ReadJsonFile(

@@ -9,10 +9,10 @@
 //                                      project `greybench-cli estimate` fits again
 //
 // Keys a kept fit adds to a result file: "model_file" ("fit-001.model.json"), "project_file"
-// ("fit-001.project.json"), "finished" (local time, "2026-11-27 11:52:03"), "data_fingerprints", and
-// what the caller puts in (the workbench: "settings", "initial_states").
-// A kept fit is never written over: the next fit takes the first number whose two files do not
-// exist, and deleting a fit removes its two files only.
+// ("fit-001.project.json"), "finished" (local time, "2026-11-27 11:52:03"), "data_fingerprints",
+// and what the caller puts in (the workbench: "settings", "initial_states"). A kept fit is never
+// written over: the next fit takes the first number whose two files do not exist, and deleting a
+// fit removes its two files only.
 #pragma once
 
 #include <string>
@@ -33,7 +33,7 @@ struct KeptFitFile {
   std::string path;  // the result file
   int number = 0;    // NNN of fit-NNN.json
   Json result;
-  Json model;        // the model file it names
+  Json model;  // the model file it names
 };
 
 // Writes `result`, `model` and `project` (its name, datasets and extra keys; its model is set to

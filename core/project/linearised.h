@@ -27,7 +27,7 @@ struct LinearisedAtPoint {
 
 struct LinearisedSweep {
   std::string model_name;
-  std::string result;  // the result file the estimates came from
+  std::string result;                   // the result file the estimates came from
   std::vector<std::string> quantities;  // names, in the order of every point's values
   std::vector<LinearisedAtPoint> points;
   // The quantity named `name` at point i: its value and SE (NaN when absent or failed).

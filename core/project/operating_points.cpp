@@ -41,8 +41,8 @@ class Reader {
   const Project& project_;
 };
 
-constexpr const char* kMembers[] = {"datasets", "model",      "delay_parameter", "speed_tag",
-                                   "trend",    "mean_of",    "tags",            "linearised"};
+constexpr const char* kMembers[] = {"datasets", "model", "delay_parameter", "speed_tag", "trend",
+                                    "mean_of",  "tags",  "linearised"};
 
 }  // namespace
 
@@ -126,7 +126,8 @@ Result<std::optional<OperatingPointsSpec>> ReadOperatingPoints(const Project& pr
         return r.Fail(at, "unknown member (expected result, model, point or quantities)");
       }
     }
-    if (lin.result.empty()) return r.Fail(path, "name the nonlinear fit's result file in \"result\"");
+    if (lin.result.empty())
+      return r.Fail(path, "name the nonlinear fit's result file in \"result\"");
     if (lin.point.empty()) return r.Fail(path, "give the operating point in \"point\"");
     spec.linearised = std::move(lin);
   }

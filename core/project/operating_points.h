@@ -28,9 +28,9 @@
 //   linearised the linearisation of a fitted nonlinear model at every point, beside the per-point
 //              fits (core/model/linearise.h):
 //                "linearised": {
-//                  "result": "../results/engine_mvem.json",   the fit (its estimates and covariance)
-//                  "model":  "../models/engine_mvem.json",    absent: the project's model
-//                  "point":  {"N": "n_rpm", "alpha": "alpha_deg", "ilambda": 1},
+//                  "result": "../results/engine_mvem.json",   the fit (its estimates and
+//                  covariance) "model":  "../models/engine_mvem.json",    absent: the project's
+//                  model "point":  {"N": "n_rpm", "alpha": "alpha_deg", "ilambda": 1},
 //                  "quantities": {"tau_ff": "-1/A_mff_mff", "X": "-B_mff_mfi/A_mff_mff"}
 //                }
 //              `point` gives each state, input or output that fixes the steady state a tag of
@@ -59,18 +59,18 @@ struct LinearisedSpec {
   std::string result;
   std::string model;  // "": the project's model
   struct Value {
-    std::string tag;  // a tag of the point's data file, or
+    std::string tag;    // a tag of the point's data file, or
     double number = 0;  // this number when `tag` is empty
   };
-  std::vector<std::pair<std::string, Value>> point;          // state, input or output -> value
+  std::vector<std::pair<std::string, Value>> point;             // state, input or output -> value
   std::vector<std::pair<std::string, std::string>> quantities;  // name -> expression
 };
 
 struct OperatingPointsSpec {
   std::vector<data::DatasetSpec> datasets;  // files resolved
-  bool datasets_from_project = false;  // `datasets` was absent: these are the project's
-  std::string model;                   // resolved path; "": the project's model
-  std::string delay_parameter;         // "": the output delay in samples
+  bool datasets_from_project = false;       // `datasets` was absent: these are the project's
+  std::string model;                        // resolved path; "": the project's model
+  std::string delay_parameter;              // "": the output delay in samples
   std::optional<LinearisedSpec> linearised;
   std::string speed_tag = "n_rpm";
   std::string trend_parameter = "X";

@@ -54,7 +54,8 @@ Result<RecordInitialStates> PerRecordInitialStates(model::ModelSpec spec, int re
       } else if (elsewhere.count(name) || initial.count(name)) {
         Error e = InputError(fmt::format(
             "the parameter '{}' is a model formula's, so it cannot also be record {}'s copy of "
-            "'{}': rename it", name, r, spec.parameters[i].name));
+            "'{}': rename it",
+            name, r, spec.parameters[i].name));
         e.file = spec.source;
         e.path = "parameters." + name;
         return e;

@@ -59,9 +59,9 @@ Result<Problem> MakeProblem(model::ModelSpec spec,
 // no free parameter of its own (a fixed or constant initial state: nothing to estimate per
 // record), naming the model file.
 struct RecordInitialStates {
-  model::ModelSpec spec;                 // with the copies appended to its parameters
-  std::vector<std::vector<int>> index;   // per record; empty with fewer than two records
-  std::vector<std::string> own;          // the parameters copied (the originals' names)
+  model::ModelSpec spec;                // with the copies appended to its parameters
+  std::vector<std::vector<int>> index;  // per record; empty with fewer than two records
+  std::vector<std::string> own;         // the parameters copied (the originals' names)
 };
 Result<RecordInitialStates> PerRecordInitialStates(model::ModelSpec spec, int records);
 

@@ -1,9 +1,5 @@
 #include "core/project/project.h"
 
-#include <fcntl.h>
-#include <fmt/format.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <cerrno>
 #include <cstdint>
@@ -16,6 +12,10 @@
 #include <unordered_map>
 #include <utility>
 #include <vector>
+
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <unistd.h>
 
 #include "core/util/file.h"
 
@@ -259,8 +259,7 @@ Result<Project> LoadProject(const std::string& path) {
           return FileError(path, "expected a number of time units greater than 0",
                            root + ".steady_window");
       } else if (it.key() == "initial_states") {
-        if (!it.value().is_string() ||
-            (it.value() != "shared" && it.value() != "per_record"))
+        if (!it.value().is_string() || (it.value() != "shared" && it.value() != "per_record"))
           return FileError(path,
                            "expected \"shared\" (every record from the model's initial state) "
                            "or \"per_record\" (each from its own)",
@@ -319,7 +318,8 @@ std::vector<FileRole> ProjectFiles(const Project& p) {
   std::vector<FileRole> files;
   if (!p.path.empty()) files.push_back({p.path, "the project file"});
   if (!p.model_path.empty()) files.push_back({p.model_path, "the project's model file"});
-  for (const data::DatasetSpec& d : p.datasets) files.push_back({d.file, "a dataset of the project"});
+  for (const data::DatasetSpec& d : p.datasets)
+    files.push_back({d.file, "a dataset of the project"});
   if (p.extra.is_object() && p.extra.contains("diagram") && p.extra["diagram"].is_string())
     files.push_back({ResolvePath(p.base_dir, p.extra["diagram"].get<std::string>()),
                      "the project's diagram file"});
@@ -340,8 +340,8 @@ std::string TemporaryFor(const std::string& path) {
 }
 
 Error CannotCreate(const std::string& path, const std::string& tmp, int err) {
-  return FileError(path,
-                   fmt::format("cannot write the file (cannot create {}: {})", tmp, std::strerror(err)));
+  return FileError(
+      path, fmt::format("cannot write the file (cannot create {}: {})", tmp, std::strerror(err)));
 }
 
 // Where a write of `path` lands: the path itself, or, through symlinks, the file they name (so
@@ -380,11 +380,13 @@ int WriteAll(int fd, const std::string& text) {
 
 Status WriteThrough(const std::string& path, const std::string& text) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-  if (fd < 0) return FileError(path, fmt::format("cannot write the file: {}", std::strerror(errno)));
+  if (fd < 0)
+    return FileError(path, fmt::format("cannot write the file: {}", std::strerror(errno)));
   const int err = WriteAll(fd, text);
   const bool closed = ::close(fd) == 0;
   if (err || !closed)
-    return FileError(path, fmt::format("cannot write the file: {}", std::strerror(err ? err : errno)));
+    return FileError(path,
+                     fmt::format("cannot write the file: {}", std::strerror(err ? err : errno)));
   return Ok{};
 }
 

@@ -28,10 +28,10 @@ struct Project {
   std::string path;      // the project file as given ("" for an unsaved project)
   std::string base_dir;  // directory that relative paths are resolved against
   std::string name;
-  std::string model_path;             // resolved path of the model file; "" when inline
-  Json model_json;                    // the model object (read from model_path, or inline)
+  std::string model_path;                   // resolved path of the model file; "" when inline
+  Json model_json;                          // the model object (read from model_path, or inline)
   std::vector<data::DatasetSpec> datasets;  // with their files' paths resolved
-  Json extra;                         // every other top-level key, preserved on save
+  Json extra;                               // every other top-level key, preserved on save
 };
 
 // The project's "estimation" object: options of the Estimate view kept with the project
@@ -54,7 +54,6 @@ EstimationDefaults ReadEstimationDefaults(const Project& project);
 // data::ReadDataset). Errors name the file and JSON path, e.g.
 // `case.json: datasets[1].decimal: expected "." or ","`.
 Result<Project> LoadProject(const std::string& path);
-
 
 // Every file the project is made of, as inputs for the output guard (core/util/output_guard.h):
 // the project file, its model file, its datasets and its diagram file, each with its role.

@@ -1,11 +1,11 @@
 #include "core/project/result_file.h"
 
-#include <fmt/format.h>
-#include <fmt/ranges.h>
-
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/project/project.h"
 
@@ -107,11 +107,13 @@ Result<NestedFit> ReadNestedFit(const Json& result, const std::string& path) {
   if (!j.is_object() || !j.contains("greybench_result"))
     return fail("", "not a greybench result file (no \"greybench_result\")");
   if (j.value("partial", false))
-    return fail("partial", "a partial result (a checkpoint of a fit that did not finish): its log L "
-                           "is not an optimum, so a likelihood-ratio test on it means nothing");
+    return fail("partial",
+                "a partial result (a checkpoint of a fit that did not finish): its log L "
+                "is not an optimum, so a likelihood-ratio test on it means nothing");
   if (j.value("cancelled", false))
-    return fail("cancelled", "a fit stopped by the user before it finished: its log L is not an "
-                             "optimum, so a likelihood-ratio test on it means nothing");
+    return fail("cancelled",
+                "a fit stopped by the user before it finished: its log L is not an "
+                "optimum, so a likelihood-ratio test on it means nothing");
   NestedFit fit;
   fit.path = path;
   const Json& loglik = Member(j, "loglik");
@@ -139,8 +141,8 @@ Result<NestedFit> ReadNestedFit(const Json& result, const std::string& path) {
     if (!entry.is_object() || !Member(entry, "estimate").is_number())
       return fail("parameters." + name + ".estimate", "expected a number");
     const bool fixed = entry.value("fixed", false);
-    fit.parameters[name] = fixed ? std::optional<double>(entry["estimate"].get<double>())
-                                 : std::nullopt;
+    fit.parameters[name] =
+        fixed ? std::optional<double>(entry["estimate"].get<double>()) : std::nullopt;
   }
   return fit;
 }
@@ -151,9 +153,10 @@ std::string WhyNotNested(const NestedFit& r, const NestedFit& f, bool* by_name_o
                        r.path, r.n_obs, f.path, f.n_obs);
   *by_name_only = r.fingerprints.empty() || f.fingerprints.empty();
   if (!*by_name_only && r.fingerprints != f.fingerprints)
-    return fmt::format("they were fitted to different data: the data files of {} and of {} "
-                       "differ in content",
-                       r.path, f.path);
+    return fmt::format(
+        "they were fitted to different data: the data files of {} and of {} "
+        "differ in content",
+        r.path, f.path);
   if (*by_name_only && r.datasets != f.datasets)
     return fmt::format("they were fitted to different data files ({} and {})",
                        fmt::join(r.datasets, ", "), fmt::join(f.datasets, ", "));
@@ -164,9 +167,10 @@ std::string WhyNotNested(const NestedFit& r, const NestedFit& f, bool* by_name_o
                          r.path, f.path);
     const std::optional<double>& fixed_f = it->second;
     if (!fixed_r && fixed_f)
-      return fmt::format("the models are not nested: '{}' is free in {} (the fit with fewer free "
-                         "parameters) but fixed in {}",
-                         name, r.path, f.path);
+      return fmt::format(
+          "the models are not nested: '{}' is free in {} (the fit with fewer free "
+          "parameters) but fixed in {}",
+          name, r.path, f.path);
     if (fixed_r && fixed_f &&
         std::abs(*fixed_r - *fixed_f) > 1e-12 * std::max(std::abs(*fixed_r), std::abs(*fixed_f)))
       return fmt::format("the models are not nested: '{}' is fixed at {} in {} and at {} in {}",

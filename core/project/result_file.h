@@ -17,7 +17,8 @@ namespace gb::project {
 // Copies the estimates of a result file into `spec`, except the parameters named in `keep`
 // (those set by --set) and, with `free_only`, the model's fixed ones. Errors name the result
 // file and the JSON path (not a result file, a parameter the model lacks, a free parameter of the
-// model the result lacks, an estimate outside the model's bounds, a delay outside its range). Returns the delay per output the result names
+// model the result lacks, an estimate outside the model's bounds, a delay outside its range).
+// Returns the delay per output the result names
 // (-1: not named). With `json`, the parsed file.
 Result<std::vector<int>> ApplyResultFile(const std::string& path, const std::set<std::string>& keep,
                                          model::ModelSpec* spec, bool free_only = false,

@@ -5,13 +5,13 @@
 //   4. CSV
 #include "core/report/figure.h"
 
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <cmath>
 #include <iterator>
 #include <map>
 #include <utility>
+
+#include <fmt/format.h>
 
 namespace gb::report {
 namespace {

@@ -5,13 +5,13 @@
 //   4. The figures
 #include "core/report/report.h"
 
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <optional>
 #include <variant>
+
+#include <fmt/format.h>
 
 namespace gb::report {
 namespace {

@@ -41,10 +41,10 @@ namespace gb::sim {
 // One operating point of the paper's Table 2 (time constants in s, K_b in s/g, the process
 // variances in (g/s)²/s, σ2² in the units of 1/λ squared).
 struct FuelOperatingPoint {
-  std::string name;       // "f1"
-  double speed_rpm = 0;   // n
+  std::string name;         // "f1"
+  double speed_rpm = 0;     // n
   double throttle_deg = 0;  // α
-  double delay_s = 0;     // Δt
+  double delay_s = 0;       // Δt
   double tau_fv = 0, tau_ff = 0, X = 0;
   double s11 = 0, s12 = 0, s2 = 0;  // σ11², σ12², σ2²
   double Kb = 0;
@@ -81,8 +81,8 @@ struct FuelExperiment {
   FuelOperatingPoint point;
   int prbs_order = 6;
   double bit_period = 0.5;
-  double amplitude = 0.10;      // ± fraction of the bias
-  double duration = 125.0;      // s (10 000 samples at 80 Hz); the live dyno does not use it
+  double amplitude = 0.10;  // ± fraction of the bias
+  double duration = 125.0;  // s (10 000 samples at 80 Hz); the live dyno does not use it
   std::uint64_t seed = 1;
   RecordingOptions recording;
   bool IsValid(std::string* why) const;
@@ -102,14 +102,14 @@ std::vector<std::string> FuelExperimentComments(const FuelExperiment& e);
 
 // The crankshaft model's values of section 5.
 struct CrankshaftPoint {
-  double tau_f = 4.1358;     // s
-  double Je = 0.6028;        // N m s / rpm
-  double Gp = 6.3570;        // N m / kPa
-  double Kn = 0.008746;      // kPa / rpm
-  double Ktheta = 3.6403;    // kPa / deg
-  double s1 = 74.70;         // rpm² (per s)
-  double s21 = 14.43;        // rpm²
-  double s22 = 0.6988;       // kPa²
+  double tau_f = 4.1358;   // s
+  double Je = 0.6028;      // N m s / rpm
+  double Gp = 6.3570;      // N m / kPa
+  double Kn = 0.008746;    // kPa / rpm
+  double Ktheta = 3.6403;  // kPa / deg
+  double s1 = 74.70;       // rpm² (per s)
+  double s21 = 14.43;      // rpm²
+  double s22 = 0.6988;     // kPa²
 };
 
 struct CrankshaftExperiment {
@@ -136,8 +136,8 @@ struct SquareWaveTest {
   double period = 4.0;      // s
   double amplitude = 0.10;  // ± fraction of the bias
   double duration = 16.0;
-  double s12 = 2e-4;        // film process noise
-  double s2 = 5e-5;         // measurement noise
+  double s12 = 2e-4;  // film process noise
+  double s2 = 5e-5;   // measurement noise
   std::uint64_t seed = 1;
   RecordingOptions recording;
 };

@@ -41,10 +41,10 @@ double CriticalPsi() {
 }  // namespace
 
 std::vector<std::pair<std::string, double>> EngineTruth::Named() const {
-  return {{"Cth", Cth},       {"ev", ev},       {"Vi", Vi},   {"Je", Je},   {"eta", eta},
-          {"f0", f0},         {"f1", f1},       {"tau_fv", tau_fv}, {"tau_ff", tau_ff},
-          {"X60", X60},       {"dX", dX},       {"cd", cd},   {"sp", sp},   {"sn", sn},
-          {"sfv", sfv},       {"sff", sff},     {"rp", rp},   {"rn", rn},   {"rl", rl}};
+  return {{"Cth", Cth}, {"ev", ev}, {"Vi", Vi},         {"Je", Je},         {"eta", eta},
+          {"f0", f0},   {"f1", f1}, {"tau_fv", tau_fv}, {"tau_ff", tau_ff}, {"X60", X60},
+          {"dX", dX},   {"cd", cd}, {"sp", sp},         {"sn", sn},         {"sfv", sfv},
+          {"sff", sff}, {"rp", rp}, {"rn", rn},         {"rl", rl}};
 }
 
 double ThrottleFlow(const EngineTruth& e, double alpha_deg, double p) {
@@ -95,8 +95,8 @@ Result<EngineSteady> EngineSteadyState(const EngineTruth& e, double n_rpm, doubl
   s.u.mfi = PortAirFlow(e, s.x.p, n_rpm) / C::kStoichiometric;
   const double X = e.X60 + e.dX * (s.x.p - 60) / 10;
   if (!(X >= 0 && X <= 1))
-    return InputError(fmt::format("the film fraction X is {} at {} rpm, {} deg (outside 0..1)",
-                                  X, n_rpm, alpha_deg));
+    return InputError(fmt::format("the film fraction X is {} at {} rpm, {} deg (outside 0..1)", X,
+                                  n_rpm, alpha_deg));
   s.x.mfv = (1 - X) * s.u.mfi;
   s.x.mff = X * s.u.mfi;
   // The load that balances the torques: the drift of n with T_l = 0, times J_e.
@@ -137,10 +137,10 @@ Result<EnginePoint> ParseEnginePoint(const std::string& text) {
     }
     const std::string key = eq == std::string::npos ? item : item.substr(0, eq);
     if (!number || (key != "n" && key != "alpha"))
-      return InputError(fmt::format(
-          "operating point '{}': expected a Table 2 point (f1 f2 f3 f4 f7 f8) or "
-          "n=RPM,alpha=DEG; '{}' is not one of those",
-          text, item));
+      return InputError(
+          fmt::format("operating point '{}': expected a Table 2 point (f1 f2 f3 f4 f7 f8) or "
+                      "n=RPM,alpha=DEG; '{}' is not one of those",
+                      text, item));
     if (key == "n" ? has_n : has_alpha)
       return InputError(fmt::format("operating point '{}': {} is given twice", text, key));
     (key == "n" ? p.speed_rpm : p.throttle_deg) = v;
@@ -148,8 +148,7 @@ Result<EnginePoint> ParseEnginePoint(const std::string& text) {
     start = comma + 1;
   }
   if (!has_n || !has_alpha)
-    return InputError(
-        fmt::format("operating point '{}': give both n (rpm) and alpha (deg)", text));
+    return InputError(fmt::format("operating point '{}': give both n (rpm) and alpha (deg)", text));
   p.name = fmt::format("n{:g}_a{:g}", p.speed_rpm, p.throttle_deg);
   return p;
 }
@@ -240,12 +239,14 @@ std::vector<std::string> EngineComments(const EngineExperiment& e) {
                   e.seed),
       "recording: " + internal::RecordingText(e.recording)};
   if (e.sensor_delay == EngineExperiment::SensorDelay::kPade)
-    c.push_back("lambda sensor: the [3/3] Pade approximant of the transport delay c_d / n (the "
-                "models' sensor), not an exact delay");
+    c.push_back(
+        "lambda sensor: the [3/3] Pade approximant of the transport delay c_d / n (the "
+        "models' sensor), not an exact delay");
   if (e.path.size() == 1)
-    c.push_back(fmt::format("greybench: {{\"operating_point\": {{\"name\": \"{}\", \"n_rpm\": {}, "
-                            "\"alpha_deg\": {}}}}}",
-                            e.path[0].name, e.path[0].speed_rpm, e.path[0].throttle_deg));
+    c.push_back(
+        fmt::format("greybench: {{\"operating_point\": {{\"name\": \"{}\", \"n_rpm\": {}, "
+                    "\"alpha_deg\": {}}}}}",
+                    e.path[0].name, e.path[0].speed_rpm, e.path[0].throttle_deg));
   return c;
 }
 
@@ -307,7 +308,8 @@ Result<Record> RunEngineExperiment(const EngineExperiment& e) {
 
   // The steady state of every point, and the target between them.
   std::vector<EngineSteady> steady;
-  for (const auto& p : e.path) steady.push_back(*EngineSteadyState(truth, p.speed_rpm, p.throttle_deg));
+  for (const auto& p : e.path)
+    steady.push_back(*EngineSteadyState(truth, p.speed_rpm, p.throttle_deg));
   auto target = [&](double t) {
     const PathPosition at = PositionAt(e, t);
     if (at.fraction == 0) return steady[at.from];

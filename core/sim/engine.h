@@ -51,23 +51,23 @@ inline constexpr double kMaxEngineStep = 0.0025;
 
 // Constants of the engine and of air and fuel (not estimated).
 struct EngineConstants {
-  static constexpr double kAmbientKPa = 100.0;  // p_a
-  static constexpr double kRT = 86.1;           // R T (kPa L / g): R = 0.287 J/(g K), T = 300 K
-  static constexpr double kDisplacementL = 1.1;   // V_d
-  static constexpr double kHeatingValue = 43000;  // H_u (J/g)
+  static constexpr double kAmbientKPa = 100.0;      // p_a
+  static constexpr double kRT = 86.1;               // R T (kPa L / g): R = 0.287 J/(g K), T = 300 K
+  static constexpr double kDisplacementL = 1.1;     // V_d
+  static constexpr double kHeatingValue = 43000;    // H_u (J/g)
   static constexpr double kStoichiometric = 14.67;  // L_th
   static constexpr double kKappa = 1.4;
 };
 
 // The true values (names as in the bundled model, assets/models/engine_mvem.json).
 struct EngineTruth {
-  double Cth = 137.5;    // g/s: throttle flow at (1 - cos α) = 1, choked
-  double ev = 0.80;      // volumetric efficiency
-  double Vi = 1.0;       // L: intake manifold volume
-  double Je = 0.08;      // N m s / rpm: inertia (engine and dyno)
-  double eta = 0.30;     // indicated efficiency
-  double f0 = 8.0;       // N m: friction at rest
-  double f1 = 3.0;       // N m per 1000 rpm
+  double Cth = 137.5;     // g/s: throttle flow at (1 - cos α) = 1, choked
+  double ev = 0.80;       // volumetric efficiency
+  double Vi = 1.0;        // L: intake manifold volume
+  double Je = 0.08;       // N m s / rpm: inertia (engine and dyno)
+  double eta = 0.30;      // indicated efficiency
+  double f0 = 8.0;        // N m: friction at rest
+  double f1 = 3.0;        // N m per 1000 rpm
   double tau_fv = 0.085;  // s (Table 2's mean)
   double tau_ff = 0.296;  // s (Table 2's mean)
   double X60 = 0.115;     // X at 60 kPa
@@ -124,7 +124,7 @@ struct EngineExperiment {
   double ramp_s = 40;             // a sweep: time from one point to the next
   double fuel_amplitude = 0.10;   // ± fraction of the fuel of λ = 1
   int fuel_order = 6;
-  double fuel_bit = 0.5;          // s
+  double fuel_bit = 0.5;            // s
   double throttle_amplitude = 1.0;  // ± deg, 0..10
   int throttle_order = 7;
   double throttle_bit = 1.0;  // s
@@ -140,7 +140,7 @@ struct EngineExperiment {
   // apart from the approximant's phase error.
   enum class SensorDelay { kExact, kPade };
   SensorDelay sensor_delay = SensorDelay::kExact;
-  double duration = 125.0;    // s
+  double duration = 125.0;  // s
   std::uint64_t seed = 1;
   RecordingOptions recording;
   bool IsValid(std::string* why) const;

@@ -1,11 +1,11 @@
 #include "core/sim/fault_schedule.h"
 
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <optional>
+
+#include <fmt/format.h>
 
 namespace gb::sim {
 namespace {

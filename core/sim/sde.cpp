@@ -19,8 +19,7 @@ using Program = model::NonlinearModel::Program;
 }  // namespace
 
 Result<Simulation> DeterministicResponse(const model::NonlinearModel& model,
-                                         std::span<const double> theta,
-                                         const data::Series& series,
+                                         std::span<const double> theta, const data::Series& series,
                                          const filter::FilterSettings& settings) {
   auto open = filter::EkfOpenLoop(model, theta, series, settings);
   if (!open) return open.error();
@@ -56,7 +55,8 @@ Result<Simulation> SamplePath(const model::NonlinearModel& model, std::span<cons
 
   std::vector<double> slots(model.n_slots(), 0.0);
   std::copy(theta.begin(), theta.end(), slots.begin() + model.parameter_slot());
-  std::vector<double> dyn(model.dynamics_size()), noise(2 * static_cast<std::size_t>(n)), meas(model.measurement_size());
+  std::vector<double> dyn(model.dynamics_size()), noise(2 * static_cast<std::size_t>(n)),
+      meas(model.measurement_size());
   Simulation sim;
   sim.X.resize(n, N);
   sim.Y.setConstant(p, N, std::numeric_limits<double>::quiet_NaN());
@@ -77,9 +77,9 @@ Result<Simulation> SamplePath(const model::NonlinearModel& model, std::span<cons
       for (int k = 0; k < n; ++k) row += std::abs(dyn[n + i * n + k]);
       rho = std::max(rho, row);
     }
-    const int steps = std::isfinite(rho) ? std::max(substeps, static_cast<int>(std::min(
-                                                                  std::ceil(rho * dt), 1e6)))
-                                         : substeps;
+    const int steps = std::isfinite(rho)
+                          ? std::max(substeps, static_cast<int>(std::min(std::ceil(rho * dt), 1e6)))
+                          : substeps;
     const double h = dt / steps;
     const double sqrt_h = std::sqrt(h);
     for (int s = 0; s < steps; ++s) {
@@ -102,12 +102,15 @@ Result<Simulation> SamplePath(const model::NonlinearModel& model, std::span<cons
         if (std::isfinite(x(i))) continue;
         // Name the entry that broke the path.
         for (std::size_t k = 0; k < dyn.size(); ++k)
-          if (!std::isfinite(dyn[k])) return data::AtRow(model.NotFinite(Program::kDynamics, k, dyn[k], slots), series, j);
+          if (!std::isfinite(dyn[k]))
+            return data::AtRow(model.NotFinite(Program::kDynamics, k, dyn[k], slots), series, j);
         for (std::size_t k = 0; k < noise.size(); ++k)
-          if (!std::isfinite(noise[k])) return data::AtRow(model.NotFinite(Program::kNoise, k, noise[k], slots), series, j);
-        return data::AtRow(NumericalError(fmt::format("the sample path of {} is not finite after row {}",
-                                                model.spec().states[i], j + 1)),
-                     series, j);
+          if (!std::isfinite(noise[k]))
+            return data::AtRow(model.NotFinite(Program::kNoise, k, noise[k], slots), series, j);
+        return data::AtRow(
+            NumericalError(fmt::format("the sample path of {} is not finite after row {}",
+                                       model.spec().states[i], j + 1)),
+            series, j);
       }
     }
   }
@@ -123,7 +126,8 @@ Result<Simulation> SamplePath(const model::NonlinearModel& model, std::span<cons
       const double S = meas[p + p * n + o];
       if (!std::isfinite(meas[o]) || !std::isfinite(S)) {
         const std::size_t entry = std::isfinite(meas[o]) ? p + p * n + o : o;
-        return data::AtRow(model.NotFinite(Program::kMeasurement, entry, meas[entry], slots), series, j);
+        return data::AtRow(model.NotFinite(Program::kMeasurement, entry, meas[entry], slots),
+                           series, j);
       }
       sim.Y(o, k) = meas[o] + std::sqrt(std::max(0.0, S)) * rng.Normal();
     }

@@ -24,8 +24,7 @@
 namespace gb::sim {
 
 Result<Simulation> DeterministicResponse(const model::NonlinearModel& model,
-                                         std::span<const double> theta,
-                                         const data::Series& series,
+                                         std::span<const double> theta, const data::Series& series,
                                          const filter::FilterSettings& settings);
 
 // Fails where the initial covariance fails, where the size passes kMaxSimulatedValues

@@ -36,7 +36,8 @@ Status CheckSimulationSize(std::int64_t rows, int states, int outputs) {
 }
 
 Result<Simulation> Simulate(const model::StateSpace& ss, const data::Series& series,
-                            const filter::FilterSettings& settings, const SimulateOptions& options) {
+                            const filter::FilterSettings& settings,
+                            const SimulateOptions& options) {
   const int n = ss.n_states(), p = ss.n_outputs(), m = ss.n_inputs();
   const int N = static_cast<int>(series.size());
   if (auto st = CheckSimulationSize(N, n, p); !st) return st.error();

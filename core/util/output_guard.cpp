@@ -1,10 +1,10 @@
 #include "core/util/output_guard.h"
 
-#include <fmt/format.h>
-#include <sys/stat.h>
-
 #include <filesystem>
 #include <optional>
+
+#include <fmt/format.h>
+#include <sys/stat.h>
 
 namespace gb {
 namespace {

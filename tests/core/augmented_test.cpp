@@ -3,12 +3,12 @@
 // data and after a parameter step, and the monitor (core/online/monitor.h) on a nonlinear model.
 #include "core/online/augmented.h"
 
-#include <fmt/format.h>
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <string>
 #include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include "core/estimate/estimate.h"
 #include "core/filter/ekf.h"
@@ -27,7 +27,6 @@ using testing::CompileTank;
 using testing::kTank;
 using testing::SimulateTank;
 using testing::TankTruth;
-
 
 // The batch fit of the tank on `series` as a monitor's reference.
 Reference FitReference(const std::shared_ptr<const model::NonlinearModel>& model,
@@ -236,8 +235,8 @@ TEST(AugmentedEkf, RefusesToTrackAVarianceParameterAndSaysWhichCanBe) {
 }
 
 TEST(Monitor, ChoosesTheRecursiveEstimatorForALinearModelAndTheAugmentedEkfOtherwise) {
-  auto linear = model::LoadModelFile(std::string(GREYBENCH_SOURCE_DIR) +
-                                     "/assets/models/crankshaft.json");
+  auto linear =
+      model::LoadModelFile(std::string(GREYBENCH_SOURCE_DIR) + "/assets/models/crankshaft.json");
   ASSERT_TRUE(linear);
   Reference ref;
   ref.theta = linear->Values();

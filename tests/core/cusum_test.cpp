@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
 #include <boost/math/distributions/normal.hpp>
+#include <gtest/gtest.h>
 
 #include "core/sim/random.h"
 

@@ -9,13 +9,13 @@
 //   Building3  the CTSM-R conformance data
 #include "core/data/dataset.h"
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 namespace gb::data {
 namespace {

@@ -4,9 +4,6 @@
 //           5. JSON
 #include "core/diagram/diagram.h"
 
-#include <fmt/format.h>
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -15,6 +12,9 @@
 #include <iterator>
 #include <string>
 #include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include "core/expr/expr.h"
 #include "core/model/linear_model.h"
@@ -333,7 +333,8 @@ TEST(DiagramCompile, ANonlinearStateBlockCompilesForTheEkf) {
   for (const auto& b : d->blocks)
     if (b.kind == BlockKind::kState) n = b.id;
   const std::string f = d->FindBlock(n)->fields.at("f");
-  ASSERT_TRUE(SetBlockParameter(&*d, n, "f", "(" + f + ") - 0.01*" + d->FindBlock(n)->name + "^2").ok());
+  ASSERT_TRUE(
+      SetBlockParameter(&*d, n, "f", "(" + f + ") - 0.01*" + d->FindBlock(n)->name + "^2").ok());
   CompileResult c = Compile(*d);
   ASSERT_TRUE(c.ok()) << c.problems.front().message;
   EXPECT_FALSE(model::LinearModel::Compile(*c.model).ok());
@@ -382,13 +383,24 @@ TEST(DiagramCompile, NonlinearBlocksComposeTheirFormulas) {
   const int quot = *AddBlock(&d, MakeBlock(BlockKind::kQuotient));
   const int z = *AddBlock(&d, MakeBlock(BlockKind::kOutput, "z"));
   ASSERT_TRUE(SetBlockParameter(&d, z, "variance", "s2").ok());
-  for (auto [from, to] : std::vector<std::pair<PortRef, PortRef>>{
-           {Out(u), In(pump)},      {Out(pump), In(into1, 0)}, {Out(out1), In(into1, 1)},
-           {Out(into1), In(h1)},    {Out(h1), In(out1)},       {Out(out1), In(into2, 0)},
-           {Out(out2), In(into2, 1)}, {Out(into2), In(h2)},    {Out(h2), In(out2)},
-           {Out(h2), In(clip)},     {Out(clip), In(y)},        {Out(u), In(g)},
-           {Out(g), In(prod, 0)},   {Out(h1), In(prod, 1)},    {Out(h2), In(one_plus)},
-           {Out(prod), In(quot, 0)}, {Out(one_plus), In(quot, 1)}, {Out(quot), In(z)}}) {
+  for (auto [from, to] : std::vector<std::pair<PortRef, PortRef>>{{Out(u), In(pump)},
+                                                                  {Out(pump), In(into1, 0)},
+                                                                  {Out(out1), In(into1, 1)},
+                                                                  {Out(into1), In(h1)},
+                                                                  {Out(h1), In(out1)},
+                                                                  {Out(out1), In(into2, 0)},
+                                                                  {Out(out2), In(into2, 1)},
+                                                                  {Out(into2), In(h2)},
+                                                                  {Out(h2), In(out2)},
+                                                                  {Out(h2), In(clip)},
+                                                                  {Out(clip), In(y)},
+                                                                  {Out(u), In(g)},
+                                                                  {Out(g), In(prod, 0)},
+                                                                  {Out(h1), In(prod, 1)},
+                                                                  {Out(h2), In(one_plus)},
+                                                                  {Out(prod), In(quot, 0)},
+                                                                  {Out(one_plus), In(quot, 1)},
+                                                                  {Out(quot), In(z)}}) {
     ASSERT_TRUE(Connect(&d, from, to).ok());
   }
   CompileResult c = Compile(d);
@@ -399,8 +411,8 @@ TEST(DiagramCompile, NonlinearBlocksComposeTheirFormulas) {
   EXPECT_TRUE(model::NonlinearModel::Compile(m).ok());
   const double k1 = 0.5, k3 = 0.5, k4 = 0.5, w = 0.5;
   auto softplus = [&](double v) { return w * std::log(1 + std::exp(v / w)); };
-  for (const std::array<double, 3>& point : std::vector<std::array<double, 3>>{
-           {1.5, 2.0, 3.0}, {0.2, 0.01, 9.7}, {3.0, 5.0, 12.0}}) {
+  for (const std::array<double, 3>& point :
+       std::vector<std::array<double, 3>>{{1.5, 2.0, 3.0}, {0.2, 0.01, 9.7}, {3.0, 5.0, 12.0}}) {
     // (Plain variables: clang 14 cannot capture structured bindings in a lambda.)
     const double vu = point[0], vh1 = point[1], vh2 = point[2];
     auto at = [&](const std::string& name) {
@@ -528,9 +540,8 @@ Small SmallReadyToCompile() {
 }
 
 bool HasProblem(const CompileResult& r, const std::string& text) {
-  return std::any_of(r.problems.begin(), r.problems.end(), [&](const Problem& p) {
-    return p.message.find(text) != std::string::npos;
-  });
+  return std::any_of(r.problems.begin(), r.problems.end(),
+                     [&](const Problem& p) { return p.message.find(text) != std::string::npos; });
 }
 
 TEST(DiagramHostile, AChainOfGainsCompilesUpToItsLimitAndIsAProblemBeyond) {

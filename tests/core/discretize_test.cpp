@@ -32,7 +32,7 @@ TEST(Discretize, MatchesClosedFormForScalarOuWithZeroOrderHold) {
     for (double dt : {1e-3, 0.0125, 0.5, 7.0}) {
       const Discrete d = DiscretizeScalar(ou, dt, InputHold::kZoh);
       const double e = std::exp(ou.a * dt);
-      EXPECT_NEAR(d.Phi(0, 0), e, 4e-14 * e);  // a few squarings of rounding
+      EXPECT_NEAR(d.Phi(0, 0), e, 4e-14 * e);                // a few squarings of rounding
       const double integral = std::expm1(ou.a * dt) / ou.a;  // ∫_0^Δ e^{as} ds
       EXPECT_NEAR(d.Gamma0(0, 0), ou.b * integral, 1e-13 * std::abs(ou.b * integral));
       EXPECT_EQ(d.Gamma1(0, 0), 0.0);
@@ -94,11 +94,11 @@ Integrated IntegrateFine(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
 
 TEST(Discretize, MatchesFineStepIntegrationForCoupledNonSymmetricThreeStateModel) {
   Eigen::MatrixXd A(3, 3), B(3, 2);
-  A << -1.2, 0.8, 0.0,   //
-      -0.5, -0.3, 1.1,   //
-      0.2, -0.9, -2.0;   // non-symmetric, complex eigenvalues
-  B << 1.0, 0.0,  //
-      0.3, -0.7,  //
+  A << -1.2, 0.8, 0.0,  //
+      -0.5, -0.3, 1.1,  //
+      0.2, -0.9, -2.0;  // non-symmetric, complex eigenvalues
+  B << 1.0, 0.0,        //
+      0.3, -0.7,        //
       0.0, 2.0;
   Eigen::VectorXd c(3), s2(3), x0(3), u0(2), u1(2);
   c << 0.1, -0.2, 0.05;

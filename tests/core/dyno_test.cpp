@@ -22,7 +22,8 @@ TEST(Dyno, HasTheSixOperatingPointsOfTable2) {
 TEST(Dyno, DelayFallsWithSpeedAsFittedToTable2) {
   // c = Σ(Δt/n) / Σ(1/n²) by brute force.
   double num = 0, den = 0;
-  for (const auto& p : PaperFuelPoints()) num += p.delay_s / p.speed_rpm, den += 1 / (p.speed_rpm * p.speed_rpm);
+  for (const auto& p : PaperFuelPoints())
+    num += p.delay_s / p.speed_rpm, den += 1 / (p.speed_rpm * p.speed_rpm);
   EXPECT_NEAR(ExhaustDelay(3000), num / den / 3000, 1e-15);
   EXPECT_GT(ExhaustDelay(2600), ExhaustDelay(3600));
 }

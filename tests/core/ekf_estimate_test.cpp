@@ -18,9 +18,9 @@
 #include "core/filter/likelihood.h"
 #include "core/model/nonlinear_model.h"
 #include "core/sim/sde.h"
-#include "tests/core/nonlinear_tank.h"
-#include "core/util/sanitizers.h"
 #include "core/util/json.h"
+#include "core/util/sanitizers.h"
+#include "tests/core/nonlinear_tank.h"
 
 namespace gb::estimate {
 namespace {
@@ -87,9 +87,8 @@ Bioreactor LoadBioreactor(const std::map<std::string, double>& values = {}) {
 
 // CTSM's estimates as printed, the initial states at full precision (its predictions' first row).
 const std::map<std::string, double> kCtsmEstimates = {
-    {"mumax", 1.0022},      {"K1", 0.031629},
-    {"S11", 0.0075248},     {"S22", 0.0010636},
-    {"S33", 0.011388},      {"X0", 1.0095462824854442},
+    {"mumax", 1.0022},           {"K1", 0.031629},          {"S11", 0.0075248},
+    {"S22", 0.0010636},          {"S33", 0.011388},         {"X0", 1.0095462824854442},
     {"S0", 0.23834703891425607}, {"V0", 1.0039507255993247}};
 
 TEST(EkfEstimate, NinetyFivePercentIntervalsCoverTheTruthAtTheNominalRate) {
@@ -133,8 +132,8 @@ TEST(EkfEstimate, NinetyFivePercentIntervalsCoverTheTruthAtTheNominalRate) {
   for (const auto& [name, n] : covered_by) per_parameter += fmt::format(" {} {}", name, n);
   RecordProperty("coverage", fmt::format("{:.4f}", rate));
   RecordProperty("covered_per_parameter", per_parameter);
-  std::printf("coverage %.4f over %d intervals;%s of %d each\n", rate, total,
-              per_parameter.c_str(), replicates);
+  std::printf("coverage %.4f over %d intervals;%s of %d each\n", rate, total, per_parameter.c_str(),
+              replicates);
   EXPECT_GE(rate, 0.90);
   EXPECT_LE(rate, 0.98);
 }
@@ -149,7 +148,8 @@ TEST(Bioreactor, LogLikelihoodAtCtsmsEstimatesIsItsPublishedValue) {
   EXPECT_NEAR(l->loglik, 388.4857, 0.03);
 
   // CTSM's one-step state predictions at these values, row by row.
-  const std::string path = std::string(GREYBENCH_TEST_DATA_DIR) + "/bioreactor/ctsm_predictions.csv";
+  const std::string path =
+      std::string(GREYBENCH_TEST_DATA_DIR) + "/bioreactor/ctsm_predictions.csv";
   std::ifstream in(path);
   ASSERT_TRUE(in) << path;
   filter::FilterTrace trace;
@@ -181,10 +181,11 @@ TEST(Bioreactor, EstimatesFromNeutralStartsAreCtsmsWithinItsStandardErrors) {
   // log L at the optimum: a little below CTSM's 388.4857, whose approximate prediction step
   // reaches about 0.01 more than any exact EKF (PSM: 388.4689 at CTSM's values).
   EXPECT_NEAR(fit->loglik, 388.4857, 0.03);
-  const std::map<std::string, std::pair<double, double>> ctsm = {
-      {"mumax", {1.0022, 0.0033419}}, {"K1", {0.031629, 0.0015977}},
-      {"S11", {0.0075248, 0.00097618}}, {"S22", {0.0010636, 0.00013763}},
-      {"S33", {0.011388, 0.0014960}}};
+  const std::map<std::string, std::pair<double, double>> ctsm = {{"mumax", {1.0022, 0.0033419}},
+                                                                 {"K1", {0.031629, 0.0015977}},
+                                                                 {"S11", {0.0075248, 0.00097618}},
+                                                                 {"S22", {0.0010636, 0.00013763}},
+                                                                 {"S33", {0.011388, 0.0014960}}};
   for (const ParameterEstimate& p : fit->parameters) {
     auto it = ctsm.find(p.name);
     if (it == ctsm.end()) continue;

@@ -157,8 +157,8 @@ void ExpectMoments(const char* json_text, double T, int rows, int paths, double 
   const model::NonlinearModel nm = *model::NonlinearModel::Compile(spec);
   std::vector<double> t(rows);
   for (int k = 0; k < rows; ++k) t[k] = T * k / (rows - 1);
-  const data::Series series = fixtures::MakeSeries(t, Eigen::MatrixXd(0, rows),
-                                                   Eigen::MatrixXd::Zero(1, rows));
+  const data::Series series =
+      fixtures::MakeSeries(t, Eigen::MatrixXd(0, rows), Eigen::MatrixXd::Zero(1, rows));
   FilterSettings settings = FilterSettings::FromModel(spec);
   double sum = 0.0, sum_sq = 0.0, sum_4 = 0.0;
   for (int path = 0; path < paths; ++path) {

@@ -61,7 +61,8 @@ data::Series Simulate(const model::NonlinearModel& nm) {
     U(0, k) = ((k / 9) % 3 == 1) ? 1.3 : 0.8;
   }
   data::Series series = fixtures::MakeSeries(t, U, Eigen::MatrixXd::Zero(2, kSamples));
-  auto path = sim::SamplePath(nm, nm.spec().Values(), series, FilterSettings::FromModel(nm.spec()), 7);
+  auto path =
+      sim::SamplePath(nm, nm.spec().Values(), series, FilterSettings::FromModel(nm.spec()), 7);
   EXPECT_TRUE(path) << path.error().ToString();
   series.Y = path->Y;
   std::mt19937 rng(3);
@@ -122,7 +123,8 @@ TEST(EkfScore, EqualsDifferencesOfTheLikelihoodAndOfItsTerms) {
 
     Eigen::VectorXd gradient;
     Eigen::MatrixXd J_terms;
-    auto l = EkfLogLikelihoodWithScore(nm, sens, theta, series, settings, free, &gradient, &J_terms);
+    auto l =
+        EkfLogLikelihoodWithScore(nm, sens, theta, series, settings, free, &gradient, &J_terms);
     ASSERT_TRUE(l) << l.error().ToString();
     std::vector<double> terms;
     auto plain = EkfLogLikelihood(nm, theta, series, settings, &terms);
@@ -136,7 +138,8 @@ TEST(EkfScore, EqualsDifferencesOfTheLikelihoodAndOfItsTerms) {
       std::vector<double> t;
       auto r = EkfLogLikelihood(nm, th, series, settings, &t);
       EXPECT_TRUE(r) << r.error().ToString();
-      return Eigen::Map<const Eigen::VectorXd>(t.data(), static_cast<Eigen::Index>(t.size())).eval();
+      return Eigen::Map<const Eigen::VectorXd>(t.data(), static_cast<Eigen::Index>(t.size()))
+          .eval();
     };
     for (std::size_t i = 0; i < theta.size(); ++i) {
       SCOPED_TRACE(spec.parameters[i].name);
@@ -179,7 +182,8 @@ TEST(EkfScore, OfALinearModelEqualsTheLinearFiltersExactScore) {
   ASSERT_TRUE(exact);
   EXPECT_NEAR(ekf->loglik, exact->loglik, 1e-9 * std::abs(exact->loglik));
   for (Eigen::Index i = 0; i < g_exact.size(); ++i)
-    EXPECT_NEAR(g_ekf(i), g_exact(i), 1e-7 * (1.0 + std::abs(g_exact(i)))) << spec.parameters[i].name;
+    EXPECT_NEAR(g_ekf(i), g_exact(i), 1e-7 * (1.0 + std::abs(g_exact(i))))
+        << spec.parameters[i].name;
   EXPECT_LT((J_ekf - J_exact).cwiseAbs().maxCoeff(), 1e-7 * (1.0 + J_exact.cwiseAbs().maxCoeff()));
 }
 
@@ -197,8 +201,8 @@ TEST(EkfScore, TheLikelihoodGivesExactScoresExceptForTheIteratedFilter) {
   ASSERT_TRUE(l) << l.error().ToString();
   EXPECT_EQ(J.rows(), 2 * kSamples);
   Eigen::VectorXd g_one;
-  auto one = EkfLogLikelihoodWithScore(*nm, *model::NonlinearSensitivity::Compile(*nm), spec.Values(),
-                                       *series, lik->settings(), free, &g_one);
+  auto one = EkfLogLikelihoodWithScore(*nm, *model::NonlinearSensitivity::Compile(*nm),
+                                       spec.Values(), *series, lik->settings(), free, &g_one);
   ASSERT_TRUE(one);
   EXPECT_NEAR(l->loglik, 2 * one->loglik, 1e-12 * std::abs(l->loglik));
   EXPECT_LT((g - 2 * g_one).norm(), 1e-12 * g.norm());

@@ -74,8 +74,11 @@ TEST(Ekf, LinearModelEqualsTheExactFilterToTheTolerance) {
       {"zoh ctsm", model::InputHold::kZoh, model::InitialCovariance::kCtsm, {}, {}},
       {"foh ctsm", model::InputHold::kFoh, model::InitialCovariance::kCtsm, {}, {}},
       {"zoh stationary", model::InputHold::kZoh, model::InitialCovariance::kStationary, {}, {}},
-      {"foh delays 3 and 1, Huber 1.5", model::InputHold::kFoh, model::InitialCovariance::kCtsm,
-       {3, 1}, 1.5},
+      {"foh delays 3 and 1, Huber 1.5",
+       model::InputHold::kFoh,
+       model::InitialCovariance::kCtsm,
+       {3, 1},
+       1.5},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
@@ -133,7 +136,8 @@ struct TreeModel {
   Eigen::VectorXd Vector(const std::vector<model::Formula>& fs, const Eigen::VectorXd& x,
                          const Eigen::VectorXd& u, double t) const {
     Eigen::VectorXd v(static_cast<Eigen::Index>(fs.size()));
-    for (std::size_t i = 0; i < fs.size(); ++i) v(static_cast<Eigen::Index>(i)) = Eval(fs[i], x, u, t);
+    for (std::size_t i = 0; i < fs.size(); ++i)
+      v(static_cast<Eigen::Index>(i)) = Eval(fs[i], x, u, t);
     return v;
   }
   // ∂v/∂x by central differences.
@@ -157,8 +161,8 @@ double BruteForceEkf(const model::ModelSpec& spec, const data::Series& series, i
   const TreeModel tm{spec, spec.Values()};
   const int n = static_cast<int>(spec.states.size());
   const int N = static_cast<int>(series.size());
-  Eigen::VectorXd x0 = tm.Vector(spec.initial_state, Eigen::VectorXd::Zero(n),
-                                 Eigen::VectorXd::Zero(1), 0.0);
+  Eigen::VectorXd x0 =
+      tm.Vector(spec.initial_state, Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(1), 0.0);
   auto rhs = [&](double t, const Eigen::VectorXd& u, const Eigen::VectorXd& x,
                  const Eigen::MatrixXd& P, Eigen::VectorXd* dx, Eigen::MatrixXd* dP) {
     *dx = tm.Vector(spec.drift, x, u, t);
@@ -229,8 +233,8 @@ data::Series SimulateTanks(const model::ModelSpec& spec, int N, double dt, unsig
   std::uniform_real_distribution<double> unit;
   std::vector<double> t(N);
   Eigen::MatrixXd U(1, N), Y(2, N);
-  Eigen::VectorXd x = tm.Vector(spec.initial_state, Eigen::VectorXd::Zero(2),
-                                Eigen::VectorXd::Zero(1), 0.0);
+  Eigen::VectorXd x =
+      tm.Vector(spec.initial_state, Eigen::VectorXd::Zero(2), Eigen::VectorXd::Zero(1), 0.0);
   const int fine = 50;
   for (int k = 0; k < N; ++k) {
     t[k] = k * dt;
@@ -246,7 +250,8 @@ data::Series SimulateTanks(const model::ModelSpec& spec, int N, double dt, unsig
       const Eigen::VectorXd f = tm.Vector(spec.drift, x, u, ts);
       const Eigen::VectorXd sigma = tm.Vector(spec.diffusion, x, u, ts);
       for (int i = 0; i < 2; ++i)
-        x(i) = std::max(1e-3, x(i) + f(i) * dt / fine + sigma(i) * std::sqrt(dt / fine) * normal(rng));
+        x(i) =
+            std::max(1e-3, x(i) + f(i) * dt / fine + sigma(i) * std::sqrt(dt / fine) * normal(rng));
     }
   }
   return MakeSeries(t, U, Y);
@@ -338,7 +343,8 @@ TEST(Ekf, StiffModelGivesTheSameLikelihoodByBdfAndExplicit) {
   double results[3];
   OdeCounts counts[3];
   int i = 0;
-  for (const auto method : {model::OdeMethod::kExplicit, model::OdeMethod::kBdf, model::OdeMethod::kAuto}) {
+  for (const auto method :
+       {model::OdeMethod::kExplicit, model::OdeMethod::kBdf, model::OdeMethod::kAuto}) {
     model::ModelSpec s = spec;
     s.ekf.method = method;
     results[i] = EkfLoglik(s, series, FilterSettings::FromModel(s), &counts[i]);
@@ -367,8 +373,8 @@ TEST(Ekf, IteratedUpdateReachesThePosteriorMode) {
   FilterTrace plain_trace;
   model::ModelSpec plain = spec;
   plain.ekf.iterations = 1;
-  ASSERT_TRUE(EkfRunFilter(Nonlinear(plain), spec.Values(), series, FilterSettings::FromModel(plain),
-                           &plain_trace));
+  ASSERT_TRUE(EkfRunFilter(Nonlinear(plain), spec.Values(), series,
+                           FilterSettings::FromModel(plain), &plain_trace));
   const double r1 = spec.Values()[spec.ParameterIndex("r1")];
   int moved = 0;
   for (int j = 0; j < 40; ++j) {

@@ -1,7 +1,7 @@
 // The nonlinear virtual dyno (core/sim/engine.h), the bundled mean-value engine model that
 // describes it (assets/models/engine_mvem.json) and the linearisation (core/model/linearise.h),
 // against closed forms and central differences.
-#include <unistd.h>
+#include "core/sim/engine.h"
 
 #include <cmath>
 #include <cstdint>
@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <unsupported/Eigen/MatrixFunctions>
 
 #include "core/data/write_csv.h"
@@ -24,13 +25,12 @@
 #include "core/filter/kalman.h"
 #include "core/filter/predict.h"
 #include "core/model/linearise.h"
+#include "core/model/nonlinear_model.h"
 #include "core/project/linearised.h"
 #include "core/project/operating_points.h"
 #include "core/project/problem.h"
-#include "core/project/result_file.h"
 #include "core/project/project.h"
-#include "core/model/nonlinear_model.h"
-#include "core/sim/engine.h"
+#include "core/project/result_file.h"
 #include "tests/shortened_data.h"
 
 namespace gb {
@@ -84,8 +84,8 @@ TEST(Engine, AirFlowAtTheTable2PointsGivesTheirSensorGain) {
   for (const auto& f : sim::PaperFuelPoints()) {
     auto s = sim::EngineSteadyState(truth, f.speed_rpm, f.throttle_deg);
     ASSERT_TRUE(s.ok());
-    const double kb = sim::EngineConstants::kStoichiometric /
-                      sim::PortAirFlow(truth, s->x.p, s->x.n);
+    const double kb =
+        sim::EngineConstants::kStoichiometric / sim::PortAirFlow(truth, s->x.p, s->x.n);
     EXPECT_NEAR(kb / f.Kb, 1.0, 0.04) << f.name;
   }
 }
@@ -102,7 +102,8 @@ TEST(Engine, NoiseFreeRecordWithoutPerturbationsStaysAtTheSteadyState) {
   ASSERT_TRUE(rec.ok()) << rec.error().ToString();
   auto s = sim::EngineSteadyState(e.truth, 3275, 29.2);
   ASSERT_TRUE(s.ok());
-  ASSERT_EQ(rec->names, (std::vector<std::string>{"t", "alpha", "mfi", "Tl", "N", "Pman", "ilambda"}));
+  ASSERT_EQ(rec->names,
+            (std::vector<std::string>{"t", "alpha", "mfi", "Tl", "N", "Pman", "ilambda"}));
   ASSERT_EQ(rec->columns[0].size(), 160u);
   for (std::size_t k = 0; k < 160; k += 37) {
     EXPECT_NEAR(rec->columns[4][k], 3275, 1e-6);
@@ -194,7 +195,8 @@ TEST(Engine, BundledModelIsTheDynosPhysics) {
   std::uniform_real_distribution<double> U(0, 1);
   std::vector<double> out(m.dynamics_size()), meas(m.measurement_size());
   for (int trial = 0; trial < 50; ++trial) {
-    const sim::EngineState x{35 + 60 * U(rng), 1500 + 3000 * U(rng), 0.5 + U(rng), 0.1 + 0.3 * U(rng)};
+    const sim::EngineState x{35 + 60 * U(rng), 1500 + 3000 * U(rng), 0.5 + U(rng),
+                             0.1 + 0.3 * U(rng)};
     const sim::EngineInput u{15 + 30 * U(rng), 0.5 + U(rng), 50 * U(rng)};
     // z1 = 1/λ at the port, z2 = z3 = 0: the Padé approximant at rest shows the port's value.
     const double v = sim::PortInverseLambda(truth, x);
@@ -236,8 +238,8 @@ TEST(Linearise, EqualsCentralDifferencesOfTheDriftAndObservation) {
   const model::NonlinearModel m = TrueModel();
   const auto theta = m.spec().Values();
   for (const auto& f : sim::PaperFuelPoints()) {
-    auto lin = model::Linearise(
-        m, theta, {{"N", f.speed_rpm}, {"alpha", f.throttle_deg}, {"ilambda", 1}});
+    auto lin =
+        model::Linearise(m, theta, {{"N", f.speed_rpm}, {"alpha", f.throttle_deg}, {"ilambda", 1}});
     ASSERT_TRUE(lin.ok()) << f.name << ": " << lin.error().ToString();
     std::vector<double> x(lin->x.data(), lin->x.data() + lin->x.size());
     std::vector<double> u(lin->u.data(), lin->u.data() + lin->u.size());
@@ -264,12 +266,15 @@ TEST(Linearise, EqualsCentralDifferencesOfTheDriftAndObservation) {
       vm -= h;
       const auto fp = f_h(xp, up), fm = f_h(xm, um);
       for (int r = 0; r < 10; ++r) {
-        const double diff = (fp[static_cast<std::size_t>(r)] - fm[static_cast<std::size_t>(r)]) / (2 * h);
+        const double diff =
+            (fp[static_cast<std::size_t>(r)] - fm[static_cast<std::size_t>(r)]) / (2 * h);
         const double exact = r < 7 ? (input ? lin->B(r, j) : lin->A(r, j))
                                    : (input ? lin->D(r - 7, j) : lin->C(r - 7, j));
         // Rounding in the differences: about ε |f| / h.
-        const double rounding = 1e-14 * std::max(std::abs(fp[static_cast<std::size_t>(r)]),
-                                                 std::abs(fm[static_cast<std::size_t>(r)])) / h;
+        const double rounding = 1e-14 *
+                                std::max(std::abs(fp[static_cast<std::size_t>(r)]),
+                                         std::abs(fm[static_cast<std::size_t>(r)])) /
+                                h;
         EXPECT_NEAR(exact, diff, 1e-6 * (1 + std::abs(exact)) + rounding)
             << f.name << " row " << r << (input ? " input " : " state ") << j;
       }
@@ -286,7 +291,8 @@ TEST(Linearise, QuantitiesAreTheFuelFilmsParametersAtThePoint) {
   for (const char* q : {"tau_fv=-1/A_mfv_mfv", "tau_ff=-1/A_mff_mff", "X=-B_mff_mfi/A_mff_mff",
                         "Kb=-C_ilambda_mfv", "delay=cd/n"})
     o.quantities.push_back(*model::ParseQuantity(q));
-  auto lin = model::Linearise(m, m.spec().Values(), {{"N", 2931}, {"alpha", 29.5}, {"ilambda", 1}}, o);
+  auto lin =
+      model::Linearise(m, m.spec().Values(), {{"N", 2931}, {"alpha", 29.5}, {"ilambda", 1}}, o);
   ASSERT_TRUE(lin.ok()) << lin.error().ToString();
   auto s = sim::EngineSteadyState(truth, 2931, 29.5);
   ASSERT_TRUE(s.ok());
@@ -307,13 +313,15 @@ TEST(Linearise, DeltaMethodPropagatesTheCovariance) {
   const model::NonlinearModel m = TrueModel();
   const auto& spec = m.spec();
   model::LinearisationOptions o;
-  o.quantities = {*model::ParseQuantity("tau_ff=-1/A_mff_mff"), *model::ParseQuantity("Kb=-C_ilambda_mfv")};
+  o.quantities = {*model::ParseQuantity("tau_ff=-1/A_mff_mff"),
+                  *model::ParseQuantity("Kb=-C_ilambda_mfv")};
   o.free = {spec.ParameterIndex("tau_ff"), spec.ParameterIndex("ev"), spec.ParameterIndex("Cth")};
   o.covariance = Eigen::MatrixXd(3, 3);
   o.covariance << 1e-4, 0, 0,  //
       0, 4e-4, 1e-3,           //
       0, 1e-3, 9.0;
-  const std::vector<std::pair<std::string, double>> point = {{"N", 3201}, {"alpha", 36.5}, {"ilambda", 1}};
+  const std::vector<std::pair<std::string, double>> point = {
+      {"N", 3201}, {"alpha", 36.5}, {"ilambda", 1}};
   auto lin = model::Linearise(m, spec.Values(), point, o);
   ASSERT_TRUE(lin.ok()) << lin.error().ToString();
   EXPECT_NEAR(lin->se_quantities[0], 0.01, 1e-9);
@@ -344,7 +352,8 @@ TEST(Linearise, SaysWhatIsWrongWithThePoint) {
   const auto theta = m.spec().Values();
   auto few = model::Linearise(m, theta, {{"N", 2931}, {"alpha", 29.5}});
   ASSERT_FALSE(few.ok());
-  EXPECT_NE(few.error().message.find("give 1 more value"), std::string::npos) << few.error().message;
+  EXPECT_NE(few.error().message.find("give 1 more value"), std::string::npos)
+      << few.error().message;
   auto bad = model::ParseOperatingPoint("N=2931,alpa=30", m.spec());
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().message.find("did you mean 'alpha'"), std::string::npos);
@@ -354,7 +363,8 @@ TEST(Linearise, SaysWhatIsWrongWithThePoint) {
   o.quantities = {*model::ParseQuantity("tau=-1/A_mff_mf")};
   auto q = model::Linearise(m, theta, {{"N", 2931}, {"alpha", 29.5}, {"ilambda", 1}}, o);
   ASSERT_FALSE(q.ok());
-  EXPECT_NE(q.error().message.find("did you mean 'A_mff_mff'"), std::string::npos) << q.error().message;
+  EXPECT_NE(q.error().message.find("did you mean 'A_mff_mff'"), std::string::npos)
+      << q.error().message;
   // A throttle that cannot hold 2931 rpm at λ = 1 with a positive load: no steady state with
   // the speed given and the load solved is still found (a negative load), but an impossible
   // output is refused with how close it came.
@@ -464,9 +474,13 @@ TEST(EngineCase, WithTheModelExactTheJointFitRecoversEveryParameter) {
   };
   const Run runs[2] = {
       {{*sim::ParseEnginePoint("f3"), *sim::ParseEnginePoint("f1"), *sim::ParseEnginePoint("f7")},
-       30, 15, 21},
+       30,
+       15,
+       21},
       {{*sim::ParseEnginePoint("n=2700,alpha=26"), *sim::ParseEnginePoint("n=3400,alpha=34")},
-       10, 40, 22}};
+       10,
+       40,
+       22}};
   const std::filesystem::path tmp = std::filesystem::temp_directory_path() /
                                     ("greybench-engine-exact-" + std::to_string(::getpid()));
   std::filesystem::create_directories(tmp);
@@ -518,8 +532,8 @@ TEST(EngineCase, TheLinearisationAtTheSixPointsFromTheBundledFit) {
   auto points = project::ReadOperatingPoints(*project);
   ASSERT_TRUE(points.ok() && points->has_value());
   const project::OperatingPointsSpec& op = **points;
-  auto sweep = project::LineariseAtPoints(*op.linearised, project->model_path,
-                                          data::Files(op.datasets));
+  auto sweep =
+      project::LineariseAtPoints(*op.linearised, project->model_path, data::Files(op.datasets));
   ASSERT_TRUE(sweep.ok()) << sweep.error().ToString();
   ASSERT_EQ(sweep->points.size(), 6u);
   const sim::EngineTruth truth;
@@ -540,7 +554,7 @@ TEST(EngineCase, TheLinearisationAtTheSixPointsFromTheBundledFit) {
 
 struct PredictionCheck {
   std::vector<std::string> outputs;
-  std::vector<double> ljung_box_p;  // of the one-step residuals, 20 lags
+  std::vector<double> ljung_box_p;     // of the one-step residuals, 20 lags
   std::vector<double> simulation_rms;  // open loop after the first `simulate_after` rows
 };
 
@@ -672,8 +686,8 @@ TEST(EngineCase, TheBlockDiagramCompilesToTheBundledModel) {
   std::vector<double> fa(a->dynamics_size()), fb(fa.size());
   std::vector<double> ha(a->measurement_size()), hb(ha.size());
   for (int trial = 0; trial < 50; ++trial) {
-    const std::vector<double> x = {35 + 60 * U(rng), 1500 + 3000 * U(rng), 0.5 + U(rng),
-                                   0.1 + 0.3 * U(rng), 0.5 + U(rng), U(rng) - 0.5,
+    const std::vector<double> x = {35 + 60 * U(rng),   1500 + 3000 * U(rng), 0.5 + U(rng),
+                                   0.1 + 0.3 * U(rng), 0.5 + U(rng),         U(rng) - 0.5,
                                    20 * (U(rng) - 0.5)};
     const std::vector<double> u = {15 + 30 * U(rng), 0.5 + U(rng), 50 * U(rng)};
     std::vector<double> s = Slots(*a, x, u);

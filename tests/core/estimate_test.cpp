@@ -3,11 +3,11 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <thread>
 #include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
+#include <thread>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -28,8 +28,8 @@ using testing::Compile;
 using testing::Simulate;
 
 // Every free parameter's estimate within `k` standard errors of the truth.
-void ExpectWithinStandardErrors(const EstimateSummary& s, const std::map<std::string, double>& truth,
-                                double k) {
+void ExpectWithinStandardErrors(const EstimateSummary& s,
+                                const std::map<std::string, double>& truth, double k) {
   for (const auto& p : s.parameters) {
     if (p.fixed || !truth.count(p.name)) continue;
     ASSERT_TRUE(p.std_error.has_value()) << p.name << " has no standard error";
@@ -59,10 +59,9 @@ Json FuelFilm(bool truth) {
     "output_delay": {"ilambda": {"min": 0, "max": 10}},
     "initial_state": {"mfv": "(1 - X)*mfi0", "mff": "X*mfi0"}})json");
   if (truth) {
-    const std::map<std::string, double> f1 = {{"tau_fv", 0.0750}, {"tau_ff", 0.375},
-                                              {"X", 0.175},       {"Kb", 0.8421},
-                                              {"s11", 0.1098e-2}, {"s12", 0.3910e-3},
-                                              {"s2", 1.2570e-4}};
+    const std::map<std::string, double> f1 = {
+        {"tau_fv", 0.0750}, {"tau_ff", 0.375},  {"X", 0.175},     {"Kb", 0.8421},
+        {"s11", 0.1098e-2}, {"s12", 0.3910e-3}, {"s2", 1.2570e-4}};
     for (const auto& [k, v] : f1) j["parameters"][k]["value"] = v;
     j["output_delay"]["ilambda"] = 5;
   }
@@ -93,9 +92,14 @@ TEST(Estimate, RecoversTheFuelFilmModelAndItsDelayFromSimulatedPrbsData) {
       EXPECT_LT(*pt.loglik, s->loglik) << "delay " << pt.delay;
     }
   }
-  ExpectWithinStandardErrors(*s, {{"tau_fv", 0.0750}, {"tau_ff", 0.375}, {"X", 0.175},
-                                  {"Kb", 0.8421}, {"s11", 0.1098e-2}, {"s12", 0.3910e-3},
-                                  {"s2", 1.2570e-4}},
+  ExpectWithinStandardErrors(*s,
+                             {{"tau_fv", 0.0750},
+                              {"tau_ff", 0.375},
+                              {"X", 0.175},
+                              {"Kb", 0.8421},
+                              {"s11", 0.1098e-2},
+                              {"s12", 0.3910e-3},
+                              {"s2", 1.2570e-4}},
                              3.0);
   // The result file holds what user guide §5 lists.
   const Json j = s->ToJson();
@@ -179,7 +183,7 @@ Json Crankshaft(bool truth, bool load_perturbed) {
     "measurement_variance": {"Nm": "s21", "Pman": "s22"},
     "initial_covariance": "stationary"})json");
   if (truth) {
-    const std::map<std::string, double> v = {{"tau_f", 4.1358}, {"Je", 0.6028}, {"Gp", 6.3570},
+    const std::map<std::string, double> v = {{"tau_f", 4.1358}, {"Je", 0.6028},  {"Gp", 6.3570},
                                              {"Kn", 0.008746},  {"Kth", 3.6403}, {"s1", 74.70},
                                              {"s21", 14.43},    {"s22", 0.6988}};
     for (const auto& [k, x] : v) j["parameters"][k]["value"] = x;
@@ -214,9 +218,15 @@ TEST(Estimate, RecoversTheCrankshaftModelWhenThrottleAndLoadArePerturbed) {
   auto s = Estimate(*lik, EstimateOptions{});
   ASSERT_TRUE(s.ok()) << s.error().ToString();
   EXPECT_TRUE(s->converged) << s->message;
-  ExpectWithinStandardErrors(*s, {{"tau_f", 4.1358}, {"Je", 0.6028}, {"Gp", 6.3570},
-                                  {"Kn", 0.008746}, {"Kth", 3.6403}, {"s1", 74.70},
-                                  {"s21", 14.43}, {"s22", 0.6988}},
+  ExpectWithinStandardErrors(*s,
+                             {{"tau_f", 4.1358},
+                              {"Je", 0.6028},
+                              {"Gp", 6.3570},
+                              {"Kn", 0.008746},
+                              {"Kth", 3.6403},
+                              {"s1", 74.70},
+                              {"s21", 14.43},
+                              {"s22", 0.6988}},
                              3.0);
 }
 
@@ -273,7 +283,8 @@ TEST(Estimate, ReportsProgressAndStopsWithin100msOfCancellation) {
   const auto asked = std::chrono::steady_clock::now();
   cancel = true;
   worker.join();
-  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - asked).count();
+  const double waited =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - asked).count();
   EXPECT_LT(waited, 0.1);
   ASSERT_TRUE(result.ok());
   EXPECT_TRUE(result->cancelled);
@@ -344,17 +355,28 @@ struct GenericStart {
 };
 const std::vector<GenericStart> kGenericStarts = {
     // Starts from which the plain fit runs off (on the machine these were chosen on) ...
-    {-1, 1, -1, 1, -1}, {-1, 1, -1, 1, 1}, {-1, 1, 1, 1, 1}, {-1, 0, -1, 1, 1}, {-1, 0, 1, 1, 1},
-    {-1, 1, -1, -1, 1}, {-1, 0, -1, -1, 1}, {-1, 0, 1, 1, -1},
+    {-1, 1, -1, 1, -1},
+    {-1, 1, -1, 1, 1},
+    {-1, 1, 1, 1, 1},
+    {-1, 0, -1, 1, 1},
+    {-1, 0, 1, 1, 1},
+    {-1, 1, -1, -1, 1},
+    {-1, 0, -1, -1, 1},
+    {-1, 0, 1, 1, -1},
     // ... and starts from which it does not.
-    {1, 1, 1, -1, -1}, {1, 0, -1, 1, 1}, {1, 1, 1, 1, 1}, {-1, 1, 1, -1, -1}};
+    {1, 1, 1, -1, -1},
+    {1, 0, -1, 1, 1},
+    {1, 1, 1, 1, 1},
+    {-1, 1, 1, -1, -1}};
 
 Result<EstimateSummary> FitOrnsteinPair(const GenericStart& g, EstimateOptions options) {
   auto spec = model::LoadModelFile(kData + "/ornstein2d/model.json");
   if (!spec) return spec.error();
-  const std::map<std::string, double> values = {
-      {"logtheta", g.logtheta}, {"mu", g.mu}, {"logalpha", g.logalpha},
-      {"logsigma_x2", g.logsigma_x2}, {"logsigma_y2", g.logsigma_y2}};
+  const std::map<std::string, double> values = {{"logtheta", g.logtheta},
+                                                {"mu", g.mu},
+                                                {"logalpha", g.logalpha},
+                                                {"logsigma_x2", g.logsigma_x2},
+                                                {"logsigma_y2", g.logsigma_y2}};
   for (auto& p : spec->parameters)
     if (values.count(p.name)) p.value = values.at(p.name);
   auto problem = project::LoadProblem(std::move(*spec), {kData + "/ornstein2d/data.csv"});
@@ -474,7 +496,8 @@ TEST(Conformance, Building3EstimateFromNeutralStartReachesCtsmRsOptimum) {
   std::set<std::string> collinear;
   for (Eigen::Index a = 0; a < s->correlation.rows(); ++a)
     for (Eigen::Index b = 0; b < s->correlation.cols(); ++b)
-      if (a != b && std::abs(s->correlation(a, b)) > 0.99) collinear.insert(s->correlation_names[a]);
+      if (a != b && std::abs(s->correlation(a, b)) > 0.99)
+        collinear.insert(s->correlation_names[a]);
   int compared = 0;
   for (const auto& p : s->parameters) {
     if (!p.std_error || p.at_bound || collinear.count(p.name)) continue;

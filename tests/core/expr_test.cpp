@@ -4,8 +4,6 @@
 // ExprSubstitute and the queries; ExprTape.
 #include "core/expr/expr.h"
 
-#include <gtest/gtest.h>
-
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -17,6 +15,8 @@
 #include <set>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 namespace gb::expr {
 namespace {
@@ -312,8 +312,8 @@ TEST(ExprToString, ParenthesizesSyntheticNegativeConstants) {
 TEST(ExprToString, NeverNestsDeeperThanTheTextItWasParsedFrom) {
   for (const std::string& text :
        {"2 - " + std::string(250, '-') + "x", std::string(255, '-') + "x*y",
-        "a^-" + std::string(200, '-') + "(b*c)", std::string(127, '(') + "-x*-y" +
-            std::string(127, ')')}) {
+        "a^-" + std::string(200, '-') + "(b*c)",
+        std::string(127, '(') + "-x*-y" + std::string(127, ')')}) {
     auto e = Parse(text);
     ASSERT_TRUE(e.ok()) << e.error().ToString();
     auto again = Parse(ToString(*e));

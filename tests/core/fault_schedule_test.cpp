@@ -4,11 +4,11 @@
 // own Inject at that sample).
 #include "core/sim/fault_schedule.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 namespace gb::sim {
 namespace {

@@ -5,10 +5,6 @@
 //           innovation variances  5. parameters at bounds  6. non-finite numbers in data, model
 //           files, --set and expressions  7. an optimiser that wanders into non-finite log L
 //           8. files written atomically
-#include <gtest/gtest.h>
-#include <unistd.h>
-
-#include <Eigen/Dense>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -17,6 +13,10 @@
 #include <map>
 #include <random>
 #include <sstream>
+
+#include <Eigen/Dense>
+#include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "core/data/dataset.h"
 #include "core/design/prbs.h"
@@ -510,15 +510,14 @@ TEST(Faults, AnIntervalTooLongToDiscretiseIsNamedByItsRowAndLine) {
   EXPECT_EQ(l.error().kind, ErrorKind::kNumerical);
   EXPECT_EQ(l.error().file, "long.csv");
   EXPECT_EQ(l.error().line, 4);  // the row the interval starts at
-  EXPECT_NE(l.error().message.find("from row 2 (t = 0.2)"), std::string::npos)
-      << l.error().message;
+  EXPECT_NE(l.error().message.find("from row 2 (t = 0.2)"), std::string::npos) << l.error().message;
   const auto sim = sim::Simulate(ss, **series, settings, {});
   ASSERT_FALSE(sim.ok());
   EXPECT_EQ(sim.error().line, 4);
   // A long interval is no fault while A·Δ is finite: 1e300 s discretises to Φ = 0 and Q = the
   // stationary variance σ²/2|a| (after 1000 doublings).
-  const filter::Discrete fine = filter::Discretize(ss.A, ss.B, ss.c, Eigen::VectorXd::Ones(1),
-                                                   1e300, model::InputHold::kZoh);
+  const filter::Discrete fine =
+      filter::Discretize(ss.A, ss.B, ss.c, Eigen::VectorXd::Ones(1), 1e300, model::InputHold::kZoh);
   EXPECT_EQ(fine.Phi(0, 0), 0.0);
   EXPECT_NEAR(fine.Q(0, 0), 0.05, 1e-12);
   // ‖A·Δ‖ = 1.7e308, finite, though ‖A·Δ‖/0.25 is not (found by csv_fuzz as well).
@@ -667,10 +666,9 @@ TEST(Faults, TheOptimiserBacksOffFromNonFiniteLogLikelihoodsAndFindsTheFiniteOpt
   };
   const double q_best = MaximiseOnInterval(loglik_at, 1e-6, 10.0);
   ASSERT_FALSE(lik->Evaluate(std::vector<double>{-0.5, -0.5, 0.01}).ok());
-  for (auto algorithm :
-       {estimate::Algorithm::kAuto, estimate::Algorithm::kBhhh, estimate::Algorithm::kLbfgs,
-        estimate::Algorithm::kSlsqp, estimate::Algorithm::kBobyqa,
-        estimate::Algorithm::kTrustRegion}) {
+  for (auto algorithm : {estimate::Algorithm::kAuto, estimate::Algorithm::kBhhh,
+                         estimate::Algorithm::kLbfgs, estimate::Algorithm::kSlsqp,
+                         estimate::Algorithm::kBobyqa, estimate::Algorithm::kTrustRegion}) {
     SCOPED_TRACE(static_cast<int>(algorithm));
     estimate::EstimateOptions options;
     options.algorithm = algorithm;

@@ -25,7 +25,7 @@ inline model::LinearModel CompileModel(const char* json_text) {
 }
 
 inline data::Series MakeSeries(const std::vector<double>& t, const Eigen::MatrixXd& U,
-                        const Eigen::MatrixXd& Y) {
+                               const Eigen::MatrixXd& Y) {
   data::Series s;
   s.source = "test.csv";
   s.time = t;
@@ -62,7 +62,9 @@ inline data::Series RandomSeries(int N, int p, double missing_fraction, unsigned
   for (int k = 0; k < N; ++k) {
     U(0, k) = (k / 4) % 2 ? 1.0 : -1.0;
     U(1, k) = std::sin(0.7 * k);
-    for (int o = 0; o < p; ++o) Y(o, k) = unit(rng) < missing_fraction ? std::numeric_limits<double>::quiet_NaN() : normal(rng) + 1;
+    for (int o = 0; o < p; ++o)
+      Y(o, k) =
+          unit(rng) < missing_fraction ? std::numeric_limits<double>::quiet_NaN() : normal(rng) + 1;
   }
   return MakeSeries(t, U, Y);
 }

@@ -12,10 +12,6 @@
 //   Resample     Decimate against sinusoids, gaps and the record's ends
 //   Files        ReadDataset end to end, the bundled Bosch records
 #include "core/data/import.h"
-#include "core/data/mdf4.h"
-
-#include <fmt/format.h>
-#include <gtest/gtest.h>
 
 #include <cmath>
 #include <filesystem>
@@ -23,6 +19,11 @@
 #include <numbers>
 #include <string>
 #include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "core/data/mdf4.h"
 
 namespace gb::data {
 namespace {
@@ -56,8 +57,10 @@ void ExpectSameData(const Dataset& a, const Dataset& b) {
     const std::vector<double>& other = Values(b, c.name);
     ASSERT_EQ(c.values.size(), other.size()) << c.name;
     for (std::size_t k = 0; k < other.size(); ++k) {
-      if (std::isnan(c.values[k])) EXPECT_TRUE(std::isnan(other[k])) << c.name << " row " << k;
-      else EXPECT_EQ(c.values[k], other[k]) << c.name << " row " << k;
+      if (std::isnan(c.values[k]))
+        EXPECT_TRUE(std::isnan(other[k])) << c.name << " row " << k;
+      else
+        EXPECT_EQ(c.values[k], other[k]) << c.name << " row " << k;
     }
   }
 }
@@ -65,9 +68,10 @@ void ExpectSameData(const Dataset& a, const Dataset& b) {
 class TempDir {
  public:
   TempDir() {
-    path_ = std::filesystem::temp_directory_path() /
-            ("greybench_import_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-             "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    path_ =
+        std::filesystem::temp_directory_path() /
+        ("greybench_import_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+         "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
     std::filesystem::create_directories(path_);
   }
   ~TempDir() { std::filesystem::remove_all(path_); }
@@ -149,8 +153,8 @@ TEST(Formats, AGermanBenchExportReadsAsThePlainCsv) {
   CsvFormat f;
   f.separator = ';';
   f.decimal = ',';
-  const auto german =
-      Parse("Zeit [ms];n;load;Tex\n0;1500,5;0,25;300\n100;1510;0,5;NA\n200;1520,25;0,75;310,5\n", f);
+  const auto german = Parse(
+      "Zeit [ms];n;load;Tex\n0;1500,5;0,25;300\n100;1510;0,5;NA\n200;1520,25;0,75;310,5\n", f);
   const auto plain = Parse(kPlain, CsvFormat{});
   ASSERT_TRUE(german && plain);
   ExpectSameData(*german, *plain);  // 100 ms / 1000 is the double of 0.1
@@ -207,7 +211,8 @@ TEST(Formats, NamesThatDoNotMatchTheFieldsAreAnErrorAtTheLine) {
   f.header = false;
   f.sample_time = 1;
   f.columns = {"a", "b"};
-  EXPECT_EQ(ParseError("# x\n1,2,3\n", f), "run.csv:2: 2 column names are given, but line 2 has 3 fields");
+  EXPECT_EQ(ParseError("# x\n1,2,3\n", f),
+            "run.csv:2: 2 column names are given, but line 2 has 3 fields");
   f.columns = {"a", "b", "c"};
   EXPECT_EQ(ParseError("1,2,3\n4,5\n", f), "run.csv:2:3: line 2 has 2 fields, the first row has 3");
   CsvFormat named;
@@ -314,12 +319,15 @@ TEST(Keys, BadKeysAreNamedByTheProjectFileAndTheirJsonPath) {
       {R"({"file": 1})", "case.json: datasets[0].file: expected a file name"},
       {R"({"file": "a", "header": "no"})", "case.json: datasets[0].header: expected true or false"},
       {R"({"file": "a", "separator": "|"})", "case.json: datasets[0].separator: expected"},
-      {R"({"file": "a", "decimal": ";"})", "case.json: datasets[0].decimal: expected \".\" or \",\""},
+      {R"({"file": "a", "decimal": ";"})",
+       "case.json: datasets[0].decimal: expected \".\" or \",\""},
       {R"({"file": "a", "decimal": ",", "separator": ","})",
        "case.json: datasets[0].decimal: a decimal comma needs another separator"},
       {R"({"file": "a", "columns": []})", "case.json: datasets[0].columns: expected a list"},
-      {R"({"file": "a", "columns": ["x", "x"]})", "case.json: datasets[0].columns[1]: 'x' is named twice"},
-      {R"({"file": "a", "columns": ["x", 2]})", "case.json: datasets[0].columns[1]: expected a column name"},
+      {R"({"file": "a", "columns": ["x", "x"]})",
+       "case.json: datasets[0].columns[1]: 'x' is named twice"},
+      {R"({"file": "a", "columns": ["x", 2]})",
+       "case.json: datasets[0].columns[1]: expected a column name"},
       {R"({"file": "a", "time": ""})", "case.json: datasets[0].time: expected the name"},
       {R"({"file": "a", "sample_time": 0})",
        "case.json: datasets[0].sample_time: expected a number of seconds greater than 0"},
@@ -331,8 +339,10 @@ TEST(Keys, BadKeysAreNamedByTheProjectFileAndTheirJsonPath) {
       {R"({"file": "a", "map": {"y": 2}})", "case.json: datasets[0].map.y: expected an expression"},
       {R"({"file": "a", "range": [5, 1]})", "case.json: datasets[0].range: expected t0 < t1"},
       {R"({"file": "a", "range": [0]})", "case.json: datasets[0].range: expected [t0, t1]"},
-      {R"({"file": "a", "detrend": "quadratic"})", "case.json: datasets[0].detrend: expected \"mean\""},
-      {R"({"file": "a", "detrend": {"u": 1}})", "case.json: datasets[0].detrend.u: expected \"mean\""},
+      {R"({"file": "a", "detrend": "quadratic"})",
+       "case.json: datasets[0].detrend: expected \"mean\""},
+      {R"({"file": "a", "detrend": {"u": 1}})",
+       "case.json: datasets[0].detrend.u: expected \"mean\""},
       {R"({"file": "a", "resample": -1})", "case.json: datasets[0].resample: expected a number"},
       {R"({"file": "a", "role": "test"})", "case.json: datasets[0].role: expected \"estimation\""},
       {R"({"file": "a", "colour": "red"})", "case.json: datasets[0].colour: unknown key"},
@@ -349,7 +359,8 @@ TEST(Keys, BadKeysAreNamedByTheProjectFileAndTheirJsonPath) {
 TEST(Map, AddsColumnsOfExpressionsAndReplacesOneOfTheSameName) {
   const auto plain = Parse("t,Lambda,Tex\n0,0.8,300\n1,NA,301\n2,1.25,302\n", CsvFormat{});
   ASSERT_TRUE(plain);
-  DatasetSpec spec = SpecOf(R"({"file": "run.csv", "map": {"ilambda": "1/Lambda", "Tex": "Tex - 273.15"}})");
+  DatasetSpec spec =
+      SpecOf(R"({"file": "run.csv", "map": {"ilambda": "1/Lambda", "Tex": "Tex - 273.15"}})");
   Result<std::shared_ptr<const Dataset>> d = Prepare(plain, spec);
   ASSERT_TRUE(d.ok()) << d.error().ToString();
   const std::vector<double>& il = Values(**d, "ilambda");
@@ -399,11 +410,11 @@ TEST(Map, ErrorsNameTheKeyAndTheColumnInTheExpression) {
 // Detrend
 
 TEST(Detrend, SubtractsTheMeanOrTheLeastSquaresLineOverThePresentCells) {
-  const auto plain =
-      Parse("t,a,b,c\n0,1,2,5\n1,2,5,NA\n2,4,8,7\n3,5,11,6\n", CsvFormat{});
+  const auto plain = Parse("t,a,b,c\n0,1,2,5\n1,2,5,NA\n2,4,8,7\n3,5,11,6\n", CsvFormat{});
   ASSERT_TRUE(plain);
   Result<std::shared_ptr<const Dataset>> d = Prepare(
-      plain, SpecOf(R"({"file": "run.csv", "detrend": {"a": "mean", "b": "linear", "c": "mean"}})"));
+      plain,
+      SpecOf(R"({"file": "run.csv", "detrend": {"a": "mean", "b": "linear", "c": "mean"}})"));
   ASSERT_TRUE(d.ok()) << d.error().ToString();
   EXPECT_EQ(Values(**d, "a"), (std::vector<double>{-2, -1, 1, 2}));
   for (double v : Values(**d, "b")) EXPECT_NEAR(v, 0, 1e-14);  // b = 2 + 3 t exactly
@@ -412,11 +423,10 @@ TEST(Detrend, SubtractsTheMeanOrTheLeastSquaresLineOverThePresentCells) {
   EXPECT_TRUE(std::isnan(c[1]));
   EXPECT_EQ(c[2], 1);
   EXPECT_EQ(c[3], 0);
-  EXPECT_EQ(Prepare(plain, SpecOf(R"({"file": "run.csv", "detrend": {"x": "mean"}})"))
-                .error()
-                .ToString(),
-            "case.json: datasets[0].detrend.x: column 'x' is not in the file; its columns are "
-            "a, b, c");
+  EXPECT_EQ(
+      Prepare(plain, SpecOf(R"({"file": "run.csv", "detrend": {"x": "mean"}})")).error().ToString(),
+      "case.json: datasets[0].detrend.x: column 'x' is not in the file; its columns are "
+      "a, b, c");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -534,7 +544,8 @@ TEST(Files, APlainSpecReadsAsReadCsvFileAndAnObjectDetectsItsFormat) {
   TempDir dir;
   const std::string plain = dir.Write("plain.csv", std::string(kPlain));
   const std::string german = dir.Write(
-      "german.csv", "Zeit [ms];n;load;Tex\n0;1500,5;0,25;300\n100;1510;0,5;NA\n200;1520,25;0,75;310,5\n");
+      "german.csv",
+      "Zeit [ms];n;load;Tex\n0;1500,5;0,25;300\n100;1510;0,5;NA\n200;1520,25;0,75;310,5\n");
   DatasetSpec p;
   p.file = plain;
   Result<std::shared_ptr<const Dataset>> a = ReadDataset(p);

@@ -4,10 +4,10 @@
 // the override it feeds (FilterSettings::x0, P0) as the filter, the simulation and the EKF take it.
 #include "core/filter/initial_state.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "core/filter/ekf.h"
 #include "core/model/model.h"

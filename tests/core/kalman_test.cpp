@@ -85,9 +85,9 @@ Dense BruteForce(const model::StateSpace& ss, const data::Series& s, const Filte
     r(a) = s.Y(A.o, A.k) - mu;
     for (int b = 0; b < M; ++b) {
       const Obs& B = obs[b];
-      Sy(a, b) = (ss.C.row(A.o) * Sx.block(A.j * n, B.j * n, n, n) * ss.C.row(B.o).transpose())
-                     .value() +
-                 (a == b ? ss.S(A.o) : 0.0);
+      Sy(a, b) =
+          (ss.C.row(A.o) * Sx.block(A.j * n, B.j * n, n, n) * ss.C.row(B.o).transpose()).value() +
+          (a == b ? ss.S(A.o) : 0.0);
     }
   }
   const Eigen::LLT<Eigen::MatrixXd> llt(Sy);
@@ -96,7 +96,8 @@ Dense BruteForce(const model::StateSpace& ss, const data::Series& s, const Filte
   const Eigen::VectorXd z = L.triangularView<Eigen::Lower>().solve(r);
   Dense out;
   out.n_obs = M;
-  out.gaussian_loglik = -0.5 * (2 * L.diagonal().array().log().sum() + z.squaredNorm() + M * kLog2Pi);
+  out.gaussian_loglik =
+      -0.5 * (2 * L.diagonal().array().log().sum() + z.squaredNorm() + M * kLog2Pi);
   // Huber: group the standardised innovations by state index.
   out.huber_loglik = 0;
   for (int a = 0; a < M;) {

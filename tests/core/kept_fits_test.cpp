@@ -1,17 +1,18 @@
 // A fit's summary written as a result file and read back (EstimateSummary::FromJson), a fit
 // stopped by the user summarised at its best point (StoppedSummary), and the kept-fits folder
 // beside a project (core/project/kept_fits.h).
-#include <gtest/gtest.h>
+#include "core/project/kept_fits.h"
 
 #include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <string>
+
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include "core/data/import.h"
 #include "core/estimate/estimate.h"
-#include "core/project/kept_fits.h"
 #include "core/project/problem.h"
 #include "core/project/project.h"
 #include "core/project/result_file.h"
@@ -73,10 +74,10 @@ TEST(ResultFile, AMalformedResultIsRefusedNamingTheFileAndTheJsonPath) {
       {"log L a string", [](Json& j) { j["loglik"] = "high"; }, "loglik"},
       {"an estimate missing", [](Json& j) { j["parameters"]["tau_fv"].erase("estimate"); },
        "parameters.tau_fv.estimate"},
-      {"a correlation row short",
-       [](Json& j) { j["correlation"]["matrix"][0].erase(0); }, "correlation.matrix[0]"},
-      {"an optimum without a parameter",
-       [](Json& j) { j["optima"][0]["parameters"].erase("X"); }, "optima[0].parameters.X"},
+      {"a correlation row short", [](Json& j) { j["correlation"]["matrix"][0].erase(0); },
+       "correlation.matrix[0]"},
+      {"an optimum without a parameter", [](Json& j) { j["optima"][0]["parameters"].erase("X"); },
+       "optima[0].parameters.X"},
       {"an unknown filter", [](Json& j) { j["filter"]["kind"] = "particle"; }, "filter.kind"},
       {"a delay not whole", [](Json& j) { j["output_delay"]["ilambda"]["estimate"] = 1.5; },
        "output_delay.ilambda.estimate"},
@@ -140,8 +141,9 @@ TEST(StoppedSummary, AFitStoppedByTheUserIsSummarisedAtTheBestPointItReported) {
 class KeptFitsFolder : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("greybench-kept-" + std::to_string(::getpid()) + "-" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() /
+           ("greybench-kept-" + std::to_string(::getpid()) + "-" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }

@@ -14,9 +14,6 @@
 //   Malformed    refusals
 #include "core/data/mdf4.h"
 
-#include <fmt/format.h>
-#include <gtest/gtest.h>
-
 #include <bit>
 #include <cmath>
 #include <filesystem>
@@ -24,6 +21,9 @@
 #include <initializer_list>
 #include <string>
 #include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include "tests/core/mdf4_writer.h"
 

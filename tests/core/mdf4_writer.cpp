@@ -2,14 +2,14 @@
 // every link is known when its block is written; only the HD at offset 64 is filled in last.
 #include "tests/core/mdf4_writer.h"
 
-#include <zlib.h>
-
 #include <algorithm>
 #include <bit>
 #include <cassert>
 #include <cmath>
 #include <fstream>
 #include <numeric>
+
+#include <zlib.h>
 
 namespace gb::data::mdf4_testing {
 namespace {

@@ -1,10 +1,10 @@
 #include "core/model/model_structure.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <map>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "core/model/linear_model.h"
 #include "core/project/problem.h"

@@ -3,15 +3,15 @@
 // from a result file.
 #include "core/online/monitor.h"
 
-#include <fmt/format.h>
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <cstdio>
 #include <functional>
 #include <random>
 #include <string>
 #include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include "core/data/write_csv.h"
 #include "core/estimate/estimate.h"
@@ -160,7 +160,6 @@ TEST(Monitor, AReferenceReadFromAResultFileIsTheSummarysOwn) {
   EXPECT_EQ(bad.error().path, "correlation.matrix[1][0]") << bad.error().ToString();
 }
 
-
 // ---- the score tests' calibration on data simulated from the reference -------------------------
 
 // A scalar Ornstein-Uhlenbeck process driven by a random binary input, observed in noise, one
@@ -276,7 +275,7 @@ TEST(Monitor, AChangeOneRowShowsIsTestedAtTheDesignedFalseAlarmRate) {
   const Count c = ParameterAlarms(o, rows, 77, &design);
   ASSERT_TRUE(design);
   const std::size_t k = c.alarms.size();
-  ASSERT_EQ(k, 4u);  // a, b, s and r
+  ASSERT_EQ(k, 4u);                                                 // a, b, s and r
   const double designed = 0.5 * o.false_alarms_per_hour * c.hours;  // all parameter tests
   long total = 0;
   for (std::size_t p = 0; p < k; ++p) {
@@ -385,13 +384,12 @@ TEST(MonitorReference, ABrokenCorrelationMatrixIsRefusedWithItsJsonPath) {
          for (Json& row : j["correlation"]["matrix"]) row.erase(r);
        },
        "correlation.names", "'r' has a standard error but is not in the correlation matrix"},
-      {"a name twice",
-       [](Json& j) { j["correlation"]["names"][At(j, "b")] = "a"; }, "correlation.names[",
-       "'a' is listed twice"},
+      {"a name twice", [](Json& j) { j["correlation"]["names"][At(j, "b")] = "a"; },
+       "correlation.names[", "'a' is listed twice"},
       {"a short row", [](Json& j) { j["correlation"]["matrix"][1].erase(0); },
        "correlation.matrix[1]", "expected 4 numbers"},
-      {"a missing row", [](Json& j) { j["correlation"]["matrix"].erase(3); },
-       "correlation.matrix", "expected 4 rows"},
+      {"a missing row", [](Json& j) { j["correlation"]["matrix"].erase(3); }, "correlation.matrix",
+       "expected 4 rows"},
       {"asymmetric", [](Json& j) { j["correlation"]["matrix"][2][0] = 0.5; },
        "correlation.matrix[2][0]", "a correlation matrix is symmetric"},
       {"a diagonal other than 1", [](Json& j) { j["correlation"]["matrix"][1][1] = 0.9; },
@@ -447,8 +445,7 @@ TEST(MonitorReference, ASingularCorrelationRefusesTrackingTheParametersInvolved)
     }
     ASSERT_FALSE(m);
     EXPECT_EQ(m.error().path, "correlation");
-    EXPECT_NE(m.error().message.find("make " + refused + " linearly dependent"),
-              std::string::npos)
+    EXPECT_NE(m.error().message.find("make " + refused + " linearly dependent"), std::string::npos)
         << m.error().ToString();
   }
 }

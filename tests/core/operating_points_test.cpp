@@ -1,11 +1,11 @@
 // The "operating_points" key of a project file (core/project/operating_points.h).
 #include "core/project/operating_points.h"
 
-#include <gtest/gtest.h>
-
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+
+#include <gtest/gtest.h>
 
 namespace gb::project {
 namespace {

@@ -2,15 +2,15 @@
 // regular file (core/project/project.h).
 #include "core/util/output_guard.h"
 
-#include <gtest/gtest.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 #include <future>
 #include <iterator>
 #include <string>
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "core/project/project.h"
 

@@ -28,7 +28,8 @@ TEST(Prbs, IsMaximalLengthAndBalancedForEveryOrderOffered) {
       for (std::size_t d = 1; d < period; ++d) {
         if (period % d) continue;
         bool repeats = true;
-        for (std::size_t i = 0; i + d < bits.size() && repeats; ++i) repeats = bits[i] == bits[i + d];
+        for (std::size_t i = 0; i + d < bits.size() && repeats; ++i)
+          repeats = bits[i] == bits[i + d];
         EXPECT_FALSE(repeats) << "order " << n << " repeats after " << d;
       }
     }

@@ -139,7 +139,8 @@ TEST(ProfileIntervals, AnEndBeyondTheBoundIsNullAndSaidSo) {
   EXPECT_TRUE(r.profile->upper.has_value());
   EXPECT_TRUE(s.ToJson()["parameters"]["r"]["profile_interval"]["lower"].is_null());
   bool said = false;
-  for (const auto& w : s.warnings) said = said || w.find("down to its lower bound") != std::string::npos;
+  for (const auto& w : s.warnings)
+    said = said || w.find("down to its lower bound") != std::string::npos;
   EXPECT_TRUE(said) << s.Report();
 }
 
@@ -215,8 +216,10 @@ TEST(Priors, WideGivesTheMlEstimateTightGivesTheMeanAndBetweenTheLogPosteriorMax
   const double phi = (std::sqrt(5.0) - 1) / 2;
   for (int it = 0; it < 200 && b - a > 1e-12; ++it) {
     const double c = b - phi * (b - a), d = a + phi * (b - a);
-    if (log_posterior(c) > log_posterior(d)) b = d;
-    else a = c;
+    if (log_posterior(c) > log_posterior(d))
+      b = d;
+    else
+      a = c;
   }
   const double brute = (a + b) / 2;
   EXPECT_GT(brute, mean);
@@ -306,9 +309,9 @@ TEST(Estimate, MultistartIsNeverWorseThanThePlainStartAndCountsTheStartsAtTheBes
   EXPECT_EQ(multi->starts, many.multistart + 1);
   EXPECT_GE(multi->starts_at_best, 1);
   EXPECT_LE(multi->starts_at_best, multi->starts);
-  EXPECT_NE(multi->Report().find(fmt::format("of {} starts reached the best optimum",
-                                             multi->starts)),
-            std::string::npos);
+  EXPECT_NE(
+      multi->Report().find(fmt::format("of {} starts reached the best optimum", multi->starts)),
+      std::string::npos);
   EXPECT_EQ(multi->ToJson()["starts"]["total"], multi->starts);
 }
 

@@ -3,13 +3,13 @@
 // exactly as the model that was saved.
 #include "core/project/project.h"
 
-#include <gtest/gtest.h>
-#include <unistd.h>
-
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "core/model/model.h"
 #include "core/project/problem.h"

@@ -132,8 +132,7 @@ void ExpectSeriesParametersAreExact(const Problem& problem) {
   double sum = 0;
   for (std::size_t s = 0; s < problem.series.size(); ++s) {
     auto alone = problem.model ? filter::Likelihood::Create(problem.model, {problem.series[s]})
-                               : filter::Likelihood::Create(problem.nonlinear,
-                                                            {problem.series[s]});
+                               : filter::Likelihood::Create(problem.nonlinear, {problem.series[s]});
     ASSERT_TRUE(alone.ok());
     auto l = alone->Evaluate(joint->SeriesTheta(theta, s));
     ASSERT_TRUE(l.ok());
@@ -152,7 +151,8 @@ void ExpectSeriesParametersAreExact(const Problem& problem) {
     std::vector<double> up = theta, down = theta;
     up[static_cast<std::size_t>(free[f])] += h;
     down[static_cast<std::size_t>(free[f])] -= h;
-    const double difference = (joint->Evaluate(up)->loglik - joint->Evaluate(down)->loglik) / (2 * h);
+    const double difference =
+        (joint->Evaluate(up)->loglik - joint->Evaluate(down)->loglik) / (2 * h);
     EXPECT_NEAR(gradient(static_cast<Eigen::Index>(f)), difference,
                 1e-5 * std::max(1.0, std::abs(difference)))
         << problem.spec().parameters[static_cast<std::size_t>(free[f])].name;
@@ -172,8 +172,7 @@ TEST(RecordInitialStates, EachRecordIsFilteredFromItsOwnCopyAndTheScoreIsExactLi
 
 TEST(RecordInitialStates, EachRecordIsFilteredFromItsOwnCopyAndTheScoreIsExactEkf) {
   auto problem = MakeProblem(Spec(kNonlinearRecordModel),
-                             {Record(0.0, 3, 120), Record(4.0, 4, 100)},
-                             InitialStates::kPerRecord);
+                             {Record(0.0, 3, 120), Record(4.0, 4, 100)}, InitialStates::kPerRecord);
   ASSERT_TRUE(problem.ok()) << problem.error().ToString();
   ASSERT_TRUE(problem->nonlinear);
   ExpectSeriesParametersAreExact(*problem);

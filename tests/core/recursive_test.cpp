@@ -1,12 +1,12 @@
 // The recursive maximum-likelihood estimator (core/online/recursive.h).
 #include "core/online/recursive.h"
 
-#include <fmt/format.h>
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <string>
 #include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include "core/data/write_csv.h"
 #include "core/estimate/estimate.h"
@@ -19,7 +19,6 @@ namespace gb::online {
 namespace {
 
 const std::string kRecursiveAssets = std::string(GREYBENCH_SOURCE_DIR) + "/assets/";
-
 
 struct FittedReference {
   project::Problem problem;

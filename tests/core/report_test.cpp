@@ -1,9 +1,9 @@
 #include "core/report/report.h"
 
-#include <gtest/gtest.h>
-
 #include <cstdio>
 #include <string>
+
+#include <gtest/gtest.h>
 
 namespace gb::report {
 namespace {

@@ -1,13 +1,13 @@
 // The analytic score (core/filter/score.h) against central differences of the log-likelihood.
 #include "core/filter/score.h"
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "core/filter/likelihood.h"
 #include "filter_fixtures.h"

@@ -49,7 +49,7 @@ std::shared_ptr<const data::Series> EngineHeldAtTable2(const sim::EngineTruth& t
     for (int r = 0; r < rows; ++r, ++k) {
       s.time.push_back(0.5 * static_cast<double>(k));
       s.U.col(k) << steady->u.alpha, steady->u.mfi, steady->u.Tl;  // the model's inputs
-      s.Y.col(k) << steady->x.n, steady->x.p, 1.0;                  // N, Pman, 1/λ
+      s.Y.col(k) << steady->x.n, steady->x.p, 1.0;                 // N, Pman, 1/λ
     }
   }
   s.intervals = data::GroupIntervals(s.time);
@@ -110,7 +110,8 @@ TEST(SteadyStart, HoldsFixedParametersAndSaysWhenNoneMovesASteadyState) {
                    "r": {"value": 0.01, "lower": 1e-6, "upper": 1}},
     "drift": {"x": "(g*u - x)/tau"}, "diffusion": {"x": "0.1"},
     "observation": {"y": "x"}, "measurement_variance": {"y": "r"},
-    "initial_state": {"x": "0"}})json"), "lag.json");
+    "initial_state": {"x": "0"}})json"),
+                                "lag.json");
   ASSERT_TRUE(spec.ok()) << spec.error().ToString();
   const model::NonlinearModel m = Compile(*spec);
   auto series = testing::SimulateTank(3, 60.0);  // any record with one input and one output
@@ -129,7 +130,8 @@ TEST(SteadyStart, NamesTheFirstWindowWithoutASteadyState) {
                    "r": {"value": 0.01, "lower": 1e-6, "upper": 1}},
     "drift": {"x": "k*u"}, "diffusion": {"x": "0.1"},
     "observation": {"y": "x"}, "measurement_variance": {"y": "r"},
-    "initial_state": {"x": "0"}})json"), "integrator.json");
+    "initial_state": {"x": "0"}})json"),
+                                "integrator.json");
   ASSERT_TRUE(spec.ok()) << spec.error().ToString();
   const model::NonlinearModel m = Compile(*spec);
   auto r = estimate::SteadyStart(m, spec->Values(), {testing::SimulateTank(3, 60.0)});

@@ -1,14 +1,14 @@
 // The operating-point sweep over the six bundled virtual-dyno fuel datasets (assets/data).
 #include "core/estimate/sweep.h"
 
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <map>
 #include <mutex>
 #include <thread>
+
+#include <gtest/gtest.h>
 
 #include "core/project/problem.h"
 #include "core/sim/dyno.h"
@@ -82,8 +82,8 @@ TEST(Sweep, ReadsTheOperatingPointTagOfADataFile) {
 std::vector<std::string> BundledFuelFiles() {
   std::vector<std::string> files;
   for (const auto& p : sim::PaperFuelPoints())
-    files.push_back(testing::ShortenedUnderSanitizers(
-        kRoot + "/assets/data/fuel_" + p.name + ".csv", 2000));
+    files.push_back(
+        testing::ShortenedUnderSanitizers(kRoot + "/assets/data/fuel_" + p.name + ".csv", 2000));
   return files;
 }
 

@@ -74,7 +74,7 @@ TEST(TrustRegionStep, TheHardCaseGoesAlongTheNegativeCurvatureTheGradientMisses)
   const double radius = 2.0;
   const Eigen::VectorXd e = TrustRegionStep(B, g, radius);
   EXPECT_NEAR(e.norm(), radius, 1e-12);
-  EXPECT_NEAR(e(1), 1.0 / 3.0, 1e-12);   // g_i / (λ_i + 2)
+  EXPECT_NEAR(e(1), 1.0 / 3.0, 1e-12);  // g_i / (λ_i + 2)
   EXPECT_NEAR(e(2), 1.0 / 5.0, 1e-12);
   EXPECT_NEAR(std::abs(e(0)), std::sqrt(4.0 - 1.0 / 9 - 1.0 / 25), 1e-12);
   EXPECT_GE(ModelGain(B, g, e), BruteForceBest(B, g, radius) - 1e-9);

@@ -46,11 +46,6 @@
 // monitor --idle 0, ...) are not hidden.
 //
 // Sections: 1. the vocabulary  2. the fixture  3. one command line (decode, run, check)
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <sys/sysmacros.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <cstddef>
@@ -67,6 +62,11 @@
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
+#include <unistd.h>
 
 #include "app/cli/cli.h"
 #include "tests/fuzz/fuzz_check.h"

@@ -9,8 +9,6 @@
 // (ToJson/FromJson must reproduce it) and compiled; an equations model is turned into a diagram
 // (FromModel) and compiled back.
 // Files outside the temporary directory are never read (a fuzzed path could name /dev/zero).
-#include <unistd.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -18,6 +16,8 @@
 #include <fstream>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 #include "core/diagram/diagram.h"
 #include "core/model/linear_model.h"

@@ -1,8 +1,8 @@
 #include "ui/state/data_summary.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
+
+#include <gtest/gtest.h>
 
 namespace gb::ui {
 namespace {

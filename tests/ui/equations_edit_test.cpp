@@ -1,10 +1,10 @@
 // Formula edits as the Equations view emits them: validated by the model file's parser (a
 // refused formula names its JSON path and the column), applied to the model the estimation
 // uses, and typed through the real view with synthetic keystrokes.
-#include <gtest/gtest.h>
-
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "core/project/problem.h"
 #include "tests/ui/workbench_driver.h"

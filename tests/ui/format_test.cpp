@@ -1,10 +1,10 @@
 // The number formats of the estimate and parameters views, and the heat map's palette.
 #include "ui/format.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <limits>
+
+#include <gtest/gtest.h>
 
 #include "ui/widgets/heatmap.h"
 #include "ui/widgets/plot_axis.h"

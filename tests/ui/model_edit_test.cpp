@@ -2,9 +2,9 @@
 // would accept the same change, refused with the parser's reason otherwise.
 #include "ui/edits/model_edit.h"
 
-#include <gtest/gtest.h>
-
 #include <tuple>
+
+#include <gtest/gtest.h>
 
 #include "ui/state/app_state.h"
 

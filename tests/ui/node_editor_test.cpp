@@ -3,11 +3,11 @@
 // Bézier midpoint (p0 + 3 p1 + 3 p2 + p3)/8) and brute force (every pair of placed boxes).
 #include "ui/widgets/node_editor.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 namespace gb::ui::node_editor {
 namespace {

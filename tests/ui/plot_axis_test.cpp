@@ -1,13 +1,13 @@
 #include "ui/widgets/plot_axis.h"
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <set>
 #include <utility>
 #include <vector>
-#include <set>
+
+#include <gtest/gtest.h>
 
 namespace gb::ui::plot {
 namespace {

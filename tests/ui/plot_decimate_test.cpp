@@ -1,10 +1,10 @@
 #include "ui/widgets/plot_decimate.h"
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <random>
+
+#include <gtest/gtest.h>
 
 namespace gb::ui::plot {
 namespace {

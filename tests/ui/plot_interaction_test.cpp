@@ -1,13 +1,13 @@
 // The plot widget driven by synthetic mouse input in a headless ImGui context (no GL): each
 // expectation is the range computed by hand from the plot's pixel rectangle.
-#include <gtest/gtest.h>
-#include <imgui_internal.h>  // the open popup's window (the plot's menu)
-
 #include <cmath>
 #include <cstdio>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <imgui_internal.h>  // the open popup's window (the plot's menu)
 
 #include "tests/ui/headless_imgui.h"
 #include "ui/widgets/plot.h"

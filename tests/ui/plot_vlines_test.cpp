@@ -1,9 +1,9 @@
 // The plot widget's vertical lines (PlotVLines): events on a time axis take no part in fitting
 // the ranges, and hovering over a plot that has some reads no y values of theirs (they have none).
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "tests/ui/headless_imgui.h"
 #include "ui/widgets/plot.h"

@@ -3,13 +3,13 @@
 // covering nearly all of it. Used by the snapshot tests to tell a rendered workbench from a
 // blank or garbled frame. Each --colour asks for at least MIN pixels of exactly that colour
 // (e.g. the fill of the correlation heat map's diagonal cells: the view shows a fit).
-#include <stb_image.h>  // the implementation is in libstb
-
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <unordered_map>
 #include <vector>
+
+#include <stb_image.h>  // the implementation is in libstb
 
 namespace {
 

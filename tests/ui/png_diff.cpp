@@ -10,15 +10,15 @@
 //
 // --diff writes an image of the differences: the golden dimmed to a fifth, the differing pixels
 // in red, so a failing test shows where to look.
-#include <stb_image.h>  // the implementations are in libstb
-#include <stb_image_write.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <string>
 #include <vector>
+
+#include <stb_image.h>  // the implementations are in libstb
+#include <stb_image_write.h>
 
 namespace {
 

@@ -7,9 +7,6 @@
 // XDG_STATE_HOME there, so nothing is written into the user's home.
 #include "ui/shell/shell.h"
 
-#include <gtest/gtest.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -20,6 +17,9 @@
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "core/diagram/diagram.h"
 #include "core/model/model.h"

@@ -7,14 +7,14 @@
 // nothing and lose nothing. Then the job's life: it follows a fit, keeps its results when a
 // run is cancelled or fails, and nothing crashes with missing outputs, an unusable dataset or
 // no fit.
-#include <gtest/gtest.h>
-#include <unistd.h>
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "core/diagnose/residuals.h"
 #include "core/filter/predict.h"
@@ -31,10 +31,10 @@
 namespace gb::ui {
 namespace {
 
-using testing::WorkbenchDriver;
+using testing::kCaseStudy;
 using testing::kSource;
 using testing::kTestProject;
-using testing::kCaseStudy;
+using testing::WorkbenchDriver;
 
 const std::string kTestModel = kSource + "/tests/data/ui/fuel_film.json";
 const std::string kTestData = kSource + "/tests/data/ui/f1.csv";

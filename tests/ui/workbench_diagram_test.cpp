@@ -6,14 +6,14 @@
 //
 // The reference log-likelihood comes from core, on the hand-written assets/models/fuel_film.json
 // and assets/data/fuel_f1.csv, not from anything the GUI computed.
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "core/diagram/diagram.h"
 #include "core/model/model.h"
@@ -29,8 +29,8 @@
 namespace gb::ui {
 namespace {
 
-using testing::WorkbenchDriver;
 using testing::kSource;
+using testing::WorkbenchDriver;
 
 const std::string kEquationsProject = kSource + "/assets/projects/fuel_f1.json";
 const std::string kDiagramProject = kSource + "/assets/projects/fuel_film_diagram.json";

@@ -10,15 +10,15 @@
 // part of what they test.
 #pragma once
 
-#include <imgui.h>
-#include <imgui_internal.h>
-
 #include <chrono>
 #include <cstring>
 #include <functional>
 #include <optional>
 #include <string>
 #include <thread>
+
+#include <imgui.h>
+#include <imgui_internal.h>
 
 #include "ui/panels/panels.h"
 #include "ui/state/app_state.h"

@@ -1,14 +1,14 @@
 // The Equations view edits the model's structure: names added, renamed and deleted through the
 // view's fields and buttons (synthetic clicks and keystrokes, tests/ui/workbench_driver.h), a
 // parameter created from a formula's refusal, and undo/redo of every edit.
-#include <gtest/gtest.h>
-#include <unistd.h>
-
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "core/estimate/estimate.h"
 #include "core/model/model_structure.h"
@@ -314,7 +314,8 @@ TEST_F(EquationsStructure, ABlankModelIsBuiltFittedExtendedComparedSavedAndReope
 
   // The second model: an offset in the observation, created from its refusal.
   ASSERT_TRUE(Retype(Id("observation.ilambda", "##formula"), "x + c"));
-  ASSERT_TRUE(Click(ImHashStr("Create parameter 'c'", 0, ImHashStr("observation.ilambda", 0, View()->ID))))
+  ASSERT_TRUE(
+      Click(ImHashStr("Create parameter 'c'", 0, ImHashStr("observation.ilambda", 0, View()->ID))))
       << d_.Text();
   ASSERT_EQ(d_.state.model->observation[0].text, "x + c");
   ASSERT_TRUE(fit());

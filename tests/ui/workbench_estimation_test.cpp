@@ -4,19 +4,19 @@
 //
 // The estimates the GUI installs are checked against core's Estimate run directly on the same
 // files with the same options (the GUI must add nothing and lose nothing on the way).
-#include <gtest/gtest.h>
-
 #include <chrono>
 #include <cmath>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include "core/util/sanitizers.h"
+#include <gtest/gtest.h>
+
 #include "core/estimate/estimate.h"
 #include "core/model/model.h"
 #include "core/project/problem.h"
 #include "core/project/project.h"
+#include "core/util/sanitizers.h"
 #include "tests/ui/workbench_driver.h"
 #include "ui/format.h"
 #include "ui/shell/shell.h"
@@ -29,12 +29,12 @@ namespace gb::ui {
 namespace {
 
 using std::chrono::milliseconds;
-using testing::WorkbenchDriver;
+using testing::FindButton;
+using testing::kCancelDeadline;
+using testing::kCaseStudy;
 using testing::kSource;
 using testing::kTestProject;
-using testing::kCaseStudy;
-using testing::kCancelDeadline;
-using testing::FindButton;
+using testing::WorkbenchDriver;
 
 // Under the sanitizers a fit of the case study takes a minute or more; the deadline only
 // catches a fit that never ends.
@@ -157,10 +157,12 @@ TEST(WorkbenchEstimation, ProfileIntervalsShowBesideTheWaldOnesAndAParametersPro
     const std::vector<std::string> row = Row(log, p.name);
     ASSERT_FALSE(row.empty()) << p.name << " in:\n" << log;
     // The last cell: "lower … upper" ("bound" for an end at the parameter's bound).
-    const std::string lower = p.profile->lower ? FormatSig(*p.profile->lower, 3)
-                              : p.profile->lower_at_bound ? "bound" : "none";
-    const std::string upper = p.profile->upper ? FormatSig(*p.profile->upper, 3)
-                              : p.profile->upper_at_bound ? "bound" : "none";
+    const std::string lower = p.profile->lower            ? FormatSig(*p.profile->lower, 3)
+                              : p.profile->lower_at_bound ? "bound"
+                                                          : "none";
+    const std::string upper = p.profile->upper            ? FormatSig(*p.profile->upper, 3)
+                              : p.profile->upper_at_bound ? "bound"
+                                                          : "none";
     EXPECT_EQ(row.back(), lower + " \xE2\x80\xA6 " + upper) << p.name;
     ++shown;
   }
@@ -196,8 +198,8 @@ TEST(WorkbenchEstimation, TheProfileIntervalColumnsKeepTheirWidthAtEveryWindowSi
     float longest = 0;
     for (const estimate::ParameterEstimate& p : d.state.estimation.result->summary.parameters) {
       if (!p.profile || !p.profile->lower || !p.profile->upper) continue;
-      const std::string text = FormatSig(*p.profile->lower, 3) + " \xE2\x80\xA6 " +
-                               FormatSig(*p.profile->upper, 3);
+      const std::string text =
+          FormatSig(*p.profile->lower, 3) + " \xE2\x80\xA6 " + FormatSig(*p.profile->upper, 3);
       longest = std::max(longest, ImGui::CalcTextSize(text.c_str()).x);
     }
     ASSERT_GT(longest, 0);

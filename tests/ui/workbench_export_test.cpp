@@ -2,14 +2,14 @@
 // "Save report…" button, a plot's export request, File > Export > Export model…; the file
 // browser's answer is given as the browser gives it (FinishExport with the chosen path). Each
 // file is read back, and none may land on a file of the project.
-#include <gtest/gtest.h>
-#include <unistd.h>
-
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "core/model/model.h"
 #include "core/util/sanitizers.h"

@@ -2,15 +2,14 @@
 // there again when the project is reopened, two nested fits compared by the likelihood-ratio
 // test, and a fit deleted with its files. Driven as a user would: Run, fix a parameter, Run
 // again, tick two fits, reopen.
-#include <gtest/gtest.h>
-
-#include <boost/math/distributions/chi_squared.hpp>
-
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
+
+#include <boost/math/distributions/chi_squared.hpp>
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include "core/estimate/estimate.h"
@@ -77,7 +76,8 @@ TEST_F(FitsTest, TwoFitsAreKeptBesideTheProjectReopenAndAreComparedByTheLikeliho
   // Fit 1: the model as it is. Fit 2: s11 fixed at its start value (a nested model).
   ASSERT_TRUE(FitAndKeep(d));
   const estimate::EstimateSummary full = d.state.estimation.result->summary;
-  d.state.parameters_view.pending.push_back({"s11", ParameterField::kFixed, std::nullopt, true, ""});
+  d.state.parameters_view.pending.push_back(
+      {"s11", ParameterField::kFixed, std::nullopt, true, ""});
   ApplyParameterEdits(d.state);
   ASSERT_TRUE(FitAndKeep(d));
   const estimate::EstimateSummary restricted = d.state.estimation.result->summary;
@@ -90,7 +90,8 @@ TEST_F(FitsTest, TwoFitsAreKeptBesideTheProjectReopenAndAreComparedByTheLikeliho
     const fs::path result = Folder() / ("fit-00" + std::to_string(n) + ".json");
     ASSERT_TRUE(fs::exists(result)) << result;
     EXPECT_TRUE(fs::exists(Folder() / ("fit-00" + std::to_string(n) + ".model.json")));
-    auto model = model::LoadModelFile((Folder() / ("fit-00" + std::to_string(n) + ".model.json")).string());
+    auto model =
+        model::LoadModelFile((Folder() / ("fit-00" + std::to_string(n) + ".model.json")).string());
     ASSERT_TRUE(model.ok()) << model.error().ToString();
     // As `predict --result` and `--start` read it: the estimates onto the fit's own model.
     auto delays = project::ApplyResultFile(result.string(), {}, &*model);
@@ -204,7 +205,8 @@ TEST_F(FitsTest, CopyAsCommandRunInAShellFitsAgainToTheSameLogL) {
   WorkbenchDriver d;
   ASSERT_TRUE(OpenKeeping(d));
   // Edited in the workbench and not saved: the command must fit the model as it was fitted.
-  d.state.parameters_view.pending.push_back({"s11", ParameterField::kFixed, std::nullopt, true, ""});
+  d.state.parameters_view.pending.push_back(
+      {"s11", ParameterField::kFixed, std::nullopt, true, ""});
   ApplyParameterEdits(d.state);
   ASSERT_TRUE(FitAndKeep(d));
   const double loglik = d.state.estimation.result->summary.loglik;

@@ -6,9 +6,6 @@
 // The reference is the session's estimate (as after Estimate > Run) or a result file written
 // here with the dyno's true values at f1 (the paper's Table 2), so the monitor starts where the
 // dyno is.
-#include <gtest/gtest.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -16,6 +13,9 @@
 #include <fstream>
 #include <string>
 #include <thread>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "core/sim/dyno.h"
 #include "core/sim/live_dyno.h"
@@ -31,9 +31,9 @@ namespace {
 
 using std::chrono::milliseconds;
 using testing::FindButton;
-using testing::WorkbenchDriver;
 using testing::kSource;
 using testing::kTestProject;
+using testing::WorkbenchDriver;
 
 const std::string kFuelF1 = kSource + "/assets/projects/fuel_f1.json";
 const std::string kTanks = kSource + "/assets/projects/cascaded_tanks.json";
@@ -224,7 +224,8 @@ TEST(WorkbenchLive, PauseStopsTheUpdatesAndResumeGoesOn) {
 
   d.Click(*pause);  // now Resume
   EXPECT_FALSE(d.state.live.paused);
-  ASSERT_TRUE(d.FramesUntil([&] { return d.state.live.series.size() > paused_at + 10; }, kUpdateTimeout));
+  ASSERT_TRUE(
+      d.FramesUntil([&] { return d.state.live.series.size() > paused_at + 10; }, kUpdateTimeout));
 }
 
 TEST(WorkbenchLive, InjectWhileRunningReachesTheDynoAndTheTruthLineMoves) {
@@ -271,7 +272,8 @@ TEST(WorkbenchLive, InjectWhileRunningReachesTheDynoAndTheTruthLineMoves) {
   ASSERT_TRUE(clear);
   d.Click(*clear);
   ASSERT_TRUE(d.FramesUntil(
-      [&] { return d.state.live.series.parameters[tau_ff].truth.back() == f1.tau_ff; }, kUpdateTimeout));
+      [&] { return d.state.live.series.parameters[tau_ff].truth.back() == f1.tau_ff; },
+      kUpdateTimeout));
 }
 
 TEST(WorkbenchLive, AnAlarmShowsRedUntilAcknowledgedAndIsListedWithItsTime) {

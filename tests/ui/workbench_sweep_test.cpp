@@ -4,13 +4,13 @@
 //
 // The table the GUI installs is checked against core's Sweep run directly on the same files
 // with options written out here (the GUI must add nothing and lose nothing on the way).
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "core/estimate/sweep.h"
 #include "core/model/model.h"
@@ -31,9 +31,9 @@ namespace {
 
 using std::chrono::milliseconds;
 using testing::FindButton;
-using testing::WorkbenchDriver;
-using testing::kSource;
 using testing::kCancelDeadline;
+using testing::kSource;
+using testing::WorkbenchDriver;
 
 const std::string kData = kSource + "/tests/data/ui/sweep/";
 const std::string kSweepProject = kData + "project.json";
@@ -71,8 +71,9 @@ estimate::SweepResult SweepDirectly() {
   // compare like with like at a third of the cost (the estimates are the same either way).
   options.estimate.full_delay_profile = !kSanitized;
   if (kSanitized) options.estimate.starts_on_bound = 0;
-  auto result =
-      estimate::Sweep(*spec, project::PlainDatasets({kData + "p1.csv", kData + "p2.csv", kData + "p3.csv"}), options);
+  auto result = estimate::Sweep(
+      *spec, project::PlainDatasets({kData + "p1.csv", kData + "p2.csv", kData + "p3.csv"}),
+      options);
   EXPECT_TRUE(result.ok()) << result.error().ToString();
   return *result;
 }
@@ -387,8 +388,7 @@ TEST(WorkbenchSweep, ALinearisedNonlinearFitIsShownBesideThePerPointFits) {
         EXPECT_TRUE(std::isnan(f.table[r].z[i]));
         continue;
       }
-      EXPECT_NEAR(f.table[r].z[i],
-                  (value - p->estimate) / std::hypot(se, *p->std_error), 1e-12)
+      EXPECT_NEAR(f.table[r].z[i], (value - p->estimate) / std::hypot(se, *p->std_error), 1e-12)
           << parameter << " at " << f.columns[i];
     }
   }
@@ -452,9 +452,11 @@ TEST(WorkbenchSweep, ALinearisationThatFailsIsNamedAndTheSweepIsKept) {
       << f.linearised_error;
   for (const SweepTableRow& row : f.table) EXPECT_FALSE(row.linearised) << row.label;
   EXPECT_NE(d.Text().find("could not be linearised"), std::string::npos) << d.Text();
-  const bool told = std::any_of(d.state.messages.begin(), d.state.messages.end(), [](const auto& m) {
-    return m.severity == Severity::kError && m.text.find("no_such_result.json") != std::string::npos;
-  });
+  const bool told =
+      std::any_of(d.state.messages.begin(), d.state.messages.end(), [](const auto& m) {
+        return m.severity == Severity::kError &&
+               m.text.find("no_such_result.json") != std::string::npos;
+      });
   EXPECT_TRUE(told);
 }
 

@@ -3,14 +3,14 @@
 // fitted, is predicted from its own initial state with its fit figures beside the estimation
 // record's; and the sidebar changes a dataset's role or removes it (the project file then says
 // so when saved).
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "core/estimate/estimate.h"
 #include "core/filter/initial_state.h"
@@ -63,8 +63,7 @@ std::optional<ImVec2> FindDatasetRow(WorkbenchDriver& d, int index) {
 Result<estimate::EstimateSummary> DirectFit(const project::Project& p) {
   auto spec = model::ParseModel(p.model_json, p.model_path);
   if (!spec) return spec.error();
-  auto problem =
-      project::LoadProblem(*spec, data::WithRole(p.datasets, data::Role::kEstimation));
+  auto problem = project::LoadProblem(*spec, data::WithRole(p.datasets, data::Role::kEstimation));
   if (!problem) return problem.error();
   auto likelihood = project::MakeLikelihood(*problem);
   if (!likelihood) return likelihood.error();
@@ -149,8 +148,8 @@ TEST_F(ValidationRecords, AreNotFittedAndArePredictedFromTheirOwnStart) {
   EXPECT_GT(validated.fit_percent, fitted.fit_percent - 15) << validated.fit_percent;
   // Its figures leave out the rows its start was taken from.
   int judged = 0;
-  for (std::size_t k = static_cast<std::size_t>(v.initial_samples); k < validated.standardized.size();
-       ++k)
+  for (std::size_t k = static_cast<std::size_t>(v.initial_samples);
+       k < validated.standardized.size(); ++k)
     judged += std::isfinite(validated.standardized[k]) ? 1 : 0;
   EXPECT_EQ(validated.n_simulated, judged);
   // Its first residual is an ordinary one (from the model's x0 it would be far out).
@@ -339,8 +338,8 @@ TEST_F(ValidationRecords, JointFitsGiveEachRecordItsOwnInitialState) {
 }
 
 TEST(ImportDialog, AHeaderlessTimelessRecordingFitsAsTheProjectsKeysFitIt) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("greybench-import-" + std::to_string(::getpid()));
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("greybench-import-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   std::filesystem::copy_file(kImportDir + "/model.json", dir / "model.json",
                              std::filesystem::copy_options::overwrite_existing);
@@ -362,7 +361,8 @@ TEST(ImportDialog, AHeaderlessTimelessRecordingFitsAsTheProjectsKeysFitIt) {
   ASSERT_EQ(f.names.size(), 13u);
   EXPECT_EQ(f.names[0], "c1");
   EXPECT_FALSE(f.check_ok);  // the model's n is not a column yet
-  EXPECT_NE(f.check.find("column 'n' (an input of the model) is not in the file"), std::string::npos)
+  EXPECT_NE(f.check.find("column 'n' (an input of the model) is not in the file"),
+            std::string::npos)
       << f.check;
   // The user maps the model's inputs and output to fields 1, 2 and 12.
   ASSERT_EQ(f.map.size(), 3u);
@@ -454,7 +454,8 @@ TEST(ImportDialog, ARangeADetrendAndAResampleBecomeTheEntrysKeys) {
   for (double v : (*detrended)->columns[0].values) mean += v;
   EXPECT_LT(std::abs(mean / static_cast<double>((*detrended)->rows())), 1e-9);
   // The same keys through the project file's reader.
-  auto parsed = data::ParseDatasetSpec(data::DatasetSpecToJson(spec, "headerless.csv"), "p.json", "datasets[0]");
+  auto parsed = data::ParseDatasetSpec(data::DatasetSpecToJson(spec, "headerless.csv"), "p.json",
+                                       "datasets[0]");
   ASSERT_TRUE(parsed.ok()) << parsed.error().ToString();
   EXPECT_EQ(parsed->resample, 0.5);
   // An empty range is refused as typed (the whole file is previewed when it is short).

@@ -39,7 +39,7 @@ struct DiagramViewState {
   // equations-only model (`from_model`), which becomes the project's diagram at the first edit.
   std::optional<diagram::BlockDiagram> diagram;
   bool from_model = false;
-  bool model_from_diagram = false;         // state.model is the diagram's compiled model
+  bool model_from_diagram = false;  // state.model is the diagram's compiled model
   // The diagram file the project names ("diagram": "PATH"), absolute; "" for an inline diagram
   // or FromModel's picture. Saving the project writes the diagram to it and keeps the path,
   // unless the user unticked `keep_file` (then the diagram is written into the project file).

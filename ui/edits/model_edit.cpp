@@ -107,8 +107,8 @@ Result<model::ModelSpec> ApplyFormulaEdit(const model::ModelSpec& spec, const Fo
                         (section == "initial_covariance" &&
                          spec.initial_covariance == model::InitialCovariance::kExplicit);
   const bool of_output = section == "observation" || section == "measurement_variance";
-  const bool option = section == "ekf" && (name == "ode" || name == "rtol" || name == "atol" ||
-                                           name == "iterations");
+  const bool option = section == "ekf" &&
+                      (name == "ode" || name == "rtol" || name == "atol" || name == "iterations");
   const std::vector<std::string>& names = of_state ? spec.states : spec.outputs;
   if (!option &&
       ((!of_state && !of_output) || std::find(names.begin(), names.end(), name) == names.end())) {
@@ -153,19 +153,26 @@ namespace {
 
 Result<Json> EditJson(const Json& j, const StructureEdit& e) {
   switch (e.kind) {
-    case StructureEditKind::kAdd: return model::AddName(j, e.what, e.name);
-    case StructureEditKind::kRename: return model::RenameName(j, e.what, e.name, e.text);
-    case StructureEditKind::kDelete: return model::DeleteName(j, e.what, e.name);
-    case StructureEditKind::kAddParameter: return model::AddParameter(j, e.parameter);
-    case StructureEditKind::kModelName: return model::SetModelName(j, e.text);
-    case StructureEditKind::kInputHold: return model::SetInputHold(j, e.hold);
+    case StructureEditKind::kAdd:
+      return model::AddName(j, e.what, e.name);
+    case StructureEditKind::kRename:
+      return model::RenameName(j, e.what, e.name, e.text);
+    case StructureEditKind::kDelete:
+      return model::DeleteName(j, e.what, e.name);
+    case StructureEditKind::kAddParameter:
+      return model::AddParameter(j, e.parameter);
+    case StructureEditKind::kModelName:
+      return model::SetModelName(j, e.text);
+    case StructureEditKind::kInputHold:
+      return model::SetInputHold(j, e.hold);
     case StructureEditKind::kInitialCovariance:
       return model::SetInitialCovariance(j, e.covariance);
     case StructureEditKind::kParameterUnit:
       return model::SetParameterText(j, e.name, model::ParameterText::kUnit, e.text);
     case StructureEditKind::kParameterDescription:
       return model::SetParameterText(j, e.name, model::ParameterText::kDescription, e.text);
-    case StructureEditKind::kParameterPrior: return model::SetParameterPrior(j, e.name, e.prior);
+    case StructureEditKind::kParameterPrior:
+      return model::SetParameterPrior(j, e.name, e.prior);
   }
   return InputError("unknown edit");
 }

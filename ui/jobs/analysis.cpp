@@ -369,7 +369,8 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
   // (all of them when every record is a validation record).
   std::vector<std::shared_ptr<const data::Series>> fitted;
   for (std::size_t b = 0; b < bound.size(); ++b)
-    if (!a.datasets[static_cast<std::size_t>(bound_index[b])].validation) fitted.push_back(bound[b]);
+    if (!a.datasets[static_cast<std::size_t>(bound_index[b])].validation)
+      fitted.push_back(bound[b]);
   std::optional<Result<filter::Likelihood>> fitted_likelihood;
   if (!fitted.empty() && fitted.size() < bound.size() && request.delay.empty() &&
       m.HasDelayScan()) {
@@ -397,7 +398,8 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
   // residuals are those the fit scored. A fit's delay above today's range moves it up.
   filter::FilterSettings settings = likelihood->settings();
   settings.delay = a.delay;
-  settings.first_obs = filter::EffectiveFirstObservation(settings, static_cast<int>(m.outputs.size()));
+  settings.first_obs =
+      filter::EffectiveFirstObservation(settings, static_cast<int>(m.outputs.size()));
   for (std::size_t o = 0; o < a.delay.size(); ++o)
     settings.first_obs[o] = std::max(settings.first_obs[o], a.delay[o]);
   settings.cancel = &control.cancel;
@@ -439,7 +441,7 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
       Result<filter::InitialStateEstimate> start =
           at->ss ? filter::EstimateInitialState(*at->ss, series, settings, n_first)
                  : filter::EkfEstimateInitialState(*at->nonlinear, at->theta, series, settings,
-                                                    n_first);
+                                                   n_first);
       if (control.cancel) {
         run.cancelled = true;
         return run;

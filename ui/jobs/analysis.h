@@ -129,11 +129,11 @@ struct OutputAnalysis {
 };
 
 struct DatasetAnalysis {
-  std::string name;   // file name
+  std::string name;  // file name
   bool validation = false;
-  int initial_samples = 0;  // a validation record: the rows its initial state is taken from
+  int initial_samples = 0;    // a validation record: the rows its initial state is taken from
   std::string initial_error;  // why it starts at the model's x0 after all
-  std::string error;  // why there is nothing else (unreadable, does not fit the model, ...)
+  std::string error;          // why there is nothing else (unreadable, does not fit the model, ...)
   std::string time_name;
   std::vector<double> time;
   double sample_interval = 0.0;  // the uniform Δ, or 0 when the intervals vary

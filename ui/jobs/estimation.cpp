@@ -101,10 +101,10 @@ EstimationRun RunEstimation(const EstimationInput& input, EstimationProgress& pr
   run.spec = input.spec;
   run.dataset_specs = input.dataset_specs;
   try {
-    Result<project::Problem> problem = project::MakeProblem(
-        input.spec, input.datasets,
-        input.settings.per_record_initial_states ? project::InitialStates::kPerRecord
-                                                 : project::InitialStates::kShared);
+    Result<project::Problem> problem = project::MakeProblem(input.spec, input.datasets,
+                                                            input.settings.per_record_initial_states
+                                                                ? project::InitialStates::kPerRecord
+                                                                : project::InitialStates::kShared);
     if (!problem) {
       run.error = problem.error().ToString();
       return run;

@@ -30,8 +30,8 @@ namespace gb::ui {
 // What the Estimate view lets the user choose (the rest of EstimateOptions keeps its defaults).
 struct EstimationSettings {
   estimate::Algorithm algorithm = estimate::Algorithm::kAuto;
-  int multistart = 0;  // extra starts spread over the bounds
-  int threads = 0;     // 0: all cores
+  int multistart = 0;              // extra starts spread over the bounds
+  int threads = 0;                 // 0: all cores
   bool profile_intervals = false;  // likelihood-ratio intervals of every free parameter (95 %)
   bool steady_start = false;       // EstimateOptions::steady_start
   double steady_window = 5.0;      // ... its windows' length (the project's "estimation" key)
@@ -48,7 +48,8 @@ struct AlgorithmInfo {
   const char* summary;  // one line for a tooltip
 };
 inline constexpr std::array<AlgorithmInfo, 6> kAlgorithms = {{
-    {estimate::Algorithm::kAuto, "auto", "BHHH's information corrected by BFGS updates (exact gradients)"},
+    {estimate::Algorithm::kAuto, "auto",
+     "BHHH's information corrected by BFGS updates (exact gradients)"},
     {estimate::Algorithm::kBhhh, "bhhh", "Newton steps with the outer-product information"},
     {estimate::Algorithm::kSlsqp, "slsqp", "NLopt SLSQP: sequential quadratic programming"},
     {estimate::Algorithm::kLbfgs, "lbfgs", "NLopt L-BFGS: limited-memory quasi-Newton"},
@@ -127,7 +128,7 @@ struct EstimationRun {
   std::vector<std::vector<int>> series_parameters;
   // The data files' fingerprints (FileFingerprint), as `greybench-cli estimate` records them.
   std::vector<std::string> fingerprints;
-  model::ModelSpec spec;  // the model fitted (EstimationInput::spec)
+  model::ModelSpec spec;                         // the model fitted (EstimationInput::spec)
   std::vector<data::DatasetSpec> dataset_specs;  // EstimationInput::dataset_specs
 };
 

@@ -8,8 +8,6 @@
 //   5. RunLive (paced by the clock) and RunLiveUntil (no clock)
 #include "ui/jobs/live.h"
 
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -17,6 +15,8 @@
 #include <map>
 #include <thread>
 #include <utility>
+
+#include <fmt/format.h>
 
 #include "core/model/linear_model.h"
 #include "core/online/follow.h"

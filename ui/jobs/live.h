@@ -169,8 +169,8 @@ struct LiveStatus {
   long long rows = 0, updates = 0, skipped = 0;
   long long alarms = 0, episodes = 0;
   double achieved_speed = std::numeric_limits<double>::quiet_NaN();  // data s per clock s
-  bool behind = false;  // the monitor cannot keep up with the speed asked for
-  std::string design;   // the CUSUM tests' design (after the second row)
+  bool behind = false;            // the monitor cannot keep up with the speed asked for
+  std::string design;             // the CUSUM tests' design (after the second row)
   double parameter_change = 0.0;  // the relative change the parameter tests look for (0: none)
   std::optional<sim::FuelTruth> truth;  // the dyno's values at t
   std::vector<LiveFaultMark> faults;    // the dyno's changes so far, in time order

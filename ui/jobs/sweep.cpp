@@ -167,8 +167,8 @@ SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPo
   f.linearised_error = std::move(linearised_error);
   const project::LinearisedSweep* lin = f.linearised ? &*f.linearised : nullptr;
   auto has_quantity = [&](const std::string& name) {
-    return lin && std::find(lin->quantities.begin(), lin->quantities.end(), name) !=
-                      lin->quantities.end();
+    return lin &&
+           std::find(lin->quantities.begin(), lin->quantities.end(), name) != lin->quantities.end();
   };
   const std::vector<estimate::SweepRow>& rows = result.rows;
   for (const estimate::SweepRow& r : rows) f.columns.push_back(r.point.name);
@@ -239,8 +239,8 @@ SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPo
       for (std::size_t i = 0; i < rows.size(); ++i) {
         const auto [value, se] = lin->At(i, p.name);
         if (!std::isfinite(value)) continue;
-        l.cells[i] = FormatSig(value, 4) + " (" + (std::isfinite(se) ? FormatSig(se, 2) : kDash) +
-                     ")";
+        l.cells[i] =
+            FormatSig(value, 4) + " (" + (std::isfinite(se) ? FormatSig(se, 2) : kDash) + ")";
         if (const estimate::ParameterEstimate* q = FindParameter(rows[i].summary, p.name);
             q && q->std_error)
           l.z[i] = CombinedZ(q->estimate, *q->std_error, value, se);
@@ -257,8 +257,8 @@ SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPo
         for (std::size_t i = 0; i < rows.size(); ++i) {
           const auto [value, se] = lin->At(i, name);
           if (std::isfinite(value))
-            f.table[lrow].cells[i] = FormatSig(value, 4) + " (" +
-                                     (std::isfinite(se) ? FormatSig(se, 2) : kDash) + ")";
+            f.table[lrow].cells[i] =
+                FormatSig(value, 4) + " (" + (std::isfinite(se) ? FormatSig(se, 2) : kDash) + ")";
         }
       }
     }

@@ -40,7 +40,8 @@ void DrawDatasetSelector(AppState& state, const Analysis* r) {
   ImGui::TextDisabled("Dataset");
   ImGui::SameLine();
   ImGui::SetNextItemWidth(kDatasetComboWidth * state.fonts.scale);
-  const std::string current = DatasetLabel(state.datasets[static_cast<std::size_t>(a.dataset)].spec);
+  const std::string current =
+      DatasetLabel(state.datasets[static_cast<std::size_t>(a.dataset)].spec);
   if (ImGui::BeginCombo("##dataset", current.c_str())) {
     for (int i = 0; i < n; ++i) {
       const auto k = static_cast<std::size_t>(i);

@@ -248,10 +248,11 @@ void DrawRangeControls(AppState& state, std::size_t index) {
     if (ImGui::Button(label.c_str()) && !SetDatasetRange(state, index, {{lo, hi}}, &why))
       AddMessage(state, Severity::kWarning, "The range was not applied: " + why);
     if (ImGui::IsItemHovered())
-      ImGui::SetTooltip("Keep only the rows the plots show (%lld of %zu) for the fit, the "
-                        "predictions and the residuals: the dataset's \"range\" key, saved "
-                        "with the project; the file is not changed",
-                        static_cast<long long>(last - first), data.rows());
+      ImGui::SetTooltip(
+          "Keep only the rows the plots show (%lld of %zu) for the fit, the "
+          "predictions and the residuals: the dataset's \"range\" key, saved "
+          "with the project; the file is not changed",
+          static_cast<long long>(last - first), data.rows());
   }
   if (d.spec.range) {
     if (part) ImGui::SameLine();

@@ -17,9 +17,6 @@
 //   3. Palette
 //   4. Inspector
 //   5. DrawDiagramPanel
-#include <imgui.h>
-#include <imgui_stdlib.h>
-
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
@@ -28,6 +25,9 @@
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <imgui.h>
+#include <imgui_stdlib.h>
 
 #include "ui/format.h"
 #include "ui/panels/common.h"
@@ -268,7 +268,8 @@ void DrawToolbar(AppState& state) {
                                           " and keeps its path in the project file; untick to "
                                           "write the diagram into the project file instead"
                                     : "Saving the project writes the diagram into the project "
-                                      "file; tick to keep it in " + v.file)
+                                      "file; tick to keep it in " +
+                                          v.file)
                                   .c_str());
     }
   }

@@ -17,13 +17,13 @@
 //
 // Sections: 1. helpers  2. editing (formula fields, structure fields, refusals)  3. sections
 //           (toolbar, variables, equations, parameters, options)  4. DrawEquationsPanel
-#include <imgui.h>
-#include <fmt/format.h>
-#include <imgui_stdlib.h>
-
 #include <algorithm>
 #include <string>
 #include <vector>
+
+#include <fmt/format.h>
+#include <imgui.h>
+#include <imgui_stdlib.h>
 
 #include "core/model/linear_model.h"
 #include "ui/edits/equations_view.h"
@@ -180,8 +180,9 @@ void DrawDraftError(AppState& state, const std::string& path, float indent) {
       state.equations_view.structure_pending.push_back(std::move(edit));
     }
     if (ImGui::IsItemHovered())
-      ImGui::SetTooltip("A free parameter starting at 1, without bounds; set its start value and "
-                        "bounds in the Parameters view");
+      ImGui::SetTooltip(
+          "A free parameter starting at 1, without bounds; set its start value and "
+          "bounds in the Parameters view");
     ImGui::SameLine();
   }
   if (ImGui::SmallButton("Revert")) state.equations_view.drafts.erase(path);
@@ -339,8 +340,7 @@ void DrawEditableVariables(AppState& state, const ModelJson& model) {
       }
       if (ImGui::IsItemHovered())
         ImGui::SetTooltip("Delete the %s '%s'%s", what.c_str(), name.c_str(),
-                          kind == model::NameKind::kInput ? ""
-                                                          : " and its own formulas");
+                          kind == model::NameKind::kInput ? "" : " and its own formulas");
       ImGui::PopID();
       ImGui::SameLine(0, 12.0f * s);
       WrapUnlessFits(110.0f * s + ButtonWidth("Delete"));
@@ -387,8 +387,9 @@ void DrawVariables(AppState& state, const ModelJson& model) {
 }
 
 void DrawSystemEquations(AppState& state, const ModelJson& model, bool editable) {
-  SectionHeading(state,
-                 "System equations   dx = f(x, u, \xCE\xB8, t) dt + \xCF\x83(x, u, \xCE\xB8, t) d\xCF\x89");
+  SectionHeading(
+      state,
+      "System equations   dx = f(x, u, \xCE\xB8, t) dt + \xCF\x83(x, u, \xCE\xB8, t) d\xCF\x89");
   const ModelJson empty = ModelJson::object();
   const ModelJson* drift = Member(model, "drift");
   const ModelJson* diffusion = Member(model, "diffusion");
@@ -617,8 +618,8 @@ void DrawEditableParameters(AppState& state) {
   } else if (spec.parameters.empty()) {
     ImGui::TextDisabled("The model has no parameters.");
   }
-  for (const char* prefix : {"rename.parameter.", "delete.parameter.", "unit.", "description.",
-                             "prior."})
+  for (const char* prefix :
+       {"rename.parameter.", "delete.parameter.", "unit.", "description.", "prior."})
     DrawStructureRefusal(state, prefix, true);
 
   // A new parameter: name, start value, bounds, unit, description.
@@ -660,8 +661,8 @@ void DrawEditableParameters(AppState& state) {
         ParseParameterEdit(e.parameter.name, ParameterField::kUpper, typed("upper"));
     if (!start || !lower || !upper) {
       const Error& why = !start ? start.error() : !lower ? lower.error() : upper.error();
-      v.refusal = StructureRefusal{e.control, "cannot add parameter '" + e.parameter.name +
-                                                  "': " + why.message};
+      v.refusal = StructureRefusal{
+          e.control, "cannot add parameter '" + e.parameter.name + "': " + why.message};
     } else {
       e.parameter.value = *start->number;
       e.parameter.lower = lower->number;
@@ -746,8 +747,7 @@ void DrawEditableOptions(AppState& state, const ModelJson& model) {
                                              model::InitialCovariance::kStationary,
                                              model::InitialCovariance::kExplicit};
   ImGui::SetNextItemWidth(160.0f * s);
-  if (ImGui::BeginCombo("##initial_covariance",
-                        modes[static_cast<int>(spec.initial_covariance)])) {
+  if (ImGui::BeginCombo("##initial_covariance", modes[static_cast<int>(spec.initial_covariance)])) {
     for (int i = 0; i < 3; ++i) {
       if (ImGui::Selectable(modes[i], values[i] == spec.initial_covariance) &&
           values[i] != spec.initial_covariance) {

@@ -5,14 +5,14 @@
 //
 // The estimation runs in AppState::estimation.job (StartEstimation); this panel only reads
 // the progress record and the installed result, and never waits for the job.
-#include <fmt/format.h>
-#include <imgui.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <optional>
 #include <string>
+
+#include <fmt/format.h>
+#include <imgui.h>
 
 #include "ui/format.h"
 #include "ui/panels/common.h"
@@ -112,9 +112,10 @@ void DrawToolbar(AppState& state) {
   SameLineIfFits(CheckboxWidth("Profile intervals"), gap);
   ImGui::Checkbox("Profile intervals", &e.settings.profile_intervals);
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("Likelihood-ratio (profile) 95 %% intervals for every free parameter, "
-                      "shown in the Parameters view beside the Wald intervals (costs about a "
-                      "dozen fits per parameter)");
+    ImGui::SetTooltip(
+        "Likelihood-ratio (profile) 95 %% intervals for every free parameter, "
+        "shown in the Parameters view beside the Wald intervals (costs about a "
+        "dozen fits per parameter)");
   // On this line where it fits, else at the start of the next (narrow windows).
   constexpr const char* kSteadyLabel = "Steady-state start";
   SameLineIfFits(CheckboxWidth(kSteadyLabel), gap);
@@ -124,30 +125,31 @@ void DrawToolbar(AppState& state) {
     ++state.layout_revision;
   }
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("Before fitting, move the parameters the model's steady states depend on "
-                      "until those match the records' levels (means over %g-unit windows); for "
-                      "nonlinear models whose start values are far off. The report says what "
-                      "moved. Saved with the project.",
-                      e.settings.steady_window);
+    ImGui::SetTooltip(
+        "Before fitting, move the parameters the model's steady states depend on "
+        "until those match the records' levels (means over %g-unit windows); for "
+        "nonlinear models whose start values are far off. The report says what "
+        "moved. Saved with the project.",
+        e.settings.steady_window);
   // Several fitted records: each from its own initial state, or all from the model's.
   int fitted = 0;
   for (const LoadedDataset& d : state.datasets) fitted += d.spec.role == data::Role::kEstimation;
   if (fitted >= 2) {
     constexpr const char* kPerRecordLabel = "Initial state per record";
     SameLineIfFits(CheckboxWidth(kPerRecordLabel), gap);
-    if (ImGui::Checkbox(kPerRecordLabel, &e.settings.per_record_initial_states) &&
-        state.project) {
+    if (ImGui::Checkbox(kPerRecordLabel, &e.settings.per_record_initial_states) && state.project) {
       state.project->extra[project::kEstimationKey]["initial_states"] =
           e.settings.per_record_initial_states ? "per_record" : "shared";
       ++state.layout_revision;
     }
     if (ImGui::IsItemHovered())
-      ImGui::SetTooltip("Each of the %d fitted records starts from its own initial state: the "
-                        "parameters only the model's initial state uses get a copy per record "
-                        "(NAME_r2, NAME_r3, ...), started from the record's first samples. "
-                        "Off: every record starts from the model's one initial state. Saved "
-                        "with the project.",
-                        fitted);
+      ImGui::SetTooltip(
+          "Each of the %d fitted records starts from its own initial state: the "
+          "parameters only the model's initial state uses get a copy per record "
+          "(NAME_r2, NAME_r3, ...), started from the record's first samples. "
+          "Off: every record starts from the model's one initial state. Saved "
+          "with the project.",
+          fitted);
   }
   ImGui::EndDisabled();
 }
@@ -174,7 +176,9 @@ void DrawResultStatus(AppState& state, const FitResult& r) {
   const ImU32 color = ImGui::ColorConvertFloat4ToU32(
       SeverityColor(s.converged ? Severity::kInfo : Severity::kWarning));
   StatusLine(state, s.converged ? IM_COL32(44, 160, 44, 255) : color,
-             s.cancelled ? "Stopped" : s.converged ? "Converged" : "Not converged",
+             s.cancelled   ? "Stopped"
+             : s.converged ? "Converged"
+                           : "Not converged",
              s.cancelled ? s.message + ": the best point so far, not an optimum" : s.message);
 }
 
@@ -218,8 +222,8 @@ void DrawKeyFigures(AppState& state, const FitResult& r) {
   row.Add("Time", Elapsed(state, s.elapsed_s));
   row.Add("Algorithm", Info(r.settings.algorithm).name);
   // Which filter ran: a nonlinear model's estimate comes from the extended Kalman filter.
-  row.Add("Filter", s.extended ? (s.ekf.iterations > 1 ? "iterated EKF" : "EKF")
-                               : "Kalman (exact)");
+  row.Add("Filter",
+          s.extended ? (s.ekf.iterations > 1 ? "iterated EKF" : "EKF") : "Kalman (exact)");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -336,11 +340,13 @@ void DrawOptima(AppState& state, const FitResult& r) {
   if (s.optima.size() < 2) return;
   SectionHeading(state, "Distinct optima");
   ImGui::PushTextWrapPos(0.0f);
-  ImGui::TextDisabled("The starts reached %zu optima. The estimate is the first; another can be "
-                      "made the start values and run again.", s.optima.size());
+  ImGui::TextDisabled(
+      "The starts reached %zu optima. The estimate is the first; another can be "
+      "made the start values and run again.",
+      s.optima.size());
   ImGui::PopTextWrapPos();
-  const ImGuiTableFlags flags = ImGuiTableFlags_BordersInnerH | ImGuiTableFlags_RowBg |
-                                ImGuiTableFlags_SizingFixedFit;
+  const ImGuiTableFlags flags =
+      ImGuiTableFlags_BordersInnerH | ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingFixedFit;
   if (!ImGui::BeginTable("##optima", 4, flags)) return;
   ImGui::TableSetupColumn("log L");
   ImGui::TableSetupColumn("Starts");
@@ -383,9 +389,10 @@ void DrawFits(AppState& state) {
   SectionHeading(state, "Fits");
   const bool on_disk = e.keep_on_disk && state.project && !state.project->path.empty();
   ImGui::PushTextWrapPos(0.0f);
-  ImGui::TextDisabled("%s%s", on_disk ? "Every fit is kept beside the project, as a result file "
-                                        "greybench-cli reads. "
-                                      : "",
+  ImGui::TextDisabled("%s%s",
+                      on_disk ? "Every fit is kept beside the project, as a result file "
+                                "greybench-cli reads. "
+                              : "",
                       e.fits.size() < 2 ? "A second fit (another model, or a parameter fixed) "
                                           "can be compared with this one."
                                         : "Tick two fits to compare them by the likelihood-ratio "
@@ -421,9 +428,9 @@ void DrawFits(AppState& state) {
       if (e.shown == at) ImGui::TextUnformatted("\xE2\x97\x8F");  // shown in the views
       ImGui::TableNextColumn();
       // The row is selected by a click anywhere on it; the buttons below act on it.
-      if (ImGui::Selectable(std::to_string(k.number).c_str(), e.selected == at,
-                            ImGuiSelectableFlags_SpanAllColumns |
-                                ImGuiSelectableFlags_AllowItemOverlap))
+      if (ImGui::Selectable(
+              std::to_string(k.number).c_str(), e.selected == at,
+              ImGuiSelectableFlags_SpanAllColumns | ImGuiSelectableFlags_AllowItemOverlap))
         e.selected = at;
       if (!k.file.empty() && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", k.file.c_str());
       ImGui::TableNextColumn();
@@ -496,7 +503,8 @@ void DrawFits(AppState& state) {
     ImGui::TextDisabled("fit %d", k.number);
   }
   std::string why;
-  if (show && !ShowFit(state, *show, &why)) AddMessage(state, Severity::kError, "Cannot show the fit: " + why);
+  if (show && !ShowFit(state, *show, &why))
+    AddMessage(state, Severity::kError, "Cannot show the fit: " + why);
   if (start) {
     if (ShowFit(state, *start, &why)) {
       state.parameters_view.use_estimates_requested = true;
@@ -513,19 +521,21 @@ void DrawFits(AppState& state) {
   Result<estimate::LikelihoodRatioTest> test = CompareFits(state, a, b, &notes);
   ImGui::PushTextWrapPos(0.0f);
   if (!test) {
-    ImGui::TextColored(SeverityColor(Severity::kWarning), "Fits %d and %d: %s",
-                       e.fits[a].number, e.fits[b].number, test.error().message.c_str());
+    ImGui::TextColored(SeverityColor(Severity::kWarning), "Fits %d and %d: %s", e.fits[a].number,
+                       e.fits[b].number, test.error().message.c_str());
   } else {
-    const KeptFit& r = e.fits[a].fit.summary.n_free < e.fits[b].fit.summary.n_free ? e.fits[a] : e.fits[b];
+    const KeptFit& r =
+        e.fits[a].fit.summary.n_free < e.fits[b].fit.summary.n_free ? e.fits[a] : e.fits[b];
     const KeptFit& f = &r == &e.fits[a] ? e.fits[b] : e.fits[a];
-    ImGui::Text("Likelihood-ratio test of fit %d (%d free) against fit %d (%d free): "
-                "2 (log L\xE2\x82\x82 \xE2\x88\x92 log L\xE2\x82\x81) = %s, %d degrees of "
-                "freedom, p = %s.",
-                r.number, r.fit.summary.n_free, f.number, f.fit.summary.n_free,
-                FormatFixed(test->statistic, 3).c_str(), test->df,
-                FormatSig(test->p_value, 3).c_str());
+    ImGui::Text(
+        "Likelihood-ratio test of fit %d (%d free) against fit %d (%d free): "
+        "2 (log L\xE2\x82\x82 \xE2\x88\x92 log L\xE2\x82\x81) = %s, %d degrees of "
+        "freedom, p = %s.",
+        r.number, r.fit.summary.n_free, f.number, f.fit.summary.n_free,
+        FormatFixed(test->statistic, 3).c_str(), test->df, FormatSig(test->p_value, 3).c_str());
     const bool better = test->p_value < 0.05;
-    ImGui::TextColored(better ? ImVec4(0.17f, 0.63f, 0.17f, 1.0f) : SeverityColor(Severity::kInfo), "%s",
+    ImGui::TextColored(better ? ImVec4(0.17f, 0.63f, 0.17f, 1.0f) : SeverityColor(Severity::kInfo),
+                       "%s",
                        better ? "The fit with more parameters is significantly better (5 % level): "
                                 "keep the extra parameters."
                               : "The fit with more parameters is not significantly better (5 % "

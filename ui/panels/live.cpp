@@ -12,9 +12,6 @@
 //
 // The run is AppState::live.job (StartLive); this panel reads what PollLive took from it and sends
 // commands, and never waits for the job.
-#include <imgui.h>
-#include <imgui_stdlib.h>
-
 #include <algorithm>
 #include <array>
 #include <cfloat>
@@ -22,6 +19,9 @@
 #include <limits>
 #include <string>
 #include <vector>
+
+#include <imgui.h>
+#include <imgui_stdlib.h>
 
 #include "core/sim/dyno.h"
 #include "ui/format.h"

@@ -17,12 +17,12 @@
 //   3. Plots: Fig. 3 and the trend (Fig. 4)
 //   4. What the view says before there is a sweep
 //   5. DrawOperatingPointsPanel
-#include <imgui.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <string>
+
+#include <imgui.h>
 
 #include "ui/format.h"
 #include "ui/panels/common.h"
@@ -77,16 +77,15 @@ void DrawToolbar(AppState& state) {
   SweepState& w = state.sweep;
   const bool running = SweepRunning(state);
   const bool own_model = w.spec && !w.spec->model.empty();  // operating_points.model
-  const bool can_run =
-      !running && w.spec && (state.model || own_model) && !state.load_job.active();
+  const bool can_run = !running && w.spec && (state.model || own_model) && !state.load_job.active();
   ImGui::BeginDisabled(!can_run);
   const bool run = PrimaryButton("Run", ImVec2(80.0f * s, 0));
   ImGui::EndDisabled();
   if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) {
     ImGui::SetTooltip("%s", !state.model && !own_model
                                 ? "The model is not valid (see the Equations view)"
-                            : !w.spec    ? "The project names no operating points"
-                                         : "Fit the model to every operating point");
+                            : !w.spec ? "The project names no operating points"
+                                      : "Fit the model to every operating point");
   }
   if (run) {
     std::string why;
@@ -199,8 +198,7 @@ void DrawTable(AppState& state, const SweepFigures& f) {
       ImGui::TextColored(ImGui::ColorConvertU32ToFloat4(kLinearisedColor), "%s", row.label.c_str());
       if (ImGui::IsItemHovered() && f.linearised) {
         ImGui::SetTooltip("%s linearised at each point, with delta-method standard errors\n(%s)",
-                          f.linearised->model_name.c_str(),
-                          FileName(f.linearised->result).c_str());
+                          f.linearised->model_name.c_str(), FileName(f.linearised->result).c_str());
       }
     } else {
       ImGui::TextUnformatted(row.label.c_str());
@@ -295,10 +293,10 @@ void DrawDelayPlot(AppState& state, const SweepFigures& f, ImVec2 size) {
   plot::ItemStyle points;
   points.color = kPointColor;
   points.marker_radius = 3.5f;
-  plot::PlotErrorBars(state.plots,
-                      f.delay_bar_is_se ? "per-point estimate \xC2\xB1 1 SE"
-                                        : "estimate \xC2\xB1 half a sample",
-                      f.speed.data(), f.delay.data(), f.delay_bar.data(), n, points);
+  plot::PlotErrorBars(
+      state.plots,
+      f.delay_bar_is_se ? "per-point estimate \xC2\xB1 1 SE" : "estimate \xC2\xB1 half a sample",
+      f.speed.data(), f.delay.data(), f.delay_bar.data(), n, points);
   plot::PlotMarkers(state.plots, "##estimates", f.speed.data(), f.delay.data(), n, points);
   PlotLinearised(state, f.lin_speed_drawn, f.lin_delay, f.lin_delay_se);
   plot::EndPlot(state.plots);
@@ -371,9 +369,9 @@ void DrawTrendPlot(AppState& state, const SweepFigures& f, ImVec2 size) {
   plot::ItemStyle points;
   points.color = kPointColor;
   points.marker_radius = 3.5f;
-  plot::PlotErrorBars(state.plots,
-                      t.lin_x.empty() ? "estimate \xC2\xB1 1 SE" : "per-point estimate \xC2\xB1 1 SE",
-                      t.x.data(), t.y.data(), t.se.data(), n, points);
+  plot::PlotErrorBars(
+      state.plots, t.lin_x.empty() ? "estimate \xC2\xB1 1 SE" : "per-point estimate \xC2\xB1 1 SE",
+      t.x.data(), t.y.data(), t.se.data(), n, points);
   plot::PlotMarkers(state.plots, "##estimates", t.x.data(), t.y.data(), n, points);
   PlotLinearised(state, t.lin_x_drawn, t.lin_y, t.lin_se);
   plot::EndPlot(state.plots);
@@ -444,10 +442,11 @@ void DrawNothingYet(AppState& state) {
   const project::OperatingPointsSpec& p = *state.sweep.spec;
   const std::string fitted =
       p.model.empty() ? "the model, with the start values and bounds of the Parameters view,"
-                      : FileName(p.model) + " (operating_points.model), with its start values "
-                                            "and bounds,";
-  std::string text = "Run fits " + fitted + " to each of the " +
-                     std::to_string(p.datasets.size()) + " datasets (" + FileList(p.datasets, 3) +
+                      : FileName(p.model) +
+                            " (operating_points.model), with its start values "
+                            "and bounds,";
+  std::string text = "Run fits " + fitted + " to each of the " + std::to_string(p.datasets.size()) +
+                     " datasets (" + FileList(p.datasets, 3) +
                      "), then relates the estimates to the operating points: the delay against " +
                      p.Label(p.speed_tag).label + " (\xCE\x94t = c / n) and " + p.trend_parameter +
                      " against " + p.Label(p.trend_tag).label + ".";
@@ -511,10 +510,10 @@ void DrawOperatingPointsPanel(AppState& state) {
   }
   if (!result->linearised_error.empty()) {
     ImGui::PushTextWrapPos(0.0f);
-    ImGui::TextColored(SeverityColor(Severity::kError), "%s",
-                       ("The nonlinear fit could not be linearised at the points: " +
-                        result->linearised_error)
-                           .c_str());
+    ImGui::TextColored(
+        SeverityColor(Severity::kError), "%s",
+        ("The nonlinear fit could not be linearised at the points: " + result->linearised_error)
+            .c_str());
     ImGui::PopTextWrapPos();
   }
   ImGui::Spacing();

@@ -14,13 +14,13 @@
 //   2. The table
 //   3. Warnings and the correlation heat map
 //   4. DrawParametersPanel
-#include <imgui.h>
-#include <imgui_stdlib.h>
-
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
 #include <string>
+
+#include <imgui.h>
+#include <imgui_stdlib.h>
 
 #include "ui/format.h"
 #include "ui/panels/common.h"
@@ -31,9 +31,9 @@
 namespace gb::ui {
 namespace {
 
-constexpr float kInputWidth = 80.0f;  // the start value and bound cells, pixels at scale 1
+constexpr float kInputWidth = 80.0f;        // the start value and bound cells, pixels at scale 1
 constexpr float kNarrowInputWidth = 64.0f;  // ... beside the profile intervals
-constexpr double kZ95 = 1.96;         // two-sided 95 % normal quantile
+constexpr double kZ95 = 1.96;               // two-sided 95 % normal quantile
 constexpr int kEstimateDigits = 5;
 constexpr int kErrorDigits = 3;
 constexpr ImU32 kRefusedCellBg = IM_COL32(250, 222, 222, 255);
@@ -373,9 +373,10 @@ void DrawTable(AppState& state, const FitResult* result) {
       ImGui::TextUnformatted(e.name.c_str());
       ImGui::PopFont();
       if (ImGui::IsItemHovered())
-        ImGui::SetTooltip("A record's own initial state (Estimate view: Initial state per "
-                          "record): a copy of a parameter of the model's initial state, started "
-                          "from the record's first samples");
+        ImGui::SetTooltip(
+            "A record's own initial state (Estimate view: Initial state per "
+            "record): a copy of a parameter of the model's initial state, started "
+            "from the record's first samples");
       ImGui::TableNextColumn();
       ImGui::AlignTextToFramePadding();
       if (e.unit.empty()) {

@@ -66,7 +66,8 @@ std::string PlotTitle(const OutputAnalysis& o) {
   // The simulation's RMS is in the table of every record's figures (and the fit % says it
   // relative to the output's spread).
   std::string title = o.name + "    one-step RMS " + FormatSig(o.rms, 4) + "  \xC2\xB7  ";
-  if (std::isfinite(o.fit_percent)) title += "fit " + FormatFixed(o.fit_percent, 1) + " %  \xC2\xB7  ";
+  if (std::isfinite(o.fit_percent))
+    title += "fit " + FormatFixed(o.fit_percent, 1) + " %  \xC2\xB7  ";
   return title + GroupedCount(o.n_observed) + " observed  \xC2\xB7  delay " + SamplesText(o.delay);
 }
 
@@ -74,8 +75,9 @@ std::string PlotTitle(const OutputAnalysis& o) {
 // estimation and validation records alike (collapsed at first for a single record, whose plot
 // titles carry its one-step RMS and fit %).
 void DrawFitFigures(AppState& state, const Analysis& r) {
-  if (!ImGui::CollapsingHeader("Fit figures: one-step RMS, simulation RMS and fit % of every record",
-                               r.datasets.size() > 1 ? ImGuiTreeNodeFlags_DefaultOpen : 0))
+  if (!ImGui::CollapsingHeader(
+          "Fit figures: one-step RMS, simulation RMS and fit % of every record",
+          r.datasets.size() > 1 ? ImGuiTreeNodeFlags_DefaultOpen : 0))
     return;
   constexpr ImGuiTableFlags kFlags = ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_RowBg |
                                      ImGuiTableFlags_BordersInnerH | ImGuiTableFlags_ScrollY;
@@ -179,7 +181,8 @@ void DrawComparePlot(AppState& state, const DatasetAnalysis& d, const OutputAnal
   std::string title = d.name + (d.validation ? "" : " (estimation)") + "    " + o.name + "    ";
   title += std::isfinite(o.fit_percent) ? "fit " + FormatFixed(o.fit_percent, 1) + " %"
                                         : "no simulation";
-  if (std::isfinite(o.simulation_rms)) title += "  \xC2\xB7  simulation RMS " + FormatSig(o.simulation_rms, 4);
+  if (std::isfinite(o.simulation_rms))
+    title += "  \xC2\xB7  simulation RMS " + FormatSig(o.simulation_rms, 4);
   plot::PlotOptions options;
   options.title = title.c_str();
   options.x_label = d.time_name.c_str();

@@ -1,9 +1,9 @@
 #include "ui/render/fixed_gl_renderer.h"
 
-#include <GL/gl.h>
-
 #include <cstddef>
 #include <cstdint>
+
+#include <GL/gl.h>
 
 namespace gb::ui {
 

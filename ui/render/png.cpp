@@ -1,10 +1,10 @@
 #include "ui/render/png.h"
 
-#include <stb_image_write.h>  // the implementation is in libstb: no STB_IMAGE_WRITE_IMPLEMENTATION
-
 #include <cstddef>
 #include <string>
 #include <vector>
+
+#include <stb_image_write.h>  // the implementation is in libstb: no STB_IMAGE_WRITE_IMPLEMENTATION
 
 #include "core/project/project.h"
 

@@ -1,12 +1,12 @@
 #include "ui/shell/export.h"
 
-#include <imgui.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <utility>
+
+#include <imgui.h>
 
 #include "core/model/model.h"
 #include "core/project/project.h"
@@ -214,8 +214,8 @@ void FinishPendingPng(AppState& state, const PendingPng& png,
   if (!rgba) {
     AddMessage(state, Severity::kError,
                "Could not write the plot's PNG: no offscreen framebuffer of " +
-                   std::to_string(png.width) + " x " + std::to_string(png.height) +
-                   " pixels (" + png.path + ")");
+                   std::to_string(png.width) + " x " + std::to_string(png.height) + " pixels (" +
+                   png.path + ")");
     return;
   }
   std::string error;

@@ -6,12 +6,12 @@
 //   3. The dialog: OpenImportDialog, DrawImportDialog, AddImportedDataset
 #include "ui/shell/import_dialog.h"
 
-#include <imgui.h>
-#include <imgui_stdlib.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+
+#include <imgui.h>
+#include <imgui_stdlib.h>
 
 #include "ui/format.h"
 #include "ui/panels/common.h"
@@ -58,9 +58,9 @@ void CsvKeys(const ImportForm& f, data::DatasetSpec* out) {
 
 // The rows an MDF file's form gives, as a line of the check ("5 rows, t = 0 … 0.4 s").
 std::string RowsText(const data::Dataset& d, bool previewed) {
-  return GroupedCount(static_cast<long long>(d.rows())) + (previewed ? " rows previewed" : " rows") +
-         ", t = " + FormatSig(d.time.front(), 6) + " \xE2\x80\xA6 " + FormatSig(d.time.back(), 6) +
-         " s";
+  return GroupedCount(static_cast<long long>(d.rows())) +
+         (previewed ? " rows previewed" : " rows") + ", t = " + FormatSig(d.time.front(), 6) +
+         " \xE2\x80\xA6 " + FormatSig(d.time.back(), 6) + " s";
 }
 
 // The check's verdict on the entry's rows as read: prepared (map, detrend, resample, with the
@@ -114,8 +114,10 @@ data::DatasetSpec ImportSpecOf(const ImportForm& f, const model::ModelSpec* mode
   if (f.mdf) {
     for (std::size_t c = 0; c < f.channels.size() && c < f.use.size(); ++c)
       if (f.use[c]) spec.columns.push_back(f.channels[c]);
-    if (f.time_base > 0) spec.time = std::to_string(f.time_base);
-    else spec.sample_time = f.sample_time;
+    if (f.time_base > 0)
+      spec.time = std::to_string(f.time_base);
+    else
+      spec.sample_time = f.sample_time;
     if (f.interpolation == 1) spec.interpolation = "linear";
   } else {
     CsvKeys(f, &spec);
@@ -237,10 +239,9 @@ bool DrawCsvFields(ImportForm& f, float s) {
   ImGui::TextUnformatted("Time");
   ImGui::SameLine(110 * s);
   ImGui::SetNextItemWidth(270 * s);
-  const std::string time_label =
-      f.time > 0 && f.time <= static_cast<int>(f.names.size())
-          ? "column " + f.names[static_cast<std::size_t>(f.time - 1)]
-          : std::string("none: rows a sample time apart");
+  const std::string time_label = f.time > 0 && f.time <= static_cast<int>(f.names.size())
+                                     ? "column " + f.names[static_cast<std::size_t>(f.time - 1)]
+                                     : std::string("none: rows a sample time apart");
   if (ImGui::BeginCombo("##time", time_label.c_str())) {
     if (ImGui::Selectable("none: rows a sample time apart", f.time == 0)) {
       f.time = 0;
@@ -304,7 +305,8 @@ bool DrawCsvFields(ImportForm& f, float s) {
       }
       ImGui::EndTable();
     }
-    ImGui::TextDisabled("Type over a name to rename the column; a blank or \xE2\x80\x94 cell is missing.");
+    ImGui::TextDisabled(
+        "Type over a name to rename the column; a blank or \xE2\x80\x94 cell is missing.");
   }
   return changed;
 }
@@ -363,19 +365,20 @@ bool DrawMdfFields(ImportForm& f, float s) {
   ImGui::SetNextItemWidth(150 * s);
   changed |= ImGui::Combo("##interpolation", &f.interpolation, "hold\0linear\0");
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("A channel of another group at a row's time: its last sample (hold) or "
-                      "the line between the samples either side (linear); missing before its "
-                      "first sample");
+    ImGui::SetTooltip(
+        "A channel of another group at a row's time: its last sample (hold) or "
+        "the line between the samples either side (linear); missing before its "
+        "first sample");
 
   constexpr ImGuiTableFlags kFlags = ImGuiTableFlags_ScrollY | ImGuiTableFlags_BordersInnerH |
                                      ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingFixedFit;
-  const float height =
-      ImGui::GetFrameHeightWithSpacing() *
-          static_cast<float>(std::min<std::size_t>(f.channels.size(), 8)) +
-      1.6f * ImGui::GetTextLineHeightWithSpacing();
+  const float height = ImGui::GetFrameHeightWithSpacing() *
+                           static_cast<float>(std::min<std::size_t>(f.channels.size(), 8)) +
+                       1.6f * ImGui::GetTextLineHeightWithSpacing();
   if (ImGui::BeginTable("##channels", 5, kFlags, ImVec2(760 * s, height))) {
     ImGui::TableSetupScrollFreeze(0, 1);
-    for (const char* c : {"Read", "Channel", "Group", "Unit", "Samples"}) ImGui::TableSetupColumn(c);
+    for (const char* c : {"Read", "Channel", "Group", "Unit", "Samples"})
+      ImGui::TableSetupColumn(c);
     ImGui::TableHeadersRow();
     for (std::size_t c = 0; c < m.channels.size() && c < f.use.size(); ++c) {
       const data::Mdf4Channel& ch = m.channels[c];
@@ -455,8 +458,8 @@ void DrawImportDialog(AppState& state) {
   }
   const ImGuiViewport* viewport = ImGui::GetMainViewport();
   ImGui::SetNextWindowPos(viewport->GetCenter(), ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
-  ImGui::SetNextWindowSizeConstraints(ImVec2(0, 0), ImVec2(viewport->Size.x * 0.95f,
-                                                           viewport->Size.y * 0.95f));
+  ImGui::SetNextWindowSizeConstraints(ImVec2(0, 0),
+                                      ImVec2(viewport->Size.x * 0.95f, viewport->Size.y * 0.95f));
   if (!ImGui::BeginPopupModal(kImportPopup, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
   const float s = state.fonts.scale;
   const model::ModelSpec* model = state.model ? &*state.model : nullptr;
@@ -485,12 +488,12 @@ void DrawImportDialog(AppState& state) {
       ImGui::TextDisabled("\xE2\x86\x90");
       ImGui::SameLine();
       ImGui::SetNextItemWidth(380 * s);
-      const bool has_column =
-          std::find(f.names.begin(), f.names.end(), names[i]) != f.names.end();
-      changed |= ImGui::InputTextWithHint(
-          "##map", has_column ? "its column (or an expression of the columns)"
-                              : "an expression of the columns, such as 1/Lambda",
-          &f.map[i]);
+      const bool has_column = std::find(f.names.begin(), f.names.end(), names[i]) != f.names.end();
+      changed |=
+          ImGui::InputTextWithHint("##map",
+                                   has_column ? "its column (or an expression of the columns)"
+                                              : "an expression of the columns, such as 1/Lambda",
+                                   &f.map[i]);
       ImGui::PopID();
     }
   }
@@ -517,8 +520,9 @@ void DrawImportDialog(AppState& state) {
   ImGui::SetNextItemWidth(130 * s);
   changed |= ImGui::Combo("##detrend", &f.detrend, "nothing\0the means\0linear trends\0");
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("From every column (inputs and outputs), as a model linearised about the "
-                      "operating point's mean values expects");
+    ImGui::SetTooltip(
+        "From every column (inputs and outputs), as a model linearised about the "
+        "operating point's mean values expects");
   ImGui::SameLine(0, 24 * s);
   ImGui::AlignTextToFramePadding();
   ImGui::TextUnformatted("Resample to");
@@ -527,8 +531,9 @@ void DrawImportDialog(AppState& state) {
   changed |= ImGui::InputDouble("##resample", &f.resample, 0, 0, "%g");
   f.resample = std::max(0.0, f.resample);
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("A new sample time in seconds (0: keep the record's); a longer one "
-                      "decimates after a windowed-sinc anti-alias filter");
+    ImGui::SetTooltip(
+        "A new sample time in seconds (0: keep the record's); a longer one "
+        "decimates after a windowed-sinc anti-alias filter");
   ImGui::SameLine();
   ImGui::TextDisabled("s (0: keep)");
 

@@ -9,10 +9,6 @@
 //   6. The File menu
 //   7. Dialogs: browser, save changes?, recovery, new project, keyboard shortcuts
 #include "ui/shell/shell.h"
-#include "ui/shell/import_dialog.h"
-
-#include <imgui.h>
-#include <imgui_stdlib.h>
 
 #include <algorithm>
 #include <cmath>
@@ -23,12 +19,16 @@
 #include <filesystem>
 #include <utility>
 
+#include <imgui.h>
+#include <imgui_stdlib.h>
+
 #include "core/data/import.h"
 #include "core/model/model.h"
 #include "core/model/model_structure.h"
 #include "core/project/project.h"
 #include "ui/panels/common.h"
 #include "ui/shell/export.h"
+#include "ui/shell/import_dialog.h"
 
 namespace gb::ui {
 namespace fs = std::filesystem;
@@ -42,8 +42,8 @@ constexpr const char* kRecoveryKey = "greybench_recovery";
 const std::vector<FileFilter> kProjectFilters = {{"Projects (*.json)", {".json"}},
                                                  {"All files", {}}};
 const std::vector<FileFilter> kModelFilters = {{"Models (*.json)", {".json"}}, {"All files", {}}};
-const std::vector<FileFilter> kDataFilters = {
-    {"Data (*.csv, *.mf4)", {".csv", ".mf4", ".mdf"}}, {"All files", {}}};
+const std::vector<FileFilter> kDataFilters = {{"Data (*.csv, *.mf4)", {".csv", ".mf4", ".mdf"}},
+                                              {"All files", {}}};
 
 // The keys of the workbench (Help > Keyboard shortcuts lists this table).
 struct ShortcutInfo {
@@ -534,9 +534,10 @@ void ReadColumns(NewProjectForm& f) {
   f.columns_error.clear();
   if (path.empty()) return;
   if (data::IsMdfFile(path)) {
-    f.columns_error = path + ": an MDF recording's channels are chosen when it is added (File "
-                             "\xE2\x80\xBA Add dataset\xE2\x80\xA6): start from a blank model, or "
-                             "from a CSV file";
+    f.columns_error = path +
+                      ": an MDF recording's channels are chosen when it is added (File "
+                      "\xE2\x80\xBA Add dataset\xE2\x80\xA6): start from a blank model, or "
+                      "from a CSV file";
     return;
   }
   bool truncated = false;
@@ -627,8 +628,9 @@ void CreateProject(AppState& state) {
     new_model_path = (at.parent_path() / (at.stem().string() + ".model.json")).string();
     std::error_code ec;
     if (fs::exists(new_model_path, ec)) {
-      f.error = new_model_path + " exists already: choose another project name, or choose that "
-                                 "file as the model.";
+      f.error = new_model_path +
+                " exists already: choose another project name, or choose that "
+                "file as the model.";
       return;
     }
     p.model_path = new_model_path;
@@ -718,26 +720,28 @@ void DrawNewProjectDialog(AppState& state) {
   ImGui::SameLine();
   ImGui::RadioButton("a blank model", &source, static_cast<int>(NewModelSource::kBlank));
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("One state x, one output y = x, no inputs: rename and extend it in the "
-                      "Equations view");
+    ImGui::SetTooltip(
+        "One state x, one output y = x, no inputs: rename and extend it in the "
+        "Equations view");
   ImGui::SameLine();
   ImGui::RadioButton("made from the first dataset's columns", &source,
                      static_cast<int>(NewModelSource::kFromData));
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("One input per input column, one output per output column, and a "
-                      "first-order state per output");
+    ImGui::SetTooltip(
+        "One input per input column, one output per output column, and a "
+        "first-order state per output");
   f.model_source = static_cast<NewModelSource>(source);
   if (f.model_source == NewModelSource::kFile) {
     FileBrowserRequest model_request;
     model_request.title = "Choose the model";
     model_request.confirm = "Choose";
     model_request.filters = kModelFilters;
-    PathRow(state, "Model file", &f.model, "model.json", BrowsePurpose::kNewModel,
-            model_request);
+    PathRow(state, "Model file", &f.model, "model.json", BrowsePurpose::kNewModel, model_request);
   } else {
     ImGui::Indent(110.0f * s);
-    ImGui::TextDisabled("Written beside the project as NAME.model.json (NAME: the project "
-                        "file's name).");
+    ImGui::TextDisabled(
+        "Written beside the project as NAME.model.json (NAME: the project "
+        "file's name).");
     ImGui::Unindent(110.0f * s);
   }
 

@@ -55,7 +55,7 @@ struct PendingPng {
 // A dataset file read off the UI thread for File > Add dataset.
 struct DatasetRead {
   std::string path;
-  data::DatasetSpec spec;  // the entry read (file = path)
+  data::DatasetSpec spec;                     // the entry read (file = path)
   std::shared_ptr<const data::Dataset> data;  // null when the file could not be read
   std::string error;
   DatasetSummary summary;
@@ -63,26 +63,26 @@ struct DatasetRead {
 
 // The import dialog's form (ui/shell/import_dialog.h).
 struct ImportForm {
-  bool requested = false;   // opens the dialog at the next frame
-  std::string path;         // the recording
-  std::string preview;      // its first 64 KB, cut at a line end
-  bool truncated = false;   // the file is longer than the preview
-  std::string read_error;   // why there is no preview
+  bool requested = false;  // opens the dialog at the next frame
+  std::string path;        // the recording
+  std::string preview;     // its first 64 KB, cut at a line end
+  bool truncated = false;  // the file is longer than the preview
+  std::string read_error;  // why there is no preview
 
   bool header = true;
-  int separator = 0;  // 0 ',', 1 ';', 2 TAB
-  int decimal = 0;    // 0 '.', 1 ','
+  int separator = 0;               // 0 ',', 1 ';', 2 TAB
+  int decimal = 0;                 // 0 '.', 1 ','
   std::vector<std::string> names;  // the fields' names, as edited (empty: the header's, c1, ...)
   int time = 0;                    // 0: no time column (rows sample_time apart); k: field k
   double sample_time = 0.1;
-  std::vector<std::string> map;    // per model input, then output: "" = the column of its name
+  std::vector<std::string> map;  // per model input, then output: "" = the column of its name
   std::string name;
   bool validation = false;
   // Preparation (the entry's range, detrend and resample keys).
   bool use_range = false;
   double range_from = 0, range_to = 0;  // seconds
-  int detrend = 0;                       // 0 none, 1 means, 2 linear trends (every column)
-  double resample = 0;                   // a new sample time in seconds; 0: keep
+  int detrend = 0;                      // 0 none, 1 means, 2 linear trends (every column)
+  double resample = 0;                  // a new sample time in seconds; 0: keep
   // An ASAM MDF file (data::IsMdfFile): its channels, picked, instead of the CSV preview.
   bool mdf = false;
   std::shared_ptr<const data::Mdf4File> mdf_file;
@@ -174,7 +174,7 @@ struct ShellState {
   NewProjectForm new_form;
 
   Job<DatasetRead> dataset_job;  // File > Add dataset
-  ImportForm import;              // its dialog
+  ImportForm import;             // its dialog
   int dataset_generation = 0;    // AppState::project_generation it was started for
 
   bool show_shortcuts = false;  // Help > Keyboard shortcuts

@@ -171,12 +171,11 @@ void InstallEstimation(AppState& state, EstimationRun run) {
     return;
   }
   const estimate::EstimateSummary& s = *run.summary;
-  std::string text =
-      std::string(s.cancelled   ? "Estimation stopped; the best point so far is kept"
-                  : s.converged ? "Estimation converged"
-                                : "Estimation did NOT converge") +
-      ": log L = " + FormatSig(s.loglik, 6) + ", " + std::to_string(s.iterations) +
-      " iterations" + ElapsedClause(state, ", ", s.elapsed_s);
+  std::string text = std::string(s.cancelled   ? "Estimation stopped; the best point so far is kept"
+                                 : s.converged ? "Estimation converged"
+                                               : "Estimation did NOT converge") +
+                     ": log L = " + FormatSig(s.loglik, 6) + ", " + std::to_string(s.iterations) +
+                     " iterations" + ElapsedClause(state, ", ", s.elapsed_s);
   if (!s.warnings.empty()) {
     text += " (" + std::to_string(s.warnings.size()) +
             (s.warnings.size() == 1 ? " warning)" : " warnings)");
@@ -409,8 +408,8 @@ bool SetDatasetRole(AppState& state, std::size_t index, data::Role role, std::st
   return true;
 }
 
-bool SetDatasetRange(AppState& state, std::size_t index,
-                     std::optional<std::array<double, 2>> range, std::string* why) {
+bool SetDatasetRange(AppState& state, std::size_t index, std::optional<std::array<double, 2>> range,
+                     std::string* why) {
   if (std::string locked = DatasetsLocked(state, index); !locked.empty()) {
     if (why) *why = std::move(locked);
     return false;
@@ -494,11 +493,13 @@ void ApplyParameterEdits(AppState& state) {
       changed = changed || !SameParameters(*edited, *state.model);
       state.model = std::move(edited).value();
       v.refusal.reset();
-      AddMessage(state, Severity::kInfo,
-                 optimum == 0 ? std::string("The estimates are now the start values.")
-                              : fmt::format("The parameters of optimum {} (log L {:.3f}) are now "
-                                            "the start values.", optimum + 1,
-                                            state.estimation.result->summary.optima[optimum].loglik));
+      AddMessage(
+          state, Severity::kInfo,
+          optimum == 0
+              ? std::string("The estimates are now the start values.")
+              : fmt::format("The parameters of optimum {} (log L {:.3f}) are now "
+                            "the start values.",
+                            optimum + 1, state.estimation.result->summary.optima[optimum].loglik));
     } else {
       AddMessage(state, Severity::kError,
                  "The estimates cannot be used as start values: " + edited.error().message);

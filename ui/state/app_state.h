@@ -7,8 +7,6 @@
 //   StartEstimation(state);            // the Estimate view's Run button (and the snapshot)
 #pragma once
 
-#include <imgui.h>
-
 #include <array>
 #include <chrono>
 #include <map>
@@ -17,6 +15,8 @@
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <imgui.h>
 
 #include "core/data/dataset.h"
 #include "core/model/model.h"
@@ -94,8 +94,8 @@ float CanvasZoomFor(float editor_zoom);
 
 // One dataset file of the project, as read by the loading job.
 struct LoadedDataset {
-  std::string path;             // spec.file
-  data::DatasetSpec spec;       // the project's entry: how the file is read, and its role
+  std::string path;        // spec.file
+  data::DatasetSpec spec;  // the project's entry: how the file is read, and its role
   std::shared_ptr<const data::Dataset> data;  // null when the file could not be read
   std::string error;                          // why `data` is null
   DatasetSummary summary;
@@ -104,9 +104,9 @@ struct LoadedDataset {
 // A fit of the project's: finished, or stopped by the user (summary.cancelled), kept in the Fits
 // list and on disk beside the project (core/project/kept_fits.h).
 struct KeptFit {
-  FitResult fit;         // its model_revision is the model's when it matches the model, else -1
-  Json result;           // its result file's content (what `greybench-cli compare` reads)
-  Json model;            // the model it was fitted with (model::ToJson)
+  FitResult fit;  // its model_revision is the model's when it matches the model, else -1
+  Json result;    // its result file's content (what `greybench-cli compare` reads)
+  Json model;     // the model it was fitted with (model::ToJson)
   // As they were fitted (for a fit read back: read from its own project when Save as rewrites it).
   std::vector<data::DatasetSpec> datasets;
   std::string file;      // its result file; "" until written (a project never saved)
@@ -240,7 +240,7 @@ struct LiveState {
   double window_s = 60.0;
   // Whether the model is linear, checked once per model revision.
   int checked_revision = -1;
-  std::string nonlinear;     // why the model cannot be watched ("" when it can)
+  std::string nonlinear;  // why the model cannot be watched ("" when it can)
   // The parameters the run can track (the free ones in the dynamics or the observations, as the
   // model says; the reference may know fewer), checked with it.
   std::vector<std::string> trackable;
@@ -285,8 +285,8 @@ struct StructureRefusal {
 };
 
 struct EquationsViewState {
-  std::map<std::string, FormulaDraft> drafts;  // by JSON path ("drift.mff")
-  std::vector<FormulaEdit> pending;            // emitted while drawing, applied after the view
+  std::map<std::string, FormulaDraft> drafts;    // by JSON path ("drift.mff")
+  std::vector<FormulaEdit> pending;              // emitted while drawing, applied after the view
   std::vector<StructureEdit> structure_pending;  // the same, for the structure
   std::optional<StructureRefusal> refusal;
   // Undo and redo restore whole model files (ui/edits/equations_view.h).
@@ -362,12 +362,13 @@ std::string StatusText(const AppState& state);
 // counts as an unsaved change, and makes the predictions be computed again; a fit already made
 // is kept (its estimates stay what the views show). Refused (false, with *why) while an
 // estimation or a sweep runs, and for an index out of range.
-bool SetDatasetRole(AppState& state, std::size_t index, data::Role role, std::string* why = nullptr);
+bool SetDatasetRole(AppState& state, std::size_t index, data::Role role,
+                    std::string* why = nullptr);
 bool RemoveDataset(AppState& state, std::size_t index, std::string* why = nullptr);
 // The dataset's `range` key (its rows with t0 <= t <= t1, in seconds; nullopt: the whole
 // record): the file is read again with it (a read that fails changes nothing and says why).
-bool SetDatasetRange(AppState& state, std::size_t index,
-                     std::optional<std::array<double, 2>> range, std::string* why = nullptr);
+bool SetDatasetRange(AppState& state, std::size_t index, std::optional<std::array<double, 2>> range,
+                     std::string* why = nullptr);
 
 // Starts reading the project and its datasets in the loading job (ignored while one runs).
 void OpenProject(AppState& state, std::string path);
@@ -403,8 +404,9 @@ Result<estimate::LikelihoodRatioTest> CompareFits(const AppState& state, std::si
                                                   std::size_t b, std::string* notes = nullptr);
 // The shell command that fits kept fit `index` again with greybench-cli (its project file, the
 // options it ran with, a new result file beside it: `greybench-cli estimate
-// '/…/engine.fits/fit-001.project.json' --algorithm auto --out '/…/engine.fits/fit-001.again.json'`),
-// or "" with why (a fit not written: the project was never saved).
+// '/…/engine.fits/fit-001.project.json' --algorithm auto --out
+// '/…/engine.fits/fit-001.again.json'`), or "" with why (a fit not written: the project was never
+// saved).
 std::string FitCommand(const AppState& state, std::size_t index, std::string* why = nullptr);
 // Writes the fits not written yet (of a project saved for the first time, or saved as another
 // file: its fits folder is another). The shell calls it after a save.
@@ -413,7 +415,8 @@ void WriteUnwrittenFits(AppState& state);
 // shown; the loading job reads the project's kept fits; InstallProject makes them the list.
 void KeepFit(AppState& state, FitResult fit, const EstimationRun& run);
 void ReadFits(const std::string& project_path, bool deterministic, ProjectLoad* out);
-void InstallFits(AppState& state, std::vector<KeptFit> fits, const std::vector<std::string>& problems);
+void InstallFits(AppState& state, std::vector<KeptFit> fits,
+                 const std::vector<std::string>& problems);
 bool EstimationRunning(const AppState& state);
 
 // The operating-point sweep (ui/jobs/sweep_state.cpp), run like the estimation.

@@ -1,10 +1,10 @@
 // The Fits list's life in AppState (declared in ui/state/app_state.h): the project's kept fits
 // (core/project/kept_fits.h) read when it opens, each finished fit kept and written beside the
 // project, shown in the views, deleted, and compared by the likelihood-ratio test.
-#include <fmt/format.h>
-
 #include <filesystem>
 #include <utility>
+
+#include <fmt/format.h>
 
 #include "core/project/kept_fits.h"
 #include "core/project/problem.h"
@@ -41,7 +41,8 @@ void WriteFit(AppState& state, KeptFit& k) {
   if (k.result.value("initial_states", "") == "per_record")
     p.extra[project::kEstimationKey]["initial_states"] = "per_record";
   const auto settings = k.result.find("settings");
-  if (settings != k.result.end() && settings->is_object() && settings->value("steady_start", false)) {
+  if (settings != k.result.end() && settings->is_object() &&
+      settings->value("steady_start", false)) {
     p.extra[project::kEstimationKey]["steady_start"] = true;
     p.extra[project::kEstimationKey]["steady_window"] = settings->value("steady_window", 5.0);
   }
@@ -87,7 +88,8 @@ void ReadFits(const std::string& path, bool deterministic, ProjectLoad* out) {
   std::vector<project::KeptFitFile> files =
       project::ReadKeptFits(project::FitsFolder(path), &problems);
   for (project::KeptFitFile& f : files) {
-    Result<estimate::EstimateSummary> summary = estimate::EstimateSummary::FromJson(f.result, f.path);
+    Result<estimate::EstimateSummary> summary =
+        estimate::EstimateSummary::FromJson(f.result, f.path);
     if (!summary) {
       problems.push_back(summary.error());
       continue;
@@ -96,8 +98,8 @@ void ReadFits(const std::string& path, bool deterministic, ProjectLoad* out) {
     k.file = f.path;
     k.number = f.number;
     k.finished = deterministic ? "" : f.result.value("finished", "");
-    k.fit = MakeFitResult(std::move(summary).value(), Trace{}, EstimationSettings{}, -1,
-                          deterministic);
+    k.fit =
+        MakeFitResult(std::move(summary).value(), Trace{}, EstimationSettings{}, -1, deterministic);
     if (f.result.value("initial_states", "") == "per_record") {
       Result<model::ModelSpec> spec = model::ParseModel(f.model, f.path);
       const auto datasets = f.result.find("datasets");
@@ -117,7 +119,8 @@ void ReadFits(const std::string& path, bool deterministic, ProjectLoad* out) {
 }
 
 // The newest fit of the project's model is shown.
-void InstallFits(AppState& state, std::vector<KeptFit> fits, const std::vector<std::string>& problems) {
+void InstallFits(AppState& state, std::vector<KeptFit> fits,
+                 const std::vector<std::string>& problems) {
   EstimationState& e = state.estimation;
   e.fits = std::move(fits);
   e.shown = -1;
@@ -125,7 +128,8 @@ void InstallFits(AppState& state, std::vector<KeptFit> fits, const std::vector<s
   e.next_number = 1;
   for (KeptFit& k : e.fits) {
     e.next_number = std::max(e.next_number, k.number + 1);
-    if (state.model && FitMatchesModel(k.fit, *state.model)) k.fit.model_revision = state.model_revision;
+    if (state.model && FitMatchesModel(k.fit, *state.model))
+      k.fit.model_revision = state.model_revision;
   }
   for (int i = static_cast<int>(e.fits.size()) - 1; i >= 0 && e.shown < 0; --i)
     if (e.fits[static_cast<std::size_t>(i)].fit.model_revision == state.model_revision) e.shown = i;
@@ -148,10 +152,12 @@ bool ShowFit(AppState& state, std::size_t index, std::string* why) {
   KeptFit& k = e.fits[index];
   if (!state.model || !FitMatchesModel(k.fit, *state.model)) {
     if (state.diagram_view.model_from_diagram)
-      return refuse(FitName(k) + " was fitted with another model, and this project's model is "
+      return refuse(FitName(k) +
+                    " was fitted with another model, and this project's model is "
                     "drawn as a block diagram: open the fit's model file (" +
                     (k.file.empty() ? std::string("not written") : k.file) + ") instead");
-    Result<model::ModelSpec> spec = model::ParseModel(k.model, k.file.empty() ? FitName(k) : k.file);
+    Result<model::ModelSpec> spec =
+        model::ParseModel(k.model, k.file.empty() ? FitName(k) : k.file);
     if (!spec) return refuse(FitName(k) + "'s model is not valid: " + spec.error().ToString());
     state.model = std::move(spec).value();
     state.model_error.clear();
@@ -208,9 +214,10 @@ Result<estimate::LikelihoodRatioTest> CompareFits(const AppState& state, std::si
   Result<project::NestedFit> fb = project::ReadNestedFit(fits[b].result, FitName(fits[b]));
   if (!fb) return fb.error();
   if (fa->n_free == fb->n_free)
-    return InputError(fmt::format("{} and {} have the same number of free parameters ({}): a "
-                                  "likelihood-ratio test needs nested models",
-                                  fa->path, fb->path, fa->n_free));
+    return InputError(
+        fmt::format("{} and {} have the same number of free parameters ({}): a "
+                    "likelihood-ratio test needs nested models",
+                    fa->path, fb->path, fa->n_free));
   const project::NestedFit& r = fa->n_free < fb->n_free ? *fa : *fb;
   const project::NestedFit& f = fa->n_free < fb->n_free ? *fb : *fa;
   bool by_name_only = false;
@@ -220,8 +227,9 @@ Result<estimate::LikelihoodRatioTest> CompareFits(const AppState& state, std::si
     notes->clear();
     if (by_name_only) *notes += "The data were matched by file name only. ";
     if (f.loglik < r.loglik)
-      *notes += "The full model's log L is below the restricted one's: its fit did not reach the "
-                "optimum, or the models are not nested.";
+      *notes +=
+          "The full model's log L is below the restricted one's: its fit did not reach the "
+          "optimum, or the models are not nested.";
   }
   return estimate::CompareNested(r.loglik, r.n_free, f.loglik, f.n_free);
 }
@@ -251,7 +259,8 @@ std::string FitCommand(const AppState& state, std::size_t index, std::string* wh
   const std::string project_file = ProjectFileOf(k);
   if (project_file.empty()) {
     if (why)
-      *why = k.file + " names no project file (written by greybench-cli estimate MODEL DATA): "
+      *why = k.file +
+             " names no project file (written by greybench-cli estimate MODEL DATA): "
              "that command fits it again";
     return "";
   }
@@ -261,10 +270,12 @@ std::string FitCommand(const AppState& state, std::size_t index, std::string* wh
   const auto settings = k.result.find("settings");
   if (settings != k.result.end() && settings->is_object()) {
     cmd += " --algorithm " + settings->value("algorithm", std::string("auto"));
-    if (const int m = settings->value("multistart", 0); m > 0) cmd += fmt::format(" --multistart {}", m);
+    if (const int m = settings->value("multistart", 0); m > 0)
+      cmd += fmt::format(" --multistart {}", m);
     if (settings->value("profile_intervals", false)) cmd += " --profile-intervals";
     if (settings->value("steady_start", false))
-      cmd += fmt::format(" --steady-start --steady-window {}", settings->value("steady_window", 5.0));
+      cmd +=
+          fmt::format(" --steady-start --steady-window {}", settings->value("steady_window", 5.0));
   }
   const std::string again = fs::path(k.file).stem().string() + ".again.json";
   return cmd + " --out " + ShellWord((folder / again).string());

@@ -6,9 +6,6 @@
 //   3. Drawing
 #include "ui/widgets/file_browser.h"
 
-#include <imgui.h>
-#include <imgui_stdlib.h>
-
 #include <algorithm>
 #include <cctype>
 #include <chrono>
@@ -16,6 +13,9 @@
 #include <cstdlib>
 #include <ctime>
 #include <system_error>
+
+#include <imgui.h>
+#include <imgui_stdlib.h>
 
 namespace gb::ui {
 namespace fs = std::filesystem;

@@ -11,10 +11,10 @@
 // widget keeps no state.
 #pragma once
 
-#include <imgui.h>
-
 #include <string>
 #include <vector>
+
+#include <imgui.h>
 
 namespace gb::ui::plot {
 

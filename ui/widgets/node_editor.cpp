@@ -7,14 +7,14 @@
 //   4. NodeEditor
 #include "ui/widgets/node_editor.h"
 
-#include <imgui_internal.h>  // SetItemUsingMouseWheel: the wheel zooms instead of scrolling
-
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
 #include <cstdio>
 #include <unordered_map>
 #include <unordered_set>
+
+#include <imgui_internal.h>  // SetItemUsingMouseWheel: the wheel zooms instead of scrolling
 
 namespace gb::ui::node_editor {
 

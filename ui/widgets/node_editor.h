@@ -29,12 +29,12 @@
 // right and entering the in-port from the left.
 #pragma once
 
-#include <imgui.h>
-
 #include <array>
 #include <functional>
 #include <string>
 #include <vector>
+
+#include <imgui.h>
 
 #include "core/diagram/diagram.h"
 #include "ui/edits/diagram_edit.h"

@@ -10,13 +10,13 @@
 //   7. BeginPlot / EndPlot
 #include "ui/widgets/plot.h"
 
-#include <imgui_internal.h>  // SetItemUsingMouseWheel: the wheel zooms instead of scrolling
-
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
 #include <cstring>
 #include <string>
+
+#include <imgui_internal.h>  // SetItemUsingMouseWheel: the wheel zooms instead of scrolling
 
 #include "ui/widgets/plot_internal.h"
 
@@ -629,8 +629,7 @@ void DrawContextMenu(PlotContext& ctx, PlotState& st, const LinkedRange& xr) {
       r.png_width = std::clamp(st.png_width, kMinPngSize, kMaxPngSize);
       r.png_height = std::clamp(st.png_height, kMinPngSize, kMaxPngSize);
     }
-    if (csv)
-      ImGui::SetClipboardText(report::FigureToCsv(MakeFigure(ctx, st, xr)).c_str());
+    if (csv) ImGui::SetClipboardText(report::FigureToCsv(MakeFigure(ctx, st, xr)).c_str());
     ImGui::Separator();
     // The PNG's size: the plot's on screen unless changed here.
     ImGui::TextDisabled("PNG size");

@@ -35,14 +35,14 @@
 // PlotContext owned by the application (AppState), keyed by the plot's ImGui id.
 #pragma once
 
-#include <imgui.h>
-
 #include <climits>
 #include <cmath>
 #include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
+
+#include <imgui.h>
 
 #include "core/report/figure.h"
 #include "ui/widgets/plot_axis.h"
@@ -131,7 +131,7 @@ struct PlotState {
   ImVec2 last_legend_min, last_legend_max;
   std::vector<ImGuiID> legend_ids;  // entries of the previous frame's legend, in order
   std::vector<ImVec2> legend_entry_min, legend_entry_max;  // ... and where each was drawn
-  std::vector<ImGuiID> hidden;      // items the user switched off in the legend
+  std::vector<ImGuiID> hidden;  // items the user switched off in the legend
   bool drawn_before = false;
   bool right_down = false;  // the right button went down over the plot ...
   ImVec2 right_start;       // ... here: released near it, it opens the context menu
@@ -145,8 +145,8 @@ struct ExportRequest {
   Kind kind = Kind::kSvg;
   std::string name;  // the plot's name (PlotName), for a proposed file name
   ImGuiID id = 0;
-  report::Figure figure;  // the plot as drawn
-  ImVec2 size;            // the plot's frame in pixels (the SVG's size)
+  report::Figure figure;              // the plot as drawn
+  ImVec2 size;                        // the plot's frame in pixels (the SVG's size)
   int png_width = 0, png_height = 0;  // kPng: the size asked for in the menu
 };
 

@@ -2,12 +2,12 @@
 // plot.cpp (frame, axes, input, legend) and plot_items.cpp (lines, bands, markers, ...).
 #pragma once
 
-#include <imgui.h>
-
 #include <algorithm>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <imgui.h>
 
 #include "ui/widgets/plot.h"
 
