@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
-# Static checks on core/ (docs/quality.md): clang-tidy with the committed .clang-tidy, and
-# cppcheck (warning, performance, portability) with the committed .cppcheck-suppressions.
-# Fails (exit 1) on any finding of either; prints each tool's findings and run time.
+# Static checks (docs/quality.md): clang-format on every C++ file (the committed .clang-format);
+# on core/, clang-tidy with the committed .clang-tidy, and cppcheck (warning, performance,
+# portability) with the committed .cppcheck-suppressions.
+# Fails (exit 1) on any finding of any; prints each tool's findings and run time.
 #   scripts/static-checks.sh [BUILD_DIR]      BUILD_DIR holds compile_commands.json (default build)
 #   JOBS=N scripts/static-checks.sh           N clang-tidy/cppcheck processes at once (default 1)
 #   FILES="core/a.cpp core/b.cpp" scripts/...  clang-tidy on these files only (cppcheck: all)
 #   FINGERPRINT=1 scripts/static-checks.sh    prints the fingerprint of core/'s compile flags (the
 #                                             second line of .ci/static-checks-base)
-# Needs: clang-tidy, cppcheck (Debian packages clang-tidy, cppcheck), a configured build.
+# Needs: clang-format, clang-tidy, cppcheck (Debian packages of those names), a configured build.
 set -uo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=$(cd "${1:-$root/build}" 2>/dev/null && pwd) || {
@@ -19,7 +20,7 @@ if [ ! -f "$build/compile_commands.json" ]; then
   echo "static-checks: $build/compile_commands.json is missing (CMAKE_EXPORT_COMPILE_COMMANDS)" >&2
   exit 2
 fi
-for tool in clang-tidy cppcheck; do
+for tool in clang-tidy cppcheck clang-format; do
   command -v "$tool" >/dev/null || { echo "static-checks: $tool is not installed" >&2; exit 2; }
 done
 cd "$root"
@@ -90,6 +91,21 @@ fi
 logs=$(mktemp -d)
 trap 'rm -rf "$logs"' EXIT
 status=0
+
+# clang-format: every C++ file git tracks is as the committed .clang-format lays it out (a few
+# seconds; `clang-format -i FILE` fixes one). Not incremental: it is cheap.
+start=$(date +%s)
+git ls-files '*.cpp' '*.h' |
+  xargs -P "$jobs" -n 40 clang-format --dry-run --Werror >"$logs/format.txt" 2>&1
+format_s=$(( $(date +%s) - start ))
+if [ -s "$logs/format.txt" ]; then
+  grep -E '^[^ ].*: error:' "$logs/format.txt" | sed -E 's/:[0-9]+:[0-9]+: error:.*//' | sort -u |
+    sed 's/^/static-checks: clang-format: not formatted: /'
+  echo "static-checks: clang-format: findings (${format_s} s; clang-format -i FILE lays one out)"
+  status=1
+else
+  echo "static-checks: clang-format: $(git ls-files '*.cpp' '*.h' | wc -l) files formatted (${format_s} s)"
+fi
 
 # clang-tidy: one process per file. The compile commands are GCC's; clang does not know some of
 # its warning options (-Wno-restrict), which is not a finding.

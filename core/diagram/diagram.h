@@ -251,8 +251,8 @@ struct CompileResult {
 };
 
 // The most states, inputs and outputs a diagram compiles to. The model's matrices hold n^2
-// entries and compiling them takes time that grows faster still (model::LinearModel::Compile:
-// 0.25 s at 256 states, 1.6 s at 500, 12 s and 590 MB at 1000), and the filter takes O(n^3)
+// entries and compiling them takes time that grows faster still (model::LinearModel::Compile;
+// docs/benchmarks.md, "Timings behind the code's limits"), and the filter takes O(n^3)
 // operations a row. A larger diagram is a Problem, not a compile that seems to hang.
 inline constexpr std::size_t kMaxModelSize = 256;
 

@@ -18,9 +18,10 @@ namespace gb::filter::internal {
 inline constexpr double kLog2Pi = 1.8378770664093454835606594728112;  // log(2π)
 
 // The linear filters look at the cancel flag every this many samples: well under a millisecond
-// of work in a release build, a few under the sanitizers. (4096 took 40-330 ms under ASan on a
-// loaded machine, past the workbench's 100 ms promise.) The EKF looks at it every sample, where
-// one sample's moment integration outweighs the look by far.
+// of work in a release build, a few under the sanitizers, so a cancel is seen within the
+// workbench's 100 ms (4096 was not: docs/benchmarks.md, "Timings behind the code's limits").
+// The EKF looks at it every sample, where one sample's moment integration outweighs the look by
+// far.
 inline constexpr int kCancelCheckInterval = 256;  // a power of two
 static_assert((kCancelCheckInterval & (kCancelCheckInterval - 1)) == 0);
 

@@ -11,10 +11,9 @@
 //             only steers the Newton iteration, never the solution).
 // `auto` chooses per interval: BDF when stiffness = ρ(∂F/∂z) (t1 - t0) exceeds kStiffLimit (an
 // explicit method would need about stiffness / 3.3 steps for stability alone), else explicit.
-// Measured on the moment equations of tank models with a restart at every interval (2000
-// intervals, rtol 1e-6; docs/benchmarks.md): explicit 1.7 µs per interval against BDF 43 µs
-// for 2 states, 22 µs against 1750 µs for 10 states (CVODE with difference-quotient Newton
-// matrices); with a mode 400 times faster than the interval, explicit 286 µs against BDF 142 µs.
+// Chosen by measurement on the moment equations of tank models with a restart at every interval
+// (docs/benchmarks.md, "Which ODE solver, by measurement"): the explicit method is an order of
+// magnitude cheaper on non-stiff intervals, BDF about twice as cheap on a stiff one.
 #pragma once
 
 #include <memory>

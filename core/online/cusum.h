@@ -49,8 +49,8 @@
 //   so pieces break at k d and shrink geometrically towards d and 3d (hp grading).
 // - Accuracy: 1e-9 relative or better at the default 12 nodes a piece (1e-12 for the mean tests
 //   with δ >= 1), at any ARL: doubling the nodes changes the ARL by less than 1e-8. Published
-//   tables are met to their last digit (tests/core/cusum_test.cpp). The cost grows with h / SD(s):
-//   about 1 ms for a mean test and 20-80 ms for the variance test (ρ = 2), 0.3 s for ρ = 1.1.
+//   tables are met to their last digit (tests/core/cusum_test.cpp). The cost grows with h / SD(s)
+//   (docs/benchmarks.md, "Timings behind the code's limits").
 // - Not the Brook-Evans Markov chain: its error is O(1/states²) and Richardson extrapolation
 //   assumes a regular error expansion, which the atom at 0 and the χ²₁ pole break.
 //
@@ -80,7 +80,8 @@ inline constexpr int kCusumKinds = 3;
 const char* CusumKindName(CusumKind kind);
 
 // The change a test is tuned to. Smaller changes need more pieces (their increments are small):
-// the bounds keep one ARL within about 0.3 s.
+// the bounds keep one ARL integral short (docs/benchmarks.md, "Timings behind the code's
+// limits").
 inline constexpr double kMinMeanShift = 0.1;
 inline constexpr double kMinVarianceRatio = 1.1;
 struct CusumChange {

@@ -67,7 +67,8 @@ std::string PathForFile(const std::string& p, const fs::path& dir, bool relative
 // Builds a Json from nlohmann's SAX events as Json::parse does (a repeated key keeps its first
 // place and takes its last value), but finds each key of an object through a hash table: an
 // ordered_json object looks keys up by a scan, so Json::parse takes time quadratic in the keys of
-// an object (50 s for the 100 000 entries of a large diagram's layout).
+// an object (a large diagram's layout has 100 000: docs/benchmarks.md, "Timings behind the
+// code's limits").
 class OrderedBuilder {
  public:
   explicit OrderedBuilder(Json* root) : root_(root) {}

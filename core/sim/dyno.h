@@ -69,10 +69,10 @@ struct RecordingOptions {
 // Limits of a recorded experiment, checked (IsValid) before anything is allocated or run:
 //   kMaxSamples     the record's rows, duration / T_s (a column of doubles is 80 MB at the limit)
 //   kMaxFineSteps   the simulated world's steps, duration / T_s · oversample, after the warm-up:
-//                   the run's time (about 0.35 µs a step for the fuel film, 0.7 µs for the
-//                   engine: a minute or so at the limit)
+//                   the run's time (a minute or so at the limit: docs/benchmarks.md,
+//                   "Timings behind the code's limits")
 //   kMinFineStep    h = T_s / oversample in s: the delay lines hold their history at every fine
-//                   step (about 1.6 s of it for the engine: 1.3 MB at the limit)
+//                   step (1.3 MB for the engine at the limit)
 inline constexpr double kMaxSamples = 1e7;
 inline constexpr double kMaxFineSteps = 1e8;
 inline constexpr double kMinFineStep = 1e-5;

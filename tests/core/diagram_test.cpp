@@ -929,8 +929,8 @@ TEST(DiagramJson, RefusesIdsOutsideTheRangeOfInt) {
   EXPECT_EQ(r->next_id, 2147483647);
 }
 
-// Reading a file of 100 000 blocks took 50 s: a JSON object (the layout's) found each key by a
-// scan of the keys before it. Written and read back, the diagram is the same.
+// Reading a file of 100 000 blocks was quadratic: a JSON object (the layout's) found each key by
+// a scan of the keys before it. Written and read back, the diagram is the same.
 TEST(DiagramJson, ADiagramOf100000BlocksIsWrittenAndReadBackWhole) {
   auto d = FromJson(ChainsJson(kLags, kChainsPerLag, kChainLength));
   ASSERT_TRUE(d.ok()) << d.error().ToString();

@@ -49,8 +49,8 @@ model::ModelSpec Spec(const char* text, model::InitialCovariance kind) {
 }
 
 // kSamples simulated from the model, a fraction of them missing: 200, under the sanitizers 80,
-// the same code paths (each case below checks every parameter against 4 more filter runs; on 200
-// samples that test took 26 s there).
+// the same code paths (each case below checks every parameter against 4 more filter runs; the
+// time there: docs/benchmarks.md, "Timings behind the code's limits").
 constexpr int kSamples = kSanitized ? 80 : 200;
 
 data::Series Simulate(const model::NonlinearModel& nm) {

@@ -259,7 +259,8 @@ data::Series SimulateTanks(const model::ModelSpec& spec, int N, double dt, unsig
 
 TEST(Ekf, NonlinearModelEqualsABruteForceEkf) {
   const model::ModelSpec spec = Spec(kTanks);
-  // Under the sanitizers 50 samples: the same code, a third of the brute force (17 s there).
+  // Under the sanitizers 50 samples: the same code, a third of the brute force (docs/benchmarks.md,
+  // "Timings behind the code's limits").
   const int samples = kSanitized ? 50 : 150;
   const data::Series series = SimulateTanks(spec, samples, 0.5, 3);
   const double reference = BruteForceEkf(spec, series, 400);

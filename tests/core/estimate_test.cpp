@@ -424,8 +424,9 @@ TEST(Estimate, TwoRecordsGivenInEitherOrderReachTheSameOptimum) {
   // Issue 33: the outcome may not turn on the order the datasets are given in (the sum of their
   // log-likelihoods rounds differently). The fuel film from generic starts on f1 and f7, where
   // a variance ends on its bound and is released: the whole default job, delay profile included.
-  // Not under the sanitizers (156 s there): the stages it runs run there in the Ornstein pair's
-  // generic starts and the fuel film's estimates.
+  // Not under the sanitizers (its time there: docs/benchmarks.md, "Timings behind the code's
+  // limits"): the stages it runs run there in the Ornstein pair's generic starts and the fuel
+  // film's estimates.
   if (kSanitized) GTEST_SKIP() << "the release suite's: see the comment";
   const std::string assets = std::string(GREYBENCH_SOURCE_DIR) + "/";
   const std::vector<std::string> files = {assets + "assets/data/fuel_f1.csv",
@@ -462,10 +463,11 @@ TEST(Estimate, TwoRecordsGivenInEitherOrderReachTheSameOptimum) {
 // ---- the CTSM-R conformance case ---------------------------------------------------------------
 
 TEST(Conformance, Building3EstimateFromNeutralStartReachesCtsmRsOptimum) {
-  // Not under the sanitizers: even from CTSM-R's estimates this fit took 192 s there, the most
-  // of any test, and its code (the linear estimator, the exact filter and scores, the standard
-  // errors) runs under them in the fuel film's estimates (Estimate.*, Sweep.*). The point of the
-  // test, the optimum from the neutral start, is the release suite's.
+  // Not under the sanitizers: even from CTSM-R's estimates this fit is the slowest of any test
+  // there (docs/benchmarks.md, "Timings behind the code's limits"), and its code (the linear
+  // estimator, the exact filter and scores, the standard errors) runs under them in the fuel film's
+  // estimates (Estimate.*, Sweep.*). The point of the test, the optimum from the neutral start, is
+  // the release suite's.
   if (kSanitized) GTEST_SKIP() << "the release suite's: see the comment";
   auto spec = model::LoadModelFile(kData + "/building3/model_start.json");
   ASSERT_TRUE(spec.ok());

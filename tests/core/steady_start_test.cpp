@@ -173,8 +173,8 @@ TEST(SteadyStart, AFitFromItReachesTheTanksOptimumFromAStartFarOff) {
   EXPECT_NE(steady->Report().find("Steady-state start: 2 parameters"), std::string::npos);
   EXPECT_TRUE(steady->ToJson().contains("steady_start"));
 
-  // The optimum: the fit from the truth. Not under the sanitizers (the two fits took 62 s
-  // there; the steady start's path and the fit from it are the point there, checked above).
+  // The optimum: the fit from the truth. Not under the sanitizers (the two fits are slow there;
+  // the steady start's path and the fit from it are the point there, checked above).
   if (kSanitized) return;
   auto truth_lik = filter::Likelihood::Create(testing::CompileTank(testing::TankTruth()), {series});
   ASSERT_TRUE(truth_lik.ok());

@@ -22,7 +22,8 @@ const std::string kRoot = GREYBENCH_SOURCE_DIR;
 TEST(Sweep, RecoversEveryOperatingPointOfTable2FromTheBundledDynoData) {
   auto spec = model::LoadModelFile(kRoot + "/assets/models/fuel_film.json");
   ASSERT_TRUE(spec.ok()) << spec.error().ToString();
-  // Not under the sanitizers: three whole points took 149 s there (the most of any test), and
+  // Not under the sanitizers: three whole points are among the slowest of any test there
+  // (docs/benchmarks.md, "Timings behind the code's limits"), and
   // the sweep's code path (fits, the delay search, the relations of Fig. 3-4) runs under them in
   // WorkbenchSweep.ClickingRunInstallsTheSweepCoreComputesAndTheViewShowsTable2 (core's Sweep on
   // three points, beside the GUI's) and Sweep.CancelStops…; the point of this test, the whole of

@@ -426,7 +426,8 @@ bool LegitimatelyLong(CommandLine* cl) {
     if (Number(ValueOf(*cl, "--idle"), &v) && v > 1) return true;
   }
   if (command == "bench" && Number(ValueOf(*cl, "--repeat"), &v) && v > 100) return true;
-  // A fit per data file, some 2 s each under the sanitizers: more than 3 files outlast -timeout.
+  // A fit per data file, each slow under the sanitizers: more than 3 files outlast -timeout
+  // (docs/benchmarks.md, "Timings behind the code's limits").
   if (command == "sweep" && cl->positionals > 4) return true;
   return false;
 }
