@@ -6,7 +6,7 @@
 #
 #   bench/generic_starts.sh [DATA.csv] [EXTRA estimate options...]
 #       DATA: default tests/data/ornstein2d/data.csv (greybench's simulation); ctsmTMB's own
-#       example data: ../shared/external/ctsmtmb-ornstein2d/data.csv
+#       example data (not in the tree): the 50 rows of its Ornstein2D example, exported to CSV
 #   CLI=path/to/greybench-cli bench/generic_starts.sh ...   another build (default build/)
 set -euo pipefail
 cd "$(dirname "$0")/.."
