@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Static checks on core/ (docs/quality.md): clang-tidy with the committed .clang-tidy, and
-# cppcheck (warning, performance, portability) with the committed .cppcheck-suppressions.
-# Fails (exit 1) on any finding of either; prints each tool's findings and run time.
+# Static checks on core/ (docs/quality.md): the include order of core's and ui's folders
+# (scripts/include-order.py), clang-tidy with the committed .clang-tidy, and cppcheck (warning,
+# performance, portability) with the committed .cppcheck-suppressions.
+# Fails (exit 1) on any finding of any; prints each tool's findings and run time.
 #   scripts/static-checks.sh [BUILD_DIR]      BUILD_DIR holds compile_commands.json (default build)
 #   JOBS=N scripts/static-checks.sh           N clang-tidy/cppcheck processes at once (default 1)
 #   FILES="core/a.cpp core/b.cpp" scripts/...  clang-tidy on these files only (cppcheck: all)
@@ -90,6 +91,12 @@ fi
 logs=$(mktemp -d)
 trap 'rm -rf "$logs"' EXIT
 status=0
+
+# The dependency order of core's and ui's folders (scripts/include-order.py holds it): a back
+# edge is a finding, printed FILE:LINE. Well under a second, so it runs first.
+if ! python3 "$root/scripts/include-order.py" --root "$root"; then
+  status=1
+fi
 
 # clang-tidy: one process per file. The compile commands are GCC's; clang does not know some of
 # its warning options (-Wno-restrict), which is not a finding.
