@@ -18,13 +18,14 @@
 #include <backends/imgui_impl_opengl3.h>
 #include <imgui.h>
 
+#include "core/util/json.h"
 #include "core/util/sanitizers.h"
 #if GREYBENCH_ASAN
 #include <sanitizer/lsan_interface.h>
 #endif
 
+#include "ui/export/export.h"
 #include "ui/render/png.h"
-#include "ui/shell/export.h"
 #include "ui/shell/shell.h"
 #include "ui/state/app_state.h"
 #include "ui/theme.h"
@@ -135,7 +136,7 @@ bool WriteScreenshot(GLFWwindow* window, const std::string& path) {
 }
 
 // Draws one plot alone at the PNG's size in an ImGui frame of its own into an offscreen
-// framebuffer, reads it back and writes the file (ui/shell/export.h). Runs after the window's
+// framebuffer, reads it back and writes the file (ui/export/export.h). Runs after the window's
 // frame was rendered; the window's back buffer is not touched.
 void DrawPngOffscreen(gb::ui::AppState& state, const gb::ui::PendingPng& png) {
   namespace ui = gb::ui;
@@ -257,7 +258,7 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
     glClearColor(bg.x, bg.y, bg.z, 1.0f);
     glClear(GL_COLOR_BUFFER_BIT);
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
-    // A plot's "Save image as PNG": the plot alone, drawn offscreen (ui/shell/export.h).
+    // A plot's "Save image as PNG": the plot alone, drawn offscreen (ui/export/export.h).
     if (const std::optional<ui::PendingPng> png = ui::TakePendingPng(state)) {
       DrawPngOffscreen(state, *png);
     }

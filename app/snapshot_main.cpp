@@ -1,8 +1,9 @@
 // greybench-snapshot: renders one view of the workbench offscreen (OSMesa) to a PNG.
 // user guide §6:
 //   greybench-snapshot --project PROJECT.json --view VIEW --out OUT.png [--width W --height H]
-//                      [--estimate] [--dialog DIALOG] [--time T0:T1] [--profile PARAMETER]
-//                      [--live-until T [--live-fault TIME:PARAMETER*FACTOR[/RAMP] ...]
+//                      [--estimate [--quick-sweep]] [--dialog DIALOG] [--time T0:T1]
+//                      [--profile PARAMETER] [--live-until T [--live-fault
+//                      TIME:PARAMETER*FACTOR[/RAMP] ...]
 //                       [--live-point NAME] [--live-seed N] [--live-forgetting L]]
 // Exit status: 0 written; 2 bad command line or bad input (stderr names the file); 1 the
 // rendering or the PNG writing failed, or --estimate's estimation failed (the PNG is still
@@ -18,7 +19,8 @@
 // (StartEstimation: the same background job), waits for it, then renders. It runs with
 // threads = 1 and the other options at their defaults. For the operating-points view, whose
 // computation is the sweep, it starts the sweep as that view's Run button does (StartSweep)
-// instead.
+// instead. --quick-sweep runs that sweep's fits the quick way (SweepState::quick: the same
+// estimates, delays and table in a fraction of the fits), as the sanitizer suite does.
 //
 // --profile NAME (with --estimate): the estimation computes the profile likelihood intervals (the
 // Estimate view's "Profile intervals" box) and the Parameters view plots NAME's profile, as a
@@ -68,6 +70,7 @@
 #include "core/report/figure.h"
 #include "core/sim/dyno.h"
 #include "core/sim/fault_schedule.h"
+#include "core/util/file.h"
 #include "core/util/output_guard.h"
 #include "ui/render/fixed_gl_renderer.h"
 #include "ui/render/png.h"
@@ -104,7 +107,8 @@ struct Options {
   int width = 1280;
   int height = 800;
   bool estimate = false;
-  std::string profile;  // --profile NAME: with --estimate, profile intervals and NAME's plot
+  bool quick_sweep = false;  // --quick-sweep: SweepState::quick
+  std::string profile;       // --profile NAME: with --estimate, profile intervals and NAME's plot
   std::optional<gb::ui::plot::Range> time;  // --time: the time axes' range (else the whole record)
   std::string dialog;  // a dialog of the shell drawn over the view (ui/shell/shell.h)
   // --overlays: the predictions view's checkboxes to tick (ahead, simulation, smoothed, compare).
@@ -124,7 +128,8 @@ struct Options {
 constexpr const char* kUsage =
     "usage: greybench-snapshot --project PROJECT.json --view VIEW [--plot NAME] --out OUT.png\n"
     "                          [--view VIEW [--plot NAME] --out OUT.png|OUT.svg ...]\n"
-    "                          [--width W] [--height H] [--estimate] [--dialog DIALOG]\n"
+    "                          [--width W] [--height H] [--estimate [--quick-sweep]]\n"
+    "                          [--dialog DIALOG]\n"
     "                          [--time T0:T1] [--profile PARAMETER]\n"
     "                          [--overlays ahead,simulation,smoothed,compare] [--dataset N]\n"
     "                          [--live-until T [--live-fault TIME:PARAMETER*FACTOR[/RAMP] ...]\n"
@@ -158,6 +163,10 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
     const std::string_view arg = argv[i];
     if (arg == "--estimate") {
       o->estimate = true;
+      continue;
+    }
+    if (arg == "--quick-sweep") {
+      o->quick_sweep = true;
       continue;
     }
     if (arg == "--help" || arg == "-h") return "help";
@@ -300,6 +309,7 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
   *fatal = true;
   state.view = options.shots.front().view;
   state.deterministic = true;
+  state.sweep.quick = options.quick_sweep;
   state.analysis.show_ahead = options.ahead;
   state.analysis.show_simulation = options.simulation;
   state.analysis.show_smoothed = options.smoothed;
@@ -446,7 +456,7 @@ int RenderPlot(const Options& options, const Shot& shot, gb::ui::AppState& state
   if (IsSvg(shot.out)) {
     const std::string svg =
         gb::report::FigureToSvg(chosen->figure, {options.width, options.height});
-    if (gb::Status st = gb::project::WriteFileAtomic(shot.out, svg); !st)
+    if (gb::Status st = gb::WriteFileAtomic(shot.out, svg); !st)
       return Fail(kExitRenderFailed, st.error().ToString());
     return 0;
   }

@@ -8,6 +8,7 @@
 
 #include "core/data/dataset.h"
 #include "core/model/model.h"
+#include "core/util/json.h"
 #include "ui/jobs/analysis.h"
 
 namespace {

@@ -6,6 +6,7 @@
 
 #include "core/estimate/estimate.h"
 #include "core/project/problem.h"
+#include "core/util/json.h"
 
 namespace {
 

@@ -235,7 +235,7 @@ void RunEkf(benchmark::State& state, const EkfFixture& f) {
   const double n = static_cast<double>(f.series->size());
   state.counters["ns_per_sample"] = benchmark::Counter(
       n * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
-  const filter::OdeCounts c = lik.ode_counts();
+  const ode::OdeCounts c = lik.ode_counts();
   state.counters["steps_per_interval"] =
       c.intervals ? static_cast<double>(c.steps) / static_cast<double>(c.intervals) : 0.0;
   state.counters["rhs_per_interval"] =

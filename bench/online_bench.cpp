@@ -17,6 +17,8 @@
 #include "core/online/augmented.h"
 #include "core/online/monitor.h"
 #include "core/project/problem.h"
+#include "core/project/result_file.h"
+#include "core/util/json.h"
 
 namespace {
 
@@ -25,7 +27,7 @@ using namespace gb;
 struct Case {
   project::Problem problem;
   online::Reference reference;
-  std::vector<online::Sample> rows;
+  std::vector<data::Sample> rows;
 };
 
 const Case& Load(const std::string& model, const std::string& data) {
@@ -38,7 +40,7 @@ const Case& Load(const std::string& model, const std::string& data) {
   auto lik = project::MakeLikelihood(*problem);
   auto fit = estimate::Estimate(*lik, estimate::EstimateOptions{});
   Case c{*problem, online::ReferenceFromSummary(*fit, problem->spec()), {}};
-  c.rows = online::SamplesOf(*problem->series[0]);
+  c.rows = data::SamplesOf(*problem->series[0]);
   cache.emplace_back(model, std::move(c));
   return cache.back().second;
 }
@@ -49,7 +51,7 @@ void Recursive(benchmark::State& state, const char* model, const char* data) {
   o.forgetting = 0.999;
   for (auto _ : state) {
     auto rml = online::RecursiveMl::Create(*c.problem.model, c.reference, o);
-    for (const online::Sample& r : c.rows) benchmark::DoNotOptimize(rml->Push(r));
+    for (const data::Sample& r : c.rows) benchmark::DoNotOptimize(rml->Push(r));
   }
   state.SetItemsProcessed(state.iterations() * static_cast<long>(c.rows.size()));
 }
@@ -93,7 +95,7 @@ BENCHMARK_CAPTURE(Monitor, fuel_film, "models/fuel_film.json", "data/fuel_f1.csv
 struct NonlinearCase {
   std::shared_ptr<const model::NonlinearModel> model;
   online::Reference reference;
-  std::vector<online::Sample> rows;
+  std::vector<data::Sample> rows;
 };
 
 // "tanks": the bundled model at its recorded estimates; "bioreactor": fitted here.
@@ -110,9 +112,9 @@ const NonlinearCase& LoadNonlinear(const std::string& which) {
   auto dataset = data::ReadCsvFile(tanks ? root + "/assets/data/tanks_estimation.csv"
                                          : root + "/tests/data/bioreactor/fedbatch.csv");
   auto series = *data::Bind(**dataset, spec->inputs, spec->outputs);
-  NonlinearCase c{model, {}, online::SamplesOf(*series)};
+  NonlinearCase c{model, {}, data::SamplesOf(*series)};
   if (tanks) {
-    c.reference = *online::LoadReference(root + "/tests/data/tanks/estimates.json", *spec);
+    c.reference = *project::LoadReference(root + "/tests/data/tanks/estimates.json", *spec);
   } else {
     auto lik = filter::Likelihood::Create(model, {series});
     c.reference =
@@ -130,7 +132,7 @@ void Augmented(benchmark::State& state, const char* which) {
   for (auto _ : state) {
     auto ekf = online::AugmentedEkf::Create(c.model, c.reference, o);
     tracked = ekf->tracked().size();
-    for (const online::Sample& r : c.rows) benchmark::DoNotOptimize(ekf->Push(r));
+    for (const data::Sample& r : c.rows) benchmark::DoNotOptimize(ekf->Push(r));
   }
   state.counters["tracked"] = static_cast<double>(tracked);
   state.SetItemsProcessed(state.iterations() * static_cast<long>(c.rows.size()));

@@ -3,7 +3,8 @@
 #   1. scripts/sanitize.sh       one clang build with ASan + UBSan + libFuzzer's instrumentation
 #                                (build-asan/), and the whole test suite under the sanitizers
 #   2. scripts/fuzz.sh SECONDS   each libFuzzer target for SECONDS (default 60), built by 1
-#   3. scripts/static-checks.sh  clang-tidy and cppcheck on core/ (needs build/, from dev.sh),
+#   3. scripts/static-checks.sh  the include order of core/ and ui/, clang-tidy and cppcheck on
+#                                core/ (needs build/, from dev.sh),
 #                                in the background beside 1 and 2 at nice 19
 # Installs what the gates need and the normal set-up does not (clang with the libFuzzer runtime,
 # clang-tidy, cppcheck) with apt-get when missing. Runs every gate even when one fails, prints a

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Static checks (docs/quality.md): clang-format on every C++ file (the committed .clang-format);
-# on core/, clang-tidy with the committed .clang-tidy, and cppcheck (warning, performance,
-# portability) with the committed .cppcheck-suppressions.
+# the include order of core's and ui's folders (scripts/include-order.py); on core/, clang-tidy
+# with the committed .clang-tidy, and cppcheck (warning, performance, portability) with the
+# committed .cppcheck-suppressions.
 # Fails (exit 1) on any finding of any; prints each tool's findings and run time.
 #   scripts/static-checks.sh [BUILD_DIR]      BUILD_DIR holds compile_commands.json (default build)
 #   JOBS=N scripts/static-checks.sh           N clang-tidy/cppcheck processes at once (default 1)
@@ -105,6 +106,12 @@ if [ -s "$logs/format.txt" ]; then
   status=1
 else
   echo "static-checks: clang-format: $(git ls-files '*.cpp' '*.h' | wc -l) files formatted (${format_s} s)"
+fi
+
+# The dependency order of core's and ui's folders (scripts/include-order.py holds it): a back
+# edge is a finding, printed FILE:LINE. Well under a second.
+if ! python3 "$root/scripts/include-order.py" --root "$root"; then
+  status=1
 fi
 
 # clang-tidy: one process per file. The compile commands are GCC's; clang does not know some of

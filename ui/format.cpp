@@ -39,4 +39,8 @@ std::string FormatPValue(const std::optional<double>& p) {
   return FormatSig(*p, 3);
 }
 
+std::string DatasetLabel(const data::DatasetSpec& spec) {
+  return spec.DisplayName() + (spec.role == data::Role::kValidation ? " (validation)" : "");
+}
+
 }  // namespace gb::ui

@@ -1,9 +1,11 @@
-// Numbers as the estimate and parameters views print them. A value that is absent or not
-// finite is printed as kDash, never as "nan" or "inf".
+// Numbers as the estimate and parameters views print them, and datasets as the views name them. A
+// value that is absent or not finite is printed as kDash, never as "nan" or "inf".
 #pragma once
 
 #include <optional>
 #include <string>
+
+#include "core/data/import.h"
 
 namespace gb::ui {
 
@@ -17,5 +19,9 @@ std::string FormatSig(const std::optional<double>& v, int digits);
 std::string FormatFixed(double v, int decimals);
 // A two-sided p-value: "<1e-16" below what doubles resolve, else 3 significant digits.
 std::string FormatPValue(const std::optional<double>& p);
+
+// A dataset as the views name it: its name (or file name), "(validation)" for a record that is
+// not fitted.
+std::string DatasetLabel(const data::DatasetSpec& spec);
 
 }  // namespace gb::ui

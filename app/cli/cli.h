@@ -19,6 +19,7 @@
 #include "core/model/model.h"
 #include "core/model/nonlinear_model.h"
 #include "core/project/problem.h"
+#include "core/util/json.h"
 #include "core/util/output_guard.h"
 #include "core/util/result.h"
 

@@ -10,6 +10,7 @@
 #include "core/project/problem.h"
 #include "core/project/project.h"
 #include "core/project/result_file.h"
+#include "core/util/file.h"
 
 namespace gb::cli {
 
@@ -59,7 +60,7 @@ namespace {
 // Whether `path` holds a project: a JSON object with "greybench_project" (what is not JSON, or
 // not readable, is left to the model's reader to report).
 bool IsProjectFile(const std::string& path) {
-  auto j = project::ReadJsonFile(path);
+  auto j = ReadJsonFile(path);
   return j && j->is_object() && j->contains("greybench_project");
 }
 

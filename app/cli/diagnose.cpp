@@ -5,7 +5,7 @@
 #include "app/cli/cli.h"
 #include "core/diagnose/residuals.h"
 #include "core/filter/predict.h"
-#include "core/project/project.h"
+#include "core/util/file.h"
 #include "core/util/json.h"
 
 namespace gb::cli {
@@ -137,8 +137,7 @@ int RunDiagnose(const DiagnoseArgs& args) {
   }
   out["outputs"] = outputs;
   out["verdict"] = verdict;
-  if (auto st = project::WriteFileAtomic(args.out, out.dump(1) + "\n"); !st)
-    return Fail(st.error());
+  if (auto st = WriteFileAtomic(args.out, out.dump(1) + "\n"); !st) return Fail(st.error());
   std::printf("%s\n", verdict.c_str());
   return 0;
 }

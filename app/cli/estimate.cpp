@@ -33,7 +33,7 @@ int RunEstimate(const EstimateArgs& args) {
     fingerprints.push_back(FileFingerprint(d.file));
   // A fit may take minutes: a result file that cannot be written is reported before it.
   if (!args.out.empty())
-    if (auto st = project::CheckWritable(args.out); !st) return Fail(st.error());
+    if (auto st = CheckWritable(args.out); !st) return Fail(st.error());
   const filter::Likelihood* lik = &loaded->likelihood;
   estimate::EstimateOptions options;
   options.threads = args.threads;
@@ -48,7 +48,7 @@ int RunEstimate(const EstimateArgs& args) {
   options.steady_start = args.steady_start;
   options.steady_window = args.steady_window;
   if (!args.checkpoint.empty())
-    if (auto st = project::CheckWritable(args.checkpoint); !st) return Fail(st.error());
+    if (auto st = CheckWritable(args.checkpoint); !st) return Fail(st.error());
   if (args.progress || !args.checkpoint.empty()) {
     const auto start = std::chrono::steady_clock::now();
     const model::ModelSpec& spec = lik->spec();
@@ -79,7 +79,7 @@ int RunEstimate(const EstimateArgs& args) {
         j["output_delay"] = delays;
       }
       // A checkpoint that cannot be written is not worth stopping the fit for.
-      (void)project::WriteFileAtomic(args.checkpoint, j.dump(1) + "\n");
+      (void)WriteFileAtomic(args.checkpoint, j.dump(1) + "\n");
     };
   }
   if (args.algorithm == "auto")
@@ -114,15 +114,14 @@ int RunEstimate(const EstimateArgs& args) {
     j["data_fingerprints"] = fingerprints;
     // How the records started: predict and diagnose read a result of a fit per record so.
     if (!lik->series_parameters().empty()) j["initial_states"] = "per_record";
-    if (auto st = project::WriteFileAtomic(args.out, j.dump(1) + "\n"); !st)
-      return Fail(st.error());
+    if (auto st = WriteFileAtomic(args.out, j.dump(1) + "\n"); !st) return Fail(st.error());
   }
   return summary->converged ? 0 : 1;
 }
 
 int RunCompare(const CompareArgs& args) {
   auto read = [](const std::string& path) -> Result<project::NestedFit> {
-    auto j = project::ReadJsonFile(path);
+    auto j = ReadJsonFile(path);
     if (!j) return j.error();
     return project::ReadNestedFit(*j, path);
   };

@@ -7,8 +7,9 @@
 #include <fmt/format.h>
 
 #include "app/cli/cli.h"
-#include "core/online/monitor.h"
-#include "core/project/project.h"
+#include "core/project/result_file.h"
+#include "core/util/file.h"
+#include "core/util/json.h"
 
 namespace gb::cli {
 
@@ -19,7 +20,7 @@ namespace fs = std::filesystem;
 // The model a result names: --model, else its "model_file" (relative to the result file).
 Result<std::string> ModelOf(const LineariseArgs& args) {
   if (!args.model.empty()) return args.model;
-  auto j = project::ReadJsonFile(args.result);
+  auto j = ReadJsonFile(args.result);
   if (!j) return j.error();
   if (!j->is_object() || !j->contains("model_file") || !(*j)["model_file"].is_string()) {
     Error e = InputError(
@@ -76,7 +77,7 @@ int RunLinearise(const LineariseArgs& args) {
     return s;
   auto spec = model::LoadModelFile(*model_path);
   if (!spec) return Fail(spec.error());
-  auto reference = online::LoadReference(args.result, *spec);
+  auto reference = project::LoadReference(args.result, *spec);
   if (!reference) return Fail(reference.error());
   auto point = model::ParseOperatingPoint(args.point, *spec);
   if (!point) return Fail(point.error());
@@ -154,8 +155,7 @@ int RunLinearise(const LineariseArgs& args) {
           {"value", lin->quantities[k]},
           {"std_error", std::isnan(lin->se_quantities[k]) ? Json() : Json(lin->se_quantities[k])}};
     j["quantities"] = q;
-    if (auto st = project::WriteFileAtomic(args.out, j.dump(1) + "\n"); !st)
-      return Fail(st.error());
+    if (auto st = WriteFileAtomic(args.out, j.dump(1) + "\n"); !st) return Fail(st.error());
   }
   return 0;
 }

@@ -16,6 +16,7 @@
 #include "app/cli/cli.h"
 #include "core/design/prbs.h"
 #include "core/estimate/estimate.h"
+#include "core/util/json.h"
 
 namespace gb::cli {
 namespace {

@@ -14,7 +14,9 @@
 #include <fmt/format.h>
 
 #include "app/cli/cli.h"
-#include "core/online/follow.h"
+#include "core/data/follow.h"
+#include "core/project/result_file.h"
+#include "core/util/json.h"
 
 namespace gb::cli {
 namespace {
@@ -90,7 +92,7 @@ int RunMonitor(const MonitorArgs& args) {
   // The inputs: the model, the reference, the followed file.
   auto spec = LoadModelWithOverrides(args.model, args.sets);
   if (!spec) return Fail(spec.error());
-  auto reference = online::LoadReference(args.reference, *spec);
+  auto reference = project::LoadReference(args.reference, *spec);
   if (!reference) return Fail(reference.error());
   online::MonitorOptions options;
   options.recursive.forgetting = args.forgetting;
@@ -100,10 +102,10 @@ int RunMonitor(const MonitorArgs& args) {
   auto monitor = online::Monitor::Create(*spec, *reference, options);
   if (!monitor) return Fail(monitor.error());
   const std::string source = from_stdin ? "<stdin>" : args.follow;
-  online::CsvRowReader reader(source, spec->inputs, spec->outputs);
-  std::optional<online::FileFollower> follower;
+  data::CsvRowReader reader(source, spec->inputs, spec->outputs);
+  std::optional<data::FileFollower> follower;
   if (!from_stdin) {
-    auto f = online::FileFollower::Open(args.follow);
+    auto f = data::FileFollower::Open(args.follow);
     if (!f) return Fail(f.error());
     follower.emplace(std::move(*f));
     // What the file holds already: a header that cannot be bound is found before the log is
@@ -135,7 +137,7 @@ int RunMonitor(const MonitorArgs& args) {
       ++skipped;
       std::fprintf(stderr, "greybench-cli: warning: %s\n", e.ToString().c_str());
     }
-    for (const online::Sample& s : reader.TakeSamples()) {
+    for (const data::Sample& s : reader.TakeSamples()) {
       ++rows;
       auto ups = monitor->Push(s);
       if (!ups) {
@@ -196,7 +198,7 @@ int RunMonitor(const MonitorArgs& args) {
 
   bool running = drain();
   while (running) {
-    Result<std::string> bytes = from_stdin ? online::ReadSome(0) : follower->Poll();
+    Result<std::string> bytes = from_stdin ? data::ReadSome(0) : follower->Poll();
     if (!bytes) {
       status = Fail(bytes.error());
       break;
@@ -216,7 +218,7 @@ int RunMonitor(const MonitorArgs& args) {
       if (args.idle && std::chrono::steady_clock::now() - idle_since >
                            std::chrono::duration<double>(*args.idle)) {
         // The writer may have stopped mid-line: a line without its end is not a row.
-        reader.Finish(online::CsvRowReader::LastLine::kDrop);
+        reader.Finish(data::CsvRowReader::LastLine::kDrop);
         running = drain();
         break;
       }

@@ -15,6 +15,7 @@
 #include "core/project/problem.h"
 #include "core/project/project.h"
 #include "core/project/result_file.h"
+#include "core/util/file.h"
 
 namespace gb::cli {
 namespace {
@@ -69,7 +70,7 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
   // parameters (record 1 from the originals); a result of such a fit says so.
   CommandInputs as_fitted = in;
   if (!result_path.empty()) {
-    auto result = project::ReadJsonFile(result_path);
+    auto result = ReadJsonFile(result_path);
     if (result && result->is_object() && result->value("initial_states", "") == "per_record")
       as_fitted.per_record_initial_states = true;
   }

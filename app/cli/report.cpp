@@ -10,7 +10,7 @@
 
 #include "app/cli/cli.h"
 #include "core/diagnose/residuals.h"
-#include "core/project/project.h"
+#include "core/util/file.h"
 
 namespace gb::cli {
 namespace {
@@ -88,7 +88,7 @@ std::vector<std::string> NamedData(const Json& result, const std::string& result
 }
 
 bool IsProject(const std::string& path) {
-  auto j = project::ReadJsonFile(path);
+  auto j = ReadJsonFile(path);
   return j && j->is_object() && j->contains("greybench_project");
 }
 
@@ -109,7 +109,7 @@ int RunReport(const ReportArgs& args) {
   const std::optional<report::ReportFormat> format = report::ParseReportFormat(format_name);
   if (!format) return Fail(InputError("--format '" + format_name + "': expected md or html"));
 
-  auto result = project::ReadJsonFile(args.result);
+  auto result = ReadJsonFile(args.result);
   if (!result) return Fail(result.error());
   if (Status st = report::CheckResultJson(*result, args.result); !st) return Fail(st.error());
 
@@ -158,7 +158,7 @@ int RunReport(const ReportArgs& args) {
   }
   auto text = report::WriteReport(input, *format);
   if (!text) return Fail(text.error());
-  if (auto st = project::WriteFileAtomic(args.out, *text); !st) return Fail(st.error());
+  if (auto st = WriteFileAtomic(args.out, *text); !st) return Fail(st.error());
   return 0;
 }
 

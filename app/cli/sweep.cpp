@@ -1,4 +1,4 @@
-#include "core/estimate/sweep.h"
+#include "core/project/sweep.h"
 
 #include <cstdio>
 
@@ -6,7 +6,7 @@
 #include <fmt/ranges.h>
 
 #include "app/cli/cli.h"
-#include "core/project/project.h"
+#include "core/util/file.h"
 
 namespace gb::cli {
 
@@ -19,7 +19,7 @@ int RunSweep(const SweepArgs& args) {
   if (!datasets) return Fail(datasets.error());
   auto spec = LoadModelWithOverrides(*in, args.sets);
   if (!spec) return Fail(spec.error());
-  estimate::SweepOptions options;
+  project::SweepOptions options;
   options.parallel = args.parallel.value_or(0);
   // The default trend (X against alpha_deg, the paper's Fig. 4) is fitted where the model and
   // the data have them; one the user names must exist.
@@ -46,7 +46,7 @@ int RunSweep(const SweepArgs& args) {
       return Fail(InputError(why));
     for (const data::DatasetSpec& dataset : *datasets) {
       const std::string& d = dataset.file;
-      auto point = estimate::ReadOperatingPoint(d);
+      auto point = project::ReadOperatingPoint(d);
       if (!point) return Fail(point.error());
       if (!point->values.count(options.trend_tag)) {
         std::vector<std::string> tags;
@@ -65,16 +65,15 @@ int RunSweep(const SweepArgs& args) {
   // A sweep may take minutes: output files that cannot be written are reported before it.
   for (const std::string* out : {&args.out_md, &args.out_csv})
     if (!out->empty())
-      if (auto st = project::CheckWritable(*out); !st) return Fail(st.error());
-  auto result = estimate::Sweep(*spec, *datasets, options);
+      if (auto st = CheckWritable(*out); !st) return Fail(st.error());
+  auto result = project::Sweep(*spec, *datasets, options);
   if (!result) return Fail(result.error());
   const std::string md = result->Markdown();
   std::printf("%s", md.c_str());
   if (!args.out_md.empty())
-    if (auto st = project::WriteFileAtomic(args.out_md, md); !st) return Fail(st.error());
+    if (auto st = WriteFileAtomic(args.out_md, md); !st) return Fail(st.error());
   if (!args.out_csv.empty())
-    if (auto st = project::WriteFileAtomic(args.out_csv, result->Csv()); !st)
-      return Fail(st.error());
+    if (auto st = WriteFileAtomic(args.out_csv, result->Csv()); !st) return Fail(st.error());
   for (const auto& r : result->rows)
     if (!r.summary.converged) return 1;
   return 0;

@@ -20,6 +20,7 @@
 #include "core/data/internal.h"
 #include "core/data/mdf4.h"
 #include "core/expr/expr.h"
+#include "core/util/json.h"
 
 namespace gb::data {
 namespace {

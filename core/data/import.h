@@ -41,7 +41,7 @@
 #include <vector>
 
 #include "core/data/dataset.h"
-#include "core/util/json.h"
+#include "core/util/json_fwd.h"
 #include "core/util/result.h"
 
 namespace gb::data {

@@ -5,7 +5,7 @@
 
 #include <fmt/format.h>
 
-#include "core/project/project.h"
+#include "core/util/file.h"
 
 namespace gb::data {
 
@@ -33,7 +33,7 @@ std::string FormatCsv(std::span<const CsvColumn> columns, std::span<const std::s
 
 Status WriteCsvFile(const std::string& path, std::span<const CsvColumn> columns,
                     std::span<const std::string> comments) {
-  return project::WriteFileAtomic(path, FormatCsv(columns, comments));
+  return WriteFileAtomic(path, FormatCsv(columns, comments));
 }
 
 }  // namespace gb::data

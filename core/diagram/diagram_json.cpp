@@ -9,6 +9,7 @@
 #include "core/diagram/diagram.h"
 #include "core/diagram/internal.h"
 #include "core/project/project.h"
+#include "core/util/file.h"
 
 namespace gb::diagram {
 
@@ -391,7 +392,7 @@ Result<BlockDiagram> FromJson(const Json& j, const std::string& source,
 // ---- 3. files and projects -------------------------------------------------------------------
 
 Result<BlockDiagram> LoadDiagramFile(const std::string& path) {
-  auto j = project::ReadJsonFile(path);
+  auto j = ReadJsonFile(path);
   if (!j) return j.error();
   return FromJson(*j, path);
 }

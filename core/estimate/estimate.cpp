@@ -1335,7 +1335,7 @@ class EstimateRun {
     s_.evaluations = fitter_ ? fitter_->evaluations() : 0;
     s_.iterations = fitter_ ? fitter_->iterations() : 0;
     s_.elapsed_s = std::chrono::duration<double>(Clock::now() - start_time_).count();
-    const filter::OdeCounts ode = lik_.ode_counts();
+    const ode::OdeCounts ode = lik_.ode_counts();
     s_.ode.intervals = ode.intervals - ode_at_start_.intervals;
     s_.ode.stiff_intervals = ode.stiff_intervals - ode_at_start_.stiff_intervals;
     s_.ode.steps = ode.steps - ode_at_start_.steps;
@@ -1357,7 +1357,7 @@ class EstimateRun {
   const Clock::time_point start_time_;
   const int threads_;
   std::optional<Fitter> fitter_;  // from Prepare on
-  filter::OdeCounts ode_at_start_;
+  ode::OdeCounts ode_at_start_;
   bool scanning_ = false;  // an output's delay is scanned
   EstimateSummary s_;
   std::vector<int> delay_;           // the delay of the best fit

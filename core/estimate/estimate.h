@@ -70,7 +70,7 @@
 
 #include "core/estimate/steady_start.h"
 #include "core/filter/likelihood.h"
-#include "core/util/json.h"
+#include "core/util/json_fwd.h"
 #include "core/util/result.h"
 
 namespace gb::estimate {
@@ -223,7 +223,7 @@ struct EstimateSummary {
   // (core/filter/ekf.h) with its options and the ODE solver's work over the whole fit.
   bool extended = false;
   model::EkfOptions ekf;
-  filter::OdeCounts ode;
+  ode::OdeCounts ode;
   // The scores were exact (the Kalman filter's, or the EKF's forward sensitivities); false:
   // central differences of log L (the iterated EKF, or EstimateOptions::score_differences).
   bool exact_scores = true;

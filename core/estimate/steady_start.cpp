@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "core/model/linearise.h"
+#include "core/util/json.h"
 
 namespace gb::estimate {
 

@@ -35,7 +35,7 @@
 #include "core/data/dataset.h"
 #include "core/filter/likelihood.h"
 #include "core/model/nonlinear_model.h"
-#include "core/util/json.h"
+#include "core/util/json_fwd.h"
 #include "core/util/result.h"
 
 namespace gb::estimate {

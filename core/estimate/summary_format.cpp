@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "core/estimate/estimate.h"
+#include "core/util/json.h"
 
 namespace gb::estimate {
 namespace {

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "core/estimate/estimate.h"
+#include "core/util/json.h"
 
 namespace gb::estimate {
 namespace {

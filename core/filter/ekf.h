@@ -8,7 +8,7 @@
 //   dP/dt  = J P + P J' + diag(σ(x̂, u(t), θ, t)²),   J = ∂f/∂x at (x̂, u(t), θ, t)
 //
 // (first-order linearisation about the mean; the diffusion is evaluated at the mean, as CTSM
-// does), integrated with error control (core/filter/ode.h) from the filtered (x̂, P) at t_j.
+// does), integrated with error control (core/ode/ode.h) from the filtered (x̂, P) at t_j.
 // u(t) is u_j over the interval (zoh) or u_j + (t - t_j)/Δ_j (u_{j+1} - u_j) (foh).
 // The state of the ODE is x̂ and the lower triangle of P (n + n(n+1)/2 numbers).
 //
@@ -38,8 +38,8 @@
 
 #include "core/data/dataset.h"
 #include "core/filter/kalman.h"
-#include "core/filter/ode.h"
 #include "core/model/nonlinear_model.h"
+#include "core/ode/ode.h"
 #include "core/util/result.h"
 
 namespace gb::filter {
@@ -51,13 +51,14 @@ namespace gb::filter {
 // With `terms`: the per-state-index terms (kalman.h). With `counts`: the solver's work, added.
 Result<Loglik> EkfLogLikelihood(const model::NonlinearModel& model, std::span<const double> theta,
                                 const data::Series& series, const FilterSettings& settings,
-                                std::vector<double>* terms = nullptr, OdeCounts* counts = nullptr);
+                                std::vector<double>* terms = nullptr,
+                                ode::OdeCounts* counts = nullptr);
 
 // As EkfLogLikelihood, and fills *trace (kalman.h's FilterTrace: y_pred = h(x̂⁻), y_var =
 // H P⁻ H' + S, the predicted and filtered means and covariances at every row).
 Result<Loglik> EkfRunFilter(const model::NonlinearModel& model, std::span<const double> theta,
                             const data::Series& series, const FilterSettings& settings,
-                            FilterTrace* trace, OdeCounts* counts = nullptr);
+                            FilterTrace* trace, ode::OdeCounts* counts = nullptr);
 
 namespace internal {
 

@@ -24,9 +24,9 @@
 #include "core/data/dataset.h"
 #include "core/filter/kalman.h"
 #include "core/filter/moments.h"
-#include "core/filter/ode.h"
 #include "core/model/nonlinear_model.h"
 #include "core/model/nonlinear_sensitivity.h"
+#include "core/ode/ode.h"
 #include "core/util/result.h"
 
 namespace gb::filter {
@@ -42,7 +42,7 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
                                          const FilterSettings& settings, std::span<const int> free,
                                          Eigen::VectorXd* gradient,
                                          Eigen::MatrixXd* J_terms = nullptr,
-                                         OdeCounts* counts = nullptr);
+                                         ode::OdeCounts* counts = nullptr);
 
 namespace internal {
 

@@ -12,7 +12,7 @@ namespace gb::filter {
 
 struct Likelihood::Counts {
   std::atomic<long> intervals{0}, stiff_intervals{0}, steps{0}, rejected{0}, rhs{0};
-  void Add(const OdeCounts& c) {
+  void Add(const ode::OdeCounts& c) {
     intervals += c.intervals;
     stiff_intervals += c.stiff_intervals;
     steps += c.steps;
@@ -21,8 +21,8 @@ struct Likelihood::Counts {
   }
 };
 
-OdeCounts Likelihood::ode_counts() const {
-  OdeCounts c;
+ode::OdeCounts Likelihood::ode_counts() const {
+  ode::OdeCounts c;
   c.intervals = counts_->intervals;
   c.stiff_intervals = counts_->stiff_intervals;
   c.steps = counts_->steps;
@@ -188,7 +188,7 @@ Result<Loglik> Likelihood::EvaluateAt(const std::vector<model::StateSpace>& ss,
 
 Result<Loglik> Likelihood::EvaluateEkf(std::span<const double> theta, std::span<const int> delay,
                                        std::vector<double>* terms) const {
-  OdeCounts counts;
+  ode::OdeCounts counts;
   auto total = SumOverSeries(delay, terms,
                              [&](std::size_t i, const data::Series& s,
                                  const FilterSettings& settings, std::vector<double>* t) {
@@ -315,7 +315,7 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
   assert(gradient != nullptr);
   if (nonlinear_ && !exact_scores()) return EkfScore(theta, delay, free, gradient, J_terms_theta);
   if (nonlinear_) {
-    OdeCounts counts;
+    ode::OdeCounts counts;
     auto total = ScoreOverSeries(
         delay, free, gradient, J_terms_theta,
         [&](std::size_t i, const data::Series& s, const FilterSettings& settings,

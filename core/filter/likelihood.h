@@ -95,7 +95,7 @@ class Likelihood {
   const model::NonlinearModel* nonlinear() const { return nonlinear_.get(); }
   // The ODE solver's work summed over every EKF evaluation since creation (zero for a linear
   // model). Not synchronised: read it when no evaluation runs.
-  OdeCounts ode_counts() const;
+  ode::OdeCounts ode_counts() const;
   const std::vector<std::shared_ptr<const data::Series>>& series() const { return series_; }
   const FilterSettings& settings() const { return settings_; }
   // Evaluations stop early (with an Error) once *cancel is true; nullptr: never.

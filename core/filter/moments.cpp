@@ -17,7 +17,7 @@ using Program = model::NonlinearModel::Program;
 
 // The moment equations over one sample interval: z = [x̂; lower triangle of P, column by column],
 // and with `transition` also Φ (column-major), dΦ/dt = J Φ from Φ = I.
-class MomentPropagator::Moments final : public OdeSystem {
+class MomentPropagator::Moments final : public ode::OdeSystem {
  public:
   Moments(const model::NonlinearModel& model, std::span<const double> theta, bool transition,
           const model::NonlinearSensitivity* sens, std::span<const int> free)
@@ -278,7 +278,7 @@ MomentPropagator::MomentPropagator(const model::NonlinearModel& model,
       sensitivity_(sensitivity),
       free_(free.begin(), free.end()),
       moments_(std::make_unique<Moments>(model, theta_, transition, sensitivity, free)),
-      solver_(std::make_unique<OdeSolver>(model.spec().ekf, moments_->size())),
+      solver_(std::make_unique<ode::OdeSolver>(model.spec().ekf, moments_->size())),
       z_(moments_->size()),
       slots_(model.n_slots(), 0.0) {
   assert(static_cast<int>(theta.size()) == model.n_parameters());
@@ -289,7 +289,7 @@ MomentPropagator::MomentPropagator(const model::NonlinearModel& model,
 
 MomentPropagator::~MomentPropagator() = default;
 
-const OdeCounts& MomentPropagator::counts() const { return solver_->counts(); }
+const ode::OdeCounts& MomentPropagator::counts() const { return solver_->counts(); }
 
 Status MomentPropagator::Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P,
                                  Eigen::MatrixXd* Phi, MomentSensitivities* ds) {

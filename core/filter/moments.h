@@ -3,8 +3,8 @@
 //
 //   dx̂/dt = f(x̂, u(t), θ, t),   dP/dt = J P + P J' + diag(σ(x̂, u(t), θ, t)²)
 //
-// with u(t) held (zoh) or interpolated (foh) as ekf.h says, integrated by OdeSolver (ode.h)
-// with the model's EkfOptions.
+// with u(t) held (zoh) or interpolated (foh) as ekf.h says, integrated by ode::OdeSolver
+// (core/ode/ode.h) with the model's EkfOptions.
 #pragma once
 
 #include <memory>
@@ -15,12 +15,15 @@
 
 #include "core/data/dataset.h"
 #include "core/filter/kalman.h"
-#include "core/filter/ode.h"
 #include "core/model/nonlinear_model.h"
 #include "core/model/nonlinear_sensitivity.h"
+#include "core/ode/ode.h"
 #include "core/util/result.h"
 
 namespace gb::filter {
+
+// The filters report their integrator's work (core/ode/ode.h) as OdeCounts.
+using ode::OdeCounts;
 
 // The derivatives of (x̂, P) with respect to the free parameters θ_l (MomentPropagator's `free`):
 // column q of x is ∂x̂/∂θ_{free[q]}, P[q] is ∂P/∂θ_{free[q]}.
@@ -69,7 +72,7 @@ class MomentPropagator {
   // (x, u_j, θ, t_j) into `dense` (from its Zeroed()). Errors name the entry and row.
   Status MeasureSensitivities(int j, const Eigen::VectorXd& x, std::span<double> dense);
 
-  const OdeCounts& counts() const;
+  const ode::OdeCounts& counts() const;
 
  private:
   class Moments;
@@ -81,7 +84,7 @@ class MomentPropagator {
   const model::NonlinearSensitivity* sensitivity_ = nullptr;
   std::vector<int> free_;
   std::unique_ptr<Moments> moments_;
-  std::unique_ptr<OdeSolver> solver_;
+  std::unique_ptr<ode::OdeSolver> solver_;
   std::vector<double> z_, slots_, measure_scratch_;
 };
 

@@ -11,7 +11,8 @@
 
 #include <fmt/format.h>
 
-#include "core/project/project.h"
+#include "core/util/file.h"
+#include "core/util/json.h"
 
 namespace gb::model {
 namespace {
@@ -617,7 +618,7 @@ Result<ModelSpec> ParseModel(const Json& j, const std::string& source) {
 }
 
 Result<ModelSpec> LoadModelFile(const std::string& path) {
-  auto j = project::ReadJsonFile(path);
+  auto j = ReadJsonFile(path);
   if (!j) return j.error();
   return ParseModel(*j, path);
 }
@@ -691,7 +692,7 @@ Json ToJson(const ModelSpec& m) {
 }
 
 Status SaveModelFile(const ModelSpec& m, const std::string& path) {
-  return project::WriteFileAtomic(path, ToJson(m).dump(1) + "\n");
+  return WriteFileAtomic(path, ToJson(m).dump(1) + "\n");
 }
 
 // ---- 7. SetParameter, Suggest ----------------------------------------------------------------

@@ -30,7 +30,7 @@
 #include <vector>
 
 #include "core/expr/expr.h"
-#include "core/util/json.h"
+#include "core/util/json_fwd.h"
 #include "core/util/result.h"
 
 namespace gb::model {

@@ -9,6 +9,8 @@
 
 #include <fmt/format.h>
 
+#include "core/util/json.h"
+
 namespace gb::model {
 namespace {
 

@@ -34,7 +34,7 @@
 #include <vector>
 
 #include "core/model/model.h"
-#include "core/util/json.h"
+#include "core/util/json_fwd.h"
 #include "core/util/result.h"
 
 namespace gb::model {

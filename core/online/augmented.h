@@ -77,7 +77,7 @@ class AugmentedEkf final : public OnlineEstimator {
   // The augmented model the filter runs (states x, then w(θ_a); for tests and messages).
   const model::NonlinearModel& augmented() const { return stream_.model(); }
   int warmup() const { return warmup_; }  // rows (-1 until known)
-  const filter::OdeCounts& counts() const { return stream_.counts(); }
+  const ode::OdeCounts& counts() const { return stream_.counts(); }
 
  private:
   AugmentedEkf(std::shared_ptr<const model::NonlinearModel> model, EkfStream stream)

@@ -56,8 +56,8 @@ struct EkfStream::Impl {
   // bound to them (rebuilt when the parameters change).
   data::Series window;
   std::unique_ptr<filter::MomentPropagator> propagator;
-  filter::OdeCounts counts_before;  // of the propagators replaced
-  filter::OdeCounts counts;
+  ode::OdeCounts counts_before;  // of the propagators replaced
+  ode::OdeCounts counts;
 
   Eigen::VectorXd x;
   Eigen::MatrixXd P;
@@ -154,7 +154,7 @@ const Eigen::MatrixXd& EkfStream::P() const { return impl_->P; }
 const model::NonlinearModel& EkfStream::model() const { return *impl_->model; }
 const std::vector<double>& EkfStream::theta() const { return impl_->theta; }
 double EkfStream::slowest_time_constant() const { return impl_->slowest; }
-const filter::OdeCounts& EkfStream::counts() const {
+const ode::OdeCounts& EkfStream::counts() const {
   impl_->counts = impl_->counts_before;
   impl_->counts += impl_->propagator->counts();
   return impl_->counts;

@@ -33,10 +33,10 @@
 
 #include <Eigen/Core>
 
-#include "core/filter/ode.h"
+#include "core/data/follow.h"
 #include "core/model/nonlinear_model.h"
+#include "core/ode/ode.h"
 #include "core/online/estimator.h"
-#include "core/online/follow.h"
 #include "core/util/result.h"
 
 namespace gb::online {
@@ -92,7 +92,7 @@ class EkfStream {
   // At the start: the slowest time constant of J over the solved states (max -1/Re λ), +inf
   // when J is not stable there; 0 before the start.
   double slowest_time_constant() const;
-  const filter::OdeCounts& counts() const;
+  const ode::OdeCounts& counts() const;
 
  private:
   struct Impl;

@@ -9,12 +9,16 @@
 
 #include <Eigen/Core>
 
+#include "core/data/follow.h"
 #include "core/estimate/estimate.h"
 #include "core/model/model.h"
-#include "core/online/follow.h"
 #include "core/util/result.h"
 
 namespace gb::online {
+
+// The estimators take the rows of a live source (core/data/follow.h) one Sample at a time.
+using data::Sample;
+using data::SamplesOf;
 
 // Where the estimator starts: every parameter's value (ModelSpec order) and, for the free ones,
 // the covariance of their batch estimate.

@@ -11,7 +11,7 @@
 
 #include "core/online/augmented.h"
 #include "core/online/ekf_stream.h"
-#include "core/project/result_file.h"
+#include "core/util/json.h"
 
 namespace gb::online {
 namespace {
@@ -32,14 +32,11 @@ constexpr double kMaxRowShift = 0.1;
 // A tracked block whose scaled covariance has an eigenvalue below this (a combination of the
 // tracked parameters with less than this share of their variance) is singular.
 constexpr double kSingular = 1e-8;
-// The correlation checks' tolerance: greybench writes full doubles, so the matrices it writes are
-// symmetric and have a unit diagonal to the last bit and eigenvalues above -1e-14; one off by
-// more than this was edited or written by another program.
-constexpr double kCorrelationTolerance = 1e-8;
 // An eigenvector's components at least this large name the parameters of its combination.
 constexpr double kInvolved = 0.1;
 
-// "a, b and c" from the parameters whose components of the unit vector v are not negligible.
+}  // namespace
+
 std::string CombinationOf(const Eigen::VectorXd& v, const std::vector<std::string>& names) {
   std::vector<std::string> listed;
   for (Eigen::Index a = 0; a < v.size(); ++a)
@@ -49,6 +46,8 @@ std::string CombinationOf(const Eigen::VectorXd& v, const std::vector<std::strin
     out += (a == 0 ? "" : a + 1 == listed.size() ? " and " : ", ") + listed[a];
   return out;
 }
+
+namespace {
 
 // The score tests standardise by the tracked block's covariance given the other free parameters
 // (cov, NaN-free), which says how much each row tells about each tracked parameter. When it is
@@ -373,145 +372,6 @@ Json Monitor::ToJson(const MonitorUpdate& u) const {
   j["alarms"] = alarms;
   j["alarm"] = u.alarm;
   return j;
-}
-
-namespace {
-
-// The covariance of the free parameters with standard errors (`free`, `se`) from the file's
-// "correlation" (see LoadReference).
-Result<Eigen::MatrixXd> CovarianceOfFile(const std::string& path, const Json& j,
-                                         const model::ModelSpec& spec, const std::vector<int>& free,
-                                         const std::vector<double>& se) {
-  const auto k = static_cast<Eigen::Index>(free.size());
-  Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(k, k);
-  for (Eigen::Index a = 0; a < k; ++a) covariance(a, a) = se[a] * se[a];
-  if (!j.contains("correlation")) {
-    if (k < 2) return covariance;
-    std::string names;
-    for (int i : free) names += (names.empty() ? "" : ", ") + spec.parameters[i].name;
-    return project::ResultFileError(
-        path, "correlation",
-        fmt::format("the result gives standard errors of {} parameters ({}) but no correlation "
-                    "matrix, and taken as uncorrelated they would give wrong standard errors and "
-                    "alarms: run estimate again with this version of greybench, which writes it",
-                    k, names));
-  }
-  const Json& c = j["correlation"];
-  if (!c.is_object() || !c.contains("names") || !c["names"].is_array() || !c.contains("matrix") ||
-      !c["matrix"].is_array())
-    return project::ResultFileError(path, "correlation",
-                                    "expected an object with \"names\" and \"matrix\"");
-  const Json& names = c["names"];
-  const Json& matrix = c["matrix"];
-  const std::size_t m = names.size();
-  std::vector<Eigen::Index> at(m, -1);  // position in `free`, or -1
-  std::vector<std::string> listed;
-  for (std::size_t n = 0; n < m; ++n) {
-    if (!names[n].is_string())
-      return project::ResultFileError(path, fmt::format("correlation.names[{}]", n),
-                                      "expected a parameter name");
-    listed.push_back(names[n].get<std::string>());
-    if (std::find(listed.begin(), listed.end() - 1, listed.back()) != listed.end() - 1)
-      return project::ResultFileError(path, fmt::format("correlation.names[{}]", n),
-                                      fmt::format("'{}' is listed twice", listed.back()));
-    const int i = spec.ParameterIndex(listed.back());
-    for (Eigen::Index a = 0; a < k; ++a)
-      if (free[a] == i) at[n] = a;
-  }
-  for (Eigen::Index a = 0; a < k; ++a) {
-    if (std::find(at.begin(), at.end(), a) == at.end())
-      return project::ResultFileError(
-          path, "correlation.names",
-          fmt::format("'{}' has a standard error but is not in the correlation matrix: run "
-                      "estimate again with this version of greybench",
-                      spec.parameters[free[a]].name));
-  }
-  if (matrix.size() != m)
-    return project::ResultFileError(path, "correlation.matrix",
-                                    fmt::format("expected {} rows, one per name", m));
-  Eigen::MatrixXd r(m, m);
-  for (std::size_t x = 0; x < m; ++x) {
-    if (!matrix[x].is_array() || matrix[x].size() != m)
-      return project::ResultFileError(path, fmt::format("correlation.matrix[{}]", x),
-                                      fmt::format("expected {} numbers, one per name", m));
-    for (std::size_t y = 0; y < m; ++y) {
-      const Json& v = matrix[x][y];
-      if (!v.is_number() || !(std::abs(v.get<double>()) <= 1.0))
-        return project::ResultFileError(path, fmt::format("correlation.matrix[{}][{}]", x, y),
-                                        "expected a correlation in [-1, 1]");
-      r(static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y)) = v.get<double>();
-    }
-  }
-  for (Eigen::Index x = 0; x < r.rows(); ++x) {
-    if (std::abs(r(x, x) - 1.0) > kCorrelationTolerance)
-      return project::ResultFileError(
-          path, fmt::format("correlation.matrix[{}][{}]", x, x),
-          fmt::format("the correlation of {} with itself is 1, not {:.10g}", listed[x], r(x, x)));
-    for (Eigen::Index y = 0; y < x; ++y)
-      if (std::abs(r(x, y) - r(y, x)) > kCorrelationTolerance)
-        return project::ResultFileError(
-            path, fmt::format("correlation.matrix[{}][{}]", x, y),
-            fmt::format("{:.10g} differs from matrix[{}][{}] = {:.10g}: a correlation matrix is "
-                        "symmetric",
-                        r(x, y), y, x, r(y, x)));
-  }
-  // Positive semi-definite: no combination of the parameters with a negative variance. Within
-  // the tolerance, negative eigenvalues are rounding and are set to 0.
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(0.5 * (r + r.transpose()));
-  if (m > 0 && eigen.eigenvalues()(0) < -kCorrelationTolerance)
-    return project::ResultFileError(
-        path, "correlation.matrix",
-        fmt::format("is not positive semi-definite (its smallest eigenvalue is {:.3g}, along a "
-                    "combination of {}): no estimates have these correlations; run estimate "
-                    "again with this version of greybench",
-                    eigen.eigenvalues()(0), CombinationOf(eigen.eigenvectors().col(0), listed)));
-  if (m > 0 && eigen.eigenvalues()(0) < 0.0) {
-    r = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
-        eigen.eigenvectors().transpose();
-    const Eigen::VectorXd scale = r.diagonal().cwiseSqrt().cwiseInverse();
-    r = scale.asDiagonal() * r * scale.asDiagonal();
-  }
-  for (std::size_t x = 0; x < m; ++x)
-    for (std::size_t y = 0; y < m; ++y)
-      if (at[x] >= 0 && at[y] >= 0 && at[x] != at[y])
-        covariance(at[x], at[y]) =
-            r(static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y)) * se[at[x]] * se[at[y]];
-  return covariance;
-}
-
-}  // namespace
-
-Result<Reference> LoadReference(const std::string& path, const model::ModelSpec& spec) {
-  model::ModelSpec copy = spec;
-  Json j;
-  auto delays = project::ApplyResultFile(path, {}, &copy, /*free_only=*/true, &j);
-  if (!delays) return delays.error();
-  Reference r;
-  r.source = path;
-  r.theta = copy.Values();
-  for (std::size_t o = 0; o < delays->size(); ++o)
-    r.delay.push_back((*delays)[o] >= 0 ? (*delays)[o] : spec.output_delay[o].min);
-  if (j.contains("n_obs") && j["n_obs"].is_number_integer()) r.n_obs = j["n_obs"].get<long>();
-  // The covariance from the standard errors and the correlation matrix.
-  const Json& params = j["parameters"];
-  std::vector<double> se;
-  for (int i = 0; i < static_cast<int>(spec.parameters.size()); ++i) {
-    if (spec.parameters[i].fixed) continue;
-    const std::string& name = spec.parameters[i].name;
-    if (!params.contains(name)) continue;
-    const Json& e = params[name];
-    if (!e.contains("std_error") || !e["std_error"].is_number()) continue;
-    const double s = e["std_error"].get<double>();
-    if (!(s > 0.0) || !std::isfinite(s))
-      return project::ResultFileError(path, "parameters." + name + ".std_error",
-                                      fmt::format("{:g} is not a standard error", s));
-    r.free.push_back(i);
-    se.push_back(s);
-  }
-  auto covariance = CovarianceOfFile(path, j, spec, r.free, se);
-  if (!covariance) return covariance.error();
-  r.covariance = std::move(*covariance);
-  return r;
 }
 
 }  // namespace gb::online

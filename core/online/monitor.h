@@ -63,7 +63,7 @@
 #include "core/online/cusum.h"
 #include "core/online/estimator.h"
 #include "core/online/recursive.h"
-#include "core/util/json.h"
+#include "core/util/json_fwd.h"
 #include "core/util/result.h"
 
 namespace gb::online {
@@ -171,15 +171,8 @@ class Monitor {
   long long alarm_count_ = 0;
 };
 
-// The reference of a result file for `spec` (the model the monitor runs): every parameter's
-// estimate (fixed ones as the model has them), the delays, the covariance of the free parameters
-// from their standard errors and correlations, and n_obs. Errors name the file and JSON path.
-// The "correlation" ({"names": [...], "matrix": [[...], ...]}) is required when two or more free
-// parameters have standard errors (without it they would be taken as uncorrelated: wrong alarms,
-// wrong delta-method SEs); its names must cover every one of them, each once; the matrix must be
-// square (one row per name), symmetric, with unit diagonal, entries in [-1, 1], and positive
-// semi-definite, each to within 1e-8 (eigenvalues within it below 0 are taken as 0). A singular
-// matrix is read: where it is used decides (the monitor refuses a singular tracked block).
-Result<Reference> LoadReference(const std::string& path, const model::ModelSpec& spec);
+// "a, b and c": the parameters of `names` whose components of the unit vector `v` are at least
+// 0.1 in size (an eigenvector's combination, for messages about singular covariances).
+std::string CombinationOf(const Eigen::VectorXd& v, const std::vector<std::string>& names);
 
 }  // namespace gb::online

@@ -48,11 +48,11 @@
 
 #include <Eigen/Core>
 
+#include "core/data/follow.h"
 #include "core/estimate/estimate.h"
 #include "core/filter/discretize.h"
 #include "core/model/linear_model.h"
 #include "core/online/estimator.h"
-#include "core/online/follow.h"
 #include "core/util/result.h"
 
 namespace gb::online {

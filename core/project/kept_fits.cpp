@@ -10,6 +10,7 @@
 
 #include "core/project/project.h"
 #include "core/project/result_file.h"
+#include "core/util/file.h"
 
 namespace gb::project {
 namespace {

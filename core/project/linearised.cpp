@@ -5,7 +5,7 @@
 
 #include <fmt/format.h>
 
-#include "core/online/monitor.h"
+#include "core/project/result_file.h"
 
 namespace gb::project {
 
@@ -20,7 +20,7 @@ std::pair<double, double> LinearisedSweep::At(std::size_t i, const std::string& 
 
 Result<LinearisedSweep> LineariseAtPoints(const model::NonlinearModel& model,
                                           const NonlinearFit& fit, const LinearisedSpec& spec,
-                                          const std::vector<estimate::OperatingPoint>& points) {
+                                          const std::vector<OperatingPoint>& points) {
   // A model that changes with time fails at every point: say so once.
   if (auto st = model::CheckTimeInvariant(model.spec()); !st) return st.error();
   LinearisedSweep out;
@@ -78,13 +78,13 @@ Result<LinearisedSweep> LineariseAtPoints(const LinearisedSpec& spec,
 Result<LinearisedSweep> LineariseAtPoints(const LinearisedSpec& spec,
                                           const model::ModelSpec& model_spec,
                                           const std::vector<std::string>& datasets) {
-  auto reference = online::LoadReference(spec.result, model_spec);
+  auto reference = LoadReference(spec.result, model_spec);
   if (!reference) return reference.error();
   auto compiled = model::NonlinearModel::Compile(model_spec);
   if (!compiled) return compiled.error();
-  std::vector<estimate::OperatingPoint> points;
+  std::vector<OperatingPoint> points;
   for (const auto& d : datasets) {
-    auto p = estimate::ReadOperatingPoint(d);
+    auto p = ReadOperatingPoint(d);
     if (!p) return p.error();
     points.push_back(std::move(*p));
   }

@@ -10,17 +10,17 @@
 
 #include <Eigen/Core>
 
-#include "core/estimate/sweep.h"
 #include "core/model/linearise.h"
 #include "core/model/model.h"
 #include "core/model/nonlinear_model.h"
 #include "core/project/operating_points.h"
+#include "core/project/sweep.h"
 #include "core/util/result.h"
 
 namespace gb::project {
 
 struct LinearisedAtPoint {
-  estimate::OperatingPoint point;
+  OperatingPoint point;
   std::string error;  // why this point has no linearisation ("" when it has)
   model::Linearisation lin;
 };
@@ -46,7 +46,7 @@ struct NonlinearFit {
 // model whose drift or observation uses the time t, is an Error for the whole sweep.
 Result<LinearisedSweep> LineariseAtPoints(const model::NonlinearModel& model,
                                           const NonlinearFit& fit, const LinearisedSpec& spec,
-                                          const std::vector<estimate::OperatingPoint>& points);
+                                          const std::vector<OperatingPoint>& points);
 
 // The same from files: the model (`spec.model`, else `project_model`), the result file's
 // estimates and covariance, and the tags of every data file.

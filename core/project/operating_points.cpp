@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "core/util/json.h"
+
 namespace gb::project {
 namespace {
 

@@ -20,7 +20,7 @@
 //              e.g. through a Padé approximant), for the delay relation; absent: the output delay
 //              in whole samples.
 //              Each file carries its operating point in a `# greybench: {"operating_point": ...}`
-//              comment (core/estimate/sweep.h).
+//              comment (core/project/sweep.h).
 //   speed_tag  the tag n of the delay relation Δt = c / n (default "n_rpm").
 //   trend      the parameter fitted against a tag, θ = a + b · tag (default X against alpha_deg).
 //   mean_of    parameters averaged over the points (default tau_fv, tau_ff).

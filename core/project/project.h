@@ -62,9 +62,6 @@ std::vector<FileRole> ProjectFiles(const Project& p);
 // `path` as given in a project file: relative paths are taken from `base_dir`.
 std::string ResolvePath(const std::string& base_dir, const std::string& path);
 
-// Reads a JSON file with errors of the form `FILE:LINE:COL: JSON syntax error: ...`.
-Result<Json> ReadJsonFile(const std::string& path);
-
 // The project file for `p` saved at `path` (user guide §3a), the inverse of LoadProject:
 //   "name"     p.name;
 //   "model"    when p.model_path is set, that file's path (the caller has checked that it holds
@@ -78,20 +75,5 @@ Json ProjectToJson(const Project& p, const std::string& path, bool relative_path
 
 // Writes ProjectToJson(p, path) to `path` atomically. Errors name the file.
 Status SaveProject(const Project& p, const std::string& path, bool relative_paths = true);
-
-// Writes `text` to `path` atomically: a temporary file beside it (unique to this call), written,
-// fsync'ed, closed, then renamed over `path`, and the directory fsync'ed. On any failure `path`
-// keeps its old content, the temporary is removed, and the Error names `path` and the reason
-// (e.g. "cannot write the file (cannot create ...: Permission denied)"). The new file gets the
-// default permissions (0666 less the umask), not those of the file it replaces. A symlink to a
-// regular file stays a link: the file it names is replaced. What is not a regular file (a device
-// such as /dev/null, a FIFO, a terminal, or a link to one) is written in place, never renamed
-// over. Callers check first that `path` is none of their inputs (core/util/output_guard.h).
-Status WriteFileAtomic(const std::string& path, const std::string& text);
-
-// Whether WriteFileAtomic(path, ...) could write now: creates and removes the temporary it would
-// use, and refuses a folder in the way. For commands that write after a long run, so that a bad
-// --out is reported before the run, not after. Same messages as WriteFileAtomic.
-Status CheckWritable(const std::string& path);
 
 }  // namespace gb::project

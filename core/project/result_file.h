@@ -1,5 +1,5 @@
 // Reading a result file (user guide §5) back: its estimates as start values or as the
-// reference of a monitor (core/online/monitor.h).
+// reference of a monitor (core/online/monitor.h), and what a likelihood-ratio test needs of it.
 #pragma once
 
 #include <map>
@@ -9,7 +9,8 @@
 #include <vector>
 
 #include "core/model/model.h"
-#include "core/util/json.h"
+#include "core/online/estimator.h"
+#include "core/util/json_fwd.h"
 #include "core/util/result.h"
 
 namespace gb::project {
@@ -26,6 +27,17 @@ Result<std::vector<int>> ApplyResultFile(const std::string& path, const std::set
 
 // An Error of a result file at a JSON path.
 Error ResultFileError(const std::string& file, const std::string& path, const std::string& message);
+
+// The reference of a result file for `spec` (the model a monitor runs, core/online/monitor.h):
+// every parameter's estimate (fixed ones as the model has them), the delays, the covariance of the
+// free parameters from their standard errors and correlations, and n_obs. Errors name the file and
+// JSON path. The "correlation" ({"names": [...], "matrix": [[...], ...]}) is required when two or
+// more free parameters have standard errors (without it they would be taken as uncorrelated: wrong
+// alarms, wrong delta-method SEs); its names must cover every one of them, each once; the matrix
+// must be square (one row per name), symmetric, with unit diagonal, entries in [-1, 1], and
+// positive semi-definite, each to within 1e-8 (eigenvalues within it below 0 are taken as 0). A
+// singular matrix is read: where it is used decides (the monitor refuses a singular tracked block).
+Result<online::Reference> LoadReference(const std::string& path, const model::ModelSpec& spec);
 
 // What a likelihood-ratio test needs of a result file (`greybench-cli compare`, the workbench's
 // Fits list).

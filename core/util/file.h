@@ -1,3 +1,8 @@
+// Files as every part of greybench reads and writes them: whether a file can be read to its end,
+// a JSON file read with errors that point into it, a file written atomically, and a file's
+// fingerprint. (Below every other core folder: data, model, diagram and project files all go
+// through these.)
+//
 // Before reading a whole file into memory: is it a file that can be read to its end?
 //
 // A folder cannot; a device or a pipe (`/dev/zero`, `/dev/urandom`, a FIFO) may never end and
@@ -12,7 +17,30 @@
 #include <string>
 #include <system_error>
 
+#include "core/util/json_fwd.h"
+#include "core/util/result.h"
+
 namespace gb {
+
+// Reads a JSON file with errors of the form `FILE:LINE:COL: JSON syntax error: ...`. Objects keep
+// the order of the file (core/util/json.h); a key repeated in an object keeps its first place and
+// takes its last value.
+Result<Json> ReadJsonFile(const std::string& path);
+
+// Writes `text` to `path` atomically: a temporary file beside it (unique to this call), written,
+// fsync'ed, closed, then renamed over `path`, and the directory fsync'ed. On any failure `path`
+// keeps its old content, the temporary is removed, and the Error names `path` and the reason
+// (e.g. "cannot write the file (cannot create ...: Permission denied)"). The new file gets the
+// default permissions (0666 less the umask), not those of the file it replaces. A symlink to a
+// regular file stays a link: the file it names is replaced. What is not a regular file (a device
+// such as /dev/null, a FIFO, a terminal, or a link to one) is written in place, never renamed
+// over. Callers check first that `path` is none of their inputs (core/util/output_guard.h).
+Status WriteFileAtomic(const std::string& path, const std::string& text);
+
+// Whether WriteFileAtomic(path, ...) could write now: creates and removes the temporary it would
+// use, and refuses a folder in the way. For commands that write after a long run, so that a bad
+// --out is reported before the run, not after. Same messages as WriteFileAtomic.
+Status CheckWritable(const std::string& path);
 
 inline std::string WhyNotReadable(const std::string& path, std::uintmax_t max_bytes,
                                   std::uintmax_t* size_out = nullptr) {

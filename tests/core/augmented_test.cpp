@@ -17,6 +17,7 @@
 #include "core/model/nonlinear_sensitivity.h"
 #include "core/online/ekf_stream.h"
 #include "core/online/monitor.h"
+#include "core/util/json.h"
 #include "core/util/sanitizers.h"
 #include "tests/core/nonlinear_tank.h"
 

@@ -3,6 +3,7 @@
 
 #include "core/model/model.h"
 #include "core/project/problem.h"
+#include "core/util/json.h"
 
 namespace gb {
 namespace {

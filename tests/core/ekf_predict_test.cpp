@@ -12,6 +12,7 @@
 #include "core/model/linear_model.h"
 #include "core/sim/response.h"
 #include "core/sim/sde.h"
+#include "core/util/json.h"
 #include "tests/core/filter_fixtures.h"
 
 namespace gb::filter {

@@ -15,6 +15,7 @@
 #include "core/filter/score.h"
 #include "core/model/linear_model.h"
 #include "core/sim/sde.h"
+#include "core/util/json.h"
 #include "core/util/sanitizers.h"
 #include "tests/core/filter_fixtures.h"
 

@@ -21,6 +21,7 @@
 #include "core/filter/kalman.h"
 #include "core/model/linear_model.h"
 #include "core/model/nonlinear_model.h"
+#include "core/util/json.h"
 #include "core/util/sanitizers.h"
 #include "tests/core/filter_fixtures.h"
 
@@ -54,7 +55,7 @@ double ExactLoglik(const model::ModelSpec& spec, const data::Series& series,
 }
 
 double EkfLoglik(const model::ModelSpec& spec, const data::Series& series,
-                 const FilterSettings& settings, OdeCounts* counts = nullptr) {
+                 const FilterSettings& settings, ode::OdeCounts* counts = nullptr) {
   const model::NonlinearModel nm = Nonlinear(spec);
   auto l = EkfLogLikelihood(nm, spec.Values(), series, settings, nullptr, counts);
   EXPECT_TRUE(l.ok()) << (l.ok() ? "" : l.error().ToString());
@@ -270,7 +271,7 @@ TEST(Ekf, NonlinearModelEqualsABruteForceEkf) {
   for (const model::OdeMethod method : {model::OdeMethod::kExplicit, model::OdeMethod::kBdf}) {
     model::ModelSpec s = spec;
     s.ekf.method = method;
-    OdeCounts counts;
+    ode::OdeCounts counts;
     const double ekf = EkfLoglik(s, series, FilterSettings::FromModel(s), &counts);
     SCOPED_TRACE(model::OdeMethodName(method));
     EXPECT_NEAR(ekf, reference, 1e-7 * std::abs(reference));
@@ -342,7 +343,7 @@ TEST(Ekf, StiffModelGivesTheSameLikelihoodByBdfAndExplicit) {
   tight.ekf.atol = 1e-14;
   const double reference = EkfLoglik(tight, series, FilterSettings::FromModel(tight));
   double results[3];
-  OdeCounts counts[3];
+  ode::OdeCounts counts[3];
   int i = 0;
   for (const auto method :
        {model::OdeMethod::kExplicit, model::OdeMethod::kBdf, model::OdeMethod::kAuto}) {

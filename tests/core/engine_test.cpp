@@ -31,6 +31,7 @@
 #include "core/project/problem.h"
 #include "core/project/project.h"
 #include "core/project/result_file.h"
+#include "core/util/file.h"
 #include "tests/shortened_data.h"
 
 namespace gb {
@@ -376,7 +377,7 @@ TEST(Linearise, AtEveryTaggedPointOfASweep) {
   // The points as the sweep reads them from the data files' tags; one lacks the speed tag.
   const sim::EngineTruth truth;
   const model::NonlinearModel m = TrueModel(truth);
-  std::vector<estimate::OperatingPoint> points;
+  std::vector<project::OperatingPoint> points;
   for (const auto& f : sim::PaperFuelPoints())
     points.push_back({f.name, {{"n_rpm", f.speed_rpm}, {"alpha_deg", f.throttle_deg}}});
   points.push_back({"untagged", {{"alpha_deg", 30}}});
@@ -439,7 +440,7 @@ TEST(EngineCase, TheBundledJointFitRecoversTheDyno) {
   ASSERT_TRUE(points.ok() && points->has_value());
   const auto& lin = (*points)->linearised;
   ASSERT_TRUE(lin.has_value());
-  auto json = project::ReadJsonFile(lin->result);
+  auto json = ReadJsonFile(lin->result);
   ASSERT_TRUE(json.ok()) << json.error().ToString();
   EXPECT_TRUE((*json)["converged"].get<bool>());
   for (const Recovered& r : AgainstTheDyno(*json)) {
@@ -459,7 +460,7 @@ TEST(EngineCase, WithTheModelExactTheJointFitRecoversEveryParameter) {
   // c_d and r_λ too, which the bundled fit's approximations move by 3.7 and 3.5 SE. The records
   // are made again here: log L at the stored estimates is the stored one, and above the truth's.
   const std::string dir = kSource + "/tests/data/engine_exact/";
-  auto json = project::ReadJsonFile(dir + "fit.json");
+  auto json = ReadJsonFile(dir + "fit.json");
   ASSERT_TRUE(json.ok()) << json.error().ToString();
   EXPECT_TRUE((*json)["converged"].get<bool>());
   for (const Recovered& r : AgainstTheDyno(*json))

@@ -27,6 +27,7 @@
 #include "core/model/linear_model.h"
 #include "core/project/project.h"
 #include "core/sim/simulate.h"
+#include "core/util/file.h"
 
 namespace gb {
 namespace {
@@ -715,15 +716,15 @@ class AtomicWrite : public ::testing::Test {
 
 TEST_F(AtomicWrite, ReplacesTheFileAndLeavesNoTemporary) {
   const auto path = dir_ / "result.json";
-  ASSERT_TRUE(project::WriteFileAtomic(path.string(), "old\n").ok());
-  ASSERT_TRUE(project::WriteFileAtomic(path.string(), "new\n").ok());
+  ASSERT_TRUE(WriteFileAtomic(path.string(), "old\n").ok());
+  ASSERT_TRUE(WriteFileAtomic(path.string(), "new\n").ok());
   EXPECT_EQ(ReadAll(path), "new\n");
   EXPECT_EQ(FilesIn(), 1);
 }
 
 TEST_F(AtomicWrite, AFailedWriteKeepsTheOldFileAndLeavesNoTemporary) {
   const auto path = dir_ / "result.json";
-  ASSERT_TRUE(project::WriteFileAtomic(path.string(), "good\n").ok());
+  ASSERT_TRUE(WriteFileAtomic(path.string(), "good\n").ok());
   // A read-only directory: the temporary cannot be created (as root, permissions do not stop
   // the write, so the check is skipped there).
   std::filesystem::permissions(
@@ -732,7 +733,7 @@ TEST_F(AtomicWrite, AFailedWriteKeepsTheOldFileAndLeavesNoTemporary) {
     std::filesystem::permissions(dir_, std::filesystem::perms::owner_all);
     GTEST_SKIP() << "running with permission to write anywhere";
   }
-  const auto st = project::WriteFileAtomic(path.string(), "bad\n");
+  const auto st = WriteFileAtomic(path.string(), "bad\n");
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().file, path.string());
   EXPECT_NE(st.error().message.find("cannot"), std::string::npos) << st.error().message;
@@ -745,7 +746,7 @@ TEST_F(AtomicWrite, ADirectoryNobodyCanWriteToIsAMessageNamingTheFile) {
   // /proc refuses new files even to root, so this failure path is tested wherever tests run.
   if (!std::filesystem::is_directory("/proc/self")) GTEST_SKIP() << "no /proc";
   const std::string path = "/proc/greybench-faults-test.json";
-  const auto st = project::WriteFileAtomic(path, "text\n");
+  const auto st = WriteFileAtomic(path, "text\n");
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().file, path);
   EXPECT_NE(st.error().message.find("cannot write the file"), std::string::npos)
@@ -758,7 +759,7 @@ TEST_F(AtomicWrite, ATargetThatCannotBeReplacedKeepsItsContentAndLeavesNoTempora
   // temporary must go (this failure path works as root too).
   const auto path = dir_ / "occupied";
   std::filesystem::create_directories(path / "inside");
-  const auto st = project::WriteFileAtomic(path.string(), "text\n");
+  const auto st = WriteFileAtomic(path.string(), "text\n");
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().file, path.string());
   EXPECT_TRUE(std::filesystem::is_directory(path / "inside"));
@@ -767,7 +768,7 @@ TEST_F(AtomicWrite, ATargetThatCannotBeReplacedKeepsItsContentAndLeavesNoTempora
 
 TEST_F(AtomicWrite, AMissingDirectoryIsAMessageNamingTheFile) {
   const auto path = dir_ / "no" / "such" / "dir" / "out.csv";
-  const auto st = project::WriteFileAtomic(path.string(), "x\n");
+  const auto st = WriteFileAtomic(path.string(), "x\n");
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().file, path.string());
   EXPECT_EQ(FilesIn(), 0);
@@ -781,8 +782,8 @@ TEST_F(AtomicWrite, CheckWritableForeseesEachFailureOfTheWriteAndLeavesNothing) 
   const std::string proc = "/proc/greybench-faults-test.json";
   for (const std::string& path : {occupied.string(), missing, proc}) {
     if (path == proc && !std::filesystem::is_directory("/proc/self")) continue;
-    const auto check = project::CheckWritable(path);
-    const auto write = project::WriteFileAtomic(path, "x\n");
+    const auto check = CheckWritable(path);
+    const auto write = WriteFileAtomic(path, "x\n");
     ASSERT_FALSE(check.ok()) << path;
     ASSERT_FALSE(write.ok()) << path;
     EXPECT_EQ(check.error().file, path);
@@ -791,7 +792,7 @@ TEST_F(AtomicWrite, CheckWritableForeseesEachFailureOfTheWriteAndLeavesNothing) 
     EXPECT_EQ(reason(check.error().message), reason(write.error().message)) << path;
   }
   const auto fine = dir_ / "result.json";
-  EXPECT_TRUE(project::CheckWritable(fine.string()).ok());
+  EXPECT_TRUE(CheckWritable(fine.string()).ok());
   EXPECT_FALSE(std::filesystem::exists(fine));
   EXPECT_EQ(FilesIn(), 1);  // the occupied folder only
 }
@@ -800,7 +801,7 @@ TEST_F(AtomicWrite, CheckWritableForeseesEachFailureOfTheWriteAndLeavesNothing) 
 // until memory runs out (found reading the code: `greybench-cli loglik /dev/zero` never ended).
 TEST(UnreadableFiles, DevicesPipesAndFoldersAreRefusedNamingTheFile) {
   if (std::filesystem::exists("/dev/zero")) {
-    const auto json = project::ReadJsonFile("/dev/zero");
+    const auto json = ReadJsonFile("/dev/zero");
     ASSERT_FALSE(json.ok());
     EXPECT_EQ(json.error().file, "/dev/zero");
     EXPECT_NE(json.error().message.find("a device or a pipe"), std::string::npos)

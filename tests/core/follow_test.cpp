@@ -1,11 +1,11 @@
-// Tests of core/online/follow: the incremental CSV reader, the file follower and ReadSome.
+// Tests of core/data/follow: the incremental CSV reader, the file follower and ReadSome.
 //
 // Contents
 //   Helpers
 //   Follow      CsvRowReader: pieces against whole files (ParseCsv + Bind), partial lines, rows
 //               skipped, fatal headers, Restart
 //   FollowFile  FileFollower with a writer thread, truncation, replacement; ReadSome
-#include "core/online/follow.h"
+#include "core/data/follow.h"
 
 #include <atomic>
 #include <chrono>
@@ -25,7 +25,7 @@
 
 #include "core/data/dataset.h"
 
-namespace gb::online {
+namespace gb::data {
 namespace {
 
 // ---------------------------------------------------------------------------------------------
@@ -679,4 +679,4 @@ TEST(FollowFile, ReadSomeReadsAPipeUntilItsEnd) {
 }
 
 }  // namespace
-}  // namespace gb::online
+}  // namespace gb::data

@@ -24,6 +24,7 @@
 #include <gtest/gtest.h>
 
 #include "core/data/mdf4.h"
+#include "core/util/json.h"
 
 namespace gb::data {
 namespace {

@@ -14,6 +14,7 @@
 #include "core/sim/response.h"
 #include "core/sim/sde.h"
 #include "core/sim/simulate.h"
+#include "core/util/json.h"
 #include "tests/core/filter_fixtures.h"
 
 namespace gb::filter {

@@ -16,6 +16,7 @@
 #include "core/project/problem.h"
 #include "core/project/project.h"
 #include "core/project/result_file.h"
+#include "core/util/file.h"
 
 namespace gb {
 namespace {
@@ -166,7 +167,7 @@ TEST_F(KeptFitsFolder, FitsAreNumberedNeverWrittenOverAndReadBackInOrder) {
   EXPECT_EQ(first->result["model_file"], "fit-001.model.json");
   EXPECT_EQ(first->result["project_file"], "fit-001.project.json");
   // Its project names the model beside it and the data beside the project.
-  auto written = project::ReadJsonFile((fs::path(folder) / "fit-001.project.json").string());
+  auto written = ReadJsonFile((fs::path(folder) / "fit-001.project.json").string());
   ASSERT_TRUE(written.ok());
   EXPECT_EQ((*written)["model"], "fit-001.model.json");
   EXPECT_EQ((*written)["datasets"][0], "../f1.csv");

@@ -7,6 +7,7 @@
 
 #include "core/design/prbs.h"
 #include "core/sim/simulate.h"
+#include "core/util/json.h"
 
 namespace gb::filter {
 namespace {

@@ -16,7 +16,9 @@
 #include "core/data/write_csv.h"
 #include "core/estimate/estimate.h"
 #include "core/project/problem.h"
+#include "core/project/result_file.h"
 #include "core/sim/live_dyno.h"
+#include "core/util/json.h"
 #include "core/util/sanitizers.h"
 
 namespace gb::online {
@@ -134,7 +136,7 @@ TEST(Monitor, AReferenceReadFromAResultFileIsTheSummarysOwn) {
     std::fputs(f.summary.ToJson().dump().c_str(), out);
     std::fclose(out);
   }
-  auto read = LoadReference(path, f.problem.spec());
+  auto read = project::LoadReference(path, f.problem.spec());
   ASSERT_TRUE(read) << read.error().ToString();
   const Reference direct = ReferenceFromSummary(f.summary, f.problem.spec());
   EXPECT_EQ(read->delay, direct.delay);
@@ -155,7 +157,7 @@ TEST(Monitor, AReferenceReadFromAResultFileIsTheSummarysOwn) {
     std::fputs(j.dump().c_str(), out);
     std::fclose(out);
   }
-  auto bad = LoadReference(path, f.problem.spec());
+  auto bad = project::LoadReference(path, f.problem.spec());
   ASSERT_FALSE(bad);
   EXPECT_EQ(bad.error().path, "correlation.matrix[1][0]") << bad.error().ToString();
 }
@@ -339,7 +341,7 @@ Result<Reference> EditedReference(const std::function<void(Json&)>& edit) {
                            ::testing::UnitTest::GetInstance()->current_test_info()->name() +
                            "_monitor_edited_reference.json";
   WriteJson(path, j);
-  return LoadReference(path, f.problem.spec());
+  return project::LoadReference(path, f.problem.spec());
 }
 
 // The position of parameter `name` in the result file's correlation matrix.

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "core/util/json.h"
+
 namespace gb::project {
 namespace {
 

@@ -12,7 +12,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "core/project/project.h"
+#include "core/util/file.h"
+#include "core/util/json.h"
 
 namespace gb {
 namespace {
@@ -87,7 +88,7 @@ TEST_F(OutputGuard, TwoOutputsOnOneFileAreRefusedUnlessItIsADevice) {
 TEST_F(OutputGuard, WritingThroughASymlinkKeepsTheLinkAndReplacesItsTarget) {
   Write("target.json", "old\n");
   fs::create_symlink(Path("target.json"), Path("via.json"));
-  ASSERT_TRUE(project::WriteFileAtomic(Path("via.json"), "new\n").ok());
+  ASSERT_TRUE(WriteFileAtomic(Path("via.json"), "new\n").ok());
   EXPECT_TRUE(fs::is_symlink(Path("via.json")));
   EXPECT_EQ(Read("target.json"), "new\n");
 }
@@ -96,8 +97,8 @@ TEST_F(OutputGuard, AFifoIsWrittenThroughNeverReplacedByAFile) {
   ASSERT_EQ(::mkfifo(Path("pipe").c_str(), 0600), 0);
   // The reader drains the FIFO while the writer writes (opening a FIFO for writing waits for one).
   auto reader = std::async(std::launch::async, [&] { return Read("pipe"); });
-  ASSERT_TRUE(project::CheckWritable(Path("pipe")).ok());
-  ASSERT_TRUE(project::WriteFileAtomic(Path("pipe"), "through the pipe\n").ok());
+  ASSERT_TRUE(CheckWritable(Path("pipe")).ok());
+  ASSERT_TRUE(WriteFileAtomic(Path("pipe"), "through the pipe\n").ok());
   EXPECT_EQ(reader.get(), "through the pipe\n");
   struct stat st {};
   ASSERT_EQ(::lstat(Path("pipe").c_str(), &st), 0);
@@ -108,11 +109,11 @@ TEST_F(OutputGuard, ADeviceIsWrittenThroughAndStaysADevice) {
   // A symlink to /dev/null: replacing it by rename would put a regular file where the link is
   // (and, run as root on /dev/null itself, where the device is).
   fs::create_symlink("/dev/null", Path("null"));
-  ASSERT_TRUE(project::CheckWritable(Path("null")).ok());
-  ASSERT_TRUE(project::WriteFileAtomic(Path("null"), "discarded\n").ok());
+  ASSERT_TRUE(CheckWritable(Path("null")).ok());
+  ASSERT_TRUE(WriteFileAtomic(Path("null"), "discarded\n").ok());
   EXPECT_TRUE(fs::is_symlink(Path("null")));
   EXPECT_TRUE(fs::is_character_file("/dev/null"));
-  ASSERT_TRUE(project::WriteFileAtomic("/dev/null", "discarded\n").ok());
+  ASSERT_TRUE(WriteFileAtomic("/dev/null", "discarded\n").ok());
   EXPECT_TRUE(fs::is_character_file("/dev/null"));
 }
 

@@ -16,6 +16,7 @@
 #include "core/model/linear_model.h"
 #include "core/project/problem.h"
 #include "core/sim/simulate.h"
+#include "core/util/json.h"
 #include "core/util/sanitizers.h"
 #include "tests/core/estimate_fixtures.h"
 #include "tests/shortened_data.h"

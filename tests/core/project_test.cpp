@@ -13,6 +13,7 @@
 
 #include "core/model/model.h"
 #include "core/project/problem.h"
+#include "core/util/file.h"
 
 #ifndef GREYBENCH_TEST_DATA_DIR
 #error "GREYBENCH_TEST_DATA_DIR must name tests/data (tests/CMakeLists.txt sets it)"

@@ -14,6 +14,7 @@
 #include "core/estimate/estimate.h"
 #include "core/filter/likelihood.h"
 #include "core/project/problem.h"
+#include "core/util/json.h"
 
 namespace gb::project {
 namespace {

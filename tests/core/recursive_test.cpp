@@ -13,6 +13,7 @@
 #include "core/filter/score.h"
 #include "core/project/problem.h"
 #include "core/sim/dyno.h"
+#include "core/util/json.h"
 #include "core/util/sanitizers.h"
 
 namespace gb::online {

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "core/filter/likelihood.h"
+#include "core/util/json.h"
 #include "filter_fixtures.h"
 
 namespace gb::filter {

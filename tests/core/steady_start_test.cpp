@@ -16,6 +16,7 @@
 #include "core/model/model.h"
 #include "core/model/nonlinear_model.h"
 #include "core/sim/engine.h"
+#include "core/util/json.h"
 #include "core/util/sanitizers.h"
 #include "tests/core/nonlinear_tank.h"
 

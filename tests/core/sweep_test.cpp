@@ -1,5 +1,5 @@
 // The operating-point sweep over the six bundled virtual-dyno fuel datasets (assets/data).
-#include "core/estimate/sweep.h"
+#include "core/project/sweep.h"
 
 #include <atomic>
 #include <chrono>
@@ -12,9 +12,10 @@
 
 #include "core/project/problem.h"
 #include "core/sim/dyno.h"
+#include "core/util/json.h"
 #include "tests/shortened_data.h"
 
-namespace gb::estimate {
+namespace gb::project {
 namespace {
 
 const std::string kRoot = GREYBENCH_SOURCE_DIR;
@@ -34,7 +35,7 @@ TEST(Sweep, RecoversEveryOperatingPointOfTable2FromTheBundledDynoData) {
   for (std::size_t i = 0; i < points.size(); ++i)
     files.push_back(kRoot + "/assets/data/fuel_" + points[i].name + ".csv");
   SweepOptions options;
-  auto result = Sweep(*spec, project::PlainDatasets(files), options);
+  auto result = Sweep(*spec, PlainDatasets(files), options);
   ASSERT_TRUE(result.ok()) << result.error().ToString();
   ASSERT_EQ(result->rows.size(), files.size());
   for (const auto& row : result->rows) {
@@ -96,7 +97,7 @@ TEST(Sweep, ACancelSetBeforehandStartsNoFit) {
   options.estimate.cancel = &cancel;
   int reports = 0;
   options.progress = [&](const SweepProgress&) { ++reports; };
-  auto result = Sweep(*spec, project::PlainDatasets(BundledFuelFiles()), options);
+  auto result = Sweep(*spec, PlainDatasets(BundledFuelFiles()), options);
   ASSERT_TRUE(result.ok()) << result.error().ToString();
   EXPECT_TRUE(result->cancelled);
   EXPECT_TRUE(result->rows.empty());
@@ -131,7 +132,7 @@ TEST(Sweep, CancelStopsTheFitsUnderWayWithin100msAndKeepsTheFinishedPoints) {
     cancelled_at = std::chrono::steady_clock::now();
     cancel = true;
   });
-  auto result = Sweep(*spec, project::PlainDatasets(files), options);
+  auto result = Sweep(*spec, PlainDatasets(files), options);
   const auto returned_at = std::chrono::steady_clock::now();
   canceller.join();
   ASSERT_TRUE(result.ok()) << result.error().ToString();
@@ -180,4 +181,4 @@ TEST(Sweep, FitLineMatchesTheClosedFormOfSimpleRegression) {
 }
 
 }  // namespace
-}  // namespace gb::estimate
+}  // namespace gb::project

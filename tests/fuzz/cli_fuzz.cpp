@@ -69,6 +69,7 @@
 #include <unistd.h>
 
 #include "app/cli/cli.h"
+#include "core/util/json.h"
 #include "tests/fuzz/fuzz_check.h"
 
 namespace {

@@ -23,6 +23,7 @@
 #include "core/filter/likelihood.h"
 #include "core/model/linear_model.h"
 #include "core/model/model.h"
+#include "core/util/json.h"
 #include "tests/fuzz/fuzz_check.h"
 
 namespace {

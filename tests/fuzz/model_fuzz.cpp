@@ -21,6 +21,7 @@
 #include "core/expr/expr.h"
 #include "core/model/linear_model.h"
 #include "core/model/model.h"
+#include "core/util/json.h"
 #include "tests/fuzz/fuzz_check.h"
 
 namespace {

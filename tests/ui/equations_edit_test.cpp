@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "core/project/problem.h"
+#include "core/util/json.h"
 #include "tests/ui/workbench_driver.h"
 #include "ui/edits/model_edit.h"
 

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/util/json.h"
 #include "ui/state/app_state.h"
 
 namespace gb::ui {

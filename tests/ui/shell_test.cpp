@@ -24,6 +24,7 @@
 #include "core/diagram/diagram.h"
 #include "core/model/model.h"
 #include "core/project/project.h"
+#include "core/util/file.h"
 #include "tests/ui/workbench_driver.h"
 #include "ui/widgets/file_browser.h"
 
@@ -189,7 +190,7 @@ TEST_F(ShellTest, SaveAsAndOpenAgainThroughTheFileBrowser) {
 
   // The file holds the edited model inline (the model file no longer holds it) and the data
   // relative to the project.
-  auto raw = project::ReadJsonFile(saved);
+  auto raw = ReadJsonFile(saved);
   ASSERT_TRUE(raw.ok());
   EXPECT_TRUE((*raw)["model"].is_object());
   EXPECT_EQ((*raw)["datasets"][0], "f1.csv");
@@ -434,7 +435,7 @@ TEST_F(ShellTest, AddDatasetAndReplaceModelAreSavedWithTheProject) {
   EXPECT_FALSE(ReplaceModel(d.state, (dir() / "work/f1.csv").string()).ok());  // not a model
 
   ASSERT_TRUE(SaveCurrentProject(d.state).ok());
-  auto raw = project::ReadJsonFile(project());
+  auto raw = ReadJsonFile(project());
   ASSERT_TRUE(raw.ok());
   EXPECT_EQ((*raw)["model"], "other_model.json");
   EXPECT_EQ((*raw)["datasets"], Json::array({"f1.csv", "f1_copy.csv"}));
@@ -447,10 +448,10 @@ TEST_F(ShellTest, AProjectKeepsItsDiagramFileWhenSavedUnlessTheUserChoosesInline
   fs::create_directories(dir() / "work/diagrams");
   fs::copy_file(fs::path(GREYBENCH_SOURCE_DIR) / "assets/diagrams/fuel_film.json",
                 dir() / "work/diagrams/film.json");
-  auto raw = project::ReadJsonFile(project());
+  auto raw = ReadJsonFile(project());
   ASSERT_TRUE(raw.ok());
   (*raw)["diagram"] = "diagrams/film.json";
-  ASSERT_TRUE(project::WriteFileAtomic(project(), raw->dump(1)).ok());
+  ASSERT_TRUE(WriteFileAtomic(project(), raw->dump(1)).ok());
 
   WorkbenchDriver& d = Start();
   d.Open(project());
@@ -467,7 +468,7 @@ TEST_F(ShellTest, AProjectKeepsItsDiagramFileWhenSavedUnlessTheUserChoosesInline
   d.Frame();
   ASSERT_TRUE(HasUnsavedChanges(d.state));
   ASSERT_TRUE(SaveCurrentProject(d.state).ok());
-  raw = project::ReadJsonFile(project());
+  raw = ReadJsonFile(project());
   ASSERT_TRUE(raw.ok());
   EXPECT_EQ((*raw)["diagram"], "diagrams/film.json");
   auto file = diagram::LoadDiagramFile((dir() / "work/diagrams/film.json").string());
@@ -477,7 +478,7 @@ TEST_F(ShellTest, AProjectKeepsItsDiagramFileWhenSavedUnlessTheUserChoosesInline
   // Save As elsewhere: the same file, named from the new folder.
   fs::create_directories(dir() / "other");
   ASSERT_TRUE(SaveProjectAs(d.state, (dir() / "other/copy.json").string()).ok());
-  raw = project::ReadJsonFile((dir() / "other/copy.json").string());
+  raw = ReadJsonFile((dir() / "other/copy.json").string());
   ASSERT_TRUE(raw.ok());
   EXPECT_EQ((*raw)["diagram"], "../work/diagrams/film.json");
 
@@ -487,7 +488,7 @@ TEST_F(ShellTest, AProjectKeepsItsDiagramFileWhenSavedUnlessTheUserChoosesInline
   d.state.diagram_view.pending.push_back(move);
   d.Frame();
   ASSERT_TRUE(SaveCurrentProject(d.state).ok());
-  raw = project::ReadJsonFile((dir() / "other/copy.json").string());
+  raw = ReadJsonFile((dir() / "other/copy.json").string());
   ASSERT_TRUE(raw.ok());
   ASSERT_TRUE((*raw)["diagram"].is_object());
   EXPECT_EQ((*raw)["diagram"]["layout"][std::to_string(block)], Json::array({1.0, 2.0}));
@@ -550,7 +551,7 @@ TEST_F(ShellTest, NewProjectWritesTheProjectFileAndOpensIt) {
   ASSERT_EQ(d.state.datasets.size(), 1u);
   EXPECT_TRUE(d.state.datasets[0].data);
   EXPECT_TRUE(d.state.model);
-  auto raw = project::ReadJsonFile(fresh);
+  auto raw = ReadJsonFile(fresh);
   ASSERT_TRUE(raw.ok());
   EXPECT_EQ((*raw)["model"], "../work/fuel_film.json");
   EXPECT_EQ((*raw)["datasets"], Json::array({"../work/f1.csv"}));
@@ -585,7 +586,7 @@ TEST_F(ShellTest, NewProjectMakesItsModelFromTheDataOrBlankAndNeverOverwritesOne
   EXPECT_TRUE(d.state.datasets[0].data);
   const fs::path model_file = dir() / "new/engine.model.json";
   ASSERT_TRUE(fs::exists(model_file));
-  auto raw = project::ReadJsonFile((dir() / "new/engine.json").string());
+  auto raw = ReadJsonFile((dir() / "new/engine.json").string());
   ASSERT_TRUE(raw.ok());
   EXPECT_EQ((*raw)["model"], "engine.model.json");
 

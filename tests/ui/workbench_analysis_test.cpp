@@ -21,6 +21,7 @@
 #include "core/model/model.h"
 #include "core/project/problem.h"
 #include "core/sim/response.h"
+#include "core/util/json.h"
 #include "tests/ui/workbench_driver.h"
 #include "ui/format.h"
 

@@ -19,6 +19,7 @@
 #include "core/model/model.h"
 #include "core/project/problem.h"
 #include "core/project/project.h"
+#include "core/util/file.h"
 #include "tests/ui/workbench_driver.h"
 #include "ui/widgets/node_editor.h"
 
@@ -510,7 +511,7 @@ TEST(WorkbenchDiagram, AnUnreadableDiagramIsNamedAndTheModelFileIsUsed) {
         {"datasets", Json::array({kF1})},
         {"diagram",
          {{"greybench_diagram", 1}, {"blocks", Json::array({{{"id", 1}, {"kind", "spilt"}}})}}}};
-    ASSERT_TRUE(project::WriteFileAtomic(path, project.dump()).ok());
+    ASSERT_TRUE(WriteFileAtomic(path, project.dump()).ok());
   }
   DiagramDriver dd(path);
   AppState& state = dd.d.state;

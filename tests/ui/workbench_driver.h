@@ -20,6 +20,8 @@
 #include <imgui.h>
 #include <imgui_internal.h>
 
+#include "core/util/json.h"
+#include "core/util/sanitizers.h"
 #include "ui/panels/panels.h"
 #include "ui/state/app_state.h"
 #include "ui/theme.h"
@@ -43,6 +45,10 @@ class WorkbenchDriver {
   WorkbenchDriver() {
     context_ = ImGui::CreateContext();
     SetUpWorkbench(state, 1.0f);
+    // Under the sanitizers (some 40x slower) the sweeps run the quick way (SweepState::quick:
+    // the same estimates, delays and table in a fraction of the fits), as the snapshot test
+    // runs them there (--quick-sweep); the release suite runs them in full.
+    state.sweep.quick = kSanitized;
     ImGuiIO& io = ImGui::GetIO();
     unsigned char* pixels = nullptr;
     int w = 0, h = 0;

@@ -1,4 +1,4 @@
-// Exports from the workbench (ui/shell/export.h), driven as a user would: the Estimate view's
+// Exports from the workbench (ui/export/export.h), driven as a user would: the Estimate view's
 // "Save report…" button, a plot's export request, File > Export > Export model…; the file
 // browser's answer is given as the browser gives it (FinishExport with the chosen path). Each
 // file is read back, and none may land on a file of the project.
@@ -12,9 +12,10 @@
 #include <unistd.h>
 
 #include "core/model/model.h"
+#include "core/util/json.h"
 #include "core/util/sanitizers.h"
 #include "tests/ui/workbench_driver.h"
-#include "ui/shell/export.h"
+#include "ui/export/export.h"
 #include "ui/shell/shell.h"
 
 namespace gb::ui {

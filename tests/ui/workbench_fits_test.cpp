@@ -16,6 +16,7 @@
 #include "core/project/kept_fits.h"
 #include "core/project/project.h"
 #include "core/project/result_file.h"
+#include "core/util/file.h"
 #include "core/util/sanitizers.h"
 #include "tests/ui/workbench_driver.h"
 #include "ui/shell/shell.h"
@@ -217,7 +218,7 @@ TEST_F(FitsTest, CopyAsCommandRunInAShellFitsAgainToTheSameLogL) {
   ASSERT_EQ(command.rfind(program, 0), 0u) << command;
   command = std::string(GREYBENCH_CLI) + " " + command.substr(program.size()) + " > /dev/null";
   ASSERT_EQ(std::system(command.c_str()), 0) << command;
-  auto again = project::ReadJsonFile((Folder() / "fit-001.again.json").string());
+  auto again = ReadJsonFile((Folder() / "fit-001.again.json").string());
   ASSERT_TRUE(again.ok()) << again.error().ToString();
   EXPECT_NEAR((*again)["loglik"].get<double>(), loglik, 1e-9 * std::abs(loglik));
   EXPECT_EQ((*again)["n_free"], d.state.estimation.result->summary.n_free);

@@ -19,6 +19,7 @@
 
 #include "core/sim/dyno.h"
 #include "core/sim/live_dyno.h"
+#include "core/util/json.h"
 #include "core/util/sanitizers.h"
 #include "tests/ui/workbench_driver.h"
 

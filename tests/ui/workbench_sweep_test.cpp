@@ -12,12 +12,14 @@
 
 #include <gtest/gtest.h>
 
-#include "core/estimate/sweep.h"
 #include "core/model/model.h"
 #include "core/online/estimator.h"
 #include "core/online/monitor.h"
 #include "core/project/linearised.h"
 #include "core/project/problem.h"
+#include "core/project/result_file.h"
+#include "core/project/sweep.h"
+#include "core/util/json.h"
 #include "tests/shortened_data.h"
 #include "tests/ui/workbench_driver.h"
 #include "ui/format.h"
@@ -57,21 +59,21 @@ std::vector<std::string> Row(const std::string& log, const std::string& name, st
 
 // core's sweep of the test project: the case study's model on its three files, the project's
 // relations, one thread per fit (as the GUI runs it).
-estimate::SweepResult SweepDirectly() {
+project::SweepResult SweepDirectly() {
   auto spec = model::LoadModelFile(kSource + "/assets/models/fuel_film.json");
   EXPECT_TRUE(spec.ok());
-  estimate::SweepOptions options;
+  project::SweepOptions options;
   options.estimate.threads = 1;
   options.speed_tag = "n_rpm";
   options.trend_parameter = "X";
   options.trend_tag = "alpha_deg";
   options.mean_of = {"tau_fv", "tau_ff"};
-  // Under the sanitizers the GUI's sweep evaluates each point's delay profile at its estimate
-  // and gives no extra starts (ui/jobs/sweep.cpp); so does this one there, so that the two
-  // compare like with like at a third of the cost (the estimates are the same either way).
+  // Under the sanitizers the driver's sweep runs the quick way (SweepState::quick: each point's
+  // delay profile evaluated at its estimate, no extra starts); so does this one there, so that
+  // the two compare like with like at a third of the cost (the estimates are the same either way).
   options.estimate.full_delay_profile = !kSanitized;
   if (kSanitized) options.estimate.starts_on_bound = 0;
-  auto result = estimate::Sweep(
+  auto result = project::Sweep(
       *spec, project::PlainDatasets({kData + "p1.csv", kData + "p2.csv", kData + "p3.csv"}),
       options);
   EXPECT_TRUE(result.ok()) << result.error().ToString();
@@ -95,13 +97,13 @@ TEST(WorkbenchSweep, ClickingRunInstallsTheSweepCoreComputesAndTheViewShowsTable
   d.Frame();
   ASSERT_TRUE(d.state.sweep.result) << d.state.sweep.last_failure;
 
-  const estimate::SweepResult& gui = d.state.sweep.result->result;
-  const estimate::SweepResult direct = SweepDirectly();
+  const project::SweepResult& gui = d.state.sweep.result->result;
+  const project::SweepResult direct = SweepDirectly();
   ASSERT_EQ(gui.rows.size(), 3u);
   ASSERT_EQ(gui.rows.size(), direct.rows.size());
   for (std::size_t i = 0; i < direct.rows.size(); ++i) {
-    const estimate::SweepRow& g = gui.rows[i];
-    const estimate::SweepRow& c = direct.rows[i];
+    const project::SweepRow& g = gui.rows[i];
+    const project::SweepRow& c = direct.rows[i];
     EXPECT_EQ(g.point.name, c.point.name);
     EXPECT_EQ(g.point.values, c.point.values);
     EXPECT_DOUBLE_EQ(g.summary.loglik, c.summary.loglik) << c.point.name;
@@ -147,7 +149,7 @@ TEST(WorkbenchSweep, ClickingRunInstallsTheSweepCoreComputesAndTheViewShowsTable
   const SweepFigures& f = *d.state.sweep.result;
   ASSERT_EQ(f.speed.size(), 3u);
   for (std::size_t k : {0u, 1u, 2u}) {
-    const estimate::SweepRow& r = direct.rows[k == 0 ? 1 : k == 1 ? 0 : 2];
+    const project::SweepRow& r = direct.rows[k == 0 ? 1 : k == 1 ? 0 : 2];
     EXPECT_EQ(f.speed[k], r.point.values.at("n_rpm"));
     EXPECT_DOUBLE_EQ(f.delay[k], r.summary.delays[0].estimate * r.sample_interval);
     EXPECT_DOUBLE_EQ(f.delay_bar[k], 0.5 * r.sample_interval);
@@ -164,11 +166,11 @@ TEST(WorkbenchSweep, ClickingRunInstallsTheSweepCoreComputesAndTheViewShowsTable
   ASSERT_EQ(d.state.sweep.trend.y.size(), 3u);
   ASSERT_TRUE(d.state.sweep.trend.fit);
   std::vector<double> x, y;
-  for (const estimate::SweepRow& r : direct.rows) {
+  for (const project::SweepRow& r : direct.rows) {
     x.push_back(r.point.values.at("alpha_deg"));
     y.push_back(r.summary.parameters[1].estimate);  // tau_ff
   }
-  EXPECT_DOUBLE_EQ(d.state.sweep.trend.fit->b, estimate::FitLine(x, y, true).b);
+  EXPECT_DOUBLE_EQ(d.state.sweep.trend.fit->b, project::FitLine(x, y, true).b);
 }
 
 TEST(WorkbenchSweep, CancelStopsTheSweepWithin100msAndKeepsThePreviousTable) {
@@ -179,7 +181,7 @@ TEST(WorkbenchSweep, CancelStopsTheSweepWithin100msAndKeepsThePreviousTable) {
   ASSERT_TRUE(StartSweep(d.state));
   WaitForJobs(d.state);
   ASSERT_TRUE(d.state.sweep.result) << d.state.sweep.last_failure;
-  const estimate::SweepResult first = d.state.sweep.result->result;
+  const project::SweepResult first = d.state.sweep.result->result;
   d.Frame();
 
   // A long sweep (the six full-length case-study datasets), cancelled while it fits.
@@ -218,7 +220,7 @@ TEST(WorkbenchSweep, CancelStopsTheSweepWithin100msAndKeepsThePreviousTable) {
   d.Frame();  // installs the outcome
   EXPECT_FALSE(SweepRunning(d.state));
   ASSERT_TRUE(d.state.sweep.result);
-  const estimate::SweepResult& kept = d.state.sweep.result->result;
+  const project::SweepResult& kept = d.state.sweep.result->result;
   ASSERT_EQ(kept.rows.size(), first.rows.size());
   for (std::size_t i = 0; i < first.rows.size(); ++i) {
     EXPECT_EQ(kept.rows[i].dataset, first.rows[i].dataset);
@@ -401,7 +403,7 @@ TEST(WorkbenchSweep, ALinearisedNonlinearFitIsShownBesideThePerPointFits) {
   // steady state of the given speed is the fit's c_d over the point's speed, exactly.
   auto spec = model::LoadModelFile(kSource + "/assets/models/engine_mvem.json");
   ASSERT_TRUE(spec.ok());
-  auto fit = online::LoadReference(kSource + "/assets/results/engine_mvem.json", *spec);
+  auto fit = project::LoadReference(kSource + "/assets/results/engine_mvem.json", *spec);
   ASSERT_TRUE(fit.ok()) << fit.error().ToString();
   double cd = 0;
   for (std::size_t k = 0; k < spec->parameters.size(); ++k)

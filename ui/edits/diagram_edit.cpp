@@ -2,6 +2,8 @@
 
 #include <utility>
 
+#include "core/util/json.h"
+
 namespace gb::ui {
 
 Status ApplyDiagramEdit(diagram::BlockDiagram* d, const DiagramEdit& edit) {

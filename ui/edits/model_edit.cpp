@@ -11,6 +11,7 @@
 
 #include "core/model/linear_model.h"
 #include "core/model/nonlinear_model.h"
+#include "core/util/json.h"
 
 namespace gb::ui {
 namespace {

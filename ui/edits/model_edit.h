@@ -12,6 +12,7 @@
 #include "core/estimate/estimate.h"
 #include "core/model/model.h"
 #include "core/model/model_structure.h"
+#include "core/util/json.h"
 #include "core/util/result.h"
 
 namespace gb::ui {

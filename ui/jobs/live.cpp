@@ -18,9 +18,10 @@
 
 #include <fmt/format.h>
 
+#include "core/data/follow.h"
 #include "core/model/linear_model.h"
-#include "core/online/follow.h"
 #include "core/online/monitor.h"
+#include "core/project/result_file.h"
 #include "core/sim/dyno.h"
 
 namespace gb::ui {
@@ -228,14 +229,14 @@ struct LiveSession::State {
   std::vector<LiveFaultMark> faults;  // as taken
 
   // A followed file.
-  std::optional<online::FileFollower> follower;
-  std::optional<online::CsvRowReader> reader;
-  std::deque<online::Sample> pending;  // parsed, not yet fed
+  std::optional<data::FileFollower> follower;
+  std::optional<data::CsvRowReader> reader;
+  std::deque<data::Sample> pending;  // parsed, not yet fed
 
   // Rows fed whose update has not come yet (the monitor lags by the largest output delay).
   struct Row {
     long long index = 0;
-    online::Sample sample;
+    data::Sample sample;
     std::vector<double> truth;
   };
   std::deque<Row> rows;
@@ -250,10 +251,10 @@ struct LiveSession::State {
   double t_last = kNaN, t_first = kNaN;
   double sample_time = kNaN;
 
-  Status Feed(online::Sample sample, std::vector<double> truth, std::vector<LivePoint>* out);
+  Status Feed(data::Sample sample, std::vector<double> truth, std::vector<LivePoint>* out);
 };
 
-Status LiveSession::State::Feed(online::Sample sample, std::vector<double> truth,
+Status LiveSession::State::Feed(data::Sample sample, std::vector<double> truth,
                                 std::vector<LivePoint>* out) {
   if (std::isfinite(t_last) && !(sample.t > t_last)) {
     // A file started again (truncated or replaced): its times run again from its start.
@@ -310,7 +311,7 @@ Result<LiveSession> LiveSession::Create(const LiveInput& input) {
   if (input.reference) {
     reference = *input.reference;
   } else if (!input.reference_file.empty()) {
-    Result<online::Reference> read = online::LoadReference(input.reference_file, spec);
+    Result<online::Reference> read = project::LoadReference(input.reference_file, spec);
     if (!read) return read.error();
     reference = std::move(read).value();
   } else {
@@ -367,7 +368,7 @@ Result<LiveSession> LiveSession::Create(const LiveInput& input) {
     setup.source = fmt::format("virtual dyno, fuel film at {} (seed {})", point->name, e.seed);
   } else {
     if (input.settings.csv_path.empty()) return InputError("choose the CSV file to follow");
-    Result<online::FileFollower> follower = online::FileFollower::Open(input.settings.csv_path);
+    Result<data::FileFollower> follower = data::FileFollower::Open(input.settings.csv_path);
     if (!follower) return follower.error();
     s->follower.emplace(std::move(follower).value());
     s->reader.emplace(input.settings.csv_path, spec.inputs, spec.outputs);
@@ -399,7 +400,7 @@ Result<int> LiveSession::Step(int max_rows, std::vector<LivePoint>* out,
       for (std::size_t k = 0; k < s.tracked.size(); ++k)
         truth[k] = TrueValue(s.tracked[k], now, s.point);
       const sim::FuelSample row = s.dyno->Next();
-      online::Sample sample;
+      data::Sample sample;
       sample.t = row.t;
       sample.u = {row.mfi};
       sample.y = {row.ilambda};
@@ -416,7 +417,7 @@ Result<int> LiveSession::Step(int max_rows, std::vector<LivePoint>* out,
       s.reader->Restart();
     }
     s.reader->Feed(*bytes);
-    for (online::Sample& sample : s.reader->TakeSamples()) s.pending.push_back(std::move(sample));
+    for (data::Sample& sample : s.reader->TakeSamples()) s.pending.push_back(std::move(sample));
     for (const Error& e : s.reader->TakeProblems()) {
       if (++s.skipped <= kMaxSkipNotes) notes->push_back({false, e.ToString()});
       if (s.skipped == kMaxSkipNotes)
@@ -426,7 +427,7 @@ Result<int> LiveSession::Step(int max_rows, std::vector<LivePoint>* out,
   }
   const std::vector<double> no_truth(s.tracked.size(), kNaN);
   for (; fed < max_rows && !s.pending.empty(); ++fed) {
-    online::Sample sample = std::move(s.pending.front());
+    data::Sample sample = std::move(s.pending.front());
     s.pending.pop_front();
     if (Status st = s.Feed(std::move(sample), no_truth, out); !st) return st.error();
   }

@@ -1,6 +1,6 @@
 // The Live view's work: on-line identification and condition monitoring of a model
 // (core/online/monitor.h), one row at a time, from the virtual dyno (core/sim/live_dyno.h) or a
-// CSV file another program is writing (core/online/follow.h).
+// CSV file another program is writing (core/data/follow.h).
 //
 //   LiveSession  the source and the monitor, stepped synchronously: what the job runs, and what
 //                greybench-snapshot runs without a job or a clock (RunLiveUntil)

@@ -6,7 +6,6 @@
 #include <numeric>
 #include <utility>
 
-#include "core/util/sanitizers.h"
 #include "ui/format.h"
 
 namespace gb::ui {
@@ -54,7 +53,7 @@ std::string EstimateCell(const estimate::ParameterEstimate& p) {
 void Linearise(const SweepInput& input, SweepRun* run) {
   const project::LinearisedSpec& spec = *input.points.linearised;
   std::vector<std::string> datasets;
-  for (const estimate::SweepRow& r : run->result->rows) datasets.push_back(r.dataset);
+  for (const project::SweepRow& r : run->result->rows) datasets.push_back(r.dataset);
   Result<project::LinearisedSweep> lin = InputError("no model to linearise");
   if (!spec.model.empty()) {
     lin = project::LineariseAtPoints(spec, "", datasets);
@@ -73,7 +72,7 @@ void Linearise(const SweepInput& input, SweepRun* run) {
 // The linearised `quantity` at every point (rows' order) that has `tag`, sorted by the tag: the
 // tag, the value and its SE (0 where it has none).
 void LinearisedAgainst(const project::LinearisedSweep& lin,
-                       const std::vector<estimate::SweepRow>& rows, const std::string& tag,
+                       const std::vector<project::SweepRow>& rows, const std::string& tag,
                        const std::string& quantity, std::vector<double>* x,
                        std::vector<double>* value, std::vector<double>* se) {
   for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -95,16 +94,13 @@ double CombinedZ(double a, double se_a, double b, double se_b) {
 
 }  // namespace
 
-estimate::SweepOptions MakeSweepOptions(const SweepInput& input) {
-  estimate::SweepOptions options;
+project::SweepOptions MakeSweepOptions(const SweepInput& input) {
+  project::SweepOptions options;
   options.estimate.threads = 1;
-  // Under the sanitizers (CI's instrumented build, some 40x slower) the delay profile of each
-  // point is evaluated at its estimate instead of re-optimised at every delay: the estimates,
-  // the delays and the table are the same, in a fraction of the fits (as tests/core/sweep_test).
-  options.estimate.full_delay_profile = !kSanitized;
-  // ... and a point whose estimate ends on a bound (f7's measurement variance) gets no extra
-  // starts: their code path has its own test (tests/core/profile_test.cpp).
-  if (kSanitized) options.estimate.starts_on_bound = 0;
+  if (input.quick) {  // SweepState::quick
+    options.estimate.full_delay_profile = false;
+    options.estimate.starts_on_bound = 0;
+  }
   options.parallel = input.parallel;
   options.mean_of = input.points.mean_of;
   options.speed_tag = input.points.speed_tag;
@@ -114,7 +110,7 @@ estimate::SweepOptions MakeSweepOptions(const SweepInput& input) {
   return options;
 }
 
-void SweepStatus::Record(const estimate::SweepProgress& p) {
+void SweepStatus::Record(const project::SweepProgress& p) {
   const std::lock_guard<std::mutex> lock(mutex_);
   const auto i = static_cast<std::size_t>(p.dataset);
   if (i < states_.size()) states_[i] = p.finished ? PointState::kDone : PointState::kFitting;
@@ -133,15 +129,15 @@ std::vector<SweepStatus::PointState> SweepStatus::states() const {
 SweepRun RunSweep(const SweepInput& input, SweepStatus& status, JobControl& control) {
   SweepRun run;
   try {
-    estimate::SweepOptions options = MakeSweepOptions(input);
+    project::SweepOptions options = MakeSweepOptions(input);
     options.estimate.cancel = &control.cancel;
     const float n = static_cast<float>(std::max<std::size_t>(1, input.points.datasets.size()));
-    options.progress = [&status, &control, n](const estimate::SweepProgress& p) {
+    options.progress = [&status, &control, n](const project::SweepProgress& p) {
       status.Record(p);
       control.progress = static_cast<float>(status.done()) / n;
     };
-    Result<estimate::SweepResult> result =
-        estimate::Sweep(input.spec, input.points.datasets, options);
+    Result<project::SweepResult> result =
+        project::Sweep(input.spec, input.points.datasets, options);
     if (!result) {
       run.error = result.error().ToString();
       return run;
@@ -157,7 +153,7 @@ SweepRun RunSweep(const SweepInput& input, SweepStatus& status, JobControl& cont
   return run;
 }
 
-SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPointsSpec points,
+SweepFigures MakeSweepFigures(project::SweepResult result, project::OperatingPointsSpec points,
                               int model_revision,
                               std::optional<project::LinearisedSweep> linearised,
                               std::string linearised_error) {
@@ -170,8 +166,8 @@ SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPo
     return lin &&
            std::find(lin->quantities.begin(), lin->quantities.end(), name) != lin->quantities.end();
   };
-  const std::vector<estimate::SweepRow>& rows = result.rows;
-  for (const estimate::SweepRow& r : rows) f.columns.push_back(r.point.name);
+  const std::vector<project::SweepRow>& rows = result.rows;
+  for (const project::SweepRow& r : rows) f.columns.push_back(r.point.name);
   // Rows are referred to by index: adding one may move the others.
   auto add_row = [&](std::string label) {
     SweepTableRow row;
@@ -276,7 +272,7 @@ SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPo
 
   // Fig. 3: the delay in whole samples, or the delay parameter with its standard error.
   f.delay_bar_is_se = !points.delay_parameter.empty();
-  for (const estimate::SweepRow& r : rows) {
+  for (const project::SweepRow& r : rows) {
     auto it = r.point.values.find(points.speed_tag);
     if (it == r.point.values.end()) continue;
     if (f.delay_bar_is_se) {
@@ -329,11 +325,11 @@ std::vector<double> Dodged(const std::vector<double>& x, const std::vector<doubl
 
 TrendPlot MakeTrendPlot(const SweepFigures& figures, const std::string& parameter,
                         const std::string& tag) {
-  const estimate::SweepResult& result = figures.result;
+  const project::SweepResult& result = figures.result;
   TrendPlot t;
   t.parameter = parameter;
   t.tag = tag;
-  for (const estimate::SweepRow& r : result.rows) {
+  for (const project::SweepRow& r : result.rows) {
     auto it = r.point.values.find(tag);
     const estimate::ParameterEstimate* p = FindParameter(r.summary, parameter);
     if (it == r.point.values.end() || !p) continue;
@@ -344,7 +340,7 @@ TrendPlot MakeTrendPlot(const SweepFigures& figures, const std::string& paramete
   }
   SortByX(&t.x, {&t.y, &t.se});
   if (t.x.size() >= 3) {
-    estimate::LinearFit fit = estimate::FitLine(t.x, t.y, true);
+    project::LinearFit fit = project::FitLine(t.x, t.y, true);
     fit.y = parameter;
     fit.x = tag;
     t.line_x = {t.x.front(), t.x.back()};

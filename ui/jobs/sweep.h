@@ -1,4 +1,4 @@
-// The operating-point sweep as the workbench runs it (core/estimate/sweep.h): the sweep the
+// The operating-point sweep as the workbench runs it (core/project/sweep.h): the sweep the
 // project names, the progress record the sweeping threads write and the UI reads every frame,
 // the work of the sweep job, and the finished sweep prepared for drawing (the Table 2 cells and
 // the plot arrays of Fig. 3 and Fig. 4).
@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
-#include "core/estimate/sweep.h"
 #include "core/model/model.h"
 #include "core/project/linearised.h"
 #include "core/project/operating_points.h"
+#include "core/project/sweep.h"
 #include "ui/jobs/job.h"
 #include "ui/widgets/plot.h"
 
@@ -37,11 +37,14 @@ struct SweepInput {
   // The nonlinear model linearised at the points (operating_points.linearised) when the key
   // names no model file: the project's model as the workbench holds it.
   std::optional<model::ModelSpec> project_model;
+  // SweepState::quick: each point's delay profile evaluated at its estimate, no extra starts.
+  bool quick = false;
 };
 
 // The options RunSweep hands to core's Sweep: the points' relations, one thread per fit (so
-// the fits are the same whatever `parallel` is), the other estimation options at their defaults.
-estimate::SweepOptions MakeSweepOptions(const SweepInput& input);
+// the fits are the same whatever `parallel` is), the other estimation options at their defaults
+// (with `quick`, those SweepState::quick names).
+project::SweepOptions MakeSweepOptions(const SweepInput& input);
 
 // Written by the sweeping threads through SweepOptions::progress, read by the UI thread.
 class SweepStatus {
@@ -49,7 +52,7 @@ class SweepStatus {
   enum class PointState { kWaiting, kFitting, kDone };
   explicit SweepStatus(int n_datasets) : states_(static_cast<std::size_t>(n_datasets)) {}
 
-  void Record(const estimate::SweepProgress& p);
+  void Record(const project::SweepProgress& p);
   std::vector<PointState> states() const;  // one per dataset
   int done() const;                        // datasets whose fit has ended
 
@@ -62,7 +65,7 @@ class SweepStatus {
 struct SweepRun {
   // Absent when the sweep failed (a dataset cannot be read or fitted); a cancelled sweep has a
   // result with `cancelled` set.
-  std::optional<estimate::SweepResult> result;
+  std::optional<project::SweepResult> result;
   std::string error;  // why `result` is absent
   // With operating_points.linearised, after a sweep that finished: the nonlinear fit linearised
   // at each fitted point (in the order of `result->rows`), or why it could not be.
@@ -87,7 +90,7 @@ struct SweepTableRow {
 
 // A finished sweep, installed in AppState and drawn by the Operating points view.
 struct SweepFigures {
-  estimate::SweepResult result;
+  project::SweepResult result;
   project::OperatingPointsSpec points;  // what it ran with (labels of the tags)
   int model_revision = 0;               // AppState::model_revision when it started
   std::vector<std::string> columns;     // the points' names
@@ -112,7 +115,7 @@ struct SweepFigures {
 };
 
 // Prepares a sweep for drawing (`linearised` and its error from the same run).
-SweepFigures MakeSweepFigures(estimate::SweepResult result, project::OperatingPointsSpec points,
+SweepFigures MakeSweepFigures(project::SweepResult result, project::OperatingPointsSpec points,
                               int model_revision,
                               std::optional<project::LinearisedSweep> linearised = std::nullopt,
                               std::string linearised_error = "");
@@ -123,7 +126,7 @@ struct TrendPlot {
   std::string parameter, tag;
   std::vector<double> x, y, se;  // se: 0 where the fit gave no standard error
   int without_se = 0;            // points drawn without a bar
-  std::optional<estimate::LinearFit> fit;
+  std::optional<project::LinearFit> fit;
   std::vector<double> line_x, line_y;
   // The linearised nonlinear fit's quantity of the parameter's name at the same points ± 1 SE
   // (empty without one).
@@ -150,6 +153,13 @@ struct SweepState {
   std::chrono::steady_clock::time_point started;
   int started_revision = 0;
   int started_generation = 0;
+  // Runs the sweep's fits the quick way: each point's delay profile is evaluated at its estimate
+  // instead of re-optimised at every delay (the estimates, the delays and the table are the
+  // same, in a fraction of the fits, as tests/core/sweep_test does), and a point whose estimate
+  // ends on a bound gets no extra starts (their code path has its own test,
+  // tests/core/profile_test.cpp). Off in the workbench. The sanitizer suite turns it on, to
+  // keep its time in check: greybench-snapshot --quick-sweep, and the workbench tests' driver.
+  bool quick = false;
   // The last sweep that finished; a failed or cancelled run leaves it alone.
   std::optional<SweepFigures> result;
   std::string last_failure;            // how the last run ended when it left no result

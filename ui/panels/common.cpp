@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <filesystem>
 
+#include "core/util/json.h"
+
 namespace gb::ui {
 
 bool DrawNoProjectNotice(AppState& state) {
@@ -118,10 +120,6 @@ ImVec4 SeverityColor(Severity severity) {
       break;
   }
   return ImVec4(0.18f, 0.44f, 0.86f, 1.0f);
-}
-
-std::string DatasetLabel(const data::DatasetSpec& spec) {
-  return spec.DisplayName() + (spec.role == data::Role::kValidation ? " (validation)" : "");
 }
 
 void SameLineIfFits(float width, float spacing) {

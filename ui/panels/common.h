@@ -31,9 +31,6 @@ void LabelValue(const char* label, const std::string& value);
 
 ImVec4 SeverityColor(Severity severity);
 std::string FileName(const std::string& path);
-// A dataset as the views name it: its name (or file name), "(validation)" for a record that is
-// not fitted.
-std::string DatasetLabel(const data::DatasetSpec& spec);
 // `text` as drawn in at most `width` pixels: whole, or cut at a character and ended with "…".
 std::string FitToWidth(const std::string& text, float width);
 std::string GroupedCount(long long n);  // 2400 -> "2,400"

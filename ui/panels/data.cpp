@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "core/util/json.h"
+#include "ui/format.h"
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
 

@@ -8,7 +8,7 @@
 //              when the field loses focus), the diagram's parameters, and the problems
 //
 // Everything the user does becomes a DiagramEdit; ApplyDiagramEdits() applies the frame's edits
-// through core after the view is drawn (ui/edits/diagram_view.h says what an accepted edit
+// through core after the view is drawn (ui/state/diagram_view.h says what an accepted edit
 // changes).
 //
 // Sections

@@ -7,7 +7,7 @@
 // a mistake is easier to spot here than in the raw file. A model that does not compile, or one
 // drawn as a block diagram (edited in the Diagram view), is shown read-only.
 //
-// The structure is edited here too (ui/edits/equations_view.h): the model's name, its states,
+// The structure is edited here too (ui/state/equations_view.h): the model's name, its states,
 // inputs, outputs and parameters (add, rename, delete; a parameter's unit, description and
 // prior), the input hold and the initial covariance. A rename or a new name is applied when its
 // field is left; a refused one keeps what was typed, with the reason beside it. A formula
@@ -26,9 +26,10 @@
 #include <imgui_stdlib.h>
 
 #include "core/model/linear_model.h"
-#include "ui/edits/equations_view.h"
+#include "core/util/json.h"
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
+#include "ui/state/equations_view.h"
 
 namespace gb::ui {
 namespace {

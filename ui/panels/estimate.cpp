@@ -14,10 +14,10 @@
 #include <fmt/format.h>
 #include <imgui.h>
 
+#include "ui/export/export.h"
 #include "ui/format.h"
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
-#include "ui/shell/export.h"
 
 namespace gb::ui {
 namespace {

@@ -24,6 +24,7 @@
 #include <imgui_stdlib.h>
 
 #include "core/sim/dyno.h"
+#include "core/util/json.h"
 #include "ui/format.h"
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"

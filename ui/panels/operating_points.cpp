@@ -267,7 +267,7 @@ void PlotLinearised(AppState& state, const std::vector<double>& x, const std::ve
 void DrawDelayPlot(AppState& state, const SweepFigures& f, ImVec2 size) {
   const project::OperatingPointsSpec& p = f.points;
   const project::TagLabel speed = p.Label(p.speed_tag);
-  const std::optional<estimate::LinearFit>& fit = f.result.delay_vs_speed;
+  const std::optional<project::LinearFit>& fit = f.result.delay_vs_speed;
   std::string title = "Delay against " + speed.label;
   if (fit) {
     title += ": \xCE\x94t = c / " + speed.label + ", c = " + FormatSig(fit->b, 4) + kPlusMinus +

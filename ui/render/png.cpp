@@ -6,7 +6,7 @@
 
 #include <stb_image_write.h>  // the implementation is in libstb: no STB_IMAGE_WRITE_IMPLEMENTATION
 
-#include "core/project/project.h"
+#include "core/util/file.h"
 
 namespace gb::ui {
 
@@ -39,7 +39,7 @@ bool WritePngFromGl(const std::string& path, int width, int height, const unsign
     *error = path + ": cannot encode the PNG image";
     return false;
   }
-  if (auto st = project::WriteFileAtomic(path, png); !st) {
+  if (auto st = WriteFileAtomic(path, png); !st) {
     *error = st.error().ToString();
     return false;
   }

@@ -26,8 +26,9 @@
 #include "core/model/model.h"
 #include "core/model/model_structure.h"
 #include "core/project/project.h"
+#include "core/util/file.h"
+#include "ui/export/export.h"
 #include "ui/panels/common.h"
-#include "ui/shell/export.h"
 #include "ui/shell/import_dialog.h"
 
 namespace gb::ui {
@@ -92,7 +93,7 @@ void WriteRecent(AppState& state) {
   std::error_code ec;
   fs::create_directories(fs::path(sh.recent_file).parent_path(), ec);
   Json j = {{"greybench_recent", 1}, {"projects", sh.recent}};
-  if (Status st = project::WriteFileAtomic(sh.recent_file, j.dump(1) + "\n"); !st) {
+  if (Status st = WriteFileAtomic(sh.recent_file, j.dump(1) + "\n"); !st) {
     AddMessage(state, Severity::kWarning,
                "The recent projects could not be saved: " + st.error().ToString());
   }
@@ -107,7 +108,7 @@ void ReadRecent(AppState& state) {
     AddMessage(state, Severity::kWarning,
                "The recent projects list " + sh.recent_file + " was ignored: " + why);
   };
-  Result<Json> j = project::ReadJsonFile(sh.recent_file);
+  Result<Json> j = ReadJsonFile(sh.recent_file);
   if (!j) return ignore(j.error().ToString());
   if (!j->is_object() || !j->contains("projects") || !(*j)["projects"].is_array())
     return ignore("expected {\"greybench_recent\": 1, \"projects\": [...]}");
@@ -649,7 +650,7 @@ void CreateProject(AppState& state) {
     return;
   }
   if (new_model) {
-    if (Status st = project::WriteFileAtomic(new_model_path, new_model->dump(1) + "\n"); !st) {
+    if (Status st = WriteFileAtomic(new_model_path, new_model->dump(1) + "\n"); !st) {
       f.error = st.error().ToString();
       return;
     }
@@ -870,9 +871,9 @@ Status KeepDiagramFile(const AppState& state, const std::string& target, project
       !p->extra.contains("diagram"))
     return Ok{};
   const std::string text = diagram::ToJson(*v.diagram).dump(1) + "\n";
-  Result<Json> on_disk = project::ReadJsonFile(v.file);
+  Result<Json> on_disk = ReadJsonFile(v.file);
   if (!on_disk || on_disk->dump(1) + "\n" != text) {
-    if (Status st = project::WriteFileAtomic(v.file, text); !st) return st;
+    if (Status st = WriteFileAtomic(v.file, text); !st) return st;
   }
   std::error_code ec;
   const fs::path relative = fs::relative(v.file, fs::path(target).parent_path(), ec);

@@ -1,6 +1,6 @@
 // The application shell around the views: the File menu and its dialogs (an in-app file
 // browser), saving, recent projects, the unsaved-changes guard, autosave and crash recovery,
-// and keyboard shortcuts. State in AppState::shell (ui/shell/shell_state.h).
+// and keyboard shortcuts. State in AppState::shell (ui/state/shell_state.h).
 //
 //   StartSession(state);        // greybench only: recent files, autosave, recovery
 //   every frame, inside DrawWorkbench:

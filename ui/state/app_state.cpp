@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "core/util/json.h"
 #include "ui/format.h"
 
 namespace gb::ui {

@@ -21,15 +21,15 @@
 #include "core/data/dataset.h"
 #include "core/model/model.h"
 #include "core/project/project.h"
-#include "ui/edits/diagram_view.h"
 #include "ui/edits/model_edit.h"
 #include "ui/jobs/analysis.h"
 #include "ui/jobs/estimation.h"
 #include "ui/jobs/job.h"
 #include "ui/jobs/live.h"
 #include "ui/jobs/sweep.h"
-#include "ui/shell/shell_state.h"
 #include "ui/state/data_summary.h"
+#include "ui/state/diagram_view.h"
+#include "ui/state/shell_state.h"
 #include "ui/widgets/file_browser.h"
 #include "ui/widgets/plot.h"
 
@@ -289,7 +289,7 @@ struct EquationsViewState {
   std::vector<FormulaEdit> pending;              // emitted while drawing, applied after the view
   std::vector<StructureEdit> structure_pending;  // the same, for the structure
   std::optional<StructureRefusal> refusal;
-  // Undo and redo restore whole model files (ui/edits/equations_view.h).
+  // Undo and redo restore whole model files (ui/state/equations_view.h).
   std::vector<Json> undo, redo;
   bool undo_requested = false, redo_requested = false;
   int history_revision = 0;  // model_revision the history belongs to
@@ -419,7 +419,7 @@ void InstallFits(AppState& state, std::vector<KeptFit> fits,
                  const std::vector<std::string>& problems);
 bool EstimationRunning(const AppState& state);
 
-// The operating-point sweep (ui/jobs/sweep_state.cpp), run like the estimation.
+// The operating-point sweep (ui/state/sweep_state.cpp), run like the estimation.
 // Reads the project's "operating_points" key into state.sweep and drops the last sweep (a new
 // project was installed).
 void ResetSweep(AppState& state);
@@ -435,7 +435,7 @@ bool SweepRunning(const AppState& state);
 void PollSweep(AppState& state);
 // The trend plot's parameter and tag (the Operating points view's choice).
 void SelectTrend(AppState& state, const std::string& parameter, const std::string& tag);
-// The analysis (ui/jobs/analysis_state.cpp). PollJobs installs a finished run and starts a new one
+// The analysis (ui/state/analysis_state.cpp). PollJobs installs a finished run and starts a new one
 // when the request it would make differs from the last one started; CancelAnalysis stops the
 // run under way (the previous result is kept and the same request is not retried until
 // RecomputeAnalysis). AnalysisRequestNow is that request, or nothing when there is nothing to
@@ -453,7 +453,7 @@ void CancelAnalysis(AppState& state);
 void RecomputeAnalysis(AppState& state);
 bool AnalysisRunning(const AppState& state);
 
-// The Live view (ui/jobs/live_state.cpp). The run is a stream without end: WaitForJobs does not
+// The Live view (ui/state/live_state.cpp). The run is a stream without end: WaitForJobs does not
 // wait for it (AnyJobActive counts it unless it is paused, so the window keeps drawing while it
 // runs).
 // Why the model cannot be watched on-line ("" when it can: a valid, linear model); cached.

@@ -1,8 +1,9 @@
-#include "ui/edits/diagram_view.h"
+#include "ui/state/diagram_view.h"
 
 #include <filesystem>
 #include <utility>
 
+#include "core/util/json.h"
 #include "ui/state/app_state.h"
 
 namespace gb::ui {

@@ -1,4 +1,4 @@
-#include "core/filter/ode.h"
+#include "core/ode/ode.h"
 
 #include <algorithm>
 #include <cassert>
@@ -15,7 +15,7 @@
 #include <sunlinsol/sunlinsol_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
 
-namespace gb::filter {
+namespace gb::ode {
 namespace {
 
 constexpr long kMaxSteps = 100000;          // per interval
@@ -238,4 +238,4 @@ Status OdeSolver::Advance(OdeSystem& system, double t0, double t1, std::span<dou
   return AdvanceBdf(system, t0, t1, z);
 }
 
-}  // namespace gb::filter
+}  // namespace gb::ode

@@ -23,7 +23,7 @@
 #include "core/estimate/estimate.h"
 #include "core/model/model.h"
 
-namespace gb::estimate {
+namespace gb::project {
 
 struct OperatingPoint {
   std::string name;                      // from the tag, else the file's stem
@@ -37,7 +37,7 @@ struct SweepRow {
   std::string dataset;
   OperatingPoint point;
   double sample_interval = 0;  // mean interval of the data (delays in seconds = samples × it)
-  EstimateSummary summary;
+  estimate::EstimateSummary summary;
 };
 
 struct LinearFit {
@@ -70,7 +70,7 @@ struct SweepOptions {
   // Options of every fit. Its `cancel` also stops the sweep: no further dataset is started, the
   // fits under way return within about one evaluation, and Sweep returns a result with
   // `cancelled` set. Its `progress` is called from every fitting thread.
-  EstimateOptions estimate;
+  estimate::EstimateOptions estimate;
   std::vector<std::string> mean_of = {"tau_fv", "tau_ff"};  // parameters to average
   std::string speed_tag = "n_rpm";
   // A parameter that is the delay in seconds (a continuous delay, e.g. a Padé approximant's):
@@ -94,4 +94,4 @@ Result<SweepResult> Sweep(const model::ModelSpec& spec,
 // everything else stays 0. `y` and `x` (the names) are left empty.
 LinearFit FitLine(const std::vector<double>& x, const std::vector<double>& y, bool with_intercept);
 
-}  // namespace gb::estimate
+}  // namespace gb::project

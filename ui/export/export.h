@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "ui/shell/shell_state.h"
 #include "ui/state/app_state.h"
+#include "ui/state/shell_state.h"
 
 namespace gb::ui {
 

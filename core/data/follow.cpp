@@ -1,5 +1,5 @@
 // Reading rows of live CSV sources (format and behaviour in follow.h).
-#include "core/online/follow.h"
+#include "core/data/follow.h"
 
 #include <cerrno>
 #include <climits>
@@ -15,7 +15,7 @@
 
 #include "core/data/internal.h"
 
-namespace gb::online {
+namespace gb::data {
 
 using data::internal::Cell;
 using data::internal::FieldSplitter;
@@ -371,4 +371,4 @@ std::vector<Sample> SamplesOf(const data::Series& series) {
   return rows;
 }
 
-}  // namespace gb::online
+}  // namespace gb::data

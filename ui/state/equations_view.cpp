@@ -1,7 +1,8 @@
-#include "ui/edits/equations_view.h"
+#include "ui/state/equations_view.h"
 
 #include <utility>
 
+#include "core/util/json.h"
 #include "ui/state/app_state.h"
 
 namespace gb::ui {

@@ -1,4 +1,8 @@
-// The ODE solver of the extended Kalman filter's moment equations (core/filter/ekf.h).
+// An error-controlled ODE solver: integrates dz = F(t, z) of any OdeSystem over an interval.
+// A folder of its own (below core/filter in scripts/include-order.py's order) because nothing in it
+// is about filtering: the extended Kalman filter's moment equations (core/filter/moments.h,
+// core/filter/ekf.h) are its user today, and a simulation or a sensitivity system can be another.
+// It takes the model's EkfOptions (method and tolerances) as they are set in a model file.
 //
 // The filter integrates over every sample interval from a new start (each measurement update
 // moves the state), so what counts is the cost of one short integration from a cold start, not
@@ -22,7 +26,7 @@
 #include "core/model/model.h"
 #include "core/util/result.h"
 
-namespace gb::filter {
+namespace gb::ode {
 
 class OdeSystem {
  public:
@@ -84,4 +88,4 @@ class OdeSolver {
   OdeCounts counts_;
 };
 
-}  // namespace gb::filter
+}  // namespace gb::ode

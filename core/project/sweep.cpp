@@ -1,4 +1,4 @@
-#include "core/estimate/sweep.h"
+#include "core/project/sweep.h"
 
 #include <atomic>
 #include <cmath>
@@ -11,14 +11,16 @@
 
 #include "core/project/problem.h"
 #include "core/util/file.h"
+#include "core/util/json.h"
 #include "core/util/parallel.h"
 
-namespace gb::estimate {
+namespace gb::project {
 namespace {
 
 constexpr const char* kTagPrefix = "# greybench:";
 
-const ParameterEstimate* FindParameter(const EstimateSummary& s, const std::string& name) {
+const estimate::ParameterEstimate* FindParameter(const estimate::EstimateSummary& s,
+                                                 const std::string& name) {
   for (const auto& p : s.parameters)
     if (p.name == name) return &p;
   return nullptr;
@@ -109,19 +111,19 @@ Result<SweepResult> Sweep(const model::ModelSpec& spec,
       errors[i] = point.error();
       return;
     }
-    auto problem = project::LoadProblem(spec, {datasets[i]});
+    auto problem = LoadProblem(spec, {datasets[i]});
     if (!problem) {
       errors[i] = problem.error();
       return;
     }
-    auto lik = project::MakeLikelihood(*problem);
+    auto lik = MakeLikelihood(*problem);
     if (!lik) {
       errors[i] = lik.error();
       return;
     }
-    EstimateOptions o = options.estimate;
+    estimate::EstimateOptions o = options.estimate;
     if (parallel > 1) o.threads = 1;
-    auto summary = Estimate(*lik, o);
+    auto summary = estimate::Estimate(*lik, o);
     if (!summary) {
       errors[i] = summary.error();
       return;
@@ -284,4 +286,4 @@ std::string SweepResult::Csv() const {
   return out;
 }
 
-}  // namespace gb::estimate
+}  // namespace gb::project

@@ -1,4 +1,4 @@
-#include "ui/shell/export.h"
+#include "ui/export/export.h"
 
 #include <algorithm>
 #include <cctype>
@@ -11,6 +11,7 @@
 #include "core/model/model.h"
 #include "core/project/project.h"
 #include "core/report/figure.h"
+#include "core/util/file.h"
 #include "core/util/output_guard.h"
 #include "ui/render/png.h"
 
@@ -62,12 +63,12 @@ void FinishPlotExport(AppState& state, const std::string& path) {
   if (request->kind == plot::ExportRequest::Kind::kSvg) {
     const report::SvgSize size{static_cast<int>(std::lround(request->size.x)),
                                static_cast<int>(std::lround(request->size.y))};
-    Report(state, project::WriteFileAtomic(path, report::FigureToSvg(request->figure, size)),
+    Report(state, WriteFileAtomic(path, report::FigureToSvg(request->figure, size)),
            "the plot's SVG", path);
     return;
   }
   // PNG: drawn offscreen by the application after this frame.
-  if (Status st = project::CheckWritable(path); !st) return Report(state, st, "the plot", path);
+  if (Status st = CheckWritable(path); !st) return Report(state, st, "the plot", path);
   state.shell.png_export =
       PendingPng{std::move(request->figure), request->png_width, request->png_height, path};
 }
@@ -118,7 +119,7 @@ void FinishReport(AppState& state, std::string path) {
   if (Status st = CheckOutput(state, path); !st) return Report(state, st, "the report", path);
   Result<std::string> text = report::WriteReport(*input, *format);
   if (!text) return Report(state, text.error(), "the report", path);
-  Report(state, project::WriteFileAtomic(path, *text), "the report", path);
+  Report(state, WriteFileAtomic(path, *text), "the report", path);
 }
 
 }  // namespace

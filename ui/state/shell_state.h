@@ -32,7 +32,7 @@ enum class BrowsePurpose {
   kNewModel,  // the New project dialog's fields
   kNewDataset,
   kNewProjectFile,
-  kExportPlot,  // ui/shell/export.h
+  kExportPlot,  // ui/export/export.h
   kSaveReport,
   kExportModel,
 };
@@ -45,7 +45,7 @@ struct PendingAction {
   std::string path;  // kOpen: the project to open
 };
 
-// A plot to draw alone at width x height pixels and write to `path` as PNG (ui/shell/export.h).
+// A plot to draw alone at width x height pixels and write to `path` as PNG (ui/export/export.h).
 struct PendingPng {
   report::Figure figure;
   int width = 0, height = 0;
@@ -132,7 +132,7 @@ struct ShellState {
   bool tool_window_focused = false;
   FileBrowserState browser;
   // A plot's export, and a report, waiting for their file names, and a PNG of a plot waiting to
-  // be drawn offscreen after the frame (ui/shell/export.h).
+  // be drawn offscreen after the frame (ui/export/export.h).
   std::optional<plot::ExportRequest> plot_export;
   std::optional<report::ReportInput> report_export;
   std::optional<PendingPng> png_export;

@@ -59,7 +59,7 @@ namespace gb::data::internal {
 class FieldSplitter;
 }  // namespace gb::data::internal
 
-namespace gb::online {
+namespace gb::data {
 
 // One row of a live source, bound to a model's inputs and outputs.
 struct Sample {
@@ -196,4 +196,4 @@ class FileFollower {
 inline constexpr std::size_t kReadSomeBytes = std::size_t{64} << 10;
 Result<std::string> ReadSome(int fd, const std::string& source = "<stdin>");
 
-}  // namespace gb::online
+}  // namespace gb::data

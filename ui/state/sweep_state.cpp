@@ -146,6 +146,7 @@ bool StartSweep(AppState& state, std::string* why) {
   input.spec = std::move(per_point);
   input.points = *s.spec;
   if (input.points.linearised && state.model) input.project_model = *state.model;
+  input.quick = s.quick;
   s.status = std::make_shared<SweepStatus>(static_cast<int>(input.points.datasets.size()));
   s.running_datasets.clear();
   for (const data::DatasetSpec& d : input.points.datasets) s.running_datasets.push_back(d.file);

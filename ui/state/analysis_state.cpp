@@ -4,7 +4,7 @@
 #include <utility>
 
 #include "core/filter/likelihood.h"
-#include "ui/panels/common.h"
+#include "ui/format.h"
 #include "ui/state/app_state.h"
 
 namespace gb::ui {
