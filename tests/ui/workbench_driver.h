@@ -17,6 +17,7 @@
 #include <string>
 #include <thread>
 
+#include <gtest/gtest.h>
 #include <imgui.h>
 #include <imgui_internal.h>
 
@@ -190,6 +191,23 @@ class WorkbenchDriver {
 inline std::optional<ImVec2> FindButton(WorkbenchDriver& d, const char* label,
                                         std::optional<float> row = {}) {
   return d.Find(WorkbenchDriver::ViewWindow(), d.ViewItemId(label), row);
+}
+
+// A cancelled estimation ended as a cancel: either before the run had reported any point
+// (nothing kept, the failure says "cancelled"), or after it (the best point kept as a fit
+// marked stopped). Which one depends on how far the run got before the cancel was seen, which
+// no test can fix on a loaded machine.
+inline ::testing::AssertionResult EndedAsCancelled(const AppState& state) {
+  const EstimationState& e = state.estimation;
+  if (e.last_failure.find("cancelled") != std::string::npos) {
+    if (e.fits.empty() || !e.fits.back().fit.summary.cancelled)
+      return ::testing::AssertionSuccess() << "cancelled before any point was reported";
+  }
+  if (!e.fits.empty() && e.fits.back().fit.summary.cancelled &&
+      !e.fits.back().fit.summary.converged)
+    return ::testing::AssertionSuccess() << "stopped: the best point kept";
+  return ::testing::AssertionFailure() << "neither cancelled nor stopped; last failure: '"
+                                       << e.last_failure << "', " << e.fits.size() << " fits";
 }
 
 }  // namespace gb::ui::testing
