@@ -51,12 +51,16 @@ struct ScoreContext {
 };
 
 // The measurement updates of state index j: the outputs observed there (into *observed), one
-// scalar at a time, recorded or replayed by *replay, added up in *sums. Errors: an R that is not
-// positive (named).
-template <int NX>
-Status MeasurementUpdates(int j, const data::Series& series, const ObservationWindow& window,
-                          LinearStep<NX>* step, SteadyReplay<NX>* replay, TermSums* sums,
-                          std::vector<int>* observed) {
+// scalar at a time (kScores: with the sensitivities), recorded or replayed by *replay, added up
+// in *sums. False, with *error set, for an R that is not positive. Inlined, as are the step's
+// updates: in the steady state a step is a few dozen flops, and the calls cost as much
+// (bench/loglik_bench, docs/benchmarks.md).
+template <int NX, bool kScores>
+[[gnu::always_inline]] inline bool MeasurementUpdates(int j, const data::Series& series,
+                                                      const ObservationWindow& window,
+                                                      LinearStep<NX>* step,
+                                                      SteadyReplay<NX>* replay, TermSums* sums,
+                                                      std::vector<int>* observed, Error* error) {
   const int p = static_cast<int>(series.Y.rows());
   const int m = static_cast<int>(series.U.rows());
   const int N = static_cast<int>(series.size());
@@ -68,10 +72,13 @@ Status MeasurementUpdates(int j, const data::Series& series, const ObservationWi
   for (const int o : *observed) {
     const int k = j + window.delay[o];
     double R;
-    if (!step->MeasurementUpdate(o, Y[static_cast<std::size_t>(k) * p + o], u, replay, sums, &R))
-      return NotPositiveInnovationVariance(series, o, k, R);
+    if (!step->template MeasurementUpdate<kScores>(o, Y[static_cast<std::size_t>(k) * p + o], u,
+                                                   replay, sums, &R)) {
+      *error = NotPositiveInnovationVariance(series, o, k, R);
+      return false;
+    }
   }
-  return Ok{};
+  return true;
 }
 
 // log L (and the per-index terms when ctx.terms is set); with kTrace, fills *trace over every row
@@ -97,6 +104,7 @@ Result<Loglik> FilterLoop(const FilterContext& ctx, FilterTrace* trace) {
   TermSums sums(0, false, per_step_log ? nullptr : &log_product);
   std::vector<int> observed;
   observed.reserve(static_cast<std::size_t>(p));
+  Error error;
   if constexpr (kTrace) ResetTrace(n, p, N, trace);
   const bool has_D = m > 0 && ss.D.cwiseAbs().maxCoeff() != 0.0;
 
@@ -118,8 +126,9 @@ Result<Loglik> FilterLoop(const FilterContext& ctx, FilterTrace* trace) {
       }
     }
     // Measurement update: the observations that see x_j.
-    if (Status s = MeasurementUpdates(j, series, ctx.window, &step, &replay, &sums, &observed); !s)
-      return s.error();
+    if (!MeasurementUpdates<NX, false>(j, series, ctx.window, &step, &replay, &sums, &observed,
+                                       &error))
+      return error;
     if (sums.p_j > 0) {
       const double term = LoglikTerm(sums.logdet, sums.p_j, sums.r2, ctx.settings.huber);
       loglik += term;
@@ -133,8 +142,9 @@ Result<Loglik> FilterLoop(const FilterContext& ctx, FilterTrace* trace) {
     if (j == N - 1) break;
     // Time update to t_{j+1}.
     const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
-    step.TimeUpdate(disc[series.intervals.group[j]], static_cast<const FixedDiscrete<NX>*>(nullptr),
-                    u, u + m, foh, replay.replaying());
+    step.template TimeUpdate<false>(disc[series.intervals.group[j]],
+                                    static_cast<const FixedDiscrete<NX>*>(nullptr), u, u + m, foh,
+                                    replay.replaying());
     replay.End(step.P, step.dP);
   }
   if (!per_step_log) loglik -= 0.5 * log_product.Log();
@@ -172,6 +182,7 @@ Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eig
   Eigen::VectorXd d_term(k);
   std::vector<int> observed;
   observed.reserve(static_cast<std::size_t>(p));
+  Error error;
   gradient->setZero(k);
   if (J) J->setZero(N, k);
 
@@ -179,8 +190,9 @@ Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eig
   long n_obs = 0;
   for (int j = 0; j <= ctx.window.last_j; ++j) {
     if (CancelledAt(ctx.settings.cancel, j)) return NumericalError("cancelled");
-    if (Status s = MeasurementUpdates(j, series, ctx.window, &step, &replay, &sums, &observed); !s)
-      return s.error();
+    if (!MeasurementUpdates<NX, true>(j, series, ctx.window, &step, &replay, &sums, &observed,
+                                      &error))
+      return error;
     if (sums.p_j > 0) {
       double d_rho = 0.5;
       loglik += LoglikTerm(sums.logdet, sums.p_j, sums.r2, ctx.settings.huber, &d_rho);
@@ -193,8 +205,8 @@ Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eig
     // Time update to t_{j+1}: the sensitivities first, as they read the old x and P.
     const int g = series.intervals.group[j];
     const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
-    step.TimeUpdate(disc[g], ddisc.data() + static_cast<std::size_t>(g) * k, u, u + m, foh,
-                    replay.replaying());
+    step.template TimeUpdate<true>(disc[g], ddisc.data() + static_cast<std::size_t>(g) * k, u,
+                                   u + m, foh, replay.replaying());
     replay.End(step.P, step.dP);
   }
   if (!std::isfinite(loglik) || !gradient->allFinite()) return NotFiniteLoglik(series);

@@ -95,6 +95,7 @@ struct TermSums {
   void Begin() {
     p_j = 0;
     logdet = r2 = 0.0;
+    if (d_logdet.size() == 0) return;
     d_logdet.setZero();
     d_r2.setZero();
     if (with_information) information.setZero();
@@ -163,17 +164,20 @@ class LinearStep {
     T_.resize(n_, n_);
   }
 
-  // The scalar update with observation y of output o; u: the inputs at the state index (m).
+  // The scalar update with observation y of output o; u: the inputs at the state index (m);
+  // kScores: with the sensitivities (and the information when *sums asks for it).
   // Adds to *sums; with `replay` (SteadyReplay::Begin called for this index), records or replays
   // k, R, dk_i, dR_i. Returns false, changing nothing, when R is not positive (*R says what it
   // is); *eps (when given): ε.
+  template <bool kScores>
   bool MeasurementUpdate(int o, double y, const double* u, SteadyReplay<NX>* replay, TermSums* sums,
                          double* R_out, double* eps_out = nullptr);
 
   // The time update with the discretisation d of the interval and its derivatives dd[i] (k of
   // them); u0, u1: the inputs at both ends (m each; u1 read with first-order hold only). With
-  // `replay`: P and dP are not updated (the steady state repeats them).
-  template <class Disc>
+  // `replay`: P and dP are not updated (the steady state repeats them). kScores: with the
+  // sensitivities.
+  template <bool kScores, class Disc>
   void TimeUpdate(const Disc& d, const Disc* dd, const double* u0, const double* u1, bool foh,
                   bool replay);
 
@@ -264,8 +268,12 @@ class SteadyReplay {
 };
 
 template <int NX>
-bool LinearStep<NX>::MeasurementUpdate(int o, double y, const double* u, SteadyReplay<NX>* replay,
-                                       TermSums* sums, double* R_out, double* eps_out) {
+template <bool kScores>
+[[gnu::always_inline]] inline bool LinearStep<NX>::MeasurementUpdate(int o, double y,
+                                                                     const double* u,
+                                                                     SteadyReplay<NX>* replay,
+                                                                     TermSums* sums, double* R_out,
+                                                                     double* eps_out) {
   const Row& c = C_[o];
   double yhat = c.dot(x) + d_(o);
   if (has_D_)
@@ -286,7 +294,7 @@ bool LinearStep<NX>::MeasurementUpdate(int o, double y, const double* u, SteadyR
   if (recording) replay->PCt_[q] = PCt_, replay->R_[q] = R;
   const double eps = y - yhat;
   if (eps_out) *eps_out = eps;
-  for (int i = 0; i < k_; ++i) {
+  for (int i = 0; kScores && i < k_; ++i) {
     const Row& dc = dC_[static_cast<std::size_t>(o) * k_ + i];
     double dyhat = dc.dot(x) + c.dot(dx[i]) + dd_(o, i);
     for (int l = 0; l < m_; ++l) dyhat += dD_[i](o, l) * u[l];
@@ -308,7 +316,7 @@ bool LinearStep<NX>::MeasurementUpdate(int o, double y, const double* u, SteadyR
     dx[i].noalias() += dPCt_ * (eps / R) + PCt_ * ((deps - eps * dR / R) / R);
     if (sums->with_information) sums->deps(i) = deps, sums->dR(i) = dR;
   }
-  if (sums->with_information && k_ > 0) {
+  if (kScores && sums->with_information && k_ > 0) {
     sums->information.noalias() += sums->deps * sums->deps.transpose() / R;
     sums->information.noalias() += 0.5 * sums->dR * sums->dR.transpose() / (R * R);
   }
@@ -324,11 +332,12 @@ bool LinearStep<NX>::MeasurementUpdate(int o, double y, const double* u, SteadyR
 }
 
 template <int NX>
-template <class Disc>
-void LinearStep<NX>::TimeUpdate(const Disc& d, const Disc* dd, const double* u0, const double* u1,
-                                bool foh, bool replay) {
+template <bool kScores, class Disc>
+[[gnu::always_inline]] inline void LinearStep<NX>::TimeUpdate(const Disc& d, const Disc* dd,
+                                                              const double* u0, const double* u1,
+                                                              bool foh, bool replay) {
   if (!replay) PhiP_.noalias() = d.Phi * P;
-  for (int i = 0; i < k_; ++i) {
+  for (int i = 0; kScores && i < k_; ++i) {
     const Disc& di = dd[i];
     x_next_.noalias() = di.Phi * x;
     x_next_.noalias() += d.Phi * dx[i];

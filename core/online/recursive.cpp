@@ -363,7 +363,7 @@ Status RecursiveMl::TimeUpdate(const Sample& from, const Sample& to) {
   if (warmup_ < 0) warmup_ = static_cast<int>(std::ceil(warmup_time_ / dt));
   if (Status s = Refresh(dt); !s) return s;
   const bool foh = model_.spec().input_hold == model::InputHold::kFoh;
-  step_.TimeUpdate(disc_, ddisc_.data(), from.u.data(), to.u.data(), foh, false);
+  step_.TimeUpdate<true>(disc_, ddisc_.data(), from.u.data(), to.u.data(), foh, false);
   return Ok{};
 }
 
@@ -386,7 +386,7 @@ Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
     const double y = row.y[o];
     if (std::isnan(y)) continue;
     double R = 0.0, eps = 0.0;
-    if (!step_.MeasurementUpdate(o, y, row_j.u.data(), nullptr, &sums, &R, &eps)) {
+    if (!step_.MeasurementUpdate<true>(o, y, row_j.u.data(), nullptr, &sums, &R, &eps)) {
       Error e = NumericalError(fmt::format(
           "the innovation variance of output '{}' is {:g}, not positive, at the current estimate",
           model_.spec().outputs[o], R));
