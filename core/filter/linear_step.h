@@ -186,8 +186,8 @@ class LinearStep {
  private:
   // Γ0 u0 + Γ1 u1 (the latter only with first-order hold), added to *out.
   template <class InMat>
-  void AddInputs(const InMat& Gamma0, const InMat& Gamma1, const double* u0, const double* u1,
-                 bool foh, Vec* out) const {
+  [[gnu::always_inline]] void AddInputs(const InMat& Gamma0, const InMat& Gamma1, const double* u0,
+                                        const double* u1, bool foh, Vec* out) const {
     if (m_ == 1) {  // the common case, without a dynamic-size product
       out->noalias() += Gamma0.col(0) * u0[0];
       if (foh) out->noalias() += Gamma1.col(0) * u1[0];
