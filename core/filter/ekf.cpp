@@ -1,19 +1,17 @@
 #include "core/filter/ekf.h"
 
 #include <cmath>
-#include <limits>
 #include <optional>
 
 #include <Eigen/Core>
 #include <fmt/format.h>
 
+#include "core/filter/ekf_score.h"
 #include "core/filter/internal.h"
 #include "core/filter/moments.h"
 
 namespace gb::filter {
 namespace {
-
-using internal::kLog2Pi;
 
 struct Run {
   const model::NonlinearModel& model;
@@ -43,15 +41,7 @@ Result<Loglik> Run::operator()() const {
   if (auto s = propagator.Initial(settings.initial_covariance, &x, &P); !s) return s.error();
   settings.OverrideInitial(&x, &P);
 
-  if (trace) {
-    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-    trace->y_pred.setConstant(p, N, kNaN);
-    trace->y_var.setConstant(p, N, kNaN);
-    trace->x_pred.setConstant(n, N, kNaN);
-    trace->x_filt.setConstant(n, N, kNaN);
-    trace->P_pred.assign(N, Eigen::MatrixXd());
-    trace->P_filt.assign(N, Eigen::MatrixXd());
-  }
+  if (trace) internal::ResetTrace(n, p, N, trace);
   if (terms) terms->assign(N, 0.0);
 
   std::vector<double> meas(model.measurement_size());
@@ -62,8 +52,6 @@ Result<Loglik> Run::operator()() const {
   };
   auto S_of = [&](int o) { return meas[p + p * n + o]; };
 
-  const double huber = settings.huber.value_or(0.0);
-  const bool robust = settings.huber.has_value();
   const int j_end = trace ? N - 1 : window->last_j;
   const double* Y = series.Y.data();
   double loglik = 0.0;
@@ -98,18 +86,13 @@ Result<Loglik> Run::operator()() const {
       double r2 = 0.0, logdet = 0.0;
       // Pass 1: the EKF, linearised at the prior; it gives the likelihood term.
       for (const int o : observed) {
-        const double y = Y[static_cast<std::size_t>(j + window->delay[o]) * p + o];
-        const auto H = H_row(o);
-        const double yhat = meas[o] + H.dot(x - x_prior);
-        PHt.noalias() = P * H.transpose();
-        const double R = H.dot(PHt) + S_of(o);
-        if (!(R > 0.0))
-          return internal::NotPositiveInnovationVariance(series, o, j + window->delay[o], R);
-        const double eps = y - yhat;
+        const int k = j + window->delay[o];
+        double eps, R;
+        if (!internal::ScalarUpdate(Y[static_cast<std::size_t>(k) * p + o], meas[o], H_row(o),
+                                    S_of(o), x_prior, &x, &P, &PHt, &eps, &R))
+          return internal::NotPositiveInnovationVariance(series, o, k, R);
         logdet += std::log(R);
         r2 += eps * eps / R;
-        x.noalias() += PHt * (eps / R);
-        P.noalias() -= (1.0 / R) * PHt * PHt.transpose();
       }
       // Passes 2..K: the iterated EKF, re-linearised at the latest mean.
       for (int pass = 2; pass <= options.iterations; ++pass) {
@@ -120,20 +103,16 @@ Result<Loglik> Run::operator()() const {
         x = x_prior;
         P = P_prior;
         for (const int o : observed) {
-          const double y = Y[static_cast<std::size_t>(j + window->delay[o]) * p + o];
-          const auto H = H_lin.row(o);
-          const double yhat = h_lin[o] + H.dot(x - x_lin);
-          PHt.noalias() = P * H.transpose();
-          const double R = H.dot(PHt) + S_of(o);
-          if (!(R > 0.0))
-            return internal::NotPositiveInnovationVariance(series, o, j + window->delay[o], R);
-          x.noalias() += PHt * ((y - yhat) / R);
-          P.noalias() -= (1.0 / R) * PHt * PHt.transpose();
+          const int k = j + window->delay[o];
+          double eps, R;
+          if (!internal::ScalarUpdate(Y[static_cast<std::size_t>(k) * p + o], h_lin[o],
+                                      H_lin.row(o), S_of(o), x_lin, &x, &P, &PHt, &eps, &R))
+            return internal::NotPositiveInnovationVariance(series, o, k, R);
         }
         if ((x - x_lin).norm() <= 1e-10 * (1.0 + x.norm())) break;
       }
-      const double rho = internal::HuberRho(r2, robust, huber);
-      const double term = -(0.5 * (logdet + static_cast<double>(observed.size()) * kLog2Pi) + rho);
+      const double term =
+          internal::LoglikTerm(logdet, static_cast<int>(observed.size()), r2, settings.huber);
       loglik += term;
       n_obs += static_cast<long>(observed.size());
       if (terms) (*terms)[j] = term;

@@ -60,22 +60,4 @@ Result<Loglik> EkfRunFilter(const model::NonlinearModel& model, std::span<const 
                             const data::Series& series, const FilterSettings& settings,
                             FilterTrace* trace, ode::OdeCounts* counts = nullptr);
 
-namespace internal {
-
-// The outputs the filter updates with at state index j (their y_{o, j+d_o} within the series, at
-// or after their first observation, not missing), into *observed (kalman.h's rule).
-inline void ObservedAt(int j, const data::Series& series, const ObservationWindow& window,
-                       std::vector<int>* observed) {
-  const int p = static_cast<int>(series.Y.rows());
-  const int N = static_cast<int>(series.size());
-  observed->clear();
-  for (int o = 0; o < p; ++o) {
-    const int k = j + window.delay[o];
-    if (k >= N || k < window.first_obs[o]) continue;
-    if (!std::isnan(series.Y(o, k))) observed->push_back(o);
-  }
-}
-
-}  // namespace internal
-
 }  // namespace gb::filter

@@ -9,8 +9,6 @@
 
 namespace gb::filter {
 
-using internal::kLog2Pi;
-
 Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
                                          const model::NonlinearSensitivity& sensitivity,
                                          std::span<const double> theta, const data::Series& series,
@@ -47,8 +45,6 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
   auto S_of = [&](int o) { return meas[p + p * n + o]; };
   const internal::MeasurementDerivatives derivatives{&sensitivity, dmeas, p, n};
 
-  const double huber = settings.huber.value_or(0.0);
-  const bool robust = settings.huber.has_value();
   const double* Y = series.Y.data();
   double loglik = 0.0;
   long n_obs = 0;
@@ -72,13 +68,12 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
         logdet += std::log(R);
         r2 += eps * eps / R;
       }
+      const int p_j = static_cast<int>(observed.size());
       double drho_dr2 = 0.5;
-      const double rho = internal::HuberRho(r2, robust, huber, &drho_dr2);
-      const double term = -(0.5 * (logdet + static_cast<double>(observed.size()) * kLog2Pi) + rho);
-      loglik += term;
-      n_obs += static_cast<long>(observed.size());
+      loglik += internal::LoglikTerm(logdet, p_j, r2, settings.huber, &drho_dr2);
+      n_obs += p_j;
       for (int q = 0; q < K; ++q) {
-        const double dterm = -(0.5 * update.dlogdet(q) + drho_dr2 * update.dr2(q));
+        const double dterm = internal::TermDerivative(update.dlogdet(q), update.dr2(q), drho_dr2);
         (*gradient)(q) += dterm;
         if (J_terms) (*J_terms)(j, q) = dterm;
       }
@@ -118,12 +113,9 @@ bool ScalarUpdateWithScores(int o, double y, double h_o,
                             MomentSensitivities* ds, ScoreUpdate* u, double* eps, double* R) {
   const int n = d.n;
   const int K = static_cast<int>(free.size());
-  const double yhat = h_o + H.dot(*x - u->x_prior);
-  u->PHt.noalias() = *P * H.transpose();
-  *R = H.dot(u->PHt) + S_o;
+  const double e = ScalarInnovation(y, h_o, H, S_o, u->x_prior, *x, *P, &u->PHt, R);
   if (!(*R > 0.0)) return false;
   const double r = *R;
-  const double e = y - yhat;
   *eps = e;
   // The derivatives of this scalar update, from the values before it.
   for (int q = 0; q < K; ++q) {
@@ -151,8 +143,7 @@ bool ScalarUpdateWithScores(int o, double y, double h_o,
     u->information.noalias() += u->dyhat * u->dyhat.transpose() / r;
     u->information.noalias() += 0.5 * u->dR * u->dR.transpose() / (r * r);
   }
-  x->noalias() += u->PHt * (e / r);
-  P->noalias() -= (1.0 / r) * u->PHt * u->PHt.transpose();
+  ScalarCorrection(u->PHt, e, r, x, P);
   return true;
 }
 

@@ -81,6 +81,42 @@ struct ScoreUpdate {
   void Begin(const Eigen::VectorXd& x, const MomentSensitivities& ds, int K);
 };
 
+// The scalar EKF update of output o with observation y (ekf.h), linearised at x_lin where h_o, H
+// (row o of ∂h/∂x) and S_o were evaluated (the prior mean, or in the iterated EKF's later passes
+// the latest mean):
+//
+//   ŷ = h_o + H (x - x_lin),  k = P H',  R = H k + S_o,  ε = y - ŷ
+//   x <- x + k ε/R,  P <- P - k k'/R
+//
+// in two halves: ScalarInnovation gives ε, k (*PHt) and R; ScalarCorrection updates x and P.
+// ScalarUpdate is both; ScalarUpdateWithScores differentiates between the two.
+template <class RowH>
+double ScalarInnovation(double y, double h_o, const RowH& H, double S_o,
+                        const Eigen::VectorXd& x_lin, const Eigen::VectorXd& x,
+                        const Eigen::MatrixXd& P, Eigen::VectorXd* PHt, double* R) {
+  const double yhat = h_o + H.dot(x - x_lin);
+  PHt->noalias() = P * H.transpose();
+  *R = H.dot(*PHt) + S_o;
+  return y - yhat;
+}
+
+inline void ScalarCorrection(const Eigen::VectorXd& PHt, double eps, double R, Eigen::VectorXd* x,
+                             Eigen::MatrixXd* P) {
+  x->noalias() += PHt * (eps / R);
+  P->noalias() -= (1.0 / R) * PHt * PHt.transpose();
+}
+
+// Returns false, changing neither x nor P, when R is not positive (*R says what it is).
+template <class RowH>
+bool ScalarUpdate(double y, double h_o, const RowH& H, double S_o, const Eigen::VectorXd& x_lin,
+                  Eigen::VectorXd* x, Eigen::MatrixXd* P, Eigen::VectorXd* PHt, double* eps,
+                  double* R) {
+  *eps = ScalarInnovation(y, h_o, H, S_o, x_lin, *x, *P, PHt, R);
+  if (!(*R > 0.0)) return false;
+  ScalarCorrection(*PHt, *eps, *R, x, P);
+  return true;
+}
+
 // One scalar update of output o with observation y (ekf.h), with the forward sensitivities of the
 // parameters `free` (ekf_score.h's formulas), linearised at u.x_prior: h_o, H (row o of ∂h/∂x)
 // and S_o there. Updates x, P and ds, adds to u's sums (and, with `information`, to

@@ -1,16 +1,23 @@
-// Pieces the filter loops share (kalman.cpp, score.cpp); not part of the public API.
+// Pieces every filter loop shares (the linear filter and its score, the EKF and its score, the
+// on-line estimators); not part of the public API. The linear filter's step is linear_step.h.
 #pragma once
 
+#include <atomic>
 #include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 #include <fmt/format.h>
 
 #include "core/data/dataset.h"
 #include "core/filter/discretize.h"
+#include "core/filter/kalman.h"
 #include "core/util/result.h"
 
 namespace gb::filter::internal {
@@ -25,6 +32,12 @@ inline constexpr double kLog2Pi = 1.8378770664093454835606594728112;  // log(2π
 inline constexpr int kCancelCheckInterval = 256;  // a power of two
 static_assert((kCancelCheckInterval & (kCancelCheckInterval - 1)) == 0);
 
+// Whether a linear loop stops at state index j: `cancel` set, looked at every
+// kCancelCheckInterval indices.
+inline bool CancelledAt(const std::atomic<bool>* cancel, int j) {
+  return cancel && (j & (kCancelCheckInterval - 1)) == 0 && cancel->load(std::memory_order_relaxed);
+}
+
 // The negative log-density's quadratic part at a state index, from r2 = Σ ε²/R over its observed
 // outputs: ½ r2 (Gaussian), or with Huber's threshold c (`robust`) c r − ½ c² beyond r = c. With
 // d_rho: its derivative with respect to r2 (½, or c / (2r) beyond the threshold).
@@ -35,6 +48,41 @@ inline double HuberRho(double r2, bool robust, double c, double* d_rho = nullptr
   if (r <= c) return 0.5 * r2;
   if (d_rho) *d_rho = c / (2.0 * r);
   return c * r - 0.5 * c * c;
+}
+
+// The log-likelihood term of a state index (kalman.h) from its p_j scalar updates:
+//   ℓ_j = -(½ (log det R_j + p_j log 2π) + ρ(r²)),   log det R_j = Σ log R,  r² = Σ ε²/R
+// ρ as HuberRho (Gaussian without `huber`); with d_rho, ρ'(r²) for TermDerivative.
+inline double LoglikTerm(double logdet, int p_j, double r2, const std::optional<double>& huber,
+                         double* d_rho = nullptr) {
+  const double rho = HuberRho(r2, huber.has_value(), huber.value_or(0.0), d_rho);
+  return -(0.5 * (logdet + p_j * kLog2Pi) + rho);
+}
+
+// Its derivative along one θ_i from Σ dR/R (d_logdet) and Σ d(ε²/R) (d_r2):
+//   dℓ_j = -(½ Σ dR/R + ρ'(r²) Σ d(ε²/R))
+inline double TermDerivative(double d_logdet, double d_r2, double d_rho) {
+  return -(0.5 * d_logdet + d_rho * d_r2);
+}
+
+// The outputs observed at state index j (kalman.h's rule: y_{o, j+d_o} within the series, at or
+// after the output's first observation, not missing), in order, into *observed. Returns them as
+// a mask (bit o for output o < 64).
+inline std::uint64_t ObservedAt(int j, const data::Series& series, const ObservationWindow& window,
+                                std::vector<int>* observed) {
+  const int p = static_cast<int>(series.Y.rows());
+  const int N = static_cast<int>(series.size());
+  const double* Y = series.Y.data();
+  std::uint64_t mask = 0;
+  observed->clear();
+  for (int o = 0; o < p; ++o) {
+    const int k = j + window.delay[o];
+    if (k >= N || k < window.first_obs[o]) continue;
+    if (std::isnan(Y[static_cast<std::size_t>(k) * p + o])) continue;
+    observed->push_back(o);
+    if (o < 64) mask |= std::uint64_t{1} << o;
+  }
+  return mask;
 }
 
 // Largest state dimension with a fixed-size instantiation of the loops: 8, or what the build
@@ -82,6 +130,17 @@ void Symmetrize(Mat& P) {
       P(j, i) = v;
     }
   }
+}
+
+// *trace sized for n states, p outputs and N rows, every value NaN until the filter writes it.
+inline void ResetTrace(int n, int p, int N, FilterTrace* trace) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  trace->y_pred.setConstant(p, N, kNaN);
+  trace->y_var.setConstant(p, N, kNaN);
+  trace->x_pred.setConstant(n, N, kNaN);
+  trace->x_filt.setConstant(n, N, kNaN);
+  trace->P_pred.assign(N, Eigen::MatrixXd());
+  trace->P_filt.assign(N, Eigen::MatrixXd());
 }
 
 // R_k is not positive definite: its pivot for output o at row k is R (zero, negative or NaN).

@@ -330,10 +330,9 @@ Result<EkfStep> EkfStream::Impl::MeasurementUpdate(int j) {
     ++step.observed;
   }
   filter::internal::Symmetrize(P);
-  const auto& huber = m.spec().robust_huber;
   double drho = 0.5;
-  const double rho = filter::internal::HuberRho(r2, huber.has_value(), huber.value_or(0.0), &drho);
-  step.loglik_term = -(0.5 * (logdet + step.observed * filter::internal::kLog2Pi) + rho);
+  step.loglik_term =
+      filter::internal::LoglikTerm(logdet, step.observed, r2, m.spec().robust_huber, &drho);
   if (K > 0) {
     step.score = -(0.5 * update.dlogdet + drho * update.dr2);
     step.information = update.information;

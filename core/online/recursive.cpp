@@ -231,6 +231,7 @@ Status RecursiveMl::Evaluate() {
   }
   ss_ = std::move(*ss);
   dss_ = std::move(dss);
+  step_.SetModel(ss_, dss_);
   return Ok{};
 }
 
@@ -302,48 +303,44 @@ Status RecursiveMl::Start(const Sample& first, const Sample* second) {
         slowest = std::max(slowest, -1.0 / re);
     }
   }
-  dx_ = Eigen::MatrixXd::Zero(n, k);
-  dP_.assign(static_cast<std::size_t>(k), Eigen::MatrixXd::Zero(n, n));
-  scratch_.PhiP.resize(n, n);
-  scratch_.T.resize(n, n);
-  scratch_.PhidP.resize(n, n);
-  scratch_.next.resize(n);
-  scratch_.PCt.resize(n);
-  scratch_.dPCt.resize(n);
-  scratch_.info.resize(k, k);
+  for (int i = 0; i < k; ++i) {
+    step_.dx[i] = Eigen::VectorXd::Zero(n);
+    step_.dP[i] = Eigen::MatrixXd::Zero(n, n);
+  }
+  sums_ = filter::internal::TermSums(k, true);
   const Eigen::VectorXd sigma2 = ss_.sigma.array().square();
   Eigen::MatrixXd P;
   std::complex<double> bad;
   if (options_.start == RecursiveOptions::Start::kModel) {
     // As the batch filter: x0, P0 and their derivatives (score.h).
-    x_ = ss_.x0;
-    for (int i = 0; i < k; ++i) dx_.col(i) = dss_[i].x0;
+    step_.x = ss_.x0;
+    for (int i = 0; i < k; ++i) step_.dx[i] = dss_[i].x0;
     const model::InitialCovariance kind = model_.spec().initial_covariance;
     switch (kind) {
       case model::InitialCovariance::kCtsm:
         if (Status s = Refresh(second->t - first.t); !s) return s;
-        P_ = disc_.Q;
+        step_.P = disc_.Q;
         break;
       case model::InitialCovariance::kStationary:
         if (!filter::StationaryCovariance(ss_.A, sigma2, &P, &bad))
           return NumericalError("initial_covariance \"stationary\" needs a stable A");
-        P_ = P;
+        step_.P = P;
         break;
       case model::InitialCovariance::kExplicit:
-        P_ = ss_.P0_diag.asDiagonal();
+        step_.P = ss_.P0_diag.asDiagonal();
         break;
     }
-    dP_ = filter::InitialCovarianceDerivatives(kind, ss_, dss_, P_, ddisc_);
+    step_.dP = filter::InitialCovarianceDerivatives(kind, ss_, dss_, step_.P, ddisc_);
   } else if (stable && filter::StationaryCovariance(ss_.A, sigma2, &P, &bad)) {
     // The equilibrium for the first input and the stationary covariance.
     const Eigen::Map<const Eigen::VectorXd> u0(first.u.data(),
                                                static_cast<Eigen::Index>(first.u.size()));
-    x_ = ss_.A.fullPivLu().solve(-(ss_.B * u0 + ss_.c));
-    P_ = P;
+    step_.x = ss_.A.fullPivLu().solve(-(ss_.B * u0 + ss_.c));
+    step_.P = P;
   } else {
-    x_ = ss_.x0;
-    P_ = ss_.P0_diag.size() == n ? Eigen::MatrixXd(ss_.P0_diag.asDiagonal())
-                                 : Eigen::MatrixXd(sigma2.asDiagonal());
+    step_.x = ss_.x0;
+    step_.P = ss_.P0_diag.size() == n ? Eigen::MatrixXd(ss_.P0_diag.asDiagonal())
+                                      : Eigen::MatrixXd(sigma2.asDiagonal());
   }
   if (options_.warmup >= 0) {
     warmup_ = options_.warmup;
@@ -365,45 +362,13 @@ Status RecursiveMl::TimeUpdate(const Sample& from, const Sample& to) {
         fmt::format("time {:g} does not increase (the row before has {:g})", to.t, from.t));
   if (warmup_ < 0) warmup_ = static_cast<int>(std::ceil(warmup_time_ / dt));
   if (Status s = Refresh(dt); !s) return s;
-  const int m = ss_.n_inputs();
-  const int k = static_cast<int>(tracked_.size());
   const bool foh = model_.spec().input_hold == model::InputHold::kFoh;
-  const Eigen::Map<const Eigen::VectorXd> u0(from.u.data(), m);
-  const Eigen::Map<const Eigen::VectorXd> u1(to.u.data(), m);
-  // Into scratch matrices held by the estimator: no allocation per row.
-  Scratch& w = scratch_;
-  w.PhiP.noalias() = disc_.Phi * P_;
-  for (int i = 0; i < k; ++i) {
-    const filter::Discrete& d = ddisc_[i];
-    w.next.noalias() = d.Phi * x_;
-    w.next.noalias() += disc_.Phi * dx_.col(i);
-    w.next += d.g;
-    if (m > 0) {
-      w.next.noalias() += d.Gamma0 * u0;
-      if (foh) w.next.noalias() += d.Gamma1 * u1;
-    }
-    dx_.col(i) = w.next;
-    w.T.noalias() = d.Phi * w.PhiP.transpose();
-    w.PhidP.noalias() = disc_.Phi * dP_[i];
-    dP_[i].noalias() = w.PhidP * disc_.Phi.transpose();
-    dP_[i] += w.T + w.T.transpose() + d.Q;
-    filter::internal::Symmetrize(dP_[i]);
-  }
-  w.next.noalias() = disc_.Phi * x_;
-  w.next += disc_.g;
-  if (m > 0) {
-    w.next.noalias() += disc_.Gamma0 * u0;
-    if (foh) w.next.noalias() += disc_.Gamma1 * u1;
-  }
-  x_ = w.next;
-  P_.noalias() = w.PhiP * disc_.Phi.transpose();
-  P_ += disc_.Q;
-  filter::internal::Symmetrize(P_);
+  step_.TimeUpdate<true>(disc_, ddisc_.data(), from.u.data(), to.u.data(), foh, false);
   return Ok{};
 }
 
 Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
-  const int m = ss_.n_inputs(), p = ss_.n_outputs();
+  const int p = ss_.n_outputs();
   const int k = static_cast<int>(tracked_.size());
   const std::size_t ring = rows_.size();
   const Sample& row_j = rows_[static_cast<std::size_t>(j) % ring];
@@ -413,25 +378,15 @@ Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
   up.line = row_j.line;
   up.innovation.assign(static_cast<std::size_t>(p), kNaN);
   up.innovation_sd.assign(static_cast<std::size_t>(p), kNaN);
-  const Eigen::Map<const Eigen::VectorXd> u(row_j.u.data(), m);
-
-  Eigen::VectorXd score = Eigen::VectorXd::Zero(k), info_eps(k), info_R(k);
-  Eigen::MatrixXd& info = scratch_.info;
-  info.setZero();
-  Eigen::VectorXd d_logdet = Eigen::VectorXd::Zero(k), d_r2 = Eigen::VectorXd::Zero(k);
-  double logdet = 0.0, r2 = 0.0;
-  int p_j = 0;
-  Eigen::VectorXd& PCt = scratch_.PCt;
-  Eigen::VectorXd& dPCt = scratch_.dPCt;
+  Eigen::VectorXd score = Eigen::VectorXd::Zero(k);
+  filter::internal::TermSums& sums = sums_;
+  sums.Begin();
   for (int o = 0; o < p; ++o) {
     const Sample& row = rows_[static_cast<std::size_t>(j + delay_[o]) % ring];
     const double y = row.y[o];
     if (std::isnan(y)) continue;
-    const auto c = ss_.C.row(o);
-    const double yhat = c.dot(x_) + ss_.D.row(o).dot(u) + ss_.d(o);
-    PCt.noalias() = P_ * c.transpose();
-    const double R = c.dot(PCt) + ss_.S(o);
-    if (!(R > 0.0)) {
+    double R = 0.0, eps = 0.0;
+    if (!step_.MeasurementUpdate<true>(o, y, row_j.u.data(), nullptr, &sums, &R, &eps)) {
       Error e = NumericalError(fmt::format(
           "the innovation variance of output '{}' is {:g}, not positive, at the current estimate",
           model_.spec().outputs[o], R));
@@ -439,44 +394,19 @@ Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
       e.line = row.line;
       return e;
     }
-    const double eps = y - yhat;
-    for (int i = 0; i < k; ++i) {
-      const model::StateSpace& d = dss_[i];
-      const auto dc = d.C.row(o);
-      const double dyhat = dc.dot(x_) + c.dot(dx_.col(i)) + d.D.row(o).dot(u) + d.d(o);
-      dPCt.noalias() = dP_[i] * c.transpose();
-      dPCt.noalias() += P_ * dc.transpose();
-      const double dR = dc.dot(PCt) + c.dot(dPCt) + d.S(o);
-      const double deps = -dyhat;
-      d_logdet(i) += dR / R;
-      d_r2(i) += (2.0 * eps * deps - eps * eps * dR / R) / R;
-      info_eps(i) = deps;
-      info_R(i) = dR;
-      dx_.col(i) += dPCt * (eps / R) + PCt * ((deps - eps * dR / R) / R);
-      dP_[i].noalias() -= (dPCt / R) * PCt.transpose();
-      dP_[i].noalias() -= (PCt / R) * dPCt.transpose();
-      dP_[i].noalias() += PCt * (PCt.transpose() * (dR / (R * R)));
-    }
-    info.noalias() += info_eps * info_eps.transpose() / R;
-    info.noalias() += 0.5 * info_R * info_R.transpose() / (R * R);
-    logdet += std::log(R);
-    r2 += eps * eps / R;
-    ++p_j;
-    x_.noalias() += PCt * (eps / R);
-    P_.noalias() -= (PCt / R) * PCt.transpose();
     up.innovation[o] = eps;
     up.innovation_sd[o] = std::sqrt(R);
   }
+  const int p_j = sums.p_j;
   if (p_j > 0) {
     double d_rho = 0.5;
-    const auto& huber = model_.spec().robust_huber;
-    const double rho =
-        filter::internal::HuberRho(r2, huber.has_value(), huber.value_or(0.0), &d_rho);
-    up.loglik_term = -0.5 * (logdet + p_j * filter::internal::kLog2Pi) - rho;
-    score = -(0.5 * d_logdet + d_rho * d_r2);
+    up.loglik_term =
+        filter::internal::LoglikTerm(sums.logdet, p_j, sums.r2, model_.spec().robust_huber, &d_rho);
+    sums.TermScore(d_rho, &score);
   }
   up.score.assign(score.data(), score.data() + k);
   up.warming_up = j < warmup_ || warmup_ < 0;
+  const Eigen::MatrixXd& info = sums.information;
   for (int a = 0; a < k; ++a) up.information.push_back(info(a, a));
   if (k > 0 && p_j > 0 && !up.warming_up && !options_.hold) {
     if (options_.forgetting_start > 0.0)

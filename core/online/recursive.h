@@ -51,6 +51,7 @@
 #include "core/data/follow.h"
 #include "core/estimate/estimate.h"
 #include "core/filter/discretize.h"
+#include "core/filter/linear_step.h"
 #include "core/model/linear_model.h"
 #include "core/online/estimator.h"
 #include "core/util/result.h"
@@ -112,18 +113,12 @@ class RecursiveMl final : public OnlineEstimator {
   std::vector<double> disc_w_;  // working coordinates the discretisation was computed at
   std::vector<double> sd_w_;    // current SDs in working coordinates (sqrt diag F⁻¹)
 
-  Eigen::VectorXd x_;
-  Eigen::MatrixXd P_;
-  Eigen::MatrixXd dx_;               // n x k
-  std::vector<Eigen::MatrixXd> dP_;  // k of n x n
-  Eigen::MatrixXd Finv_;             // F⁻¹, kept current with F
-  Eigen::MatrixXd F_, G_;            // k x k
-
-  struct Scratch {  // per-row temporaries, sized once (no allocation per row)
-    Eigen::MatrixXd PhiP, T, PhidP, info;
-    Eigen::VectorXd next, PCt, dPCt;
-  };
-  Scratch scratch_;
+  // x̂, P and their sensitivities, stepped by the filter's own step (no allocation per row), and
+  // what a row's updates add up.
+  filter::internal::LinearStep<Eigen::Dynamic> step_;
+  filter::internal::TermSums sums_;
+  Eigen::MatrixXd Finv_;      // F⁻¹, kept current with F
+  Eigen::MatrixXd F_, G_;     // k x k
   std::vector<Sample> rows_;  // ring of the last lag_ + 2 rows
   long n_rows_ = 0;           // rows pushed
   int next_index_ = 0;        // next state index to complete

@@ -73,6 +73,61 @@ TEST(Recursive, HeldAtThetaItsTermsAndScoresSumToTheBatchLikelihoodAndGradient) 
   }
 }
 
+// Row by row, held at the reference with the model's own start, the recursion is the batch
+// filter's step (linear_step.h) at dynamic size: each row's term and score are the batch's term
+// of that state index (kalman.h) and its row of LogLikelihoodScore's J, to rounding (the batch
+// runs fixed-size matrices, whose products may round otherwise).
+TEST(Recursive, HeldAtThetaEveryRowsTermAndScoreAreTheBatchFiltersRow) {
+  constexpr double kRowTol = 1e-12;  // relative
+  for (const char* name : {"models/fuel_film.json", "models/crankshaft.json"}) {
+    SCOPED_TRACE(name);
+    auto spec = model::LoadModelFile(kRecursiveAssets + name);
+    ASSERT_TRUE(spec) << spec.error().ToString();
+    const bool fuel = std::string(name).find("fuel") != std::string::npos;
+    auto problem = project::LoadProblem(
+        std::move(*spec), {kRecursiveAssets + (fuel ? "data/fuel_f1.csv" : "data/crankshaft.csv")});
+    ASSERT_TRUE(problem) << problem.error().ToString();
+    const model::LinearModel& model = *problem->model;
+    const data::Series& series = *problem->series[0];
+    Reference ref;
+    ref.theta = model.spec().Values();
+    for (int i = 0; i < model.n_parameters(); ++i)
+      if (!model.spec().parameters[i].fixed) ref.free.push_back(i);
+    ref.delay.assign(static_cast<std::size_t>(model.n_outputs()), fuel ? 5 : 0);
+    RecursiveOptions o;
+    o.start = RecursiveOptions::Start::kModel;
+    o.hold = true;
+    auto rml = RecursiveMl::Create(model, ref, o);
+    ASSERT_TRUE(rml) << rml.error().ToString();
+    const std::vector<int> tracked = rml->tracked();
+
+    filter::FilterSettings settings = filter::FilterSettings::FromModel(model.spec());
+    settings.delay = ref.delay;
+    const auto ss = *model.Evaluate(ref.theta);
+    const auto dss = *model.EvaluateJacobian(ref.theta, tracked);
+    std::vector<double> terms;
+    ASSERT_TRUE(filter::LogLikelihood(ss, series, settings, &terms));
+    Eigen::VectorXd gradient;
+    Eigen::MatrixXd J;
+    ASSERT_TRUE(filter::LogLikelihoodScore(ss, dss, series, settings, &gradient, &J));
+
+    int rows = 0;
+    for (const Sample& r : SamplesOf(series)) {
+      auto up = rml->Push(r);
+      ASSERT_TRUE(up) << up.error().ToString();
+      for (const RecursiveUpdate& u : *up) {
+        const int j = u.index;
+        ASSERT_LT(j, static_cast<int>(terms.size()));
+        EXPECT_NEAR(u.loglik_term, terms[j], kRowTol * std::abs(terms[j])) << "row " << j;
+        for (std::size_t a = 0; a < tracked.size(); ++a)
+          EXPECT_NEAR(u.score[a], J(j, a), kRowTol * std::abs(J(j, a))) << "row " << j << " " << a;
+        ++rows;
+      }
+    }
+    EXPECT_GT(rows, 100);
+  }
+}
+
 // A record of the virtual dyno other than the bundled one, as a dataset file would give it.
 std::shared_ptr<const data::Dataset> Record(const sim::Record& r) {
   std::vector<data::CsvColumn> columns;

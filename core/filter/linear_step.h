@@ -1,0 +1,364 @@
+// One step of the linear Kalman filter (kalman.h) with, optionally, the forward sensitivities of
+// its state and covariance (score.h) and the Fisher information of its observations: the one
+// update that the filter loop, the score loop (linear_loops.h) and the recursive estimator
+// (core/online/recursive.h) all run. Not part of the public API. Templated on the state dimension
+// NX (1..kMaxFixedStates with fixed-size matrices, or Eigen::Dynamic).
+//
+// Scalar measurement update with observation y of output o at state index j (c = C_o; d = ∂/∂θ_i,
+// one set per θ_i, none for the filter alone):
+//
+//   ŷ = c x + d_o + D_o u_j                 dŷ = dc x + c dx + dd_o + dD_o u_j
+//   k = P c'                                dk = dP c' + P dc'
+//   R = c k + S_o                           dR = dc k + c dk + dS_o
+//   ε = y - ŷ                               dε = -dŷ
+//   x <- x + k ε/R                          dx <- dx + dk ε/R + k (dε - ε dR/R)/R
+//   P <- P - k k'/R                         dP <- dP - (dk k' + k dk')/R + k k' dR/R²
+//
+// added up over the index's p_j updates (TermSums) for its log-likelihood term (internal.h):
+//
+//   log det R_j = Σ log R      r² = Σ ε²/R      ℓ_j = -(½ (log det R_j + p_j log 2π) + ρ(r²))
+//   Σ dR/R      Σ d(ε²/R) = Σ (2 ε dε - ε² dR/R)/R       dℓ_j = -(½ Σ dR/R + ρ' Σ d(ε²/R))
+//   information (Fisher's, expected):  I_j = Σ dε dε'/R + ½ dR dR'/R²
+//
+// Time update over Δ_j with the exact discretisation (discretize.h), the sensitivities first (they
+// read the old x and P):
+//
+//   x' = Φ x + Γ0 u_j + Γ1 u_{j+1} + g      dx' = dΦ x + Φ dx + dΓ0 u_j + dΓ1 u_{j+1} + dg
+//   P' = Φ P Φ' + Q                         dP' = Φ dP Φ' + T + T' + dQ,   T = dΦ P Φ'
+//   (P' and every dP' symmetrised; Γ1 only with first-order hold)
+//
+// Steady state (kalman.h): once a step returns P and every dP_i to their values at its start, bit
+// for bit, every later step with the same observed outputs and the same interval repeats its
+// k, R, dk_i and dR_i; SteadyReplay records them and replays them while that holds, so that only
+// the means and their sensitivities are updated. Identical to the full recursion, not an
+// approximation. Fixed sizes and at most 64 outputs only.
+//
+// The arithmetic (the grouping of every sum and product) is the one the results were verified
+// with; a change here changes results in the last bits.
+#pragma once
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/filter/internal.h"
+#include "core/model/linear_model.h"
+
+namespace gb::filter::internal {
+
+// Σ log R over many R > 0 with one log at the end: the product is kept as mantissa × 2^exponent,
+// renormalised after every factor by moving the exponent bits out (no overflow or underflow for
+// any normal R). Rounding: one relative error per factor, as summing the logs would give.
+class LogProduct {
+ public:
+  void Multiply(double r) {
+    if (r < kTiny || r > kHuge) {  // far outside the normal range: take the log directly
+      direct_ += std::log(r);
+      return;
+    }
+    mantissa_ *= r;
+    const auto bits = std::bit_cast<std::uint64_t>(mantissa_);
+    exponent_ += static_cast<std::int64_t>((bits >> 52) & 0x7ff) - 1023;
+    mantissa_ =
+        std::bit_cast<double>((bits & ~(std::uint64_t{0x7ff} << 52)) | (std::uint64_t{1023} << 52));
+  }
+  double Log() const { return std::log(mantissa_) + exponent_ * kLn2 + direct_; }
+
+ private:
+  static constexpr double kTiny = 1e-290, kHuge = 1e290;
+  static constexpr double kLn2 = 0.69314718055994530941723212145818;
+  double mantissa_ = 1.0;  // in [1, 2) after every Multiply
+  std::int64_t exponent_ = 0;
+  double direct_ = 0.0;
+};
+
+// What the scalar updates of one state index add up (Begin() before the first).
+struct TermSums {
+  int p_j = 0;                     // scalar observations
+  double logdet = 0.0;             // Σ log R (0 while log_product takes them)
+  double r2 = 0.0;                 // Σ ε²/R
+  Eigen::VectorXd d_logdet, d_r2;  // Σ dR/R, Σ d(ε²/R) (k)
+  Eigen::MatrixXd information;     // I_j (k x k), when with_information
+  bool with_information = false;
+  LogProduct* log_product = nullptr;  // set: every R is multiplied into it instead (one log)
+  Eigen::VectorXd deps, dR;           // workspace: the update's dε_i, dR_i
+
+  TermSums() = default;
+  TermSums(int k, bool with_info, LogProduct* product = nullptr)
+      : d_logdet(k), d_r2(k), with_information(with_info), log_product(product), deps(k), dR(k) {
+    if (with_info) information.resize(k, k);
+  }
+  void Begin() {
+    p_j = 0;
+    logdet = r2 = 0.0;
+    if (d_logdet.size() == 0) return;
+    d_logdet.setZero();
+    d_r2.setZero();
+    if (with_information) information.setZero();
+  }
+  // dℓ_j/dθ into *d_term (k), for ρ'(r²) = d_rho (LoglikTerm).
+  void TermScore(double d_rho, Eigen::VectorXd* d_term) const {
+    *d_term = -(0.5 * d_logdet + d_rho * d_r2);
+  }
+};
+
+template <int NX>
+class SteadyReplay;
+
+// The filter's mean and covariance with their sensitivities, the model's observation equation
+// held at size NX, and the step's workspace (no allocation per step).
+template <int NX>
+class LinearStep {
+ public:
+  using Mat = Eigen::Matrix<double, NX, NX>;
+  using Vec = Eigen::Matrix<double, NX, 1>;
+  using Row = Eigen::Matrix<double, 1, NX>;
+
+  Vec x;                // x̂
+  Mat P;                // its covariance
+  std::vector<Vec> dx;  // ∂x̂/∂θ_i (k)
+  std::vector<Mat> dP;  // ∂P/∂θ_i (k)
+
+  LinearStep() = default;
+  // For the model ss and its derivatives dss (k = dss.size(); none for the filter alone). The
+  // state is set by the caller (x, P, and the k dx[i], dP[i]).
+  LinearStep(const model::StateSpace& ss, std::span<const model::StateSpace> dss) {
+    SetModel(ss, dss);
+  }
+
+  // The observation equation of ss and dss (a model evaluated anew); the state is kept.
+  void SetModel(const model::StateSpace& ss, std::span<const model::StateSpace> dss) {
+    n_ = ss.n_states();
+    const int p = ss.n_outputs();
+    m_ = ss.n_inputs();
+    k_ = static_cast<int>(dss.size());
+    C_.resize(p);
+    dC_.resize(static_cast<std::size_t>(p) * k_);
+    for (int o = 0; o < p; ++o) {
+      C_[o] = ss.C.row(o);
+      for (int i = 0; i < k_; ++i) dC_[static_cast<std::size_t>(o) * k_ + i] = dss[i].C.row(o);
+    }
+    d_ = ss.d;
+    S_ = ss.S;
+    D_ = ss.D;
+    has_D_ = m_ > 0 && D_.cwiseAbs().maxCoeff() != 0.0;
+    dd_.resize(p, k_);
+    dS_.resize(p, k_);
+    dD_.resize(k_);
+    for (int i = 0; i < k_; ++i) {
+      dd_.col(i) = dss[i].d;
+      dS_.col(i) = dss[i].S;
+      dD_[i] = dss[i].D;
+    }
+    dx.resize(k_);
+    dP.resize(k_);
+    PCt_.resize(n_);
+    dPCt_.resize(n_);
+    x_next_.resize(n_);
+    PhiP_.resize(n_, n_);
+    PhidP_.resize(n_, n_);
+    T_.resize(n_, n_);
+  }
+
+  // The scalar update with observation y of output o; u: the inputs at the state index (m);
+  // kScores: with the sensitivities (and the information when *sums asks for it).
+  // Adds to *sums; with `replay` (SteadyReplay::Begin called for this index), records or replays
+  // k, R, dk_i, dR_i. Returns false, changing nothing, when R is not positive (*R says what it
+  // is); *eps (when given): ε.
+  template <bool kScores>
+  bool MeasurementUpdate(int o, double y, const double* u, SteadyReplay<NX>* replay, TermSums* sums,
+                         double* R_out, double* eps_out = nullptr);
+
+  // The time update with the discretisation d of the interval and its derivatives dd[i] (k of
+  // them); u0, u1: the inputs at both ends (m each; u1 read with first-order hold only). With
+  // `replay`: P and dP are not updated (the steady state repeats them). kScores: with the
+  // sensitivities.
+  template <bool kScores, class Disc>
+  void TimeUpdate(const Disc& d, const Disc* dd, const double* u0, const double* u1, bool foh,
+                  bool replay);
+
+  const Row& c(int o) const { return C_[o]; }
+
+ private:
+  // Γ0 u0 + Γ1 u1 (the latter only with first-order hold), added to *out.
+  template <class InMat>
+  [[gnu::always_inline]] void AddInputs(const InMat& Gamma0, const InMat& Gamma1, const double* u0,
+                                        const double* u1, bool foh, Vec* out) const {
+    if (m_ == 1) {  // the common case, without a dynamic-size product
+      out->noalias() += Gamma0.col(0) * u0[0];
+      if (foh) out->noalias() += Gamma1.col(0) * u1[0];
+      return;
+    }
+    out->noalias() += Gamma0 * Eigen::Map<const Eigen::VectorXd>(u0, m_);
+    if (foh) out->noalias() += Gamma1 * Eigen::Map<const Eigen::VectorXd>(u1, m_);
+  }
+
+  int n_ = 0, m_ = 0, k_ = 0;
+  std::vector<Row> C_, dC_;  // rows of C and of every dC_i (dC_[o * k + i])
+  Eigen::VectorXd d_, S_;
+  Eigen::MatrixXd D_;
+  bool has_D_ = false;       // some entry of D is not zero
+  Eigen::MatrixXd dd_, dS_;  // p x k
+  std::vector<Eigen::MatrixXd> dD_;
+  Vec PCt_, dPCt_, x_next_;
+  Mat PhiP_, PhidP_, T_;
+};
+
+// The steady-state replay (above) of a loop over state indices. Per index: Begin (before its
+// measurement updates, which record or replay), then End after its time update.
+template <int NX>
+class SteadyReplay {
+ public:
+  using Mat = typename LinearStep<NX>::Mat;
+  using Vec = typename LinearStep<NX>::Vec;
+
+  // Disabled (never replays) unless `enabled`, the size is fixed and p <= 64; k sensitivities.
+  SteadyReplay(bool enabled, int n, int p, int k)
+      : enabled_(enabled && NX != Eigen::Dynamic && p <= 64), k_(k) {
+    if (!enabled_) return;
+    P_start_ = Mat::Zero(n, n);
+    dP_start_.resize(k);
+    PCt_.resize(p);
+    R_.resize(p);
+    dPCt_.resize(static_cast<std::size_t>(p) * k);
+    dR_.resize(static_cast<std::size_t>(p) * k);
+  }
+
+  bool enabled() const { return enabled_; }
+  bool replaying() const { return steady_; }
+  // This index observes `mask` and its time update uses the interval `group` (-1: none); P, dP
+  // at its start. It replays when the last step ended at a fixed point and the same outputs and
+  // interval follow; otherwise it is recorded from here.
+  void Begin(std::uint64_t mask, int group, const Mat& P, const std::vector<Mat>& dP) {
+    if (!enabled_) return;
+    steady_ = steady_ && mask == mask_ && group == group_;
+    if (steady_) return;
+    mask_ = mask;
+    group_ = group;
+    P_start_ = P;
+    for (int i = 0; i < k_; ++i) dP_start_[i] = dP[i];
+  }
+  // After the index's time update: whether P and every dP_i are back at their start values.
+  void End(const Mat& P, const std::vector<Mat>& dP) {
+    if (!enabled_ || steady_) return;
+    steady_ = P == P_start_;
+    for (int i = 0; i < k_ && steady_; ++i) steady_ = dP[i] == dP_start_[i];
+  }
+
+ private:
+  friend class LinearStep<NX>;
+  std::size_t At(int q, int i) const { return static_cast<std::size_t>(q) * k_ + i; }
+
+  bool enabled_;
+  int k_;
+  bool steady_ = false;
+  std::uint64_t mask_ = 0;
+  int group_ = -1;
+  Mat P_start_;
+  std::vector<Mat> dP_start_;
+  // Of the q-th scalar update of the recorded step: k, R, and dk_i, dR_i at [q * k + i].
+  std::vector<Vec> PCt_;
+  std::vector<double> R_;
+  std::vector<Vec> dPCt_;
+  std::vector<double> dR_;
+};
+
+template <int NX>
+template <bool kScores>
+[[gnu::always_inline]] inline bool LinearStep<NX>::MeasurementUpdate(int o, double y,
+                                                                     const double* u,
+                                                                     SteadyReplay<NX>* replay,
+                                                                     TermSums* sums, double* R_out,
+                                                                     double* eps_out) {
+  const Row& c = C_[o];
+  double yhat = c.dot(x) + d_(o);
+  if (has_D_)
+    for (int l = 0; l < m_; ++l) yhat += D_(o, l) * u[l];
+  const bool replaying = replay != nullptr && replay->replaying();
+  const bool recording = replay != nullptr && replay->enabled() && !replaying;
+  const int q = sums->p_j;
+  double R;
+  if (replaying) {  // this step's P c' and R are those recorded
+    PCt_ = replay->PCt_[q];
+    R = replay->R_[q];
+  } else {
+    PCt_.noalias() = P * c.transpose();
+    R = c.dot(PCt_) + S_(o);
+  }
+  *R_out = R;
+  if (!(R > 0.0)) return false;
+  if (recording) replay->PCt_[q] = PCt_, replay->R_[q] = R;
+  const double eps = y - yhat;
+  if (eps_out) *eps_out = eps;
+  for (int i = 0; kScores && i < k_; ++i) {
+    const Row& dc = dC_[static_cast<std::size_t>(o) * k_ + i];
+    double dyhat = dc.dot(x) + c.dot(dx[i]) + dd_(o, i);
+    for (int l = 0; l < m_; ++l) dyhat += dD_[i](o, l) * u[l];
+    double dR;
+    if (replaying) {
+      dPCt_ = replay->dPCt_[replay->At(q, i)];
+      dR = replay->dR_[replay->At(q, i)];
+    } else {
+      dPCt_.noalias() = dP[i] * c.transpose();
+      dPCt_.noalias() += P * dc.transpose();
+      dR = dc.dot(PCt_) + c.dot(dPCt_) + dS_(o, i);
+      if (recording) replay->dPCt_[replay->At(q, i)] = dPCt_, replay->dR_[replay->At(q, i)] = dR;
+      dP[i].noalias() -= (dPCt_ * PCt_.transpose() + PCt_ * dPCt_.transpose()) / R;
+      dP[i].noalias() += PCt_ * PCt_.transpose() * (dR / (R * R));
+    }
+    const double deps = -dyhat;
+    sums->d_logdet(i) += dR / R;
+    sums->d_r2(i) += (2.0 * eps * deps - eps * eps * dR / R) / R;
+    dx[i].noalias() += dPCt_ * (eps / R) + PCt_ * ((deps - eps * dR / R) / R);
+    if (sums->with_information) sums->deps(i) = deps, sums->dR(i) = dR;
+  }
+  if (kScores && sums->with_information && k_ > 0) {
+    sums->information.noalias() += sums->deps * sums->deps.transpose() / R;
+    sums->information.noalias() += 0.5 * sums->dR * sums->dR.transpose() / (R * R);
+  }
+  if (sums->log_product)
+    sums->log_product->Multiply(R);
+  else
+    sums->logdet += std::log(R);
+  sums->r2 += eps * eps / R;
+  ++sums->p_j;
+  x.noalias() += PCt_ * (eps / R);
+  if (!replaying) P.noalias() -= (1.0 / R) * PCt_ * PCt_.transpose();
+  return true;
+}
+
+template <int NX>
+template <bool kScores, class Disc>
+[[gnu::always_inline]] inline void LinearStep<NX>::TimeUpdate(const Disc& d, const Disc* dd,
+                                                              const double* u0, const double* u1,
+                                                              bool foh, bool replay) {
+  if (!replay) PhiP_.noalias() = d.Phi * P;
+  for (int i = 0; kScores && i < k_; ++i) {
+    const Disc& di = dd[i];
+    x_next_.noalias() = di.Phi * x;
+    x_next_.noalias() += d.Phi * dx[i];
+    x_next_ += di.g;
+    if (m_ > 0) AddInputs(di.Gamma0, di.Gamma1, u0, u1, foh, &x_next_);
+    dx[i] = x_next_;
+    if (replay) continue;
+    T_.noalias() = di.Phi * PhiP_.transpose();  // dΦ P Φ' (P symmetric)
+    PhidP_.noalias() = d.Phi * dP[i];
+    dP[i].noalias() = PhidP_ * d.Phi.transpose();
+    dP[i] += T_ + T_.transpose() + di.Q;
+    Symmetrize(dP[i]);
+  }
+  x_next_.noalias() = d.Phi * x;
+  x_next_ += d.g;
+  if (m_ > 0) AddInputs(d.Gamma0, d.Gamma1, u0, u1, foh, &x_next_);
+  x = x_next_;
+  if (replay) return;
+  P.noalias() = PhiP_ * d.Phi.transpose();
+  P += d.Q;
+  Symmetrize(P);
+}
+
+}  // namespace gb::filter::internal
