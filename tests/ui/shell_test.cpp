@@ -36,6 +36,7 @@ namespace gb::ui {
 namespace {
 namespace fs = std::filesystem;
 using std::chrono::milliseconds;
+using testing::EndedAsCancelled;
 using testing::WorkbenchDriver;
 
 const fs::path kUiData = fs::path(GREYBENCH_SOURCE_DIR) / "tests/data/ui";

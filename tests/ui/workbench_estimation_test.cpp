@@ -29,6 +29,7 @@ namespace gb::ui {
 namespace {
 
 using std::chrono::milliseconds;
+using testing::EndedAsCancelled;
 using testing::FindButton;
 using testing::kCancelDeadline;
 using testing::kCaseStudy;
