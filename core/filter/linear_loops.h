@@ -213,12 +213,15 @@ Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eig
   return Loglik{loglik, n_obs};
 }
 
-// The instantiations of one state dimension (`extern` here, defined in generated/).
+// The instantiations of one state dimension (`extern` here, defined in generated/). EXTERN is
+// `extern` or nothing, which no parentheses can enclose.
+// NOLINTBEGIN(bugprone-macro-parentheses)
 #define GREYBENCH_LINEAR_LOOPS(EXTERN, NX)                                                  \
   EXTERN template Result<Loglik> FilterLoop<NX, false>(const FilterContext&, FilterTrace*); \
   EXTERN template Result<Loglik> FilterLoop<NX, true>(const FilterContext&, FilterTrace*);  \
   EXTERN template Result<Loglik> ScoreLoop<NX>(const ScoreContext&, Eigen::VectorXd*,       \
                                                Eigen::MatrixXd*);
+// NOLINTEND(bugprone-macro-parentheses)
 
 GREYBENCH_LINEAR_LOOPS(extern, 1)
 GREYBENCH_LINEAR_LOOPS(extern, 2)
