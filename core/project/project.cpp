@@ -14,17 +14,6 @@
 namespace gb::project {
 namespace fs = std::filesystem;
 
-namespace {
-
-Error FileError(const std::string& file, std::string message, std::string path = "") {
-  Error e = InputError(std::move(message));
-  e.file = file;
-  e.path = std::move(path);
-  return e;
-}
-
-}  // namespace
-
 std::string ResolvePath(const std::string& base_dir, const std::string& p) {
   fs::path path(p);
   if (path.is_absolute() || base_dir.empty()) return path.lexically_normal().string();

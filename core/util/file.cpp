@@ -21,14 +21,14 @@
 namespace gb {
 namespace fs = std::filesystem;
 
-namespace {
-
-Error FileError(const std::string& file, std::string message, std::string path = "") {
+Error FileError(const std::string& file, std::string message, std::string path) {
   Error e = InputError(std::move(message));
   e.file = file;
   e.path = std::move(path);
   return e;
 }
+
+namespace {
 
 // 1-based line and column of byte offset `pos` in `text`.
 void LineCol(const std::string& text, std::size_t pos, int* line, int* col) {

@@ -22,6 +22,9 @@
 
 namespace gb {
 
+// An input error in `file`; `path`, when given, the JSON path in it ("datasets[2].file").
+Error FileError(const std::string& file, std::string message, std::string path = "");
+
 // Reads a JSON file with errors of the form `FILE:LINE:COL: JSON syntax error: ...`. Objects keep
 // the order of the file (core/util/json.h); a key repeated in an object keeps its first place and
 // takes its last value.

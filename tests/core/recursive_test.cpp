@@ -21,6 +21,26 @@ namespace {
 
 const std::string kRecursiveAssets = std::string(GREYBENCH_SOURCE_DIR) + "/assets/";
 
+// The two cases the recursion is held on: the fuel film on f1 (output delay 5) and the
+// crankshaft, each with its model file's values as the reference, every free parameter in it.
+Result<project::Problem> HeldCase(const std::string& name) {
+  auto spec = model::LoadModelFile(kRecursiveAssets + name);
+  if (!spec) return spec.error();
+  const bool fuel = name.find("fuel") != std::string::npos;
+  return project::LoadProblem(
+      std::move(*spec), {kRecursiveAssets + (fuel ? "data/fuel_f1.csv" : "data/crankshaft.csv")});
+}
+
+Reference HeldReference(const model::LinearModel& model, const std::string& name) {
+  Reference ref;
+  ref.theta = model.spec().Values();
+  for (int i = 0; i < model.n_parameters(); ++i)
+    if (!model.spec().parameters[i].fixed) ref.free.push_back(i);
+  const bool fuel = name.find("fuel") != std::string::npos;
+  ref.delay.assign(static_cast<std::size_t>(model.n_outputs()), fuel ? 5 : 0);
+  return ref;
+}
+
 struct FittedReference {
   project::Problem problem;
   estimate::EstimateSummary summary;
@@ -31,19 +51,11 @@ struct FittedReference {
 TEST(Recursive, HeldAtThetaItsTermsAndScoresSumToTheBatchLikelihoodAndGradient) {
   for (const char* name : {"models/fuel_film.json", "models/crankshaft.json"}) {
     SCOPED_TRACE(name);
-    auto spec = model::LoadModelFile(kRecursiveAssets + name);
-    ASSERT_TRUE(spec) << spec.error().ToString();
-    const bool fuel = std::string(name).find("fuel") != std::string::npos;
-    auto problem = project::LoadProblem(
-        std::move(*spec), {kRecursiveAssets + (fuel ? "data/fuel_f1.csv" : "data/crankshaft.csv")});
+    auto problem = HeldCase(name);
     ASSERT_TRUE(problem) << problem.error().ToString();
     const model::LinearModel& model = *problem->model;
     const data::Series& series = *problem->series[0];
-    Reference ref;
-    ref.theta = model.spec().Values();
-    for (int i = 0; i < model.n_parameters(); ++i)
-      if (!model.spec().parameters[i].fixed) ref.free.push_back(i);
-    ref.delay.assign(static_cast<std::size_t>(model.n_outputs()), fuel ? 5 : 0);
+    const Reference ref = HeldReference(model, name);
     RecursiveOptions o;
     o.start = RecursiveOptions::Start::kModel;
     o.warmup = 1 << 30;
@@ -81,19 +93,11 @@ TEST(Recursive, HeldAtThetaEveryRowsTermAndScoreAreTheBatchFiltersRow) {
   constexpr double kRowTol = 1e-12;  // relative
   for (const char* name : {"models/fuel_film.json", "models/crankshaft.json"}) {
     SCOPED_TRACE(name);
-    auto spec = model::LoadModelFile(kRecursiveAssets + name);
-    ASSERT_TRUE(spec) << spec.error().ToString();
-    const bool fuel = std::string(name).find("fuel") != std::string::npos;
-    auto problem = project::LoadProblem(
-        std::move(*spec), {kRecursiveAssets + (fuel ? "data/fuel_f1.csv" : "data/crankshaft.csv")});
+    auto problem = HeldCase(name);
     ASSERT_TRUE(problem) << problem.error().ToString();
     const model::LinearModel& model = *problem->model;
     const data::Series& series = *problem->series[0];
-    Reference ref;
-    ref.theta = model.spec().Values();
-    for (int i = 0; i < model.n_parameters(); ++i)
-      if (!model.spec().parameters[i].fixed) ref.free.push_back(i);
-    ref.delay.assign(static_cast<std::size_t>(model.n_outputs()), fuel ? 5 : 0);
+    const Reference ref = HeldReference(model, name);
     RecursiveOptions o;
     o.start = RecursiveOptions::Start::kModel;
     o.hold = true;
