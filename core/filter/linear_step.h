@@ -102,7 +102,9 @@ struct TermSums {
   }
   // dℓ_j/dθ into *d_term (k), for ρ'(r²) = d_rho (LoglikTerm).
   void TermScore(double d_rho, Eigen::VectorXd* d_term) const {
-    *d_term = -(0.5 * d_logdet + d_rho * d_r2);
+    d_term->resize(d_logdet.size());
+    for (Eigen::Index i = 0; i < d_logdet.size(); ++i)
+      (*d_term)(i) = TermDerivative(d_logdet(i), d_r2(i), d_rho);
   }
 };
 
