@@ -33,7 +33,8 @@ fi
 start=$SECONDS
 CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only" -DGREYBENCH_FUZZ=ON \
-  -DGREYBENCH_BUILD_BENCHMARKS=OFF -DGREYBENCH_UNITY=ON -DGREYBENCH_FIXED_STATES=2 \
+  -DGREYBENCH_BUILD_BENCHMARKS=OFF -DGREYBENCH_UNITY=ON -DGREYBENCH_UNITY_CORE=ON \
+  -DGREYBENCH_FIXED_STATES=2 \
   ${GREYBENCH_CMAKE_ARGS:-}
 cmake --build "$build" -j "$jobs"
 echo "sanitize.sh: build took $(( (SECONDS - start) / 60 )) min $(( (SECONDS - start) % 60 )) s"

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
-#include <limits>
 #include <optional>
 
 #include <Eigen/Dense>
@@ -16,12 +15,13 @@
 #include "core/filter/internal.h"
 #include "core/filter/moments.h"
 #include "core/model/nonlinear_sensitivity.h"
+#include "core/online/internal.h"
 
 namespace gb::online {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using internal::kInf;
+using internal::kNaN;
 constexpr int kNewtonIterations = 100;
 constexpr int kNewtonHalvings = 30;
 

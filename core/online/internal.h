@@ -1,5 +1,6 @@
-// What the on-line estimators share (recursive.cpp, augmented.cpp): the working coordinates that
-// keep a parameter inside its bounds, and the choice of the tracked parameters.
+// What the on-line estimators share (recursive.cpp, augmented.cpp, ekf_stream.cpp, monitor.cpp):
+// the working coordinates that keep a parameter inside its bounds, the choice of the tracked
+// parameters, and the constants for "none" and "never".
 #pragma once
 
 #include <algorithm>
@@ -18,6 +19,7 @@
 namespace gb::online::internal {
 
 inline constexpr double kInf = std::numeric_limits<double>::infinity();
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // A parameter on a bound starts this fraction of its range (or of 1 + |bound|) inside it.
 inline constexpr double kInside = 1e-6;
 

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -11,12 +10,14 @@
 
 #include "core/online/augmented.h"
 #include "core/online/ekf_stream.h"
+#include "core/online/internal.h"
 #include "core/util/json.h"
 
 namespace gb::online {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using internal::kNaN;
+
 // A parameter's score test sums blocks of rows so that the change it looks for is about this many
 // SDs of a block's standardised score (at most kMaxBlock rows: a smaller change is refused).
 constexpr double kBlockShift = 0.5;

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
-#include <limits>
 #include <set>
 
 #include <Eigen/Dense>
@@ -19,7 +18,6 @@
 namespace gb::online {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr int kMaxHalvings = 20;
 constexpr double kSameInterval = 1e-10;  // relative: data::Intervals::kIntervalRelTol
 // The largest step of one row in the working coordinates (a factor e^1 in a scale parameter).
@@ -28,6 +26,7 @@ constexpr double kMaxWorkingStep = 0.1;
 using internal::FromWorking;
 using internal::Inside;
 using internal::kInf;
+using internal::kNaN;
 using internal::ToWorking;
 using internal::WorkingSlope;
 

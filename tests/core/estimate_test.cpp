@@ -238,7 +238,11 @@ TEST(Estimate, ReportsGpAndJeAsNotIdentifiableWhenTheLoadIsHeldConstant) {
   const auto series = Simulate(*truth, CrankshaftInputs(false), 7);
   auto lik = filter::Likelihood::Create(Compile(Crankshaft(false, false)), {series});
   ASSERT_TRUE(lik.ok());
-  auto s = Estimate(*lik, EstimateOptions{});
+  EstimateOptions options;
+  // Under the sanitizers without the extra starts (73 s there with them): the warning is made
+  // from the fit's information matrix whichever start the fit came from.
+  if (kSanitized) options.starts_on_bound = 0;
+  auto s = Estimate(*lik, options);
   ASSERT_TRUE(s.ok());
   bool named = false;
   for (const auto& w : s->warnings)
@@ -389,6 +393,16 @@ Result<EstimateSummary> FitOrnsteinPair(const GenericStart& g, EstimateOptions o
 }
 
 TEST(Estimate, FromEveryGenericStartTheOrnsteinPairReachesTheBestOptimumThatManyStartsFind) {
+  // Under the sanitizers, where the whole test took 223 s (the longest there), one default fit
+  // from a start whose plain fit runs off: the code (runaways released, extra starts) runs under
+  // them; the point of the test, the best optimum from every generic start, is the release
+  // suite's.
+  if (kSanitized) {
+    auto s = FitOrnsteinPair(kGenericStarts.front(), EstimateOptions{});
+    ASSERT_TRUE(s.ok()) << s.error().ToString();
+    EXPECT_TRUE(std::isfinite(s->loglik));
+    return;
+  }
   // The reference: the best of 24 extra starts over the model's start ranges (brute force; 8 of
   // the 25 reach it, and 64 find nothing better).
   EstimateOptions brute;
@@ -397,11 +411,7 @@ TEST(Estimate, FromEveryGenericStartTheOrnsteinPairReachesTheBestOptimumThatMany
   ASSERT_TRUE(reference.ok()) << reference.error().ToString();
   double best = reference->loglik;
   int plain_short = 0;
-  // Under the sanitizers five of them (the others' fits run the same code for longer: seconds
-  // here, where their runaways crawl towards ±inf before they are released).
-  std::vector<GenericStart> starts = kGenericStarts;
-  if (kSanitized) starts = {starts[0], starts[1], starts[3], starts[5], starts[8]};
-  for (const GenericStart& g : starts) {
+  for (const GenericStart& g : kGenericStarts) {
     auto s = FitOrnsteinPair(g, EstimateOptions{});
     ASSERT_TRUE(s.ok()) << s.error().ToString();
     best = std::max(best, s->loglik);
@@ -418,7 +428,7 @@ TEST(Estimate, FromEveryGenericStartTheOrnsteinPairReachesTheBestOptimumThatMany
   // No start finds more than the brute force, and the data do set the trap: the plain fit stops
   // short from some of these starts.
   EXPECT_LE(best, reference->loglik + 1e-6 * std::abs(reference->loglik));
-  EXPECT_GE(plain_short, kSanitized ? 2 : 3);
+  EXPECT_GE(plain_short, 3);
 }
 
 TEST(Estimate, TwoRecordsGivenInEitherOrderReachTheSameOptimum) {
@@ -514,10 +524,12 @@ TEST(Conformance, Building3EstimateFromNeutralStartReachesCtsmRsOptimum) {
 
 TEST(Conformance, Building3ReachesOneOptimumFromStartsNoOneCanTellApartOnOneOrTwoThreads) {
   // Issue 33: the outcome may not turn on the last bits of the start or on the thread count.
-  // Five starts, each free parameter's start value times (1 ± 1e-9) in a fixed sign pattern, on
-  // one thread, and the neutral start on one and on two threads: every fit at the same optimum,
-  // within 1e-6 relative (before the polish of the estimate along its curved valley, EstimateRun::
-  // Polish, such starts ended 0.0067 apart, and before runaways were released at 5669.8-5930.1).
+  // Three starts, each free parameter's start value times (1 ± 1e-9) in a fixed sign pattern
+  // (all up, all down, alternating), on one thread, and the neutral start on one and on two
+  // threads: every fit at the same optimum, within 1e-6 relative (before the polish of the
+  // estimate along its curved valley, EstimateRun::Polish, such starts ended 0.0067 apart, and
+  // before runaways were released at 5669.8-5930.1). Five fits in three rounds: the release
+  // suite's longest test (docs/quality.md; seven fits in five rounds took 512 s of CI's 40 min).
   if (kSanitized) GTEST_SKIP() << "the release suite's: see Building3EstimateFromNeutralStart...";
   auto spec = model::LoadModelFile(kData + "/building3/model_start.json");
   ASSERT_TRUE(spec.ok());
@@ -526,9 +538,8 @@ TEST(Conformance, Building3ReachesOneOptimumFromStartsNoOneCanTellApartOnOneOrTw
     int threads;
     bool perturbed;
   };
-  const std::vector<Run> runs = {{0, 1, false},       {0, 2, false},       {0x00000u, 1, true},
-                                 {0x7FFFFu, 1, true}, {0x55555u, 1, true}, {0x33333u, 1, true},
-                                 {0x0F0F0u, 1, true}};
+  const std::vector<Run> runs = {
+      {0, 2, false}, {0, 1, false}, {0x7FFFFu, 1, true}, {0x00000u, 1, true}, {0x55555u, 1, true}};
   std::vector<double> loglik(runs.size(), NAN);
   std::vector<std::string> failures(runs.size());
   auto fit = [&](std::size_t r) {
