@@ -25,10 +25,32 @@ for tool in clang-tidy cppcheck clang-format; do
   command -v "$tool" >/dev/null || { echo "static-checks: $tool is not installed" >&2; exit 2; }
 done
 cd "$root"
+# The compile commands unit by unit: a build that compiles core/ in unity batches
+# (GREYBENCH_UNITY_CORE, which scripts/dev.sh turns on) records one command per batch; each of the
+# batch's units gets that command with its own source and object, as a build without batches
+# records it (the same flags, so the same fingerprint below). `unity_object` names its batch.
+db=$build/static-db
+mkdir -p "$db"
+python3 - "$build" "$root" "$db/compile_commands.json" <<'PY'
+import json, os, re, sys
+build, root, out = sys.argv[1:4]
+entries = []
+for e in json.load(open(os.path.join(build, "compile_commands.json"))):
+    if not re.search(r"/greybench_core\.dir/Unity/unity_\d+_cxx\.cxx$", e["file"]):
+        entries.append(e)
+        continue
+    unity_object = os.path.relpath(e["file"], build) + ".o"
+    for src in re.findall(r'#include "([^"]+)"', open(e["file"]).read()):
+        obj = "core/CMakeFiles/greybench_core.dir/" + os.path.relpath(src, os.path.join(root, "core")) + ".o"
+        command = e["command"].replace(unity_object, obj).replace(e["file"], src)
+        entries.append({"directory": e["directory"], "command": command, "file": src,
+                        "unity_object": unity_object})
+json.dump(entries, open(out, "w"), indent=1)
+PY
 # The compile flags of core/'s units in this build (each unit's command without its own source
 # and object, paths relative to the tree), distinct and sorted, hashed.
 flags_fingerprint() {
-  python3 - "$build/compile_commands.json" "$root" <<'PY'
+  python3 - "$db/compile_commands.json" "$root" <<'PY'
 import hashlib, json, shlex, sys
 root = sys.argv[2].rstrip("/")
 flags = set()
@@ -75,14 +97,8 @@ else
         config='\.clang-tidy'
       fi
       if ! grep -qxE "$config" <<<"$changed"; then
-        selected=()
-        for f in "${sources[@]}"; do
-          deps=$(ninja -C "$build" -t deps "core/CMakeFiles/greybench_core.dir/${f#core/}.o" 2>/dev/null |
-                 awk 'NR > 1 { print $1 }' | sed "s|^$root/||")
-          if [ -z "$deps" ] || printf '%s\n' "$f" $deps | grep -qxF -f <(printf '%s\n' "$changed"); then
-            selected+=("$f")
-          fi
-        done
+        mapfile -t selected < <(printf '%s\n' "$changed" |
+          python3 "$root/scripts/changed_units.py" "$build" "$root" "${sources[@]}")
         echo "static-checks: ${#selected[@]} of ${#sources[@]} files changed (with their headers) since $base, whose full check passed"
         sources=("${selected[@]}")
       fi
@@ -119,7 +135,7 @@ fi
 start=$(date +%s)
 printf '%s\n' "${sources[@]}" |
   xargs -P "$jobs" -I{} sh -c 'clang-tidy -p "$1" --quiet --extra-arg=-Wno-unknown-warning-option \
-      "$2" >"$3/$(echo "$2" | tr / _).log" 2>&1 || echo "$2" >>"$3/failed"' _ "$build" {} "$logs"
+      "$2" >"$3/$(echo "$2" | tr / _).log" 2>&1 || echo "$2" >>"$3/failed"' _ "$db" {} "$logs"
 tidy_s=$(( $(date +%s) - start ))
 if [ -s "$logs/failed" ]; then
   for f in $(sort "$logs/failed"); do
@@ -142,7 +158,7 @@ for f in "${sources[@]}"; do filters+=("--file-filter=$f"); done
 cppcheck_status=0
 : >"$logs/cppcheck.txt"
 if [ ${#sources[@]} -gt 0 ]; then
-  cppcheck --project="$(realpath --relative-to="$root" "$build/compile_commands.json")" \
+  cppcheck --project="$(realpath --relative-to="$root" "$db/compile_commands.json")" \
     "${filters[@]}" \
     --enable=warning,performance,portability --std=c++20 --inline-suppr \
     --suppressions-list="$root/.cppcheck-suppressions" --cppcheck-build-dir="$build/cppcheck" \

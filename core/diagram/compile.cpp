@@ -418,11 +418,6 @@ class Compiler {
   bool chain_reported_ = false;
 };
 
-Json DelayJson(const model::DelaySpec& d) {
-  if (d.IsScan()) return {{"min", d.min}, {"max", d.max}};
-  return d.min;
-}
-
 // Maps a model error ("drift.mfv", "observation.y") back to the block it came from.
 Problem ProblemFromModelError(const BlockDiagram& d, const Error& e) {
   Problem p;
@@ -472,7 +467,7 @@ CompileResult Compile(const BlockDiagram& d, const std::string& source) {
       if (ExprPtr s = c.Field(b, "variance", "the output has no measurement variance"))
         variance.emplace_back(b.name, Text(s));
       if (auto delay = c.Delay(b); delay && (delay->min != 0 || delay->max != 0))
-        delays.emplace_back(b.name, DelayJson(*delay));
+        delays.emplace_back(b.name, internal::DelayJson(*delay));
     } else if (b.kind == BlockKind::kNoise) {
       ExprPtr sigma = c.Field(b, "sigma", "the noise intensity sigma is not set");
       bool attached = false;

@@ -379,6 +379,11 @@ bool ClosesAlgebraicLoop(const BlockDiagram& d, int from_block, int to_block) {
   return false;
 }
 
+Json DelayJson(const model::DelaySpec& d) {
+  if (d.IsScan()) return {{"min", d.min}, {"max", d.max}};
+  return d.min;
+}
+
 Json InitialCovarianceJson(const BlockDiagram& d) {
   switch (d.initial_covariance) {
     case model::InitialCovariance::kStationary:

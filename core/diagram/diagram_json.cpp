@@ -13,16 +13,7 @@
 
 namespace gb::diagram {
 
-namespace {
-
 // ---- 1. writing ------------------------------------------------------------------------------
-
-Json DelayJson(const model::DelaySpec& d) {
-  if (d.IsScan()) return {{"min", d.min}, {"max", d.max}};
-  return d.min;
-}
-
-}  // namespace
 
 Json ToJson(const BlockDiagram& d) {
   Json j;
@@ -52,7 +43,7 @@ Json ToJson(const BlockDiagram& d) {
     }
     if (b.kind == BlockKind::kDelay ||
         (b.kind == BlockKind::kOutput && (b.delay.min != 0 || b.delay.max != 0)))
-      jb["delay"] = DelayJson(b.delay);
+      jb["delay"] = internal::DelayJson(b.delay);
     blocks.push_back(jb);
   }
   j["blocks"] = blocks;

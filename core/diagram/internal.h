@@ -36,4 +36,7 @@ bool ClosesAlgebraicLoop(const BlockDiagram& d, int from_block, int to_block);
 // object of variances by state.
 Json InitialCovarianceJson(const BlockDiagram& d);
 
+// An output delay as a model file writes it: the number of samples, or {"min", "max"} for a scan.
+Json DelayJson(const model::DelaySpec& d);
+
 }  // namespace gb::diagram::internal

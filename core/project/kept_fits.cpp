@@ -46,12 +46,6 @@ std::string LocalTime() {
   return text;
 }
 
-Error FileError(const std::string& file, const std::string& message) {
-  Error e = InputError(message);
-  e.file = file;
-  return e;
-}
-
 }  // namespace
 
 std::string FitsFolder(const std::string& project_path) {
