@@ -62,9 +62,8 @@ def main():
             obj = entry["unity_object"]
             if obj not in batch_deps:
                 batch_deps[obj] = ninja_deps(build, root, obj)
-            if batch_deps[obj] and not (batch_deps[obj] | {unit}) & changed:
-                continue
-            deps = own_deps(entry, root) if batch_deps[obj] else None
+            batch = batch_deps[obj]  # a superset of the unit's own headers
+            deps = own_deps(entry, root) if batch & (changed | {unit}) else batch
         else:
             deps = ninja_deps(build, root, f"core/CMakeFiles/greybench_core.dir/{unit[5:]}.o")
         if not deps or (deps | {unit}) & changed:

@@ -80,7 +80,8 @@ else
   # Incremental, and sound: clang-tidy's and cppcheck's findings on a translation unit depend
   # only on its sources and the configuration, so after a commit whose full check passed
   # (.ci/static-checks-base), only the units whose .cpp or any header they include (the build's
-  # own dependency record, ninja -t deps) changed since are checked again; everything when the
+  # own dependency record, ninja -t deps; scripts/changed_units.py) changed since are checked
+  # again; everything when the
   # configuration changed (.clang-tidy, or the compile flags of core/'s units), or the base is
   # not in the history. The base file's first line is the commit; its second, when there, the
   # flags' fingerprint at that commit (`FINGERPRINT=1 scripts/static-checks.sh`): with it a change
@@ -148,8 +149,8 @@ else
   echo "static-checks: clang-tidy: ${#sources[@]} files clean (${tidy_s} s)"
 fi
 
-# cppcheck: the same translation units (about 15 s of CPU each, 18 minutes for all of core's at
-# nice 19 beside CI's gates: hence incremental too). Its --file-filter matches the paths as
+# cppcheck: the same translation units (all of core's took 18 minutes at nice 19 beside CI's
+# gates, most of them in a few units; four online units take 1.5 s: hence incremental too). Its --file-filter matches the paths as
 # cppcheck prints them, relative to here when the project file is named relative to here.
 start=$(date +%s)
 mkdir -p "$build/cppcheck"
