@@ -56,7 +56,8 @@ Result<Loglik> Run::operator()() const {
   const double* Y = series.Y.data();
   double loglik = 0.0;
   long n_obs = 0;
-  std::vector<int> observed;  // outputs observed at j
+  const internal::ObservationRule rule(series, *window);
+  internal::ObservedOutputs observed(rule.p());  // outputs observed at j
   Eigen::VectorXd x_prior(n), x_lin(n), PHt(n);
   Eigen::MatrixXd P_prior(n, n);
   std::vector<double> h_lin(p);
@@ -64,7 +65,7 @@ Result<Loglik> Run::operator()() const {
   for (int j = 0; j <= j_end; ++j) {
     if (settings.cancel && settings.cancel->load(std::memory_order_relaxed))
       return NumericalError("cancelled");
-    internal::ObservedAt(j, series, *window, &observed);
+    internal::ObservedAt(j, rule, &observed);
     if (trace) {
       trace->x_pred.col(j) = x;
       trace->P_pred[j] = P;
@@ -111,10 +112,9 @@ Result<Loglik> Run::operator()() const {
         }
         if ((x - x_lin).norm() <= 1e-10 * (1.0 + x.norm())) break;
       }
-      const double term =
-          internal::LoglikTerm(logdet, static_cast<int>(observed.size()), r2, settings.huber);
+      const double term = internal::LoglikTerm(logdet, observed.size(), r2, settings.huber);
       loglik += term;
-      n_obs += static_cast<long>(observed.size());
+      n_obs += observed.size();
       if (terms) (*terms)[j] = term;
     }
     if (trace) {

@@ -2,16 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 #include <Eigen/QR>
 
+#include "core/filter/internal.h"
 #include "core/filter/moments.h"
 
 namespace gb::filter {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using internal::kNaN;
 
 HorizonPredictions Empty(int n, int p, int N, int horizon) {
   HorizonPredictions out;

@@ -48,12 +48,13 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
   const double* Y = series.Y.data();
   double loglik = 0.0;
   long n_obs = 0;
-  std::vector<int> observed;
+  const internal::ObservationRule rule(series, *window);
+  internal::ObservedOutputs observed(rule.p());
   internal::ScoreUpdate update;
   for (int j = 0; j <= window->last_j; ++j) {
     if (settings.cancel && settings.cancel->load(std::memory_order_relaxed))
       return NumericalError("cancelled");
-    internal::ObservedAt(j, series, *window, &observed);
+    internal::ObservedAt(j, rule, &observed);
     if (!observed.empty()) {
       if (auto s = propagator.Measure(j, x, meas); !s) return s.error();
       if (auto s = propagator.MeasureSensitivities(j, x, dmeas); !s) return s.error();
@@ -68,7 +69,7 @@ Result<Loglik> EkfLogLikelihoodWithScore(const model::NonlinearModel& model,
         logdet += std::log(R);
         r2 += eps * eps / R;
       }
-      const int p_j = static_cast<int>(observed.size());
+      const int p_j = observed.size();
       double drho_dr2 = 0.5;
       loglik += internal::LoglikTerm(logdet, p_j, r2, settings.huber, &drho_dr2);
       n_obs += p_j;

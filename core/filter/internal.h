@@ -23,6 +23,7 @@
 namespace gb::filter::internal {
 
 inline constexpr double kLog2Pi = 1.8378770664093454835606594728112;  // log(2π)
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // The linear filters look at the cancel flag every this many samples: well under a millisecond
 // of work in a release build, a few under the sanitizers, so a cancel is seen within the
@@ -34,14 +35,15 @@ static_assert((kCancelCheckInterval & (kCancelCheckInterval - 1)) == 0);
 
 // Whether a linear loop stops at state index j: `cancel` set, looked at every
 // kCancelCheckInterval indices.
-inline bool CancelledAt(const std::atomic<bool>* cancel, int j) {
+[[gnu::always_inline]] inline bool CancelledAt(const std::atomic<bool>* cancel, int j) {
   return cancel && (j & (kCancelCheckInterval - 1)) == 0 && cancel->load(std::memory_order_relaxed);
 }
 
 // The negative log-density's quadratic part at a state index, from r2 = Σ ε²/R over its observed
 // outputs: ½ r2 (Gaussian), or with Huber's threshold c (`robust`) c r − ½ c² beyond r = c. With
 // d_rho: its derivative with respect to r2 (½, or c / (2r) beyond the threshold).
-inline double HuberRho(double r2, bool robust, double c, double* d_rho = nullptr) {
+[[gnu::always_inline]] inline double HuberRho(double r2, bool robust, double c,
+                                              double* d_rho = nullptr) {
   if (d_rho) *d_rho = 0.5;
   if (!robust) return 0.5 * r2;
   const double r = std::sqrt(r2);
@@ -53,36 +55,93 @@ inline double HuberRho(double r2, bool robust, double c, double* d_rho = nullptr
 // The log-likelihood term of a state index (kalman.h) from its p_j scalar updates:
 //   ℓ_j = -(½ (log det R_j + p_j log 2π) + ρ(r²)),   log det R_j = Σ log R,  r² = Σ ε²/R
 // ρ as HuberRho (Gaussian without `huber`); with d_rho, ρ'(r²) for TermDerivative.
-inline double LoglikTerm(double logdet, int p_j, double r2, const std::optional<double>& huber,
-                         double* d_rho = nullptr) {
-  const double rho = HuberRho(r2, huber.has_value(), huber.value_or(0.0), d_rho);
+[[gnu::always_inline]] inline double LoglikTerm(double logdet, int p_j, double r2, bool robust,
+                                                double c, double* d_rho = nullptr) {
+  const double rho = HuberRho(r2, robust, c, d_rho);
   return -(0.5 * (logdet + p_j * kLog2Pi) + rho);
+}
+// The same with Huber's threshold as FilterSettings::huber holds it.
+[[gnu::always_inline]] inline double LoglikTerm(double logdet, int p_j, double r2,
+                                                const std::optional<double>& huber,
+                                                double* d_rho = nullptr) {
+  return LoglikTerm(logdet, p_j, r2, huber.has_value(), huber.value_or(0.0), d_rho);
 }
 
 // Its derivative along one θ_i from Σ dR/R (d_logdet) and Σ d(ε²/R) (d_r2):
 //   dℓ_j = -(½ Σ dR/R + ρ'(r²) Σ d(ε²/R))
-inline double TermDerivative(double d_logdet, double d_r2, double d_rho) {
+[[gnu::always_inline]] inline double TermDerivative(double d_logdet, double d_r2, double d_rho) {
   return -(0.5 * d_logdet + d_rho * d_r2);
 }
 
-// The outputs observed at state index j (kalman.h's rule: y_{o, j+d_o} within the series, at or
-// after the output's first observation, not missing), in order, into *observed. Returns them as
-// a mask (bit o for output o < 64).
-inline std::uint64_t ObservedAt(int j, const data::Series& series, const ObservationWindow& window,
-                                std::vector<int>* observed) {
-  const int p = static_cast<int>(series.Y.rows());
-  const int N = static_cast<int>(series.size());
-  const double* Y = series.Y.data();
+// Which observations a loop over the state indices of a series uses (kalman.h's rule: y_{o, j+d_o}
+// within the series, at or after the output's first observation, not missing), read from the
+// series and its window once, before the loop.
+class ObservationRule {
+ public:
+  ObservationRule(const data::Series& series, const ObservationWindow& window)
+      : Y_(series.Y.data()),
+        delay_(window.delay.data()),
+        first_obs_(window.first_obs.data()),
+        p_(static_cast<int>(series.Y.rows())),
+        N_(static_cast<int>(series.size())) {}
+
+  int p() const { return p_; }
+  // The row y_{o, j+d_o} is at.
+  [[gnu::always_inline]] int Row(int j, int o) const { return j + delay_[o]; }
+  // y_{o, k} (k = Row(j, o)).
+  [[gnu::always_inline]] double Y(int k, int o) const {
+    return Y_[static_cast<std::size_t>(k) * p_ + o];
+  }
+  [[gnu::always_inline]] bool IsObserved(int j, int o) const {
+    const int k = Row(j, o);
+    return k < N_ && k >= first_obs_[o] && !std::isnan(Y(k, o));
+  }
+  // The outputs observed at j as a mask, bit o for output o (p <= 64 outputs).
+  [[gnu::always_inline]] std::uint64_t Mask(int j) const {
+    std::uint64_t mask = 0;
+    for (int o = 0; o < p_; ++o)
+      if (IsObserved(j, o)) mask |= std::uint64_t{1} << o;
+    return mask;
+  }
+
+ private:
+  const double* Y_;
+  const int* delay_;
+  const int* first_obs_;
+  int p_, N_;
+};
+
+// The outputs observed at one state index, in order, and as a mask (bit o for output o < 64);
+// room for all p outputs is made once, so that filling it in a filter's loop calls nothing.
+class ObservedOutputs {
+ public:
+  explicit ObservedOutputs(int p) : outputs_(static_cast<std::size_t>(p)) {}
+  const int* begin() const { return outputs_.data(); }
+  const int* end() const { return outputs_.data() + count_; }
+  int size() const { return count_; }
+  bool empty() const { return count_ == 0; }
+  std::uint64_t mask() const { return mask_; }
+
+ private:
+  friend void ObservedAt(int, const ObservationRule&, ObservedOutputs*);
+  std::vector<int> outputs_;
+  int count_ = 0;
+  std::uint64_t mask_ = 0;
+};
+
+// The outputs observed at state index j, into *observed (made for p outputs).
+[[gnu::always_inline]] inline void ObservedAt(int j, const ObservationRule& rule,
+                                              ObservedOutputs* observed) {
+  int* out = observed->outputs_.data();
+  int count = 0;
   std::uint64_t mask = 0;
-  observed->clear();
-  for (int o = 0; o < p; ++o) {
-    const int k = j + window.delay[o];
-    if (k >= N || k < window.first_obs[o]) continue;
-    if (std::isnan(Y[static_cast<std::size_t>(k) * p + o])) continue;
-    observed->push_back(o);
+  for (int o = 0; o < rule.p(); ++o) {
+    if (!rule.IsObserved(j, o)) continue;
+    out[count++] = o;
     if (o < 64) mask |= std::uint64_t{1} << o;
   }
-  return mask;
+  observed->count_ = count;
+  observed->mask_ = mask;
 }
 
 // Largest state dimension with a fixed-size instantiation of the loops: 8, or what the build
@@ -122,7 +181,7 @@ struct FixedDiscrete {
 
 // P <- (P + P')/2 in place (no temporary: the dynamic-size loop must not allocate).
 template <class Mat>
-void Symmetrize(Mat& P) {
+[[gnu::always_inline]] inline void Symmetrize(Mat& P) {
   for (Eigen::Index j = 1; j < P.cols(); ++j) {
     for (Eigen::Index i = 0; i < j; ++i) {
       const double v = 0.5 * (P(i, j) + P(j, i));
@@ -134,7 +193,6 @@ void Symmetrize(Mat& P) {
 
 // *trace sized for n states, p outputs and N rows, every value NaN until the filter writes it.
 inline void ResetTrace(int n, int p, int N, FilterTrace* trace) {
-  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   trace->y_pred.setConstant(p, N, kNaN);
   trace->y_var.setConstant(p, N, kNaN);
   trace->x_pred.setConstant(n, N, kNaN);

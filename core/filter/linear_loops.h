@@ -9,6 +9,7 @@
 #pragma once
 
 #include <atomic>
+#include <bit>
 #include <cstdint>
 #include <limits>
 #include <span>
@@ -50,30 +51,48 @@ struct ScoreContext {
   const ObservationWindow& window;
 };
 
-// The measurement updates of state index j: the outputs observed there (into *observed), one
-// scalar at a time (kScores: with the sensitivities), recorded or replayed by *replay, added up
-// in *sums. False, with *error set, for an R that is not positive. Inlined, as are the step's
-// updates: in the steady state a step is a few dozen flops, and the calls cost as much
-// (bench/loglik_bench, docs/benchmarks.md).
+// The measurement updates of state index j: the outputs observed there, one scalar at a time
+// (kScores: with the sensitivities, into *scores), recorded or replayed by *replay, added up in
+// *sums. False, with *error set, for an R that is not positive. Up to 64 outputs, the bits of
+// their mask give them (no list to fill and walk: ObservedMask); *observed is the list for more.
+// Inlined, as are the step's updates: in the steady state a step is a few dozen flops, and the
+// calls cost as much (bench/loglik_bench, docs/benchmarks.md).
 template <int NX, bool kScores>
 [[gnu::always_inline]] inline bool MeasurementUpdates(int j, const data::Series& series,
-                                                      const ObservationWindow& window,
-                                                      LinearStep<NX>* step,
+                                                      const ObservationRule& rule,
+                                                      LinearStep<NX>& step, LinearState<NX>* s,
                                                       SteadyReplay<NX>* replay, TermSums* sums,
-                                                      std::vector<int>* observed, Error* error) {
-  const int p = static_cast<int>(series.Y.rows());
+                                                      TermScores* scores, ObservedOutputs* observed,
+                                                      Error* error) {
   const int m = static_cast<int>(series.U.rows());
   const int N = static_cast<int>(series.size());
-  const std::uint64_t mask = ObservedAt(j, series, window, observed);
-  replay->Begin(mask, j == N - 1 ? -1 : series.intervals.group[j], step->P, step->dP);
+  const int group = j == N - 1 ? -1 : series.intervals.group[j];
   sums->Begin();
+  if constexpr (kScores) scores->Begin();
   const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
-  const double* Y = series.Y.data();
-  for (const int o : *observed) {
-    const int k = j + window.delay[o];
+  const bool by_mask = rule.p() <= 64;
+  std::uint64_t bits;
+  if (by_mask) {
+    bits = rule.Mask(j);
+  } else {
+    ObservedAt(j, rule, observed);
+    bits = observed->mask();
+  }
+  replay->Begin(bits, group, s->P, s->dP);
+  for (int next = 0;; ++next) {
+    int o;
+    if (by_mask) {
+      if (bits == 0) break;
+      o = std::countr_zero(bits);
+      bits &= bits - 1;
+    } else {
+      if (next == observed->size()) break;
+      o = observed->begin()[next];
+    }
+    const int k = rule.Row(j, o);
     double R;
-    if (!step->template MeasurementUpdate<kScores>(o, Y[static_cast<std::size_t>(k) * p + o], u,
-                                                   replay, sums, &R)) {
+    if (!step.template MeasurementUpdate<kScores>(o, rule.Y(k, o), u, s, replay, sums, scores,
+                                                  &R)) {
       *error = NotPositiveInnovationVariance(series, o, k, R);
       return false;
     }
@@ -81,10 +100,23 @@ template <int NX, bool kScores>
   return true;
 }
 
+// State index j's term from its sums, added to *loglik and *n_obs (and stored in (*terms)[j]).
+[[gnu::always_inline]] inline void AddTerm(int j, const TermSums& sums, bool robust, double huber,
+                                           double* loglik, long* n_obs,
+                                           std::vector<double>* terms) {
+  if (sums.p_j == 0) return;
+  const double term = LoglikTerm(sums.logdet, sums.p_j, sums.r2, robust, huber);
+  *loglik += term;
+  *n_obs += sums.p_j;
+  if (terms) (*terms)[j] = term;
+}
+
 // log L (and the per-index terms when ctx.terms is set); with kTrace, fills *trace over every row
-// (no steady-state replay).
+// (no steady-state replay). Flattened (every call in it inlined, Eigen's included): where GCC
+// leaves one of Eigen's small operations a call, x̂ goes through memory on the loop's critical
+// chain, and which ones it leaves changes with the code around them (docs/benchmarks.md).
 template <int NX, bool kTrace>
-Result<Loglik> FilterLoop(const FilterContext& ctx, FilterTrace* trace) {
+[[gnu::flatten]] Result<Loglik> FilterLoop(const FilterContext& ctx, FilterTrace* trace) {
   const model::StateSpace& ss = ctx.ss;
   const data::Series& series = ctx.series;
   const int n = ss.n_states();
@@ -95,15 +127,19 @@ Result<Loglik> FilterLoop(const FilterContext& ctx, FilterTrace* trace) {
   const std::vector<FixedDiscrete<NX>> disc(ctx.disc.begin(), ctx.disc.end());
 
   LinearStep<NX> step(ss, {});
-  step.x = ctx.settings.x0.size() > 0 ? ctx.settings.x0 : ss.x0;
-  step.P = ctx.P0;
+  // x̂ and P, and what an index's updates add up, are the loop's own (kept in registers).
+  LinearState<NX> state;
+  state.x = ctx.settings.x0.size() > 0 ? ctx.settings.x0 : ss.x0;
+  state.P = ctx.P0;
   SteadyReplay<NX> replay(!kTrace, n, p, 0);
   // Without per-step terms, Σ log R is accumulated as a product (one log per series).
   const bool per_step_log = kTrace || ctx.terms != nullptr;
-  LogProduct log_product;
-  TermSums sums(0, false, per_step_log ? nullptr : &log_product);
-  std::vector<int> observed;
-  observed.reserve(static_cast<std::size_t>(p));
+  TermSums sums;
+  sums.use_product = !per_step_log;
+  const ObservationRule rule(series, ctx.window);
+  ObservedOutputs observed(rule.p());
+  const bool robust = ctx.settings.huber.has_value();  // read once, not every row
+  const double huber = ctx.settings.huber.value_or(0.0);
   Error error;
   if constexpr (kTrace) ResetTrace(n, p, N, trace);
   const bool has_D = m > 0 && ss.D.cwiseAbs().maxCoeff() != 0.0;
@@ -114,40 +150,56 @@ Result<Loglik> FilterLoop(const FilterContext& ctx, FilterTrace* trace) {
   for (int j = 0; j <= j_end; ++j) {
     if (CancelledAt(ctx.settings.cancel, j)) return NumericalError("cancelled");
     if constexpr (kTrace) {
-      trace->x_pred.col(j) = step.x;
-      trace->P_pred[j] = Eigen::Map<const Eigen::MatrixXd>(step.P.data(), n, n);
+      trace->x_pred.col(j) = state.x;
+      trace->P_pred[j] = Eigen::Map<const Eigen::MatrixXd>(state.P.data(), n, n);
       for (int o = 0; o < p; ++o) {
         const int k = j + ctx.window.delay[o];
         if (k >= N) continue;
-        double yhat = step.c(o).dot(step.x) + ss.d(o);
+        double yhat = step.c(o).dot(state.x) + ss.d(o);
         if (has_D) yhat += ss.D.row(o).dot(series.U.col(j));
         trace->y_pred(o, k) = yhat;
-        trace->y_var(o, k) = (step.c(o) * step.P * step.c(o).transpose()).value() + ss.S(o);
+        trace->y_var(o, k) = (step.c(o) * state.P * step.c(o).transpose()).value() + ss.S(o);
       }
     }
     // Measurement update: the observations that see x_j.
-    if (!MeasurementUpdates<NX, false>(j, series, ctx.window, &step, &replay, &sums, &observed,
-                                       &error))
+    if (!MeasurementUpdates<NX, false>(j, series, rule, step, &state, &replay, &sums, nullptr,
+                                       &observed, &error))
       return error;
-    if (sums.p_j > 0) {
-      const double term = LoglikTerm(sums.logdet, sums.p_j, sums.r2, ctx.settings.huber);
-      loglik += term;
-      n_obs += sums.p_j;
-      if (ctx.terms) (*ctx.terms)[j] = term;
-    }
+    AddTerm(j, sums, robust, huber, &loglik, &n_obs, ctx.terms);
     if constexpr (kTrace) {
-      trace->x_filt.col(j) = step.x;
-      trace->P_filt[j] = Eigen::Map<const Eigen::MatrixXd>(step.P.data(), n, n);
+      trace->x_filt.col(j) = state.x;
+      trace->P_filt[j] = Eigen::Map<const Eigen::MatrixXd>(state.P.data(), n, n);
     }
     if (j == N - 1) break;
     // Time update to t_{j+1}.
     const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
     step.template TimeUpdate<false>(disc[series.intervals.group[j]],
                                     static_cast<const FixedDiscrete<NX>*>(nullptr), u, u + m, foh,
-                                    replay.replaying());
-    replay.End(step.P, step.dP);
+                                    replay.replaying(), &state);
+    replay.End(state.P, state.dP);
+    // The steady state: while the next indices observe the recorded outputs over the recorded
+    // interval, only x̂ moves, with the recorded gains, in a loop with nothing else to look at
+    // (the same updates as the general step's replay). The index that breaks it, the last one,
+    // and one where the cancel flag is found set go back to the general loop.
+    if constexpr (!kTrace) {
+      while (replay.replaying() && j < j_end && !CancelledAt(ctx.settings.cancel, j + 1)) {
+        const int group = j + 1 == N - 1 ? -1 : series.intervals.group[j + 1];
+        std::uint64_t bits = rule.Mask(j + 1);
+        if (!replay.Holds(bits, group)) break;
+        ++j;
+        const double* u_j = series.U.data() + static_cast<std::size_t>(j) * m;
+        sums.Begin();
+        for (int q = 0; bits != 0; ++q, bits &= bits - 1) {
+          const int o = std::countr_zero(bits);
+          const double eps = step.Innovation(o, rule.Y(rule.Row(j, o), o), u_j, state.x);
+          step.Correct(eps, replay.Gain(q), replay.R(q), &state.x, &sums);
+        }
+        AddTerm(j, sums, robust, huber, &loglik, &n_obs, ctx.terms);
+        step.AdvanceMean(disc[group], u_j, u_j + m, foh, &state.x);
+      }
+    }
   }
-  if (!per_step_log) loglik -= 0.5 * log_product.Log();
+  if (!per_step_log) loglik -= 0.5 * sums.product.Log();
   if (!std::isfinite(loglik)) return NotFiniteLoglik(series);
   return Loglik{loglik, n_obs};
 }
@@ -171,17 +223,21 @@ Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eig
     for (const Discrete& d : ctx.ddisc[g]) ddisc.emplace_back(d);
   }
   LinearStep<NX> step(ss, ctx.dss);
-  step.x = ss.x0;
-  step.P = ctx.P0;
+  LinearState<NX> state;
+  state.x = ss.x0;
+  state.P = ctx.P0;
+  state.dx.resize(k);
+  state.dP.resize(k);
   for (int i = 0; i < k; ++i) {
-    step.dx[i] = ctx.dss[i].x0;
-    step.dP[i] = ctx.dP0[i];
+    state.dx[i] = ctx.dss[i].x0;
+    state.dP[i] = ctx.dP0[i];
   }
   SteadyReplay<NX> replay(true, n, p, k);
-  TermSums sums(k, false);
+  TermSums sums;
+  TermScores scores(k, false);
   Eigen::VectorXd d_term(k);
-  std::vector<int> observed;
-  observed.reserve(static_cast<std::size_t>(p));
+  const ObservationRule rule(series, ctx.window);
+  ObservedOutputs observed(rule.p());
   Error error;
   gradient->setZero(k);
   if (J) J->setZero(N, k);
@@ -190,14 +246,14 @@ Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eig
   long n_obs = 0;
   for (int j = 0; j <= ctx.window.last_j; ++j) {
     if (CancelledAt(ctx.settings.cancel, j)) return NumericalError("cancelled");
-    if (!MeasurementUpdates<NX, true>(j, series, ctx.window, &step, &replay, &sums, &observed,
-                                      &error))
+    if (!MeasurementUpdates<NX, true>(j, series, rule, step, &state, &replay, &sums, &scores,
+                                      &observed, &error))
       return error;
     if (sums.p_j > 0) {
       double d_rho = 0.5;
       loglik += LoglikTerm(sums.logdet, sums.p_j, sums.r2, ctx.settings.huber, &d_rho);
       n_obs += sums.p_j;
-      sums.TermScore(d_rho, &d_term);
+      scores.TermScore(d_rho, &d_term);
       *gradient += d_term;
       if (J) J->row(j) = d_term.transpose();
     }
@@ -206,8 +262,8 @@ Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eig
     const int g = series.intervals.group[j];
     const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
     step.template TimeUpdate<true>(disc[g], ddisc.data() + static_cast<std::size_t>(g) * k, u,
-                                   u + m, foh, replay.replaying());
-    replay.End(step.P, step.dP);
+                                   u + m, foh, replay.replaying(), &state);
+    replay.End(state.P, state.dP);
   }
   if (!std::isfinite(loglik) || !gradient->allFinite()) return NotFiniteLoglik(series);
   return Loglik{loglik, n_obs};

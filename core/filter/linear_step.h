@@ -14,14 +14,15 @@
 //   x <- x + k ε/R                          dx <- dx + dk ε/R + k (dε - ε dR/R)/R
 //   P <- P - k k'/R                         dP <- dP - (dk k' + k dk')/R + k k' dR/R²
 //
-// added up over the index's p_j updates (TermSums) for its log-likelihood term (internal.h):
+// added up over the index's p_j updates (TermSums, and TermScores for the sensitivities) for its
+// log-likelihood term (internal.h):
 //
 //   log det R_j = Σ log R      r² = Σ ε²/R      ℓ_j = -(½ (log det R_j + p_j log 2π) + ρ(r²))
 //   Σ dR/R      Σ d(ε²/R) = Σ (2 ε dε - ε² dR/R)/R       dℓ_j = -(½ Σ dR/R + ρ' Σ d(ε²/R))
 //   information (Fisher's, expected):  I_j = Σ dε dε'/R + ½ dR dR'/R²
 //
-// Time update over Δ_j with the exact discretisation (discretize.h), the sensitivities first (they
-// read the old x and P):
+// Time update over Δ_j with the exact discretisation (discretize.h), every new value from the old
+// x and P (the covariances first, then the means):
 //
 //   x' = Φ x + Γ0 u_j + Γ1 u_{j+1} + g      dx' = dΦ x + Φ dx + dΓ0 u_j + dΓ1 u_{j+1} + dg
 //   P' = Φ P Φ' + Q                         dP' = Φ dP Φ' + T + T' + dQ,   T = dΦ P Φ'
@@ -35,12 +36,19 @@
 //
 // The arithmetic (the grouping of every sum and product) is the one the results were verified
 // with; a change here changes results in the last bits.
+//
+// Speed: in its steady state a 2-state step is a few dozen flops, so what the loop carries from
+// one index to the next (x̂, P, the sums) is the loop's own (LinearState, TermSums), every update
+// is inlined, and nothing in the loop calls a function: a call, or an object whose address a call
+// takes, puts those values in memory on the loop's critical chain (bench/loglik_bench,
+// docs/benchmarks.md).
 #pragma once
 
 #include <bit>
 #include <cmath>
 #include <cstdint>
 #include <span>
+#include <type_traits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -55,7 +63,7 @@ namespace gb::filter::internal {
 // any normal R). Rounding: one relative error per factor, as summing the logs would give.
 class LogProduct {
  public:
-  void Multiply(double r) {
+  [[gnu::always_inline]] void Multiply(double r) {
     if (r < kTiny || r > kHuge) {  // far outside the normal range: take the log directly
       direct_ += std::log(r);
       return;
@@ -66,7 +74,9 @@ class LogProduct {
     mantissa_ =
         std::bit_cast<double>((bits & ~(std::uint64_t{0x7ff} << 52)) | (std::uint64_t{1023} << 52));
   }
-  double Log() const { return std::log(mantissa_) + exponent_ * kLn2 + direct_; }
+  [[gnu::always_inline]] double Log() const {
+    return std::log(mantissa_) + exponent_ * kLn2 + direct_;
+  }
 
  private:
   static constexpr double kTiny = 1e-290, kHuge = 1e290;
@@ -76,26 +86,35 @@ class LogProduct {
   double direct_ = 0.0;
 };
 
-// What the scalar updates of one state index add up (Begin() before the first).
+// What the scalar updates of one state index add up (Begin() before the first). Scalars only,
+// so that a loop's sums stay in registers.
 struct TermSums {
-  int p_j = 0;                     // scalar observations
-  double logdet = 0.0;             // Σ log R (0 while log_product takes them)
-  double r2 = 0.0;                 // Σ ε²/R
+  int p_j = 0;               // scalar observations
+  double logdet = 0;         // Σ log R (0 while `product` takes them)
+  double r2 = 0;             // Σ ε²/R
+  bool use_product = false;  // every R is multiplied into `product` instead (one log at the end)
+  LogProduct product;
+
+  [[gnu::always_inline]] void Begin() {
+    p_j = 0;
+    logdet = r2 = 0.0;
+  }
+};
+
+// What the sensitivities of one state index's scalar updates add up, beside its TermSums
+// (Begin() with theirs).
+struct TermScores {
   Eigen::VectorXd d_logdet, d_r2;  // Σ dR/R, Σ d(ε²/R) (k)
   Eigen::MatrixXd information;     // I_j (k x k), when with_information
   bool with_information = false;
-  LogProduct* log_product = nullptr;  // set: every R is multiplied into it instead (one log)
-  Eigen::VectorXd deps, dR;           // workspace: the update's dε_i, dR_i
+  Eigen::VectorXd deps, dR;  // workspace: the update's dε_i, dR_i
 
-  TermSums() = default;
-  TermSums(int k, bool with_info, LogProduct* product = nullptr)
-      : d_logdet(k), d_r2(k), with_information(with_info), log_product(product), deps(k), dR(k) {
+  TermScores() = default;
+  TermScores(int k, bool with_info)
+      : d_logdet(k), d_r2(k), with_information(with_info), deps(k), dR(k) {
     if (with_info) information.resize(k, k);
   }
   void Begin() {
-    p_j = 0;
-    logdet = r2 = 0.0;
-    if (d_logdet.size() == 0) return;
     d_logdet.setZero();
     d_r2.setZero();
     if (with_information) information.setZero();
@@ -108,31 +127,48 @@ struct TermSums {
   }
 };
 
+// The filter's state at a state index: x̂, its covariance, and their sensitivities. Held by the
+// loop (a local there, so that x̂ and P can stay in registers), stepped by LinearStep.
 template <int NX>
-class SteadyReplay;
-
-// The filter's mean and covariance with their sensitivities, the model's observation equation
-// held at size NX, and the step's workspace (no allocation per step).
-template <int NX>
-class LinearStep {
- public:
+struct LinearState {
   using Mat = Eigen::Matrix<double, NX, NX>;
   using Vec = Eigen::Matrix<double, NX, 1>;
-  using Row = Eigen::Matrix<double, 1, NX>;
 
   Vec x;                // x̂
   Mat P;                // its covariance
   std::vector<Vec> dx;  // ∂x̂/∂θ_i (k)
   std::vector<Mat> dP;  // ∂P/∂θ_i (k)
 
+  // Inlined, so that no call outside the loop's function takes the state's address (which
+  // would keep x̂ in memory through the loop).
+  LinearState() = default;
+  LinearState(const LinearState&) = default;
+  LinearState(LinearState&&) noexcept = default;
+  LinearState& operator=(const LinearState&) = default;
+  LinearState& operator=(LinearState&&) noexcept = default;
+  [[gnu::always_inline]] ~LinearState() {}
+};
+
+template <int NX>
+class SteadyReplay;
+
+// The model's observation equation held at size NX, and the step's workspace (no allocation per
+// step), for stepping a LinearState.
+template <int NX>
+class LinearStep {
+ public:
+  using Mat = Eigen::Matrix<double, NX, NX>;
+  using Vec = Eigen::Matrix<double, NX, 1>;
+  using Row = Eigen::Matrix<double, 1, NX>;
+  using State = LinearState<NX>;
+
   LinearStep() = default;
-  // For the model ss and its derivatives dss (k = dss.size(); none for the filter alone). The
-  // state is set by the caller (x, P, and the k dx[i], dP[i]).
+  // For the model ss and its derivatives dss (k = dss.size(); none for the filter alone).
   LinearStep(const model::StateSpace& ss, std::span<const model::StateSpace> dss) {
     SetModel(ss, dss);
   }
 
-  // The observation equation of ss and dss (a model evaluated anew); the state is kept.
+  // The observation equation of ss and dss (a model evaluated anew).
   void SetModel(const model::StateSpace& ss, std::span<const model::StateSpace> dss) {
     n_ = ss.n_states();
     const int p = ss.n_outputs();
@@ -156,32 +192,63 @@ class LinearStep {
       dS_.col(i) = dss[i].S;
       dD_[i] = dss[i].D;
     }
-    dx.resize(k_);
-    dP.resize(k_);
-    PCt_.resize(n_);
-    dPCt_.resize(n_);
-    x_next_.resize(n_);
-    PhiP_.resize(n_, n_);
-    PhidP_.resize(n_, n_);
-    T_.resize(n_, n_);
+    if constexpr (NX == Eigen::Dynamic) {
+      PCt_.resize(n_);
+      dPCt_.resize(n_);
+      x_next_.resize(n_);
+      PhiP_.resize(n_, n_);
+      PhidP_.resize(n_, n_);
+      T_.resize(n_, n_);
+    }
   }
 
-  // The scalar update with observation y of output o; u: the inputs at the state index (m);
-  // kScores: with the sensitivities (and the information when *sums asks for it).
-  // Adds to *sums; with `replay` (SteadyReplay::Begin called for this index), records or replays
-  // k, R, dk_i, dR_i. Returns false, changing nothing, when R is not positive (*R says what it
-  // is); *eps (when given): ε.
+  // The scalar update of *s with observation y of output o; u: the inputs at the state index
+  // (m); kScores: with the sensitivities, added up in *scores (with the information when it
+  // asks for it). Adds to *sums; with `replay` (SteadyReplay::Begin called for this index),
+  // records or replays k, R, dk_i, dR_i. Returns false, changing nothing, when R is not positive
+  // (*R says what it is); *eps (when given): ε.
   template <bool kScores>
-  bool MeasurementUpdate(int o, double y, const double* u, SteadyReplay<NX>* replay, TermSums* sums,
-                         double* R_out, double* eps_out = nullptr);
+  bool MeasurementUpdate(int o, double y, const double* u, State* s, SteadyReplay<NX>* replay,
+                         TermSums* sums, TermScores* scores, double* R_out,
+                         double* eps_out = nullptr);
 
-  // The time update with the discretisation d of the interval and its derivatives dd[i] (k of
-  // them); u0, u1: the inputs at both ends (m each; u1 read with first-order hold only). With
-  // `replay`: P and dP are not updated (the steady state repeats them). kScores: with the
+  // The time update of *s with the discretisation d of the interval and its derivatives dd[i]
+  // (k of them); u0, u1: the inputs at both ends (m each; u1 read with first-order hold only).
+  // With `replay`: P and dP are not updated (the steady state repeats them). kScores: with the
   // sensitivities.
   template <bool kScores, class Disc>
   void TimeUpdate(const Disc& d, const Disc* dd, const double* u0, const double* u1, bool foh,
-                  bool replay);
+                  bool replay, State* s);
+
+  // The means' part of both updates, which is all a step of the steady state changes (the gain
+  // P c' = PCt and R recorded by SteadyReplay): ε = y - ŷ of output o; then the correction
+  // x <- x + PCt ε/R with its term's sums; and x <- Φ x + g + Γ0 u0 (+ Γ1 u1).
+  [[gnu::always_inline]] double Innovation(int o, double y, const double* u, const Vec& x) const {
+    double yhat = C_[o].dot(x) + d_(o);
+    if (has_D_)
+      for (int l = 0; l < m_; ++l) yhat += D_(o, l) * u[l];
+    return y - yhat;
+  }
+  [[gnu::always_inline]] static void Correct(double eps, const Vec& PCt, double R, Vec* x,
+                                             TermSums* sums) {
+    x->noalias() += PCt * (eps / R);  // first: x̂ is on the loop's critical chain
+    if (sums->use_product)
+      sums->product.Multiply(R);
+    else
+      sums->logdet += std::log(R);
+    sums->r2 += eps * eps / R;
+    ++sums->p_j;
+  }
+  template <class Disc>
+  [[gnu::always_inline]] void AdvanceMean(const Disc& d, const double* u0, const double* u1,
+                                          bool foh, Vec* x) {
+    Vec x_next_local;
+    Vec& x_next = Work(x_next_, x_next_local);
+    x_next.noalias() = d.Phi * *x;
+    x_next += d.g;
+    if (m_ > 0) AddInputs(d.Gamma0, d.Gamma1, u0, u1, foh, &x_next);
+    *x = x_next;
+  }
 
   const Row& c(int o) const { return C_[o]; }
 
@@ -191,12 +258,25 @@ class LinearStep {
   [[gnu::always_inline]] void AddInputs(const InMat& Gamma0, const InMat& Gamma1, const double* u0,
                                         const double* u1, bool foh, Vec* out) const {
     if (m_ == 1) {  // the common case, without a dynamic-size product
-      out->noalias() += Gamma0.col(0) * u0[0];
-      if (foh) out->noalias() += Gamma1.col(0) * u1[0];
+      // At fixed sizes the column as a fixed vector first: the same sums, in the same vector
+      // operation as the correction's (a column block's GCC may leave a call, on the critical
+      // chain of x̂).
+      using Col = std::conditional_t<NX == Eigen::Dynamic, decltype(Gamma0.col(0)), Vec>;
+      out->noalias() += Col(Gamma0.col(0)) * u0[0];
+      if (foh) out->noalias() += Col(Gamma1.col(0)) * u1[0];
       return;
     }
     out->noalias() += Gamma0 * Eigen::Map<const Eigen::VectorXd>(u0, m_);
     if (foh) out->noalias() += Gamma1 * Eigen::Map<const Eigen::VectorXd>(u1, m_);
+  }
+  // A workspace: at fixed sizes the caller's local (nothing that outlives the update is written
+  // on the loop's critical chain), at dynamic size the step's member (sized once).
+  template <class T>
+  [[gnu::always_inline]] static T& Work(T& member, T& local) {
+    if constexpr (NX == Eigen::Dynamic)
+      return member;
+    else
+      return local;
   }
 
   int n_ = 0, m_ = 0, k_ = 0;
@@ -206,7 +286,7 @@ class LinearStep {
   bool has_D_ = false;       // some entry of D is not zero
   Eigen::MatrixXd dd_, dS_;  // p x k
   std::vector<Eigen::MatrixXd> dD_;
-  Vec PCt_, dPCt_, x_next_;
+  Vec PCt_, dPCt_, x_next_;  // dynamic size only (Work)
   Mat PhiP_, PhidP_, T_;
 };
 
@@ -215,8 +295,8 @@ class LinearStep {
 template <int NX>
 class SteadyReplay {
  public:
-  using Mat = typename LinearStep<NX>::Mat;
-  using Vec = typename LinearStep<NX>::Vec;
+  using Mat = typename LinearState<NX>::Mat;
+  using Vec = typename LinearState<NX>::Vec;
 
   // Disabled (never replays) unless `enabled`, the size is fixed and p <= 64; k sensitivities.
   SteadyReplay(bool enabled, int n, int p, int k)
@@ -232,10 +312,18 @@ class SteadyReplay {
 
   bool enabled() const { return enabled_; }
   bool replaying() const { return steady_; }
+  // Whether an index observing `mask` over interval `group` repeats the recorded step.
+  [[gnu::always_inline]] bool Holds(std::uint64_t mask, int group) const {
+    return steady_ && mask == mask_ && group == group_;
+  }
+  // The recorded step's q-th scalar update: its gain P c' and R.
+  const Vec& Gain(int q) const { return PCt_[q]; }
+  double R(int q) const { return R_[q]; }
   // This index observes `mask` and its time update uses the interval `group` (-1: none); P, dP
   // at its start. It replays when the last step ended at a fixed point and the same outputs and
   // interval follow; otherwise it is recorded from here.
-  void Begin(std::uint64_t mask, int group, const Mat& P, const std::vector<Mat>& dP) {
+  [[gnu::always_inline]] void Begin(std::uint64_t mask, int group, const Mat& P,
+                                    const std::vector<Mat>& dP) {
     if (!enabled_) return;
     steady_ = steady_ && mask == mask_ && group == group_;
     if (steady_) return;
@@ -245,7 +333,7 @@ class SteadyReplay {
     for (int i = 0; i < k_; ++i) dP_start_[i] = dP[i];
   }
   // After the index's time update: whether P and every dP_i are back at their start values.
-  void End(const Mat& P, const std::vector<Mat>& dP) {
+  [[gnu::always_inline]] void End(const Mat& P, const std::vector<Mat>& dP) {
     if (!enabled_ || steady_) return;
     steady_ = P == P_start_;
     for (int i = 0; i < k_ && steady_; ++i) steady_ = dP[i] == dP_start_[i];
@@ -271,65 +359,62 @@ class SteadyReplay {
 
 template <int NX>
 template <bool kScores>
-[[gnu::always_inline]] inline bool LinearStep<NX>::MeasurementUpdate(int o, double y,
-                                                                     const double* u,
-                                                                     SteadyReplay<NX>* replay,
-                                                                     TermSums* sums, double* R_out,
-                                                                     double* eps_out) {
+[[gnu::always_inline]] inline bool LinearStep<NX>::MeasurementUpdate(
+    int o, double y, const double* u, State* s, SteadyReplay<NX>* replay, TermSums* sums,
+    TermScores* scores, double* R_out, double* eps_out) {
+  Vec PCt_local, dPCt_local;
+  Vec& PCt = Work(PCt_, PCt_local);
+  Vec& dPCt = Work(dPCt_, dPCt_local);
+  Vec& x = s->x;
+  Mat& P = s->P;
   const Row& c = C_[o];
-  double yhat = c.dot(x) + d_(o);
-  if (has_D_)
-    for (int l = 0; l < m_; ++l) yhat += D_(o, l) * u[l];
   const bool replaying = replay != nullptr && replay->replaying();
   const bool recording = replay != nullptr && replay->enabled() && !replaying;
   const int q = sums->p_j;
   double R;
   if (replaying) {  // this step's P c' and R are those recorded
-    PCt_ = replay->PCt_[q];
+    PCt = replay->PCt_[q];
     R = replay->R_[q];
   } else {
-    PCt_.noalias() = P * c.transpose();
-    R = c.dot(PCt_) + S_(o);
+    PCt.noalias() = P * c.transpose();
+    R = c.dot(PCt) + S_(o);
   }
   *R_out = R;
   if (!(R > 0.0)) return false;
-  if (recording) replay->PCt_[q] = PCt_, replay->R_[q] = R;
-  const double eps = y - yhat;
+  if (recording) replay->PCt_[q] = PCt, replay->R_[q] = R;
+  const double eps = Innovation(o, y, u, x);
   if (eps_out) *eps_out = eps;
-  for (int i = 0; kScores && i < k_; ++i) {
-    const Row& dc = dC_[static_cast<std::size_t>(o) * k_ + i];
-    double dyhat = dc.dot(x) + c.dot(dx[i]) + dd_(o, i);
-    for (int l = 0; l < m_; ++l) dyhat += dD_[i](o, l) * u[l];
-    double dR;
-    if (replaying) {
-      dPCt_ = replay->dPCt_[replay->At(q, i)];
-      dR = replay->dR_[replay->At(q, i)];
-    } else {
-      dPCt_.noalias() = dP[i] * c.transpose();
-      dPCt_.noalias() += P * dc.transpose();
-      dR = dc.dot(PCt_) + c.dot(dPCt_) + dS_(o, i);
-      if (recording) replay->dPCt_[replay->At(q, i)] = dPCt_, replay->dR_[replay->At(q, i)] = dR;
-      dP[i].noalias() -= (dPCt_ * PCt_.transpose() + PCt_ * dPCt_.transpose()) / R;
-      dP[i].noalias() += PCt_ * PCt_.transpose() * (dR / (R * R));
+  if constexpr (kScores) {
+    for (int i = 0; i < k_; ++i) {
+      const Row& dc = dC_[static_cast<std::size_t>(o) * k_ + i];
+      double dyhat = dc.dot(x) + c.dot(s->dx[i]) + dd_(o, i);
+      for (int l = 0; l < m_; ++l) dyhat += dD_[i](o, l) * u[l];
+      double dR;
+      if (replaying) {
+        dPCt = replay->dPCt_[replay->At(q, i)];
+        dR = replay->dR_[replay->At(q, i)];
+      } else {
+        Mat& dP = s->dP[i];
+        dPCt.noalias() = dP * c.transpose();
+        dPCt.noalias() += P * dc.transpose();
+        dR = dc.dot(PCt) + c.dot(dPCt) + dS_(o, i);
+        if (recording) replay->dPCt_[replay->At(q, i)] = dPCt, replay->dR_[replay->At(q, i)] = dR;
+        dP.noalias() -= (dPCt * PCt.transpose() + PCt * dPCt.transpose()) / R;
+        dP.noalias() += PCt * PCt.transpose() * (dR / (R * R));
+      }
+      const double deps = -dyhat;
+      scores->d_logdet(i) += dR / R;
+      scores->d_r2(i) += (2.0 * eps * deps - eps * eps * dR / R) / R;
+      s->dx[i].noalias() += dPCt * (eps / R) + PCt * ((deps - eps * dR / R) / R);
+      if (scores->with_information) scores->deps(i) = deps, scores->dR(i) = dR;
     }
-    const double deps = -dyhat;
-    sums->d_logdet(i) += dR / R;
-    sums->d_r2(i) += (2.0 * eps * deps - eps * eps * dR / R) / R;
-    dx[i].noalias() += dPCt_ * (eps / R) + PCt_ * ((deps - eps * dR / R) / R);
-    if (sums->with_information) sums->deps(i) = deps, sums->dR(i) = dR;
+    if (scores->with_information && k_ > 0) {
+      scores->information.noalias() += scores->deps * scores->deps.transpose() / R;
+      scores->information.noalias() += 0.5 * scores->dR * scores->dR.transpose() / (R * R);
+    }
   }
-  if (kScores && sums->with_information && k_ > 0) {
-    sums->information.noalias() += sums->deps * sums->deps.transpose() / R;
-    sums->information.noalias() += 0.5 * sums->dR * sums->dR.transpose() / (R * R);
-  }
-  if (sums->log_product)
-    sums->log_product->Multiply(R);
-  else
-    sums->logdet += std::log(R);
-  sums->r2 += eps * eps / R;
-  ++sums->p_j;
-  x.noalias() += PCt_ * (eps / R);
-  if (!replaying) P.noalias() -= (1.0 / R) * PCt_ * PCt_.transpose();
+  Correct(eps, PCt, R, &x, sums);
+  if (!replaying) P.noalias() -= (1.0 / R) * PCt * PCt.transpose();
   return true;
 }
 
@@ -337,30 +422,43 @@ template <int NX>
 template <bool kScores, class Disc>
 [[gnu::always_inline]] inline void LinearStep<NX>::TimeUpdate(const Disc& d, const Disc* dd,
                                                               const double* u0, const double* u1,
-                                                              bool foh, bool replay) {
-  if (!replay) PhiP_.noalias() = d.Phi * P;
-  for (int i = 0; kScores && i < k_; ++i) {
-    const Disc& di = dd[i];
-    x_next_.noalias() = di.Phi * x;
-    x_next_.noalias() += d.Phi * dx[i];
-    x_next_ += di.g;
-    if (m_ > 0) AddInputs(di.Gamma0, di.Gamma1, u0, u1, foh, &x_next_);
-    dx[i] = x_next_;
-    if (replay) continue;
-    T_.noalias() = di.Phi * PhiP_.transpose();  // dΦ P Φ' (P symmetric)
-    PhidP_.noalias() = d.Phi * dP[i];
-    dP[i].noalias() = PhidP_ * d.Phi.transpose();
-    dP[i] += T_ + T_.transpose() + di.Q;
-    Symmetrize(dP[i]);
+                                                              bool foh, bool replay, State* s) {
+  if (!replay) {  // the covariances (from the old P)
+    Mat PhiP_local, PhidP_local, T_local;
+    Mat& PhiP = Work(PhiP_, PhiP_local);
+    Mat& P = s->P;
+    PhiP.noalias() = d.Phi * P;
+    if constexpr (kScores) {
+      Mat& PhidP = Work(PhidP_, PhidP_local);
+      Mat& T = Work(T_, T_local);
+      for (int i = 0; i < k_; ++i) {
+        const Disc& di = dd[i];
+        Mat& dP = s->dP[i];
+        T.noalias() = di.Phi * PhiP.transpose();  // dΦ P Φ' (P symmetric)
+        PhidP.noalias() = d.Phi * dP;
+        dP.noalias() = PhidP * d.Phi.transpose();
+        dP += T + T.transpose() + di.Q;
+        Symmetrize(dP);
+      }
+    }
+    P.noalias() = PhiP * d.Phi.transpose();
+    P += d.Q;
+    Symmetrize(P);
   }
-  x_next_.noalias() = d.Phi * x;
-  x_next_ += d.g;
-  if (m_ > 0) AddInputs(d.Gamma0, d.Gamma1, u0, u1, foh, &x_next_);
-  x = x_next_;
-  if (replay) return;
-  P.noalias() = PhiP_ * d.Phi.transpose();
-  P += d.Q;
-  Symmetrize(P);
+  // The means (the sensitivities from the old x̂).
+  if constexpr (kScores) {
+    Vec x_next_local;
+    Vec& x_next = Work(x_next_, x_next_local);
+    for (int i = 0; i < k_; ++i) {
+      const Disc& di = dd[i];
+      x_next.noalias() = di.Phi * s->x;
+      x_next.noalias() += d.Phi * s->dx[i];
+      x_next += di.g;
+      if (m_ > 0) AddInputs(di.Gamma0, di.Gamma1, u0, u1, foh, &x_next);
+      s->dx[i] = x_next;
+    }
+  }
+  AdvanceMean(d, u0, u1, foh, &s->x);
 }
 
 }  // namespace gb::filter::internal

@@ -2,16 +2,16 @@
 
 #include <cassert>
 #include <cmath>
-#include <limits>
 
 #include <Eigen/Dense>
 
 #include "core/filter/discretize.h"
+#include "core/filter/internal.h"
 
 namespace gb::filter {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using internal::kNaN;
 
 void CheckTrace([[maybe_unused]] const model::StateSpace& ss,
                 [[maybe_unused]] const data::Series& series,

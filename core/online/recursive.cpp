@@ -302,44 +302,42 @@ Status RecursiveMl::Start(const Sample& first, const Sample* second) {
         slowest = std::max(slowest, -1.0 / re);
     }
   }
-  for (int i = 0; i < k; ++i) {
-    step_.dx[i] = Eigen::VectorXd::Zero(n);
-    step_.dP[i] = Eigen::MatrixXd::Zero(n, n);
-  }
-  sums_ = filter::internal::TermSums(k, true);
+  state_.dx.assign(static_cast<std::size_t>(k), Eigen::VectorXd::Zero(n));
+  state_.dP.assign(static_cast<std::size_t>(k), Eigen::MatrixXd::Zero(n, n));
+  scores_ = filter::internal::TermScores(k, true);
   const Eigen::VectorXd sigma2 = ss_.sigma.array().square();
   Eigen::MatrixXd P;
   std::complex<double> bad;
   if (options_.start == RecursiveOptions::Start::kModel) {
     // As the batch filter: x0, P0 and their derivatives (score.h).
-    step_.x = ss_.x0;
-    for (int i = 0; i < k; ++i) step_.dx[i] = dss_[i].x0;
+    state_.x = ss_.x0;
+    for (int i = 0; i < k; ++i) state_.dx[i] = dss_[i].x0;
     const model::InitialCovariance kind = model_.spec().initial_covariance;
     switch (kind) {
       case model::InitialCovariance::kCtsm:
         if (Status s = Refresh(second->t - first.t); !s) return s;
-        step_.P = disc_.Q;
+        state_.P = disc_.Q;
         break;
       case model::InitialCovariance::kStationary:
         if (!filter::StationaryCovariance(ss_.A, sigma2, &P, &bad))
           return NumericalError("initial_covariance \"stationary\" needs a stable A");
-        step_.P = P;
+        state_.P = P;
         break;
       case model::InitialCovariance::kExplicit:
-        step_.P = ss_.P0_diag.asDiagonal();
+        state_.P = ss_.P0_diag.asDiagonal();
         break;
     }
-    step_.dP = filter::InitialCovarianceDerivatives(kind, ss_, dss_, step_.P, ddisc_);
+    state_.dP = filter::InitialCovarianceDerivatives(kind, ss_, dss_, state_.P, ddisc_);
   } else if (stable && filter::StationaryCovariance(ss_.A, sigma2, &P, &bad)) {
     // The equilibrium for the first input and the stationary covariance.
     const Eigen::Map<const Eigen::VectorXd> u0(first.u.data(),
                                                static_cast<Eigen::Index>(first.u.size()));
-    step_.x = ss_.A.fullPivLu().solve(-(ss_.B * u0 + ss_.c));
-    step_.P = P;
+    state_.x = ss_.A.fullPivLu().solve(-(ss_.B * u0 + ss_.c));
+    state_.P = P;
   } else {
-    step_.x = ss_.x0;
-    step_.P = ss_.P0_diag.size() == n ? Eigen::MatrixXd(ss_.P0_diag.asDiagonal())
-                                      : Eigen::MatrixXd(sigma2.asDiagonal());
+    state_.x = ss_.x0;
+    state_.P = ss_.P0_diag.size() == n ? Eigen::MatrixXd(ss_.P0_diag.asDiagonal())
+                                       : Eigen::MatrixXd(sigma2.asDiagonal());
   }
   if (options_.warmup >= 0) {
     warmup_ = options_.warmup;
@@ -362,7 +360,7 @@ Status RecursiveMl::TimeUpdate(const Sample& from, const Sample& to) {
   if (warmup_ < 0) warmup_ = static_cast<int>(std::ceil(warmup_time_ / dt));
   if (Status s = Refresh(dt); !s) return s;
   const bool foh = model_.spec().input_hold == model::InputHold::kFoh;
-  step_.TimeUpdate<true>(disc_, ddisc_.data(), from.u.data(), to.u.data(), foh, false);
+  step_.TimeUpdate<true>(disc_, ddisc_.data(), from.u.data(), to.u.data(), foh, false, &state_);
   return Ok{};
 }
 
@@ -378,14 +376,15 @@ Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
   up.innovation.assign(static_cast<std::size_t>(p), kNaN);
   up.innovation_sd.assign(static_cast<std::size_t>(p), kNaN);
   Eigen::VectorXd score = Eigen::VectorXd::Zero(k);
-  filter::internal::TermSums& sums = sums_;
-  sums.Begin();
+  filter::internal::TermSums sums;
+  scores_.Begin();
   for (int o = 0; o < p; ++o) {
     const Sample& row = rows_[static_cast<std::size_t>(j + delay_[o]) % ring];
     const double y = row.y[o];
     if (std::isnan(y)) continue;
     double R = 0.0, eps = 0.0;
-    if (!step_.MeasurementUpdate<true>(o, y, row_j.u.data(), nullptr, &sums, &R, &eps)) {
+    if (!step_.MeasurementUpdate<true>(o, y, row_j.u.data(), &state_, nullptr, &sums, &scores_, &R,
+                                       &eps)) {
       Error e = NumericalError(fmt::format(
           "the innovation variance of output '{}' is {:g}, not positive, at the current estimate",
           model_.spec().outputs[o], R));
@@ -401,11 +400,11 @@ Result<RecursiveUpdate> RecursiveMl::MeasurementUpdate(int j) {
     double d_rho = 0.5;
     up.loglik_term =
         filter::internal::LoglikTerm(sums.logdet, p_j, sums.r2, model_.spec().robust_huber, &d_rho);
-    sums.TermScore(d_rho, &score);
+    scores_.TermScore(d_rho, &score);
   }
   up.score.assign(score.data(), score.data() + k);
   up.warming_up = j < warmup_ || warmup_ < 0;
-  const Eigen::MatrixXd& info = sums.information;
+  const Eigen::MatrixXd& info = scores_.information;
   for (int a = 0; a < k; ++a) up.information.push_back(info(a, a));
   if (k > 0 && p_j > 0 && !up.warming_up && !options_.hold) {
     if (options_.forgetting_start > 0.0)

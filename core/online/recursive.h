@@ -116,7 +116,8 @@ class RecursiveMl final : public OnlineEstimator {
   // x̂, P and their sensitivities, stepped by the filter's own step (no allocation per row), and
   // what a row's updates add up.
   filter::internal::LinearStep<Eigen::Dynamic> step_;
-  filter::internal::TermSums sums_;
+  filter::internal::LinearState<Eigen::Dynamic> state_;
+  filter::internal::TermScores scores_;
   Eigen::MatrixXd Finv_;      // F⁻¹, kept current with F
   Eigen::MatrixXd F_, G_;     // k x k
   std::vector<Sample> rows_;  // ring of the last lag_ + 2 rows
