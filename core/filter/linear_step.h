@@ -146,7 +146,7 @@ struct LinearState {
   LinearState(LinearState&&) noexcept = default;
   LinearState& operator=(const LinearState&) = default;
   LinearState& operator=(LinearState&&) noexcept = default;
-  [[gnu::always_inline]] ~LinearState() {}
+  [[gnu::always_inline]] ~LinearState() = default;
 };
 
 template <int NX>
