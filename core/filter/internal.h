@@ -111,8 +111,8 @@ class ObservationRule {
   int p_, N_;
 };
 
-// The outputs observed at one state index, in order, and as a mask (bit o for output o < 64);
-// room for all p outputs is made once, so that filling it in a filter's loop calls nothing.
+// The outputs observed at one state index, in order; room for all p outputs is made once, so
+// that filling it in a filter's loop calls nothing.
 class ObservedOutputs {
  public:
   explicit ObservedOutputs(int p) : outputs_(static_cast<std::size_t>(p)) {}
@@ -120,13 +120,11 @@ class ObservedOutputs {
   const int* end() const { return outputs_.data() + count_; }
   int size() const { return count_; }
   bool empty() const { return count_ == 0; }
-  std::uint64_t mask() const { return mask_; }
 
  private:
   friend void ObservedAt(int, const ObservationRule&, ObservedOutputs*);
   std::vector<int> outputs_;
   int count_ = 0;
-  std::uint64_t mask_ = 0;
 };
 
 // The outputs observed at state index j, into *observed (made for p outputs).
@@ -134,14 +132,11 @@ class ObservedOutputs {
                                               ObservedOutputs* observed) {
   int* out = observed->outputs_.data();
   int count = 0;
-  std::uint64_t mask = 0;
   for (int o = 0; o < rule.p(); ++o) {
     if (!rule.IsObserved(j, o)) continue;
     out[count++] = o;
-    if (o < 64) mask |= std::uint64_t{1} << o;
   }
   observed->count_ = count;
-  observed->mask_ = mask;
 }
 
 // Largest state dimension with a fixed-size instantiation of the loops: 8, or what the build

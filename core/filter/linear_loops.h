@@ -54,7 +54,8 @@ struct ScoreContext {
 // The measurement updates of state index j: the outputs observed there, one scalar at a time
 // (kScores: with the sensitivities, into *scores), recorded or replayed by *replay, added up in
 // *sums. False, with *error set, for an R that is not positive. Up to 64 outputs, the bits of
-// their mask give them (no list to fill and walk: ObservedMask); *observed is the list for more.
+// their mask give them (no list to fill and walk: ObservationRule::Mask); *observed is the list
+// for more (where SteadyReplay is off, so no mask is needed).
 // Inlined, as are the step's updates: in the steady state a step is a few dozen flops, and the
 // calls cost as much (bench/loglik_bench, docs/benchmarks.md).
 template <int NX, bool kScores>
@@ -71,13 +72,11 @@ template <int NX, bool kScores>
   if constexpr (kScores) scores->Begin();
   const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
   const bool by_mask = rule.p() <= 64;
-  std::uint64_t bits;
-  if (by_mask) {
+  std::uint64_t bits = 0;
+  if (by_mask)
     bits = rule.Mask(j);
-  } else {
+  else
     ObservedAt(j, rule, observed);
-    bits = observed->mask();
-  }
   replay->Begin(bits, group, s->P, s->dP);
   for (int next = 0;; ++next) {
     int o;
