@@ -234,6 +234,10 @@ struct EstimateSummary {
   // the data do not determine them) back to their start values.
   int releases = 0;
   int released_starts = 0;  // starts made by putting runaways back (counted in `starts`)
+  // Starts from a fit with the diffusion relaxed (a variance of it had ended on a bound; counted
+  // in `starts`), and whether one reached a better optimum.
+  int relaxed_starts = 0;
+  bool relaxed_better = false;
   // The distinct optima the starts reached, best first (the estimate's is the first): more than
   // one is a second basin the user should know of.
   std::vector<Optimum> optima;

@@ -870,13 +870,12 @@ void Fitter::Report(const std::string& stage, const std::vector<double>& z, doub
   options_.progress(p);
 }
 
-FitResult Fitter::Alongside(int threads, int max_evaluations, bool report,
-                            const std::function<FitResult(Fitter&)>& fit) {
+EstimateOptions Fitter::SubOptions(int threads, int max_evaluations) {
   EstimateOptions sub = options_;
   sub.threads = threads;
   if (max_evaluations > 0) sub.max_evaluations = max_evaluations;
   sub.progress = nullptr;
-  if (report && options_.progress)
+  if (options_.progress)
     sub.progress = [this](const Progress& p) {
       const std::lock_guard<std::mutex> lock(progress_mutex_);
       Progress q = p;
@@ -884,10 +883,16 @@ FitResult Fitter::Alongside(int threads, int max_evaluations, bool report,
       q.evaluations += evaluations_.load();
       options_.progress(q);
     };
+  return sub;
+}
+
+FitResult Fitter::Alongside(int threads, int max_evaluations, bool report,
+                            const std::function<FitResult(Fitter&)>& fit) {
+  EstimateOptions sub = SubOptions(threads, max_evaluations);
+  if (!report) sub.progress = nullptr;
   Fitter f(*this, sub);
   FitResult r = fit(f);
-  iterations_.fetch_add(f.iterations());
-  evaluations_.fetch_add(f.evaluations());
+  AddWork(f);
   return r;
 }
 

@@ -48,6 +48,9 @@ inline constexpr int kReleaseRounds = 3;
 // Each released start is fitted this many iterations (at most as many as the plain start's fit
 // took evaluations); those that end above the estimate are fitted on.
 inline constexpr int kReleaseIterations = 200;
+// Where a variance of the diffusion ended on a bound, the model is fitted again with σσ' times this
+// (EstimateRun::RelaxDiffusion).
+inline constexpr double kRelaxFactor = 10;
 // A release that raised log L by more than this reached another basin (log L units; one standard
 // error is worth 0.5), whose runaways are released in turn.
 inline constexpr double kNewBasin = 1.0;
@@ -136,6 +139,15 @@ class Fitter {
   double lower(int i) const { return lower_[i]; }
   double upper(int i) const { return upper_[i]; }
   int evaluations() const { return evaluations_.load(); }
+  // The options of a fit beside this one's (Alongside; another fitter's, as for the relaxed
+  // diffusion): `threads` threads, its own evaluation limit if > 0, progress passed on as this
+  // fitter's under a lock (iterations and evaluations counted on from this one's).
+  EstimateOptions SubOptions(int threads, int max_evaluations);
+  // Adds another fitter's iterations and evaluations to this one's.
+  void AddWork(const Fitter& other) {
+    iterations_.fetch_add(other.iterations());
+    evaluations_.fetch_add(other.evaluations());
+  }
   int iterations() const { return iterations_.load(); }
   bool Cancelled() const { return options_.cancel && options_.cancel->load(); }
 

@@ -84,6 +84,11 @@ std::string EstimateSummary::Report() const {
                      : released_starts > 0 ? "Starts with the parameters that ran off put back"
                                            : "Multistart",
                      starts_at_best, starts));
+  if (relaxed_starts > 0)
+    line(relaxed_better ? "A variance of the diffusion ended on a bound: fitted again with the "
+                          "diffusion relaxed first, which reached a better optimum"
+                        : "A variance of the diffusion ended on a bound: fitted again with the "
+                          "diffusion relaxed first, which reached no better optimum");
   if (releases > 0)
     line(
         fmt::format("Parameters that ran off, put back to their start values: a better optimum "
@@ -239,7 +244,9 @@ Json EstimateSummary::ToJson() const {
                  {"at_best", starts_at_best},
                  {"on_bound", starts_for_bound},
                  {"releases", releases},
-                 {"released", released_starts}};
+                 {"released", released_starts},
+                 {"relaxed", relaxed_starts},
+                 {"relaxed_better", relaxed_better}};
   Json optima_json = Json::array();
   for (const Optimum& opt : optima) {
     Json values = Json::object();

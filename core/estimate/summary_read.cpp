@@ -338,6 +338,8 @@ Result<EstimateSummary> EstimateSummary::FromJson(const Json& j, const std::stri
     GB_TRY(st.Bool("on_bound", &s.starts_for_bound, false));
     GB_TRY(st.Whole("releases", &s.releases, false));
     GB_TRY(st.Whole("released", &s.released_starts, false));
+    GB_TRY(st.Whole("relaxed", &s.relaxed_starts, false));
+    GB_TRY(st.Bool("relaxed_better", &s.relaxed_better, false));
   }
   GB_TRY(ReadParameters(r, &s));
   GB_TRY(ReadOptima(r, &s));
