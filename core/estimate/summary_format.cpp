@@ -80,8 +80,12 @@ std::string EstimateSummary::Report() const {
                      *log_posterior));
   if (starts > 1)
     line(fmt::format("{}: {} of {} starts reached the best optimum",
-                     starts_for_bound      ? "Extra starts (parameters ran off or ended on a bound)"
+                     starts_for_bound ? "Extra starts (parameters ran off or ended on a bound)"
+                     : released_starts > 0 && relaxed_starts > 0
+                         ? "Starts with the diffusion relaxed and with the parameters that ran "
+                           "off put back"
                      : released_starts > 0 ? "Starts with the parameters that ran off put back"
+                     : relaxed_starts > 0  ? "Starts with the diffusion relaxed"
                                            : "Multistart",
                      starts_at_best, starts));
   if (relaxed_starts > 0)

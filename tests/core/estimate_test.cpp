@@ -593,7 +593,6 @@ TEST(CompareNested, GivesTheChiSquaredTailProbability) {
   EXPECT_FALSE(CompareNested(100.0, 5, 102.0, 5).ok());
 }
 
-
 TEST(Estimate, AVariancePinnedOnItsBoundLeadsToAFitWithTheDiffusionRelaxed) {
   // Issue 33: bench/robustness.py's house model thermal_s10 (tests/data/thermal/README.md). From
   // the generic start the path pins the room's diffusion variance on its bound and ends 61 log-L
