@@ -344,6 +344,10 @@ void DrawOptima(AppState& state, const FitResult& r) {
       "The starts reached %zu optima. The estimate is the first; another can be "
       "made the start values and run again.",
       s.optima.size());
+  if (s.relaxed_better)
+    ImGui::TextDisabled(
+        "A variance of the diffusion had ended on a bound: the fit again with the diffusion "
+        "relaxed first reached the estimate.");
   ImGui::PopTextWrapPos();
   const ImGuiTableFlags flags =
       ImGuiTableFlags_BordersInnerH | ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingFixedFit;
