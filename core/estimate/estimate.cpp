@@ -153,21 +153,21 @@ Result<filter::Likelihood> RelaxedLikelihood(const filter::Likelihood& lik, doub
     f.expr = expr::Substitute(scaled, "diffusion", f.expr);
     f.text = expr::ToString(f.expr);
   }
-  std::optional<Result<filter::Likelihood>> relaxed;
+  // Over the same records and series parameters.
+  auto over_records = [&](auto model) {
+    Result<filter::Likelihood> relaxed = filter::Likelihood::Create(std::move(model), lik.series());
+    if (relaxed && !lik.series_parameters().empty())
+      relaxed->set_series_parameters(lik.series_parameters());
+    return relaxed;
+  };
   if (lik.linear()) {
     auto m = model::LinearModel::Compile(std::move(spec));
     if (!m) return m.error();
-    relaxed = filter::Likelihood::Create(
-        std::make_shared<const model::LinearModel>(std::move(m).value()), lik.series());
-  } else {
-    auto m = model::NonlinearModel::Compile(std::move(spec));
-    if (!m) return m.error();
-    relaxed = filter::Likelihood::Create(
-        std::make_shared<const model::NonlinearModel>(std::move(m).value()), lik.series());
+    return over_records(std::make_shared<const model::LinearModel>(std::move(m).value()));
   }
-  if (*relaxed && !lik.series_parameters().empty())
-    (*relaxed)->set_series_parameters(lik.series_parameters());
-  return std::move(*relaxed);
+  auto m = model::NonlinearModel::Compile(std::move(spec));
+  if (!m) return m.error();
+  return over_records(std::make_shared<const model::NonlinearModel>(std::move(m).value()));
 }
 
 // ---- 4. Hessian and uncertainties ------------------------------------------------------------
@@ -1082,40 +1082,34 @@ class EstimateRun {
       return;
     const std::vector<int> held = DiffusionOnly(spec_);
     bool pinned = false;
-    for (int i = 0; i < fitter_->k(); ++i) {
-      const int p = fitter_->free()[i];
-      if (std::find(held.begin(), held.end(), p) != held.end())
-        pinned = pinned || (AtBound(*fitter_, best_.z, i) && !AtBound(*fitter_, z_start_, i));
-    }
+    for (int i = 0; i < fitter_->k(); ++i)
+      pinned = pinned || (std::find(held.begin(), held.end(), fitter_->free()[i]) != held.end() &&
+                          AtBound(*fitter_, best_.z, i) && !AtBound(*fitter_, z_start_, i));
     if (!pinned) return;
     auto relaxed = RelaxedLikelihood(lik_, kRelaxFactor);
     if (!relaxed) return;  // the model cannot be built so: nothing to try
     relaxed->set_cancel(options_.cancel);
-    const std::vector<double> theta_start = fitter_->Theta(z_start_);
-    FitResult r;
-    {
-      const EstimateOptions sub =
-          fitter_->SubOptions(threads_, std::max(kMinExtraEvaluations, plain_evaluations_));
-      Fitter fit(*relaxed, sub, theta_start, held);
-      r = fit.Fit(fit.ZStart(), delay_, "relaxed diffusion");
-      fitter_->AddWork(fit);
-      if (r.cancelled) {
-        best_.cancelled = true;
-        return;
-      }
-      if (!std::isfinite(r.loglik)) return;
-      // The drift's parameters from the relaxed fit, the diffusion's at their starts.
-      const std::vector<double> theta = fit.Theta(r.z);
-      std::vector<double> z(fitter_->k());
-      for (int i = 0; i < fitter_->k(); ++i)
-        z[i] = std::clamp(fitter_->ZOf(i, theta[fitter_->free()[i]]), fitter_->lower(i),
-                          fitter_->upper(i));
-      ++s_.relaxed_starts;
-      const int explore = std::clamp(plain_evaluations_, 1, kReleaseIterations);
-      if (FitStarts({z}, explore, "relaxed diffusion") >= 0) {
-        s_.relaxed_better = true;
-        Settle();
-      }
+    const EstimateOptions sub =
+        fitter_->SubOptions(threads_, std::max(kMinExtraEvaluations, plain_evaluations_));
+    Fitter fit(*relaxed, sub, fitter_->Theta(z_start_), held);
+    const FitResult r = fit.Fit(fit.ZStart(), delay_, "relaxed diffusion");
+    fitter_->AddWork(fit);
+    if (r.cancelled) {
+      best_.cancelled = true;
+      return;
+    }
+    if (!std::isfinite(r.loglik)) return;
+    // The drift's parameters from the relaxed fit, the diffusion's at their starts.
+    const std::vector<double> theta = fit.Theta(r.z);
+    std::vector<double> z(fitter_->k());
+    for (int i = 0; i < fitter_->k(); ++i)
+      z[i] = std::clamp(fitter_->ZOf(i, theta[fitter_->free()[i]]), fitter_->lower(i),
+                        fitter_->upper(i));
+    ++s_.relaxed_starts;
+    const int explore = std::clamp(plain_evaluations_, 1, kReleaseIterations);
+    if (FitStarts({z}, explore, "relaxed diffusion") >= 0) {
+      s_.relaxed_better = true;
+      Settle();
     }
   }
 
