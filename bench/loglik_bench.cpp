@@ -9,13 +9,21 @@
 // and on the linear fuel film, each with the ODE method as its argument (0 auto, 1 explicit,
 // 2 BDF) so that the methods are measured side by side; BM_FuelFilmExactVsEkf compares the
 // exact filter with the EKF on the same linear model and data.
+#include <cstdlib>
+#include <filesystem>
+
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
+#include <unistd.h>
 
+#include "core/data/dataset.h"
 #include "core/design/prbs.h"
+#include "core/expr/native.h"
 #include "core/filter/likelihood.h"
 #include "core/model/linear_model.h"
+#include "core/model/model.h"
 #include "core/model/nonlinear_model.h"
+#include "core/model/nonlinear_sensitivity.h"
 #include "core/sim/sde.h"
 #include "core/sim/simulate.h"
 #include "core/util/json.h"
@@ -225,8 +233,18 @@ model::OdeMethod MethodOf(const benchmark::State& state) {
                                : model::OdeMethod::kAuto;
 }
 
+// The second argument, where given: 0 the interpreter (expr::Tape), 1 native code
+// (core/expr/native.h; compiled before the timing, or loaded from the cache).
 void RunEkf(benchmark::State& state, const EkfFixture& f) {
   auto lik = *filter::Likelihood::Create(f.model, {f.series});
+  if (state.range(1) == 1) {
+    auto native = lik.WithNativeCode();
+    if (!native) {
+      state.SkipWithError(native.error().ToString().c_str());
+      return;
+    }
+    lik = std::move(*native);
+  }
   for (auto _ : state) {
     auto l = lik.Evaluate(f.theta);
     if (!l) state.SkipWithError(l.error().ToString().c_str());
@@ -246,19 +264,32 @@ void BM_EkfTanks2State(benchmark::State& state) {
   const EkfFixture f = MakeEkf(TankChain(2, false), 2000, MethodOf(state));
   RunEkf(state, f);
 }
-BENCHMARK(BM_EkfTanks2State)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EkfTanks2State)
+    ->Args({1, 0})
+    ->Args({1, 1})
+    ->Args({2, 0})
+    ->Unit(benchmark::kMillisecond);
 
 void BM_EkfStiffTanks3State(benchmark::State& state) {
   const EkfFixture f = MakeEkf(TankChain(2, true), 2000, MethodOf(state));
   RunEkf(state, f);
 }
-BENCHMARK(BM_EkfStiffTanks3State)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EkfStiffTanks3State)
+    ->Args({0, 0})
+    ->Args({0, 1})
+    ->Args({1, 0})
+    ->Args({2, 0})
+    ->Unit(benchmark::kMillisecond);
 
 void BM_EkfTanks10State(benchmark::State& state) {
   const EkfFixture f = MakeEkf(TankChain(10, false), 2000, MethodOf(state));
   RunEkf(state, f);
 }
-BENCHMARK(BM_EkfTanks10State)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EkfTanks10State)
+    ->Args({1, 0})
+    ->Args({1, 1})
+    ->Args({2, 0})
+    ->Unit(benchmark::kMillisecond);
 
 // The linear fuel film, 10 000 samples: argument 0 the exact Kalman filter, 1 the EKF (explicit
 // ODE method, default tolerances) on the same model and data.
@@ -273,7 +304,87 @@ void BM_FuelFilmExactVsEkf(benchmark::State& state) {
                f.series, f.theta};
   RunEkf(state, e);
 }
-BENCHMARK(BM_FuelFilmExactVsEkf)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FuelFilmExactVsEkf)
+    ->Args({0, 0})
+    ->Args({1, 0})
+    ->Args({1, 1})
+    ->Unit(benchmark::kMillisecond);
+
+// The bundled nonlinear cases through the EKF, interpreter (second argument 0) against native
+// code (1), one evaluation per iteration: the first argument is 0 the Cascaded Tanks SDE model
+// on its estimation record (log L), 1 the same with the exact score of its 14 free parameters,
+// 2 the engine model (7 states) on the first 600 rows of engine_sweep.csv (log L), 3 the same
+// with the exact score of its free parameters.
+void BM_BundledEkf(benchmark::State& state) {
+  const bool engine = state.range(0) >= 2;
+  const bool score = state.range(0) % 2 == 1;
+  const std::string root = GREYBENCH_SOURCE_DIR;
+  auto spec = *model::LoadModelFile(root + (engine ? "/assets/models/engine_mvem.json"
+                                                   : "/assets/models/cascaded_tanks_sde.json"));
+  auto data = *data::ReadCsvFile(
+      root + (engine ? "/assets/data/engine_sweep.csv" : "/assets/data/tanks_estimation.csv"));
+  auto bound = *data::Bind(*data, spec.inputs, spec.outputs);
+  data::Series s = *bound;
+  if (engine) {
+    const int rows = 600;
+    s.time.resize(rows);
+    s.U = bound->U.leftCols(rows);
+    s.Y = bound->Y.leftCols(rows);
+    if (!s.row_line.empty()) s.row_line.resize(rows);
+    s.intervals = data::GroupIntervals(s.time);
+  }
+  auto nm = std::make_shared<const model::NonlinearModel>(*model::NonlinearModel::Compile(spec));
+  auto lik = *filter::Likelihood::Create(nm, {std::make_shared<const data::Series>(s)});
+  if (state.range(1) == 1) lik = *lik.WithNativeCode();
+  const std::vector<double> theta = spec.Values();
+  std::vector<int> free;
+  for (std::size_t i = 0; i < spec.parameters.size(); ++i)
+    if (!spec.parameters[i].fixed) free.push_back(static_cast<int>(i));
+  Eigen::VectorXd gradient;
+  for (auto _ : state) {
+    auto l = score ? lik.EvaluateWithScore(theta, {}, free, &gradient) : lik.Evaluate(theta);
+    if (!l) state.SkipWithError(l.error().ToString().c_str());
+    benchmark::DoNotOptimize(l);
+  }
+  state.counters["ns_per_row"] = benchmark::Counter(
+      static_cast<double>(s.size()) * 1e-9,
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["free"] = static_cast<double>(free.size());
+}
+BENCHMARK(BM_BundledEkf)
+    ->ArgsProduct({{0, 1, 2, 3}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->MeasureProcessCPUTime();
+
+// Compiling a bundled model's native code (its formulas, Jacobians and the derivative programs:
+// core/expr/native.h) into an empty cache folder each time: the latency a fit pays once per model.
+// The argument: 0 the fuel film, 1 the Cascaded Tanks SDE model, 2 the engine model.
+void BM_NativeCompile(benchmark::State& state) {
+  const char* files[] = {"fuel_film.json", "cascaded_tanks_sde.json", "engine_mvem.json"};
+  const std::string root = GREYBENCH_SOURCE_DIR;
+  auto spec = *model::LoadModelFile(root + "/assets/models/" + files[state.range(0)]);
+  auto nm = *model::NonlinearModel::Compile(spec);
+  auto sens = *model::NonlinearSensitivity::Compile(nm);
+  std::vector<expr::NativeCode::Program> programs = nm.NativePrograms();
+  for (auto& p : sens.NativePrograms()) programs.push_back(std::move(p));
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / fmt::format("greybench-bench-native-{}", getpid());
+  setenv("GREYBENCH_NATIVE_CACHE", dir.c_str(), 1);
+  std::size_t bytes = 0;
+  for (auto _ : state) {
+    std::filesystem::remove_all(dir);
+    auto code =
+        expr::NativeCode::Compile(programs, [&nm](const std::string& n) { return nm.SlotOf(n); });
+    if (!code) state.SkipWithError(code.error().ToString().c_str());
+  }
+  bytes = expr::NativeCode::Source(programs, [&nm](const std::string& n) {
+            return nm.SlotOf(n);
+          })->size();
+  std::filesystem::remove_all(dir);
+  unsetenv("GREYBENCH_NATIVE_CACHE");
+  state.counters["source_kB"] = static_cast<double>(bytes) / 1000.0;
+}
+BENCHMARK(BM_NativeCompile)->DenseRange(0, 2)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 }  // namespace
 

@@ -12,6 +12,7 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <set>
 #include <tuple>
@@ -25,6 +26,7 @@
 
 #include "core/estimate/fitter.h"
 #include "core/expr/expr.h"
+#include "core/expr/native.h"
 #include "core/util/parallel.h"
 
 namespace gb::estimate {
@@ -158,6 +160,9 @@ Result<filter::Likelihood> RelaxedLikelihood(const filter::Likelihood& lik, doub
     Result<filter::Likelihood> relaxed = filter::Likelihood::Create(std::move(model), lik.series());
     if (relaxed && !lik.series_parameters().empty())
       relaxed->set_series_parameters(lik.series_parameters());
+    if (relaxed && lik.native()) {
+      if (auto native = relaxed->WithNativeCode()) relaxed = std::move(native);
+    }
     return relaxed;
   };
   if (lik.linear()) {
@@ -1478,8 +1483,26 @@ Result<EstimateSummary> Estimate(const filter::Likelihood& likelihood,
                                  const EstimateOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) return InputError("invalid estimation options: " + why);
-  EstimateRun run(likelihood, options);
-  return run.Run();
+  // A nonlinear model's filter runs on native code where it can be built: the same values bit
+  // for bit, some 2-3 times faster (docs/benchmarks.md, issue 37); the interpreter otherwise.
+  std::optional<filter::Likelihood> native;
+  std::string native_note;
+  if (likelihood.nonlinear() && !likelihood.native()) {
+    if (!expr::NativeCode::Enabled()) {
+      native_note = "native code turned off by GREYBENCH_NATIVE";
+    } else if (auto built = likelihood.WithNativeCode()) {
+      native = std::move(*built);
+    } else {
+      native_note = built.error().message;
+    }
+  }
+  EstimateRun run(native ? *native : likelihood, options);
+  Result<EstimateSummary> summary = run.Run();
+  if (summary) {
+    summary->native = native.has_value() || likelihood.native();
+    summary->native_note = std::move(native_note);
+  }
+  return summary;
 }
 
 Result<EstimateSummary> StoppedSummary(const filter::Likelihood& likelihood,

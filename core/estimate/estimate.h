@@ -224,6 +224,10 @@ struct EstimateSummary {
   bool extended = false;
   model::EkfOptions ekf;
   ode::OdeCounts ode;
+  // The extended filter's formulas ran as native code (core/expr/native.h), not the interpreter;
+  // where native code was wanted but could not be built, `native_note` says why.
+  bool native = false;
+  std::string native_note;
   // The scores were exact (the Kalman filter's, or the EKF's forward sensitivities); false:
   // central differences of log L (the iterated EKF, or EstimateOptions::score_differences).
   bool exact_scores = true;

@@ -65,6 +65,9 @@ std::string EstimateSummary::Report() const {
                     ekf.iterations > 1 ? fmt::format(", iterated ({} passes)", ekf.iterations) : "",
                     model::OdeMethodName(ekf.method), ekf.rtol, ekf.atol, ode.steps, ode.intervals,
                     ode.stiff_intervals));
+    line(native ? "Model code: native (compiled C, the interpreter's values bit for bit)"
+                : "Model code: interpreter" +
+                      (native_note.empty() ? std::string() : " (" + native_note + ")"));
   } else {
     line("Filter: Kalman filter, exact discretisation (the model is linear)");
   }
@@ -238,7 +241,8 @@ Json EstimateSummary::ToJson() const {
                    {"iterations", ekf.iterations},
                    {"ode_steps", ode.steps},
                    {"ode_intervals", ode.intervals},
-                   {"stiff_intervals", ode.stiff_intervals}};
+                   {"stiff_intervals", ode.stiff_intervals},
+                   {"code", native ? "native" : "interpreter"}};
   } else {
     j["filter"] = {{"kind", "kalman"}};
   }

@@ -122,6 +122,11 @@ Status ReadFilter(const Reader& r, EstimateSummary* s) {
   GB_TRY(fr.Whole("ode_steps", &s->ode.steps, false));
   GB_TRY(fr.Whole("ode_intervals", &s->ode.intervals, false));
   GB_TRY(fr.Whole("stiff_intervals", &s->ode.stiff_intervals, false));
+  std::string code = "interpreter";
+  GB_TRY(fr.String("code", &code, false));
+  if (code != "native" && code != "interpreter")
+    return fr.Fail("code", "expected \"native\" or \"interpreter\"");
+  s->native = code == "native";
   return Ok{};
 }
 

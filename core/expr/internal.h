@@ -9,7 +9,9 @@
 #include <cassert>
 #include <cmath>
 #include <optional>
+#include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "core/expr/expr.h"
@@ -77,6 +79,18 @@ inline double ApplyFunc(Func f, double a, double b) {
   }
   return 0.0;
 }
+
+// Structural ids: equal trees get equal ids, whether or not they share memory; ids are dense
+// from 0. Common subexpressions are found by them (Tape, NativeCode).
+class StructuralIds {
+ public:
+  int Of(const Node& n);
+  int size() const { return static_cast<int>(by_key_.size()); }
+
+ private:
+  std::unordered_map<const Node*, int> by_node_;
+  std::unordered_map<std::string, int> by_key_;
+};
 
 // A node exactly as given, without simplification.
 ExprPtr MakeNode(Op op, std::vector<ExprPtr> args, int column);

@@ -45,42 +45,6 @@ enum Code : int {
   kPushTemp,  // arg: temporary index
 };
 
-// Structural ids: equal trees get equal ids. Ids are dense from 0.
-class Ids {
- public:
-  int Of(const Node& n) {
-    if (auto it = by_node_.find(&n); it != by_node_.end()) return it->second;
-    std::string key;
-    key.reserve(32);
-    key += static_cast<char>('a' + static_cast<int>(n.op));
-    switch (n.op) {
-      case Op::kConst: {
-        const auto bits = std::bit_cast<std::uint64_t>(n.value);
-        key.append(reinterpret_cast<const char*>(&bits), sizeof bits);
-        break;
-      }
-      case Op::kVar:
-        key += n.name;
-        break;
-      default:
-        if (n.op == Op::kCall) key += static_cast<char>('a' + static_cast<int>(n.func));
-        for (const ExprPtr& a : n.args) {
-          const int child = Of(*a);
-          key.append(reinterpret_cast<const char*>(&child), sizeof child);
-        }
-        break;
-    }
-    const auto [it, inserted] = by_key_.emplace(std::move(key), static_cast<int>(by_key_.size()));
-    by_node_.emplace(&n, it->second);
-    return it->second;
-  }
-  int size() const { return static_cast<int>(by_key_.size()); }
-
- private:
-  std::unordered_map<const Node*, int> by_node_;
-  std::unordered_map<std::string, int> by_key_;
-};
-
 Code BinaryCode(Op op) {
   switch (op) {
     case Op::kAdd:
@@ -98,6 +62,37 @@ Code BinaryCode(Op op) {
 
 }  // namespace
 
+namespace internal {
+
+int StructuralIds::Of(const Node& n) {
+  if (auto it = by_node_.find(&n); it != by_node_.end()) return it->second;
+  std::string key;
+  key.reserve(32);
+  key += static_cast<char>('a' + static_cast<int>(n.op));
+  switch (n.op) {
+    case Op::kConst: {
+      const auto bits = std::bit_cast<std::uint64_t>(n.value);
+      key.append(reinterpret_cast<const char*>(&bits), sizeof bits);
+      break;
+    }
+    case Op::kVar:
+      key += n.name;
+      break;
+    default:
+      if (n.op == Op::kCall) key += static_cast<char>('a' + static_cast<int>(n.func));
+      for (const ExprPtr& a : n.args) {
+        const int child = Of(*a);
+        key.append(reinterpret_cast<const char*>(&child), sizeof child);
+      }
+      break;
+  }
+  const auto [it, inserted] = by_key_.emplace(std::move(key), static_cast<int>(by_key_.size()));
+  by_node_.emplace(&n, it->second);
+  return it->second;
+}
+
+}  // namespace internal
+
 Result<Tape> Tape::Compile(std::span<const ExprPtr> exprs,
                            const std::function<int(const std::string&)>& slot_of) {
   // Emits code for one tree (a local class, so that it may use the private Instr).
@@ -105,7 +100,7 @@ Result<Tape> Tape::Compile(std::span<const ExprPtr> exprs,
     std::vector<Instr>* code;
     std::vector<double>* constants;
     const std::function<int(const std::string&)>* slot_of;
-    Ids ids;
+    internal::StructuralIds ids;
     std::vector<int> uses;  // per id: occurrences evaluated (a node's operands once)
     std::vector<int> temp;  // per id: its temporary, -1 none
     int n_temps = 0;
@@ -196,7 +191,7 @@ Result<Tape> Tape::Compile(std::span<const ExprPtr> exprs,
   };
 
   Tape tape;
-  Compiler c{&tape.code_, &tape.constants_, &slot_of, Ids{}, {}, {}};
+  Compiler c{&tape.code_, &tape.constants_, &slot_of, internal::StructuralIds{}, {}, {}};
   for (const ExprPtr& e : exprs) {
     assert(e && "Tape::Compile: null expression");
     c.Count(*e);

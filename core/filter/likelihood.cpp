@@ -50,6 +50,29 @@ Result<Likelihood> Likelihood::Create(std::shared_ptr<const model::NonlinearMode
   return l;
 }
 
+Result<Likelihood> Likelihood::WithNativeCode() const {
+  Likelihood copy = *this;
+  if (!nonlinear_ || nonlinear_->native()) return copy;
+  std::vector<expr::NativeCode::Program> programs = nonlinear_->NativePrograms();
+  if (sensitivity_) {
+    for (expr::NativeCode::Program& p : sensitivity_->NativePrograms())
+      programs.push_back(std::move(p));
+  }
+  const model::NonlinearModel& m = *nonlinear_;
+  auto code =
+      expr::NativeCode::Compile(programs, [&m](const std::string& name) { return m.SlotOf(name); });
+  if (!code) return code.error();
+  auto model = std::make_shared<model::NonlinearModel>(*nonlinear_);
+  model->UseNative(*code, 0);
+  copy.nonlinear_ = std::move(model);
+  if (sensitivity_) {
+    auto sensitivity = std::make_shared<model::NonlinearSensitivity>(*sensitivity_);
+    sensitivity->UseNative(*code, 4);
+    copy.sensitivity_ = std::move(sensitivity);
+  }
+  return copy;
+}
+
 Result<Likelihood> Likelihood::CreateFor(const model::ModelSpec& spec,
                                          std::vector<std::shared_ptr<const data::Series>> series) {
   for (const auto& s : series) {

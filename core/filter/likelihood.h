@@ -53,6 +53,13 @@ class Likelihood {
   static Result<Likelihood> Create(std::shared_ptr<const model::NonlinearModel> model,
                                    std::vector<std::shared_ptr<const data::Series>> series);
 
+  // This likelihood with the nonlinear model's programs and their derivatives as native code
+  // (core/expr/native.h), compiled now or loaded from the cache: the same values bit for bit,
+  // faster. A linear model's (its matrices are built once per evaluation) is copied as it is.
+  // Fails (kNumerical) where the code cannot be built; the caller then keeps this one.
+  Result<Likelihood> WithNativeCode() const;
+  bool native() const { return nonlinear_ && nonlinear_->native(); }
+
   // log L at θ (all parameters, natural scale) with the given delay per output (empty: each
   // output's min).
   // With `terms`: the per-state-index terms of every series, concatenated (see LogLikelihood).

@@ -1,11 +1,27 @@
 #include "core/model/nonlinear_model.h"
 
+#include <cassert>
 #include <cmath>
 #include <set>
 
 #include <fmt/format.h>
 
 namespace gb::model {
+namespace {
+
+// The slot of a name: [x (n) | u (m) | θ (np) | t], -1 for a name that is none of them.
+int SlotIndex(const ModelSpec& spec, const std::string& name) {
+  const int n = static_cast<int>(spec.states.size());
+  const int m = static_cast<int>(spec.inputs.size());
+  const int np = static_cast<int>(spec.parameters.size());
+  if (const int i = spec.StateIndex(name); i >= 0) return i;
+  if (const int i = spec.InputIndex(name); i >= 0) return n + i;
+  if (const int i = spec.ParameterIndex(name); i >= 0) return n + m + i;
+  if (name == "t") return n + m + np;
+  return -1;
+}
+
+}  // namespace
 
 Result<NonlinearModel> NonlinearModel::Compile(ModelSpec spec) {
   NonlinearModel nm;
@@ -69,15 +85,7 @@ Result<NonlinearModel> NonlinearModel::Compile(ModelSpec spec) {
                                     spec.diffusion[i].path, spec.states[i]));
   }
 
-  const int m = static_cast<int>(spec.inputs.size());
-  const int np = static_cast<int>(spec.parameters.size());
-  auto slot_of = [&](const std::string& name) {
-    if (const int i = spec.StateIndex(name); i >= 0) return i;
-    if (const int i = spec.InputIndex(name); i >= 0) return n + i;
-    if (const int i = spec.ParameterIndex(name); i >= 0) return n + m + i;
-    if (name == "t") return n + m + np;
-    return -1;
-  };
+  auto slot_of = [&](const std::string& name) { return SlotIndex(spec, name); };
   for (auto [entries, tape] : {std::pair{&dyn, &nm.dynamics_}, std::pair{&mea, &nm.measurement_},
                                std::pair{&ini, &nm.initial_}, std::pair{&noi, &nm.noise_}}) {
     auto compiled = expr::Tape::Compile(entries->exprs, slot_of);
@@ -91,6 +99,23 @@ Result<NonlinearModel> NonlinearModel::Compile(ModelSpec spec) {
   }
   nm.spec_ = std::move(spec);
   return nm;
+}
+
+int NonlinearModel::SlotOf(const std::string& name) const { return SlotIndex(spec_, name); }
+
+std::vector<expr::NativeCode::Program> NonlinearModel::NativePrograms() const {
+  std::vector<expr::NativeCode::Program> programs;
+  for (const Entries* e :
+       {&dynamics_entries_, &measurement_entries_, &initial_entries_, &noise_entries_})
+    programs.push_back({e->exprs, {}});
+  return programs;
+}
+
+void NonlinearModel::UseNative(std::shared_ptr<const expr::NativeCode> code, std::size_t first) {
+  assert(code && first + native_functions_.size() <= code->size());
+  for (std::size_t k = 0; k < native_functions_.size(); ++k)
+    native_functions_[k] = code->function(first + k);
+  native_ = std::move(code);
 }
 
 const NonlinearModel::Entries& NonlinearModel::EntriesOf(Program program) const {

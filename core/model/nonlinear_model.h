@@ -15,11 +15,14 @@
 // equations integrated numerically instead of discretised exactly).
 #pragma once
 
+#include <array>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "core/expr/expr.h"
+#include "core/expr/native.h"
 #include "core/model/model.h"
 #include "core/util/result.h"
 
@@ -50,20 +53,28 @@ class NonlinearModel {
 
   // out: f, J (row-major), σ; size n + n² + n.
   void Dynamics(std::span<const double> slots, std::span<double> out) const {
-    dynamics_.Eval(slots, out);
+    Run(kDynamicsProgram, dynamics_, slots, out);
   }
   // out: h, H (row-major), S; size p + p n + p.
   void Measurement(std::span<const double> slots, std::span<double> out) const {
-    measurement_.Eval(slots, out);
+    Run(kMeasurementProgram, measurement_, slots, out);
   }
   // out: x0, then the explicit initial variances if any; size n or 2n. Reads only θ.
   void Initial(std::span<const double> slots, std::span<double> out) const {
-    initial_.Eval(slots, out);
+    Run(kInitialProgram, initial_, slots, out);
   }
   // out: σ, then ∂σ_i/∂x_i; size 2n.
   void Noise(std::span<const double> slots, std::span<double> out) const {
-    noise_.Eval(slots, out);
+    Run(kNoiseProgram, noise_, slots, out);
   }
+
+  // Native code (core/expr/native.h): the four programs above, in that order, for
+  // expr::NativeCode::Compile; UseNative(code, first) then runs functions first..first+3 of
+  // `code` in their place (the same values, bit for bit). SlotOf names the slots as above.
+  std::vector<expr::NativeCode::Program> NativePrograms() const;
+  void UseNative(std::shared_ptr<const expr::NativeCode> code, std::size_t first);
+  bool native() const { return native_ != nullptr; }
+  int SlotOf(const std::string& name) const;
   std::size_t dynamics_size() const { return dynamics_.size(); }
   std::size_t measurement_size() const { return measurement_.size(); }
   std::size_t initial_size() const { return initial_.size(); }
@@ -84,11 +95,22 @@ class NonlinearModel {
     std::vector<std::string> names;
   };
   const Entries& EntriesOf(Program program) const;
+  enum NativeIndex { kDynamicsProgram, kMeasurementProgram, kInitialProgram, kNoiseProgram };
+  void Run(NativeIndex which, const expr::Tape& tape, std::span<const double> slots,
+           std::span<double> out) const {
+    if (native_) {
+      native_functions_[which](slots.data(), out.data());
+    } else {
+      tape.Eval(slots, out);
+    }
+  }
   std::string SlotName(int slot) const;
 
   ModelSpec spec_;
   Entries dynamics_entries_, measurement_entries_, initial_entries_, noise_entries_;
   expr::Tape dynamics_, measurement_, initial_, noise_;
+  std::shared_ptr<const expr::NativeCode> native_;  // keeps the library loaded
+  std::array<expr::NativeCode::Function, 4> native_functions_{};
 };
 
 }  // namespace gb::model

@@ -1,5 +1,6 @@
 #include "core/model/nonlinear_sensitivity.h"
 
+#include <cassert>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -32,8 +33,27 @@ std::string Derivative(const std::string& of, const std::string& by) {
 void NonlinearSensitivity::Program::Eval(std::span<const double> slots, std::span<double> dense,
                                          std::span<double> scratch) const {
   assert(dense.size() == size_ && scratch.size() >= positions_.size());
+  if (native_) {
+    native_(slots.data(), dense.data());
+    return;
+  }
   tape_.Eval(slots, scratch.first(positions_.size()));
   for (std::size_t k = 0; k < positions_.size(); ++k) dense[positions_[k]] = scratch[k];
+}
+
+std::vector<expr::NativeCode::Program> NonlinearSensitivity::NativePrograms() const {
+  std::vector<expr::NativeCode::Program> programs;
+  for (const Program* p : {&dynamics_, &measurement_, &initial_})
+    programs.push_back({p->exprs_, p->positions_});
+  return programs;
+}
+
+void NonlinearSensitivity::UseNative(std::shared_ptr<const expr::NativeCode> code,
+                                     std::size_t first) {
+  assert(code && first + 3 <= code->size());
+  std::size_t k = first;
+  for (Program* p : {&dynamics_, &measurement_, &initial_}) p->native_ = code->function(k++);
+  native_ = std::move(code);
 }
 
 Result<NonlinearSensitivity> NonlinearSensitivity::Compile(const NonlinearModel& model) {

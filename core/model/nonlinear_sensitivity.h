@@ -25,12 +25,14 @@
 //                P0θ n x np            at InitP0theta()       (explicit initial variances only)
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "core/expr/expr.h"
+#include "core/expr/native.h"
 #include "core/model/nonlinear_model.h"
 #include "core/util/result.h"
 
@@ -59,11 +61,18 @@ class NonlinearSensitivity {
     std::vector<std::string> names_;  // of the nonzero entries, for messages
     std::vector<expr::ExprPtr> exprs_;
     expr::Tape tape_;
+    expr::NativeCode::Function native_ = nullptr;  // writes the dense array's entries directly
   };
 
   const Program& dynamics() const { return dynamics_; }
   const Program& measurement() const { return measurement_; }
   const Program& initial() const { return initial_; }
+
+  // Native code (core/expr/native.h): the three programs, in the order above, for
+  // expr::NativeCode::Compile (each writing its dense array directly); UseNative(code, first)
+  // then runs functions first..first+2 of `code` in their place (the same values, bit for bit).
+  std::vector<expr::NativeCode::Program> NativePrograms() const;
+  void UseNative(std::shared_ptr<const expr::NativeCode> code, std::size_t first);
 
   // Offsets into the dense arrays (see above).
   std::size_t DynJx(int m) const { return n_ * np_ + Z(m) * n_ * n_; }
@@ -88,6 +97,7 @@ class NonlinearSensitivity {
   std::string source_;
   std::size_t n_ = 0, p_ = 0, np_ = 0;
   Program dynamics_, measurement_, initial_;
+  std::shared_ptr<const expr::NativeCode> native_;  // keeps the library loaded
 };
 
 }  // namespace gb::model

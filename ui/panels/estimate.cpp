@@ -224,6 +224,8 @@ void DrawKeyFigures(AppState& state, const FitResult& r) {
   // Which filter ran: a nonlinear model's estimate comes from the extended Kalman filter.
   row.Add("Filter",
           s.extended ? (s.ekf.iterations > 1 ? "iterated EKF" : "EKF") : "Kalman (exact)");
+  // How the nonlinear model's formulas ran: compiled to machine code, or interpreted.
+  if (s.extended) row.Add("Model code", s.native ? "native" : "interpreter");
 }
 
 // ---------------------------------------------------------------------------------------------
