@@ -215,6 +215,7 @@ Status RunCompiler(const fs::path& source, const fs::path& library, const fs::pa
   for (std::string& f : CompilerFlags()) args.push_back(std::move(f));
   args.insert(args.end(), {"-o", library.string(), source.string(), "-lm"});
   std::vector<char*> argv;
+  argv.reserve(args.size() + 1);
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
   posix_spawn_file_actions_t actions;
