@@ -13,6 +13,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -157,10 +158,14 @@ TEST(NativeCode, ProgramsOfEveryBundledModelEqualTheInterpretersBitForBit) {
       compare([&](std::vector<double>& o) { nm->Noise(slots, o); },
               [&](std::vector<double>& o) { native_model.Noise(slots, o); },
               2 * static_cast<std::size_t>(m.n_states()), "noise");
-      for (auto [program, native_program] :
-           {std::pair{&sens->dynamics(), &native_sens.dynamics()},
-            std::pair{&sens->measurement(), &native_sens.measurement()},
-            std::pair{&sens->initial(), &native_sens.initial()}}) {
+      // (Pairs, not structured bindings: clang 14 does not capture those in lambdas.)
+      using ProgramPair = std::pair<const model::NonlinearSensitivity::Program*,
+                                    const model::NonlinearSensitivity::Program*>;
+      for (const ProgramPair& pair : {ProgramPair{&sens->dynamics(), &native_sens.dynamics()},
+                                      ProgramPair{&sens->measurement(), &native_sens.measurement()},
+                                      ProgramPair{&sens->initial(), &native_sens.initial()}}) {
+        const model::NonlinearSensitivity::Program* program = pair.first;
+        const model::NonlinearSensitivity::Program* native_program = pair.second;
         std::vector<double> scratch(program->nonzeros());
         compare([&](std::vector<double>& o) { program->Eval(slots, o, scratch); },
                 [&](std::vector<double>& o) { native_program->Eval(slots, o, scratch); },
