@@ -54,6 +54,7 @@ Result<Likelihood> Likelihood::WithNativeCode() const {
   Likelihood copy = *this;
   if (!nonlinear_ || nonlinear_->native()) return copy;
   std::vector<expr::NativeCode::Program> programs = nonlinear_->NativePrograms();
+  const std::size_t first_derivative = programs.size();  // the derivative programs follow
   if (sensitivity_) {
     for (expr::NativeCode::Program& p : sensitivity_->NativePrograms())
       programs.push_back(std::move(p));
@@ -67,7 +68,7 @@ Result<Likelihood> Likelihood::WithNativeCode() const {
   copy.nonlinear_ = std::move(model);
   if (sensitivity_) {
     auto sensitivity = std::make_shared<model::NonlinearSensitivity>(*sensitivity_);
-    sensitivity->UseNative(*code, 4);
+    sensitivity->UseNative(*code, first_derivative);
     copy.sensitivity_ = std::move(sensitivity);
   }
   return copy;

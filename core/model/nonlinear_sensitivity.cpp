@@ -148,11 +148,7 @@ Result<NonlinearSensitivity> NonlinearSensitivity::Compile(const NonlinearModel&
     }
   }
 
-  auto slot_of = [&](const std::string& name) {
-    for (int k = 0; k < static_cast<int>(s.slot_names_.size()); ++k)
-      if (s.slot_names_[k] == name) return k;
-    return -1;
-  };
+  auto slot_of = [&model](const std::string& name) { return model.SlotOf(name); };
   for (Program* program : {&s.dynamics_, &s.measurement_, &s.initial_}) {
     auto compiled = expr::Tape::Compile(program->exprs_, slot_of);
     if (!compiled) {

@@ -125,7 +125,7 @@ TEST(NativeCode, ProgramsOfEveryBundledModelEqualTheInterpretersBitForBit) {
     model::NonlinearModel native_model = *nm;
     native_model.UseNative(*code, 0);
     model::NonlinearSensitivity native_sens = *sens;
-    native_sens.UseNative(*code, 4);
+    native_sens.UseNative(*code, nm->NativePrograms().size());
     ASSERT_TRUE(native_model.native());
 
     // Slots at the parameters' start values and states, inputs and time drawn around 1.
