@@ -356,6 +356,56 @@ BENCHMARK(BM_BundledEkf)
     ->Unit(benchmark::kMillisecond)
     ->MeasureProcessCPUTime();
 
+// The gradient of the bundled nonlinear cases on native code, forward sensitivities against the
+// adjoint (core/filter/ekf_adjoint.h), beside log L alone: the first argument is the model (0 the
+// Cascaded Tanks SDE model on its estimation record, 1 the engine model on the first 600 rows of
+// engine_sweep.csv), the second the number of free parameters (the first ones of the model
+// file's free parameters; 0: all, 14 and 19), the third what is computed (0 log L, 1 the gradient
+// by forward sensitivities, 2 by the adjoint). `evals` is the time in units of log L's.
+void BM_EkfGradient(benchmark::State& state) {
+  const bool engine = state.range(0) == 1;
+  const std::string root = GREYBENCH_SOURCE_DIR;
+  auto spec = *model::LoadModelFile(root + (engine ? "/assets/models/engine_mvem.json"
+                                                   : "/assets/models/cascaded_tanks_sde.json"));
+  auto data = *data::ReadCsvFile(
+      root + (engine ? "/assets/data/engine_sweep.csv" : "/assets/data/tanks_estimation.csv"));
+  auto bound = *data::Bind(*data, spec.inputs, spec.outputs);
+  data::Series s = *bound;
+  if (engine) {
+    const int rows = 600;
+    s.time.resize(rows);
+    s.U = bound->U.leftCols(rows);
+    s.Y = bound->Y.leftCols(rows);
+    if (!s.row_line.empty()) s.row_line.resize(rows);
+    s.intervals = data::GroupIntervals(s.time);
+  }
+  auto nm = std::make_shared<const model::NonlinearModel>(*model::NonlinearModel::Compile(spec));
+  auto lik = *(*filter::Likelihood::Create(nm, {std::make_shared<const data::Series>(s)}))
+                  .WithNativeCode();
+  const int mode = static_cast<int>(state.range(2));
+  lik.set_gradient_method(mode == 2 ? filter::Likelihood::GradientMethod::kAdjoint
+                                    : filter::Likelihood::GradientMethod::kForward);
+  const std::vector<double> theta = spec.Values();
+  std::vector<int> free;
+  for (std::size_t i = 0; i < spec.parameters.size(); ++i)
+    if (!spec.parameters[i].fixed) free.push_back(static_cast<int>(i));
+  if (state.range(1) > 0) free.resize(static_cast<std::size_t>(state.range(1)));
+  Eigen::VectorXd gradient;
+  for (auto _ : state) {
+    auto l = mode == 0 ? lik.Evaluate(theta) : lik.EvaluateWithScore(theta, {}, free, &gradient);
+    if (!l) state.SkipWithError(l.error().ToString().c_str());
+    benchmark::DoNotOptimize(l);
+  }
+  state.counters["ns_per_row"] = benchmark::Counter(
+      static_cast<double>(s.size()) * 1e-9,
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["free"] = static_cast<double>(free.size());
+}
+BENCHMARK(BM_EkfGradient)
+    ->ArgsProduct({{0, 1}, {1, 2, 3, 5, 0}, {0, 1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->MeasureProcessCPUTime();
+
 // Compiling a bundled model's native code (its formulas, Jacobians and the derivative programs:
 // core/expr/native.h) into an empty cache folder each time: the latency a fit pays once per model.
 // The argument: 0 the fuel film, 1 the Cascaded Tanks SDE model, 2 the engine model.

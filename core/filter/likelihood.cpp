@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "core/filter/ekf_adjoint.h"
 #include "core/filter/ekf_score.h"
 #include "core/filter/score.h"
 
@@ -340,12 +341,20 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
   if (nonlinear_ && !exact_scores()) return EkfScore(theta, delay, free, gradient, J_terms_theta);
   if (nonlinear_) {
     ode::OdeCounts counts;
+    const bool adjoint = J_terms_theta == nullptr && UsesAdjoint(free.size());
     auto total = ScoreOverSeries(
         delay, free, gradient, J_terms_theta,
         [&](std::size_t i, const data::Series& s, const FilterSettings& settings,
-            std::span<const int> params, Eigen::VectorXd* g, Eigen::MatrixXd* J) {
-          return EkfLogLikelihoodWithScore(*nonlinear_, *sensitivity_, SeriesTheta(theta, i), s,
-                                           settings, params, g, J, &counts);
+            std::span<const int> params, Eigen::VectorXd* g, Eigen::MatrixXd* J) -> Result<Loglik> {
+          const std::vector<double> own = SeriesTheta(theta, i);
+          if (adjoint) {
+            bool applicable = false;
+            auto l = EkfLogLikelihoodWithAdjoint(*nonlinear_, *sensitivity_, own, s, settings,
+                                                 params, g, &applicable, &counts);
+            if (!l || applicable) return l;
+          }
+          return EkfLogLikelihoodWithScore(*nonlinear_, *sensitivity_, own, s, settings, params, g,
+                                           J, &counts);
         });
     counts_->Add(counts);
     return total;
@@ -372,6 +381,22 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
         if (!dss) return dss.error();
         return LogLikelihoodScore(*ss, *dss, s, settings, g, J);
       });
+}
+
+bool Likelihood::UsesAdjoint(std::size_t free_count) const {
+  if (!nonlinear_ || !exact_scores()) return false;
+  switch (gradient_method_) {
+    case GradientMethod::kForward:
+      return false;
+    case GradientMethod::kAdjoint:
+      return true;
+    case GradientMethod::kAuto:
+      break;
+  }
+  // Measured (docs/benchmarks.md, "The adjoint gradient"): on the Cascaded Tanks SDE model and
+  // the engine model the forward sensitivities cost about 1 + 1.3 K evaluations of log L and the
+  // adjoint about 3.5 whatever K is, so the adjoint is the cheaper from three free parameters.
+  return free_count >= kAdjointFrom;
 }
 
 Result<DelayProfile> Likelihood::Profile(std::span<const double> theta) const {

@@ -89,6 +89,20 @@ class Likelihood {
 
   static constexpr double kDifferenceStep = 1e-5;
 
+  // How EvaluateWithScore differentiates the extended Kalman filter when only the gradient is
+  // asked for (no J_terms_theta): forward sensitivities (ekf_score.h), or the discrete adjoint
+  // (ekf_adjoint.h), whose cost does not grow with the parameters. kAuto chooses by the model's
+  // size and the number of free parameters (UsesAdjoint). Both give the same gradient to
+  // rounding; the per-term scores are always the forward sensitivities'. A series on which an
+  // interval needs BDF falls back to the forward sensitivities.
+  enum class GradientMethod { kAuto, kForward, kAdjoint };
+  void set_gradient_method(GradientMethod method) { gradient_method_ = method; }
+  GradientMethod gradient_method() const { return gradient_method_; }
+  // Whether a gradient of `free_count` free parameters (no per-term scores) is the adjoint's:
+  // under kAuto from kAdjointFrom free parameters on.
+  bool UsesAdjoint(std::size_t free_count) const;
+  static constexpr std::size_t kAdjointFrom = 3;
+
   // Whether EvaluateWithScore's derivatives are exact (to the ODE tolerance for the EKF): every
   // linear model, and every other whose EKF is not iterated.
   bool exact_scores() const {
@@ -154,6 +168,7 @@ class Likelihood {
   std::vector<std::shared_ptr<const data::Series>> series_;
   FilterSettings settings_;                          // first_obs = each output's max delay
   std::vector<std::vector<int>> series_parameters_;  // see set_series_parameters
+  GradientMethod gradient_method_ = GradientMethod::kAuto;
 };
 
 }  // namespace gb::filter

@@ -17,7 +17,7 @@ using Program = model::NonlinearModel::Program;
 
 // The moment equations over one sample interval: z = [x̂; lower triangle of P, column by column],
 // and with `transition` also Φ (column-major), dΦ/dt = J Φ from Φ = I.
-class MomentPropagator::Moments final : public ode::OdeSystem {
+class MomentPropagator::Moments final : public ode::AdjointSystem {
  public:
   Moments(const model::NonlinearModel& model, std::span<const double> theta, bool transition,
           const model::NonlinearSensitivity* sens, std::span<const int> free)
@@ -38,6 +38,7 @@ class MomentPropagator::Moments final : public ode::OdeSystem {
     for (int b = 0; b < n_; ++b)
       for (int a = b; a < n_; ++a) packed_(a, b) = packed_(b, a) = k++;
     if (sens_) {
+      ClassifyNonzeros();
       dense_ = sens_->dynamics().Zeroed();
       scratch_.resize(sens_->dynamics().nonzeros());
       dJ_.resize(n_, n_);
@@ -63,13 +64,7 @@ class MomentPropagator::Moments final : public ode::OdeSystem {
 
   // Evaluates the dynamics at (x, u(t), t) into out_; false (and failure() set) if not finite.
   bool EvaluateAt(double t, const double* x) {
-    std::copy(x, x + n_, slots_.begin());
-    for (int i = 0; i < m_; ++i) {
-      double u = u0_[i];
-      if (u1_) u += (t - t0_) / dt_ * (u1_[i] - u0_[i]);
-      slots_[n_ + i] = u;
-    }
-    slots_[model_.time_slot()] = t;
+    SetSlots(t, x);
     model_.Dynamics(slots_, out_);
     for (std::size_t k = 0; k < out_.size(); ++k) {
       if (!std::isfinite(out_[k])) {
@@ -77,13 +72,37 @@ class MomentPropagator::Moments final : public ode::OdeSystem {
         return false;
       }
     }
+    SetJ();
+    return true;
+  }
+  void SetSlots(double t, const double* x) {
+    std::copy(x, x + n_, slots_.begin());
+    for (int i = 0; i < m_; ++i) {
+      double u = u0_[i];
+      if (u1_) u += (t - t0_) / dt_ * (u1_[i] - u0_[i]);
+      slots_[n_ + i] = u;
+    }
+    slots_[model_.time_slot()] = t;
+  }
+  void SetJ() {
     for (int i = 0; i < n_; ++i)
       for (int j = 0; j < n_; ++j) J_(i, j) = out_[n_ + i * n_ + j];
-    return true;
+  }
+
+  // A retrace keeps the dynamics program's output at each stage for Vjp there.
+  void Retrace(int stages) override {
+    retrace_stages_ = stages;
+    retrace_next_ = 0;
+    retrace_out_.resize(static_cast<std::size_t>(stages) * out_.size());
   }
 
   bool Rhs(double t, std::span<const double> z, std::span<double> dz) override {
     if (!EvaluateAt(t, z.data())) return false;
+    if (retrace_next_ < retrace_stages_) {
+      std::copy(out_.begin(), out_.end(),
+                retrace_out_.begin() + static_cast<std::ptrdiff_t>(Z(retrace_next_++)) *
+                                           static_cast<std::ptrdiff_t>(out_.size()));
+    }
     for (int i = 0; i < n_; ++i) dz[i] = out_[i];
     Unpack(z, &P_);
     M_.noalias() = J_ * P_;
@@ -157,6 +176,104 @@ class MomentPropagator::Moments final : public ode::OdeSystem {
             static_cast<std::size_t>(l) * static_cast<std::size_t>(n_),
         n_);
   }
+
+  // λ' ∂F/∂z and λ' ∂F/∂θ (every parameter) at (t, z), for the moment equations alone (neither
+  // the transition nor the sensitivities). With λ = [λx; packed λP] and Λ the symmetric matrix of
+  // λP (Λ_ab = Λ_ba = λ_ab / 2 off the diagonal, Λ_aa = λ_aa, so that Σ_{a>=b} λ_ab M_ab =
+  // <Λ, M> for a symmetric M) and W = Λ P:
+  //   ∂/∂x̂_m = (J' λx)_m + 2 <W, ∂J/∂x_m> + Σ_a 2 Λ_aa σ_a ∂σ_a/∂x_m
+  //   ∂/∂P   = J' Λ + Λ J  (packed: twice off the diagonal)
+  //   ∂/∂θ_l = λx' ∂f/∂θ_l + 2 <W, ∂J/∂θ_l> + Σ_a 2 Λ_aa σ_a ∂σ_a/∂θ_l
+  bool Vjp(int stage, double t, std::span<const double> z, std::span<const double> lambda,
+           std::span<double> z_bar, std::span<double> theta_bar) override {
+    assert(sens_ && free_.empty() && !transition_);
+    assert(stage < retrace_next_ && "Rhs has run at the stage");
+    SetSlots(t, z.data());
+    const auto at = retrace_out_.begin() + static_cast<std::ptrdiff_t>(Z(stage)) *
+                                               static_cast<std::ptrdiff_t>(out_.size());
+    std::copy(at, at + static_cast<std::ptrdiff_t>(out_.size()), out_.begin());
+    SetJ();
+    if (!EvaluateDerivatives()) return false;
+    Unpack(z, &P_);
+    Eigen::MatrixXd& Lambda = SP_;  // workspace
+    for (int b = 0; b < n_; ++b) {
+      for (int a = b; a < n_; ++a) {
+        const double v = lambda[packed_(a, b)];
+        Lambda(a, b) = Lambda(b, a) = a == b ? v : 0.5 * v;
+      }
+    }
+    return VjpAt(lambda.first(n_), Lambda, z_bar, theta_bar);
+  }
+
+  // Vjp's terms at the point EvaluateAt and EvaluateDerivatives last took (P_ holding P), with
+  // λx and Λ given; adds the packed ∂/∂P into z_bar's P part only when it has one.
+  bool VjpAt(std::span<const double> lambda_x, const Eigen::MatrixXd& Lambda,
+             std::span<double> z_bar, std::span<double> theta_bar) {
+    const model::NonlinearSensitivity& sens = *sens_;
+    const Eigen::Map<const Eigen::VectorXd> lx(lambda_x.data(), n_);
+    Eigen::Map<Eigen::VectorXd>(z_bar.data(), n_).noalias() += J_.transpose() * lx;
+    if (static_cast<int>(z_bar.size()) >= moments_size()) {
+      M_.noalias() = J_.transpose().lazyProduct(Lambda);  // small: no blocked product
+      for (int b = 0; b < n_; ++b)
+        for (int a = b; a < n_; ++a)
+          z_bar[packed_(a, b)] += a == b ? 2.0 * M_(a, a) : 2.0 * (M_(a, b) + M_(b, a));
+    }
+    // The terms of the derivative program's nonzero entries (ClassifyNonzeros): each adds its
+    // value times a coefficient, [λx | 2 W (column-major) | 2 Λ_aa σ_a], to its target,
+    // [∂/∂x̂ | ∂/∂θ].
+    M_.noalias() = Lambda.lazyProduct(P_);  // W
+    const double* s = sigma();
+    const std::size_t nn = Z(n_) * Z(n_);
+    for (int i = 0; i < n_; ++i) coefficients_[Z(i)] = lambda_x[Z(i)];
+    for (std::size_t r = 0; r < nn; ++r) coefficients_[Z(n_) + r] = 2.0 * M_.data()[r];
+    for (int a = 0; a < n_; ++a) coefficients_[Z(n_) + nn + Z(a)] = 2.0 * Lambda(a, a) * s[a];
+    std::fill(targets_.begin(), targets_.end(), 0.0);
+    const std::span<const std::size_t> positions = sens.dynamics().positions();
+    for (std::size_t k = 0; k < positions.size(); ++k)
+      targets_[target_of_[k]] += dense_[positions[k]] * coefficients_[coefficient_of_[k]];
+    for (int m = 0; m < n_; ++m) z_bar[m] += targets_[Z(m)];
+    for (std::size_t l = 0; l < theta_bar.size(); ++l) theta_bar[l] += targets_[Z(n_) + l];
+    return true;
+  }
+
+  // For each nonzero entry of the derivative program (in its positions' order): which term of
+  // Vjp it is, as the target it adds to (x̂_m: m, θ_l: n + l) and the coefficient it is
+  // multiplied by (λx_i: i, 2 W_r: n + r, 2 Λ_aa σ_a: n + n² + a). The blocks (nonlinear_
+  // sensitivity.h): fθ (i, l) -> θ_l by λx_i; ∂J/∂x_m (r) -> x̂_m by 2 W_r; ∂J/∂θ_l (r) -> θ_l
+  // by 2 W_r; ∂σ/∂x (a, m) -> x̂_m and ∂σ/∂θ (a, l) -> θ_l by 2 Λ_aa σ_a.
+  void ClassifyNonzeros() {
+    const model::NonlinearSensitivity& sens = *sens_;
+    const std::size_t n = Z(n_), nn = n * n;
+    const std::size_t np = Z(model_.n_parameters());
+    const std::span<const std::size_t> positions = sens.dynamics().positions();
+    target_of_.resize(positions.size());
+    coefficient_of_.resize(positions.size());
+    for (std::size_t k = 0; k < positions.size(); ++k) {
+      const std::size_t pos = positions[k];
+      std::size_t target = 0, coefficient = 0;
+      if (pos < sens.DynJx(0)) {  // fθ
+        target = n + pos / n;
+        coefficient = pos % n;
+      } else if (pos < sens.DynJtheta(0)) {  // ∂J/∂x_m
+        target = (pos - sens.DynJx(0)) / nn;
+        coefficient = n + (pos - sens.DynJx(0)) % nn;
+      } else if (pos < sens.DynSigmaX()) {  // ∂J/∂θ_l
+        target = n + (pos - sens.DynJtheta(0)) / nn;
+        coefficient = n + (pos - sens.DynJtheta(0)) % nn;
+      } else if (pos < sens.DynSigmaTheta()) {  // ∂σ/∂x
+        target = (pos - sens.DynSigmaX()) / n;
+        coefficient = n + nn + (pos - sens.DynSigmaX()) % n;
+      } else {  // ∂σ/∂θ
+        target = n + (pos - sens.DynSigmaTheta()) / n;
+        coefficient = n + nn + (pos - sens.DynSigmaTheta()) % n;
+      }
+      target_of_[k] = target;
+      coefficient_of_[k] = coefficient;
+    }
+    coefficients_.resize(n + nn + n);
+    targets_.resize(n + np);
+  }
+  static std::size_t Z(int i) { return static_cast<std::size_t>(i); }
 
   // ∂F/∂z without the terms of ∂J/∂x̂ and ∂σ/∂x̂ (second derivatives): [J 0; 0 L(J)] with
   // L(J) the Lyapunov operator P -> J P + P J' on the lower triangle.
@@ -241,6 +358,7 @@ class MomentPropagator::Moments final : public ode::OdeSystem {
   }
 
   const Eigen::MatrixXd& J() const { return J_; }
+  void SetP(const Eigen::MatrixXd& P) { P_ = P; }
   const double* sigma() const { return out_.data() + n_ + static_cast<std::ptrdiff_t>(n_) * n_; }
   const std::optional<Error>& failure() const { return failure_; }
   void clear_failure() { failure_.reset(); }
@@ -252,7 +370,11 @@ class MomentPropagator::Moments final : public ode::OdeSystem {
   const model::NonlinearSensitivity* sens_;
   const std::vector<int> free_;
   const int m_;
-  std::vector<double> dense_, scratch_;  // the sensitivity program's output
+  std::vector<double> dense_, scratch_;                  // the sensitivity program's output
+  std::vector<std::size_t> target_of_, coefficient_of_;  // per nonzero (ClassifyNonzeros)
+  std::vector<double> coefficients_, targets_;           // Vjp's workspace
+  int retrace_stages_ = 0, retrace_next_ = 0;            // Retrace
+  std::vector<double> retrace_out_;                      // the dynamics at each retraced stage
   Eigen::MatrixXd dJ_, SP_;
   Eigen::VectorXd dsigma_;
   std::vector<double> slots_;
@@ -338,6 +460,70 @@ Status MomentPropagator::Advance(int j, Eigen::VectorXd* x, Eigen::MatrixXd* P,
     ds->x.col(q) = Eigen::Map<const Eigen::VectorXd>(block.data(), n);
     moments_->Unpack(block, &ds->P[q]);
   }
+  return Ok{};
+}
+
+void MomentPropagator::set_step_log(std::vector<double>* log) { solver_->set_step_log(log); }
+
+int MomentPropagator::moments_size() const { return moments_->moments_size(); }
+
+void MomentPropagator::Pack(const Eigen::VectorXd& x, const Eigen::MatrixXd& P,
+                            std::span<double> z) const {
+  std::copy(x.data(), x.data() + x.size(), z.begin());
+  moments_->Pack(P, z);
+}
+
+Status MomentPropagator::ReverseAdvance(int j, std::span<const double> z0,
+                                        std::span<const double> steps, std::span<double> z_bar,
+                                        std::span<double> theta_bar) {
+  assert(sensitivity_ && free_.empty() && !transition_);
+  const int m = model_.n_inputs();
+  const double* u0 = series_.U.data() + static_cast<std::size_t>(j) * m;
+  moments_->SetInterval(u0, foh_ ? u0 + m : nullptr, series_.time[j],
+                        series_.time[j + 1] - series_.time[j]);
+  moments_->clear_failure();
+  auto s = ode::ReverseExplicitSteps(*moments_, steps, z0, z_bar, theta_bar);
+  if (!s) {
+    const std::string why = moments_->failure() ? moments_->failure()->message : s.error().message;
+    return data::AtRow(
+        NumericalError(fmt::format("the adjoint of the moment equations from row {} (t = {:g}) "
+                                   "to the next could not be computed: {}",
+                                   j + 1, series_.time[j], why)),
+        series_, j);
+  }
+  return Ok{};
+}
+
+Status MomentPropagator::StationaryAdjoint(const Eigen::VectorXd& x0, const Eigen::MatrixXd& P0,
+                                           const Eigen::MatrixXd& P0_bar, Eigen::VectorXd* x0_bar,
+                                           std::span<double> theta_bar) {
+  assert(sensitivity_ && free_.empty() && !transition_);
+  const Eigen::Index n = model_.n_states();
+  moments_->SetInterval(series_.U.data(), nullptr, series_.time[0], 1.0);
+  if (!moments_->EvaluateAt(series_.time[0], x0.data()) || !moments_->EvaluateDerivatives())
+    return data::AtRow(*moments_->failure(), series_, 0);
+  // J' Y + Y J = P0_bar through the Kronecker form (I ⊗ J' + J' ⊗ I) vec Y = vec P0_bar.
+  const Eigen::MatrixXd& J = moments_->J();
+  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
+  Eigen::MatrixXd L(n * n, n * n);
+  for (Eigen::Index a = 0; a < n; ++a)
+    for (Eigen::Index b = 0; b < n; ++b)
+      L.block(a * n, b * n, n, n) = I(a, b) * J.transpose() + J(b, a) * I;
+  const Eigen::VectorXd v = Eigen::PartialPivLU<Eigen::MatrixXd>(L).solve(
+      Eigen::Map<const Eigen::VectorXd>(P0_bar.data(), n * n));
+  const Eigen::Map<const Eigen::MatrixXd> Y(v.data(), n, n);
+  const Eigen::MatrixXd minus_Y = -0.5 * (Y + Y.transpose());
+  moments_->SetP(P0);
+  const std::vector<double> zero(static_cast<std::size_t>(n), 0.0);
+  moments_->VjpAt(zero, minus_Y, {x0_bar->data(), static_cast<std::size_t>(n)}, theta_bar);
+  return Ok{};
+}
+
+Status MomentPropagator::InitialDerivatives(std::span<double> dense) {
+  const auto& program = sensitivity_->initial();
+  std::vector<double> scratch(program.nonzeros());
+  program.Eval(slots_, dense, scratch);
+  if (auto bad = sensitivity_->NotFinite(program, dense, slots_)) return *bad;
   return Ok{};
 }
 

@@ -74,6 +74,27 @@ class MomentPropagator {
 
   const ode::OdeCounts& counts() const;
 
+  // ---- the discrete adjoint (core/filter/ekf_adjoint.h): needs `sensitivity`, no `free` ----
+  // Advance and Initial append the explicit method's accepted steps ((t, Δt) pairs) to *log.
+  void set_step_log(std::vector<double>* log);
+  // The packed moments [x̂; lower triangle of P, column by column] that Advance integrates.
+  int moments_size() const;
+  void Pack(const Eigen::VectorXd& x, const Eigen::MatrixXd& P, std::span<double> z) const;
+  // Interval j's adjoint (ode::ReverseExplicitSteps): z0 the packed moments Advance started from
+  // at t_j, `steps` the steps it logged; z_bar, ∂L/∂z at t_{j+1}, becomes ∂L/∂z at t_j, and
+  // ∂L/∂θ (every parameter) is added to theta_bar. Errors name row j + 1.
+  Status ReverseAdvance(int j, std::span<const double> z0, std::span<const double> steps,
+                        std::span<double> z_bar, std::span<double> theta_bar);
+  // "stationary" P0's adjoint. P0 solves J P0 + P0 J' + diag σ² = 0 at (x0, u_0, t_0); with
+  // P0_bar = ∂L/∂P0 (symmetric), adds ∂L/∂x0 through P0 to *x0_bar and ∂L/∂θ to theta_bar:
+  // with Y the solution of J' Y + Y J = P0_bar, they are -<Y, dJ P0 + P0 dJ' + diag(2 σ dσ)>.
+  Status StationaryAdjoint(const Eigen::VectorXd& x0, const Eigen::MatrixXd& P0,
+                           const Eigen::MatrixXd& P0_bar, Eigen::VectorXd* x0_bar,
+                           std::span<double> theta_bar);
+  // The initial program's derivatives (NonlinearSensitivity::initial()) at θ into `dense` (from
+  // its Zeroed()).
+  Status InitialDerivatives(std::span<double> dense);
+
  private:
   class Moments;
   const model::NonlinearModel& model_;

@@ -51,6 +51,8 @@ class NonlinearSensitivity {
     void Eval(std::span<const double> slots, std::span<double> dense,
               std::span<double> scratch) const;
     std::size_t nonzeros() const { return positions_.size(); }
+    // Where in the dense array the nonzero entries are, in Eval's order.
+    std::span<const std::size_t> positions() const { return positions_; }
     // A dense array for Eval: zero where Eval never writes.
     std::vector<double> Zeroed() const { return std::vector<double>(size_, 0.0); }
 

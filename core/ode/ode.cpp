@@ -111,6 +111,10 @@ Status OdeSolver::AdvanceExplicit(OdeSystem& system, double t0, double t1, std::
       dt = 0.25 * dt_tried;
     } else if (result == odeint::success) {
       ++counts_.steps;
+      if (step_log_) {
+        step_log_->push_back(t);
+        step_log_->push_back(dt_tried);
+      }
       std::swap(e.x, e.x_new);
       std::swap(e.dxdt, e.dxdt_new);
       if (last) {
@@ -128,6 +132,81 @@ Status OdeSolver::AdvanceExplicit(OdeSystem& system, double t0, double t1, std::
           fmt::format("the step size fell below {:g} of the sample interval", kMinStepFraction));
   }
   std::copy(e.x.begin(), e.x.end(), z.begin());
+  return Ok{};
+}
+
+// ---- the discrete adjoint of the explicit steps ------------------------------------------------
+
+namespace {
+
+// Dormand-Prince 5(4)'s tableau (Boost.Odeint's runge_kutta_dopri5): the nodes, the stage
+// weights a_ik (k < i) and the fifth-order weights b (b_2 = 0; the seventh stage only estimates
+// the error and is the next step's first, so it does not enter the accepted solution).
+constexpr int kStages = 6;
+constexpr double kC[kStages] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0};
+constexpr double kA[kStages][kStages] = {
+    {},
+    {1.0 / 5},
+    {3.0 / 40, 9.0 / 40},
+    {44.0 / 45, -56.0 / 15, 32.0 / 9},
+    {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729},
+    {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656}};
+constexpr double kB[kStages] = {35.0 / 384,     0.0,      500.0 / 1113, 125.0 / 192,
+                                -2187.0 / 6784, 11.0 / 84};
+
+}  // namespace
+
+Status ReverseExplicitSteps(AdjointSystem& system, std::span<const double> steps,
+                            std::span<const double> z0, std::span<double> z_bar,
+                            std::span<double> p_bar) {
+  const auto size = static_cast<std::size_t>(system.size());
+  assert(z0.size() == size && z_bar.size() == size && steps.size() % 2 == 0);
+  const std::size_t n_steps = steps.size() / 2;
+  if (n_steps == 0) return Ok{};
+  // The stages of every step, recomputed forward: Y[s][i] (size each).
+  std::vector<double> Y(n_steps * kStages * size);
+  std::vector<double> K(kStages * size);
+  std::vector<double> z(z0.begin(), z0.end());
+  auto stage = [&](std::size_t s, int i) { return Y.data() + (s * kStages + i) * size; };
+  system.Retrace(static_cast<int>(n_steps) * kStages);
+  for (std::size_t s = 0; s < n_steps; ++s) {
+    const double t = steps[2 * s], h = steps[2 * s + 1];
+    for (int i = 0; i < kStages; ++i) {
+      double* y = stage(s, i);
+      for (std::size_t c = 0; c < size; ++c) {
+        double v = z[c];
+        for (int k = 0; k < i; ++k) v += h * kA[i][k] * K[k * size + c];
+        y[c] = v;
+      }
+      if (!system.Rhs(t + kC[i] * h, {y, size}, {K.data() + i * size, size})) {
+        system.Retrace(0);
+        return NumericalError("the moment equations are not finite on a retraced step");
+      }
+    }
+    for (std::size_t c = 0; c < size; ++c) {
+      double v = z[c];
+      for (int i = 0; i < kStages; ++i) v += h * kB[i] * K[i * size + c];
+      z[c] = v;
+    }
+  }
+  // Backwards through the steps: K̄ (the stages' adjoints, kStages x size) and Ȳ.
+  std::vector<double> K_bar(kStages * size), Y_bar(size);
+  for (std::size_t s = n_steps; s-- > 0;) {
+    const double t = steps[2 * s], h = steps[2 * s + 1];
+    for (int i = 0; i < kStages; ++i)
+      for (std::size_t c = 0; c < size; ++c) K_bar[i * size + c] = h * kB[i] * z_bar[c];
+    for (int i = kStages; i-- > 0;) {
+      std::fill(Y_bar.begin(), Y_bar.end(), 0.0);
+      if (!system.Vjp(static_cast<int>(s) * kStages + i, t + kC[i] * h, {stage(s, i), size},
+                      {K_bar.data() + i * size, size}, Y_bar, p_bar))
+        return NumericalError(
+            "the moment equations' derivatives are not finite on a retraced step");
+      for (std::size_t c = 0; c < size; ++c) {
+        z_bar[c] += Y_bar[c];
+        for (int k = 0; k < i; ++k) K_bar[k * size + c] += h * kA[i][k] * Y_bar[c];
+      }
+    }
+  }
   return Ok{};
 }
 

@@ -22,6 +22,7 @@
 
 #include <memory>
 #include <span>
+#include <vector>
 
 #include "core/model/model.h"
 #include "core/util/result.h"
@@ -39,6 +40,20 @@ class OdeSystem {
   virtual bool Rhs(double t, std::span<const double> z, std::span<double> dz) = 0;
   // An approximation of ∂F/∂z, column-major size x size, for the implicit method's Newton matrix.
   virtual void Jacobian(double t, std::span<const double> z, std::span<double> jac) = 0;
+};
+
+// An OdeSystem whose right-hand side depends on parameters p and that gives vector-Jacobian
+// products, for the discrete adjoint of the explicit method's steps (ReverseExplicitSteps).
+class AdjointSystem : public OdeSystem {
+ public:
+  // A retrace of `stages` points begins: the next `stages` calls of Rhs are at stages 0, 1, ...,
+  // and Vjp is then called at each of them with its index (in reverse order), so a system may
+  // keep what Rhs computed at a stage for its Vjp there.
+  virtual void Retrace(int stages) = 0;
+  // Adds λ' ∂F/∂z to z_bar (size()) and λ' ∂F/∂p to p_bar at (t, z), the retrace's stage
+  // `stage`. Returns false when F or its derivatives are not finite there.
+  virtual bool Vjp(int stage, double t, std::span<const double> z, std::span<const double> lambda,
+                   std::span<double> z_bar, std::span<double> p_bar) = 0;
 };
 
 struct OdeCounts {
@@ -75,6 +90,10 @@ class OdeSolver {
 
   const OdeCounts& counts() const { return counts_; }
 
+  // With a log, the explicit method appends (t, Δt) of each step it accepts, in order: the
+  // steps ReverseExplicitSteps retraces. Null: none kept.
+  void set_step_log(std::vector<double>* log) { step_log_ = log; }
+
  private:
   struct Explicit;
   struct Bdf;
@@ -86,6 +105,23 @@ class OdeSolver {
   std::unique_ptr<Explicit> explicit_;  // created on first use
   std::unique_ptr<Bdf> bdf_;            // created on first use
   OdeCounts counts_;
+  std::vector<double>* step_log_ = nullptr;
 };
+
+// The discrete adjoint of the explicit method's accepted steps (Dormand-Prince 5(4), the steps a
+// step log recorded from z0, in order): with z_bar the adjoint of the state after the last step
+// (∂L/∂z_end), replaces it with the adjoint of z0 (∂L/∂z0) and adds ∂L/∂p to p_bar, through
+// the Runge-Kutta map with the step sizes held fixed:
+//
+//   Y_i = z + h Σ_{k<i} a_ik K_k,  K_i = F(t + c_i h, Y_i),  z' = z + h Σ b_i K_i
+//   K̄_i = h b_i z̄',  Ȳ_i = (∂F/∂z)' (K̄_i + h Σ_{k>i} a_ki Ȳ_k),  z̄ = z̄' + Σ Ȳ_i
+//
+// the derivative of the numbers the method computed, so equal to forward sensitivities that
+// ride along on the same steps (OdeSystem::controlled_size) up to rounding. The stages are
+// recomputed from z0 and the logged step sizes. Fails (kNumerical) where F or its derivatives
+// are not finite.
+Status ReverseExplicitSteps(AdjointSystem& system, std::span<const double> steps,
+                            std::span<const double> z0, std::span<double> z_bar,
+                            std::span<double> p_bar);
 
 }  // namespace gb::ode

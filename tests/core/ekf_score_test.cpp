@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "core/filter/ekf.h"
+#include "core/filter/ekf_adjoint.h"
 #include "core/filter/likelihood.h"
 #include "core/filter/score.h"
 #include "core/model/linear_model.h"
@@ -159,6 +160,84 @@ TEST(EkfScore, EqualsDifferencesOfTheLikelihoodAndOfItsTerms) {
   }
 }
 
+// The adjoint (core/filter/ekf_adjoint.h) against the forward sensitivities, which the test
+// above checks against differences: the same log L bit for bit and the gradient to 1e-10
+// relative (the issue asks 1e-8; measured: 1e-14, the two differentiate the same numbers), on every
+// case above, at the model's tight tolerances and at the default ones (several steps per interval,
+// so that the adjoint retraces steps of every length).
+TEST(EkfAdjoint, EqualsTheForwardSensitivitiesOnEveryCaseOfTheScoreTest) {
+  const std::vector<Case> cases = {
+      {model::InitialCovariance::kExplicit, model::InputHold::kZoh, {0, 0}, std::nullopt},
+      {model::InitialCovariance::kCtsm, model::InputHold::kFoh, {2, 0}, std::nullopt},
+      {model::InitialCovariance::kStationary, model::InputHold::kZoh, {0, 0}, std::nullopt},
+      {model::InitialCovariance::kExplicit, model::InputHold::kFoh, {0, 0}, 1.0},
+      {model::InitialCovariance::kExplicit, model::InputHold::kZoh, {2, 0}, std::nullopt},
+      {model::InitialCovariance::kStationary, model::InputHold::kZoh, {0, 1}, 1.0},
+  };
+  for (const bool tight : {true, false}) {
+    for (const Case& c : cases) {
+      model::ModelSpec spec = Spec(kTanksThetaEverywhere, c.kind);
+      if (!tight) spec.ekf = model::EkfOptions{};
+      SCOPED_TRACE(fmt::format("P0 {}, {}, delays {} {}, Huber {}, rtol {}",
+                               static_cast<int>(c.kind),
+                               c.hold == model::InputHold::kFoh ? "foh" : "zoh", c.delay[0],
+                               c.delay[1], c.huber.value_or(0.0), spec.ekf.rtol));
+      const model::NonlinearModel nm = *model::NonlinearModel::Compile(spec);
+      const model::NonlinearSensitivity sens = *model::NonlinearSensitivity::Compile(nm);
+      const data::Series series = Simulate(nm);
+      FilterSettings settings = FilterSettings::FromModel(spec);
+      settings.hold = c.hold;
+      settings.delay = c.delay;
+      settings.first_obs = {2, 2};
+      settings.huber = c.huber;
+      std::vector<double> theta = spec.Values();
+      for (std::size_t i = 0; i < theta.size(); ++i) theta[i] *= 1.0 + 0.07 * ((i % 3) - 1.0);
+      // Every parameter but one, in an order of their own.
+      std::vector<int> free;
+      for (int i = static_cast<int>(theta.size()) - 1; i > 0; --i) free.push_back(i);
+
+      Eigen::VectorXd forward, adjoint;
+      ode::OdeCounts forward_counts, adjoint_counts;
+      auto f = EkfLogLikelihoodWithScore(nm, sens, theta, series, settings, free, &forward, nullptr,
+                                         &forward_counts);
+      ASSERT_TRUE(f) << f.error().ToString();
+      bool applicable = false;
+      auto a = EkfLogLikelihoodWithAdjoint(nm, sens, theta, series, settings, free, &adjoint,
+                                           &applicable, &adjoint_counts);
+      ASSERT_TRUE(a) << a.error().ToString();
+      ASSERT_TRUE(applicable);
+      auto plain = EkfLogLikelihood(nm, theta, series, settings);
+      ASSERT_TRUE(plain);
+      EXPECT_EQ(a->loglik, plain->loglik);
+      EXPECT_EQ(a->n_obs, plain->n_obs);
+      EXPECT_EQ(adjoint_counts.steps, forward_counts.steps);
+      ASSERT_EQ(adjoint.size(), forward.size());
+      for (Eigen::Index q = 0; q < forward.size(); ++q) {
+        EXPECT_NEAR(adjoint(q), forward(q), 1e-10 * std::max(1.0, std::abs(forward(q))))
+            << spec.parameters[static_cast<std::size_t>(free[q])].name;
+      }
+    }
+  }
+}
+
+// BDF, chosen by the model or for a stiff interval, has no adjoint here: the function says it
+// is not applicable, and the likelihood's gradient is the forward sensitivities' then.
+TEST(EkfAdjoint, IsNotApplicableWhereAnIntervalNeedsBdf) {
+  model::ModelSpec spec = Spec(kTanksThetaEverywhere, model::InitialCovariance::kExplicit);
+  spec.ekf.method = model::OdeMethod::kBdf;
+  const model::NonlinearModel nm = *model::NonlinearModel::Compile(spec);
+  const model::NonlinearSensitivity sens = *model::NonlinearSensitivity::Compile(nm);
+  const data::Series series = Simulate(nm);
+  const FilterSettings settings = FilterSettings::FromModel(spec);
+  Eigen::VectorXd g;
+  bool applicable = true;
+  const std::vector<int> free = {0, 1};
+  auto a =
+      EkfLogLikelihoodWithAdjoint(nm, sens, spec.Values(), series, settings, free, &g, &applicable);
+  ASSERT_TRUE(a);
+  EXPECT_FALSE(applicable);
+}
+
 TEST(EkfScore, OfALinearModelEqualsTheLinearFiltersExactScore) {
   Json j = Json::parse(fixtures::kTwoOutputModel);
   j["ekf"] = {{"rtol", 1e-11}, {"atol", 1e-13}};
@@ -207,6 +286,22 @@ TEST(EkfScore, TheLikelihoodGivesExactScoresExceptForTheIteratedFilter) {
   ASSERT_TRUE(one);
   EXPECT_NEAR(l->loglik, 2 * one->loglik, 1e-12 * std::abs(l->loglik));
   EXPECT_LT((g - 2 * g_one).norm(), 1e-12 * g.norm());
+
+  // The gradient alone: from three free parameters the adjoint's (ekf_adjoint.h), below that
+  // and when forced the forward sensitivities'; the same numbers to rounding either way.
+  EXPECT_TRUE(lik->UsesAdjoint(free.size()));
+  EXPECT_FALSE(lik->UsesAdjoint(2));
+  Eigen::VectorXd g_adjoint, g_forward;
+  auto a = lik->EvaluateWithScore(spec.Values(), {}, free, &g_adjoint);
+  ASSERT_TRUE(a) << a.error().ToString();
+  Likelihood forward = *lik;
+  forward.set_gradient_method(Likelihood::GradientMethod::kForward);
+  EXPECT_FALSE(forward.UsesAdjoint(free.size()));
+  auto f = forward.EvaluateWithScore(spec.Values(), {}, free, &g_forward);
+  ASSERT_TRUE(f);
+  EXPECT_EQ(a->loglik, f->loglik);
+  EXPECT_LT((g_adjoint - g_forward).norm(), 1e-10 * g_forward.norm());
+  EXPECT_LT((g_adjoint - g).norm(), 1e-10 * g.norm());
 
   model::ModelSpec iterated = spec;
   iterated.ekf.iterations = 3;
