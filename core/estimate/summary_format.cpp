@@ -71,8 +71,16 @@ std::string EstimateSummary::Report() const {
   } else {
     line("Filter: Kalman filter, exact discretisation (the model is linear)");
   }
-  line(exact_scores ? (extended ? "Scores: exact (forward sensitivities of the filter)"
-                                : "Scores: exact (derivatives of the filter)")
+  // The EKF's gradient is the adjoint's from Likelihood::kAdjointFrom free parameters on, except
+  // with BDF (core/filter/likelihood.h); the per-observation scores are always forward
+  // sensitivities.
+  const bool adjoint = extended && static_cast<std::size_t>(n_free) >=
+                                       filter::Likelihood::kAdjointFrom &&
+                       ekf.method != model::OdeMethod::kBdf;
+  line(exact_scores ? (adjoint    ? "Scores: exact (the gradient by the filter's adjoint, "
+                                    "per-observation scores by forward sensitivities)"
+                       : extended ? "Scores: exact (forward sensitivities of the filter)"
+                                  : "Scores: exact (derivatives of the filter)")
                     : "Scores: central differences of log L; standard errors from second "
                       "differences");
   line("");
