@@ -11,6 +11,7 @@
 // exact filter with the EKF on the same linear model and data.
 #include <cstdlib>
 #include <filesystem>
+#include <utility>
 
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
@@ -310,14 +311,9 @@ BENCHMARK(BM_FuelFilmExactVsEkf)
     ->Args({1, 1})
     ->Unit(benchmark::kMillisecond);
 
-// The bundled nonlinear cases through the EKF, interpreter (second argument 0) against native
-// code (1), one evaluation per iteration: the first argument is 0 the Cascaded Tanks SDE model
-// on its estimation record (log L), 1 the same with the exact score of its 14 free parameters,
-// 2 the engine model (7 states) on the first 600 rows of engine_sweep.csv (log L), 3 the same
-// with the exact score of its free parameters.
-void BM_BundledEkf(benchmark::State& state) {
-  const bool engine = state.range(0) >= 2;
-  const bool score = state.range(0) % 2 == 1;
+// A bundled nonlinear case: the Cascaded Tanks SDE model on its estimation record, or the engine
+// model (7 states) on the first 600 rows of engine_sweep.csv.
+std::pair<model::ModelSpec, data::Series> BundledCase(bool engine) {
   const std::string root = GREYBENCH_SOURCE_DIR;
   auto spec = *model::LoadModelFile(root + (engine ? "/assets/models/engine_mvem.json"
                                                    : "/assets/models/cascaded_tanks_sde.json"));
@@ -333,6 +329,18 @@ void BM_BundledEkf(benchmark::State& state) {
     if (!s.row_line.empty()) s.row_line.resize(rows);
     s.intervals = data::GroupIntervals(s.time);
   }
+  return {std::move(spec), std::move(s)};
+}
+
+// The bundled nonlinear cases through the EKF, interpreter (second argument 0) against native
+// code (1), one evaluation per iteration: the first argument is 0 the Cascaded Tanks SDE model
+// on its estimation record (log L), 1 the same with the exact score of its 14 free parameters,
+// 2 the engine model (7 states) on the first 600 rows of engine_sweep.csv (log L), 3 the same
+// with the exact score of its free parameters.
+void BM_BundledEkf(benchmark::State& state) {
+  const bool engine = state.range(0) >= 2;
+  const bool score = state.range(0) % 2 == 1;
+  auto [spec, s] = BundledCase(engine);
   auto nm = std::make_shared<const model::NonlinearModel>(*model::NonlinearModel::Compile(spec));
   auto lik = *filter::Likelihood::Create(nm, {std::make_shared<const data::Series>(s)});
   if (state.range(1) == 1) lik = *lik.WithNativeCode();
@@ -364,21 +372,7 @@ BENCHMARK(BM_BundledEkf)
 // by forward sensitivities, 2 by the adjoint). `evals` is the time in units of log L's.
 void BM_EkfGradient(benchmark::State& state) {
   const bool engine = state.range(0) == 1;
-  const std::string root = GREYBENCH_SOURCE_DIR;
-  auto spec = *model::LoadModelFile(root + (engine ? "/assets/models/engine_mvem.json"
-                                                   : "/assets/models/cascaded_tanks_sde.json"));
-  auto data = *data::ReadCsvFile(
-      root + (engine ? "/assets/data/engine_sweep.csv" : "/assets/data/tanks_estimation.csv"));
-  auto bound = *data::Bind(*data, spec.inputs, spec.outputs);
-  data::Series s = *bound;
-  if (engine) {
-    const int rows = 600;
-    s.time.resize(rows);
-    s.U = bound->U.leftCols(rows);
-    s.Y = bound->Y.leftCols(rows);
-    if (!s.row_line.empty()) s.row_line.resize(rows);
-    s.intervals = data::GroupIntervals(s.time);
-  }
+  auto [spec, s] = BundledCase(engine);
   auto nm = std::make_shared<const model::NonlinearModel>(*model::NonlinearModel::Compile(spec));
   auto lik = *(*filter::Likelihood::Create(nm, {std::make_shared<const data::Series>(s)}))
                   .WithNativeCode();

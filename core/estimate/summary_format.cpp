@@ -74,8 +74,8 @@ std::string EstimateSummary::Report() const {
   // The EKF's gradient is the adjoint's from Likelihood::kAdjointFrom free parameters on, except
   // with BDF (core/filter/likelihood.h); the per-observation scores are always forward
   // sensitivities.
-  const bool adjoint = extended && static_cast<std::size_t>(n_free) >=
-                                       filter::Likelihood::kAdjointFrom &&
+  const bool adjoint = extended &&
+                       static_cast<std::size_t>(n_free) >= filter::Likelihood::kAdjointFrom &&
                        ekf.method != model::OdeMethod::kBdf;
   line(exact_scores ? (adjoint    ? "Scores: exact (the gradient by the filter's adjoint, "
                                     "per-observation scores by forward sensitivities)"

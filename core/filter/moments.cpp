@@ -210,8 +210,11 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   bool VjpAt(std::span<const double> lambda_x, const Eigen::MatrixXd& Lambda,
              std::span<double> z_bar, std::span<double> theta_bar) {
     const model::NonlinearSensitivity& sens = *sens_;
-    const Eigen::Map<const Eigen::VectorXd> lx(lambda_x.data(), n_);
-    Eigen::Map<Eigen::VectorXd>(z_bar.data(), n_).noalias() += J_.transpose() * lx;
+    for (int m = 0; m < n_; ++m) {  // J' λx
+      double v = 0.0;
+      for (int i = 0; i < n_; ++i) v += J_(i, m) * lambda_x[Z(i)];
+      z_bar[Z(m)] += v;
+    }
     if (static_cast<int>(z_bar.size()) >= moments_size()) {
       M_.noalias() = J_.transpose().lazyProduct(Lambda);  // small: no blocked product
       for (int b = 0; b < n_; ++b)

@@ -95,16 +95,35 @@ struct Case {
   std::optional<double> huber;
 };
 
+// Every initial covariance kind, both holds, delays and Huber.
+const std::vector<Case> kCases = {
+    {model::InitialCovariance::kExplicit, model::InputHold::kZoh, {0, 0}, std::nullopt},
+    {model::InitialCovariance::kCtsm, model::InputHold::kFoh, {2, 0}, std::nullopt},
+    {model::InitialCovariance::kStationary, model::InputHold::kZoh, {0, 0}, std::nullopt},
+    {model::InitialCovariance::kExplicit, model::InputHold::kFoh, {0, 0}, 1.0},
+    {model::InitialCovariance::kExplicit, model::InputHold::kZoh, {2, 0}, std::nullopt},
+    {model::InitialCovariance::kStationary, model::InputHold::kZoh, {0, 1}, 1.0},
+};
+
+// A case's filter settings: its hold, delays and Huber, the first two rows left out.
+FilterSettings SettingsOf(const model::ModelSpec& spec, const Case& c) {
+  FilterSettings settings = FilterSettings::FromModel(spec);
+  settings.hold = c.hold;
+  settings.delay = c.delay;
+  settings.first_obs = {2, 2};
+  settings.huber = c.huber;
+  return settings;
+}
+
+// The model file's values moved by -7 %, 0 or +7 %, so that every derivative is far from zero.
+std::vector<double> AwayFromTheTruth(const model::ModelSpec& spec) {
+  std::vector<double> theta = spec.Values();
+  for (std::size_t i = 0; i < theta.size(); ++i) theta[i] *= 1.0 + 0.07 * ((i % 3) - 1.0);
+  return theta;
+}
+
 TEST(EkfScore, EqualsDifferencesOfTheLikelihoodAndOfItsTerms) {
-  const std::vector<Case> cases = {
-      {model::InitialCovariance::kExplicit, model::InputHold::kZoh, {0, 0}, std::nullopt},
-      {model::InitialCovariance::kCtsm, model::InputHold::kFoh, {2, 0}, std::nullopt},
-      {model::InitialCovariance::kStationary, model::InputHold::kZoh, {0, 0}, std::nullopt},
-      {model::InitialCovariance::kExplicit, model::InputHold::kFoh, {0, 0}, 1.0},
-      {model::InitialCovariance::kExplicit, model::InputHold::kZoh, {2, 0}, std::nullopt},
-      {model::InitialCovariance::kStationary, model::InputHold::kZoh, {0, 1}, 1.0},
-  };
-  for (const Case& c : cases) {
+  for (const Case& c : kCases) {
     const model::ModelSpec spec = Spec(kTanksThetaEverywhere, c.kind);
     SCOPED_TRACE(fmt::format("P0 {}, {}, delays {} {}, Huber {}", static_cast<int>(c.kind),
                              c.hold == model::InputHold::kFoh ? "foh" : "zoh", c.delay[0],
@@ -112,14 +131,8 @@ TEST(EkfScore, EqualsDifferencesOfTheLikelihoodAndOfItsTerms) {
     const model::NonlinearModel nm = *model::NonlinearModel::Compile(spec);
     const model::NonlinearSensitivity sens = *model::NonlinearSensitivity::Compile(nm);
     const data::Series series = Simulate(nm);
-    FilterSettings settings = FilterSettings::FromModel(spec);
-    settings.hold = c.hold;
-    settings.delay = c.delay;
-    settings.first_obs = {2, 2};
-    settings.huber = c.huber;
-    // Away from the truth, so that every derivative is far from zero.
-    std::vector<double> theta = spec.Values();
-    for (std::size_t i = 0; i < theta.size(); ++i) theta[i] *= 1.0 + 0.07 * ((i % 3) - 1.0);
+    const FilterSettings settings = SettingsOf(spec, c);
+    const std::vector<double> theta = AwayFromTheTruth(spec);
     std::vector<int> free(theta.size());
     for (std::size_t i = 0; i < free.size(); ++i) free[i] = static_cast<int>(i);
 
@@ -166,16 +179,8 @@ TEST(EkfScore, EqualsDifferencesOfTheLikelihoodAndOfItsTerms) {
 // case above, at the model's tight tolerances and at the default ones (several steps per interval,
 // so that the adjoint retraces steps of every length).
 TEST(EkfAdjoint, EqualsTheForwardSensitivitiesOnEveryCaseOfTheScoreTest) {
-  const std::vector<Case> cases = {
-      {model::InitialCovariance::kExplicit, model::InputHold::kZoh, {0, 0}, std::nullopt},
-      {model::InitialCovariance::kCtsm, model::InputHold::kFoh, {2, 0}, std::nullopt},
-      {model::InitialCovariance::kStationary, model::InputHold::kZoh, {0, 0}, std::nullopt},
-      {model::InitialCovariance::kExplicit, model::InputHold::kFoh, {0, 0}, 1.0},
-      {model::InitialCovariance::kExplicit, model::InputHold::kZoh, {2, 0}, std::nullopt},
-      {model::InitialCovariance::kStationary, model::InputHold::kZoh, {0, 1}, 1.0},
-  };
   for (const bool tight : {true, false}) {
-    for (const Case& c : cases) {
+    for (const Case& c : kCases) {
       model::ModelSpec spec = Spec(kTanksThetaEverywhere, c.kind);
       if (!tight) spec.ekf = model::EkfOptions{};
       SCOPED_TRACE(fmt::format("P0 {}, {}, delays {} {}, Huber {}, rtol {}",
@@ -185,13 +190,8 @@ TEST(EkfAdjoint, EqualsTheForwardSensitivitiesOnEveryCaseOfTheScoreTest) {
       const model::NonlinearModel nm = *model::NonlinearModel::Compile(spec);
       const model::NonlinearSensitivity sens = *model::NonlinearSensitivity::Compile(nm);
       const data::Series series = Simulate(nm);
-      FilterSettings settings = FilterSettings::FromModel(spec);
-      settings.hold = c.hold;
-      settings.delay = c.delay;
-      settings.first_obs = {2, 2};
-      settings.huber = c.huber;
-      std::vector<double> theta = spec.Values();
-      for (std::size_t i = 0; i < theta.size(); ++i) theta[i] *= 1.0 + 0.07 * ((i % 3) - 1.0);
+      const FilterSettings settings = SettingsOf(spec, c);
+      const std::vector<double> theta = AwayFromTheTruth(spec);
       // Every parameter but one, in an order of their own.
       std::vector<int> free;
       for (int i = static_cast<int>(theta.size()) - 1; i > 0; --i) free.push_back(i);
