@@ -332,6 +332,32 @@ std::pair<model::ModelSpec, data::Series> BundledCase(bool engine) {
   return {std::move(spec), std::move(s)};
 }
 
+// The free parameters of a model file, in its order.
+std::vector<int> FreeOf(const model::ModelSpec& spec) {
+  std::vector<int> free;
+  for (std::size_t i = 0; i < spec.parameters.size(); ++i)
+    if (!spec.parameters[i].fixed) free.push_back(static_cast<int>(i));
+  return free;
+}
+
+// One evaluation of `lik` per iteration at the model file's values: log L, or with `score` also
+// its gradient in `free`; ns per row (of `rows`) and the number of free parameters as counters.
+void TimeBundled(benchmark::State& state, const filter::Likelihood& lik,
+                 const model::ModelSpec& spec, std::size_t rows, const std::vector<int>& free,
+                 bool score) {
+  const std::vector<double> theta = spec.Values();
+  Eigen::VectorXd gradient;
+  for (auto _ : state) {
+    auto l = score ? lik.EvaluateWithScore(theta, {}, free, &gradient) : lik.Evaluate(theta);
+    if (!l) state.SkipWithError(l.error().ToString().c_str());
+    benchmark::DoNotOptimize(l);
+  }
+  state.counters["ns_per_row"] = benchmark::Counter(
+      static_cast<double>(rows) * 1e-9,
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["free"] = static_cast<double>(free.size());
+}
+
 // The bundled nonlinear cases through the EKF, interpreter (second argument 0) against native
 // code (1), one evaluation per iteration: the first argument is 0 the Cascaded Tanks SDE model
 // on its estimation record (log L), 1 the same with the exact score of its 14 free parameters,
@@ -344,20 +370,7 @@ void BM_BundledEkf(benchmark::State& state) {
   auto nm = std::make_shared<const model::NonlinearModel>(*model::NonlinearModel::Compile(spec));
   auto lik = *filter::Likelihood::Create(nm, {std::make_shared<const data::Series>(s)});
   if (state.range(1) == 1) lik = *lik.WithNativeCode();
-  const std::vector<double> theta = spec.Values();
-  std::vector<int> free;
-  for (std::size_t i = 0; i < spec.parameters.size(); ++i)
-    if (!spec.parameters[i].fixed) free.push_back(static_cast<int>(i));
-  Eigen::VectorXd gradient;
-  for (auto _ : state) {
-    auto l = score ? lik.EvaluateWithScore(theta, {}, free, &gradient) : lik.Evaluate(theta);
-    if (!l) state.SkipWithError(l.error().ToString().c_str());
-    benchmark::DoNotOptimize(l);
-  }
-  state.counters["ns_per_row"] = benchmark::Counter(
-      static_cast<double>(s.size()) * 1e-9,
-      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
-  state.counters["free"] = static_cast<double>(free.size());
+  TimeBundled(state, lik, spec, s.size(), FreeOf(spec), score);
 }
 BENCHMARK(BM_BundledEkf)
     ->ArgsProduct({{0, 1, 2, 3}, {0, 1}})
@@ -369,7 +382,7 @@ BENCHMARK(BM_BundledEkf)
 // Cascaded Tanks SDE model on its estimation record, 1 the engine model on the first 600 rows of
 // engine_sweep.csv), the second the number of free parameters (the first ones of the model
 // file's free parameters; 0: all, 14 and 19), the third what is computed (0 log L, 1 the gradient
-// by forward sensitivities, 2 by the adjoint). `evals` is the time in units of log L's.
+// by forward sensitivities, 2 by the adjoint).
 void BM_EkfGradient(benchmark::State& state) {
   const bool engine = state.range(0) == 1;
   auto [spec, s] = BundledCase(engine);
@@ -379,21 +392,9 @@ void BM_EkfGradient(benchmark::State& state) {
   const int mode = static_cast<int>(state.range(2));
   lik.set_gradient_method(mode == 2 ? filter::Likelihood::GradientMethod::kAdjoint
                                     : filter::Likelihood::GradientMethod::kForward);
-  const std::vector<double> theta = spec.Values();
-  std::vector<int> free;
-  for (std::size_t i = 0; i < spec.parameters.size(); ++i)
-    if (!spec.parameters[i].fixed) free.push_back(static_cast<int>(i));
+  std::vector<int> free = FreeOf(spec);
   if (state.range(1) > 0) free.resize(static_cast<std::size_t>(state.range(1)));
-  Eigen::VectorXd gradient;
-  for (auto _ : state) {
-    auto l = mode == 0 ? lik.Evaluate(theta) : lik.EvaluateWithScore(theta, {}, free, &gradient);
-    if (!l) state.SkipWithError(l.error().ToString().c_str());
-    benchmark::DoNotOptimize(l);
-  }
-  state.counters["ns_per_row"] = benchmark::Counter(
-      static_cast<double>(s.size()) * 1e-9,
-      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
-  state.counters["free"] = static_cast<double>(free.size());
+  TimeBundled(state, lik, spec, s.size(), free, mode != 0);
 }
 BENCHMARK(BM_EkfGradient)
     ->ArgsProduct({{0, 1}, {1, 2, 3, 5, 0}, {0, 1, 2}})
