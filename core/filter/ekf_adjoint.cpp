@@ -75,9 +75,10 @@ Result<Loglik> EkfLogLikelihoodWithAdjoint(
   MomentPropagator propagator(model, theta, series, settings.hold, false, &sensitivity, {});
   const auto nz = static_cast<std::size_t>(propagator.moments_size());
   auto stiff = [&] { return propagator.counts().stiff_intervals > 0; };
-  auto finish = [&](auto result) {
+  auto not_applicable = [&] {  // the integrator's work is counted all the same
     if (counts) *counts += propagator.counts();
-    return result;
+    *applicable = false;
+    return Loglik{};
   };
 
   // ---- forward: the filter, keeping the checkpoints ----
@@ -87,7 +88,7 @@ Result<Loglik> EkfLogLikelihoodWithAdjoint(
   Eigen::MatrixXd P;
   if (auto s = propagator.Initial(settings.initial_covariance, &x, &P); !s) return s.error();
   const std::size_t initial_steps = steps.size();  // "ctsm": the first interval from (x0, 0)
-  if (stiff()) return *applicable = false, finish(Loglik{});
+  if (stiff()) return not_applicable();
   const Eigen::VectorXd x0 = x;
   const Eigen::MatrixXd P0 = P;
   std::vector<double> initial_dense = sensitivity.initial().Zeroed();
@@ -141,7 +142,7 @@ Result<Loglik> EkfLogLikelihoodWithAdjoint(
     propagator.Pack(x, P, std::span<double>(starts).last(nz));
     if (auto s = propagator.Advance(j, &x, &P); !s) return s.error();
     step_end.push_back(steps.size());
-    if (stiff()) return *applicable = false, finish(Loglik{});
+    if (stiff()) return not_applicable();
   }
   if (!std::isfinite(loglik)) return internal::NotFiniteLoglik(series);
 

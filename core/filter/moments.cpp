@@ -334,12 +334,7 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   bool StationarySensitivities(const Eigen::MatrixXd& P, MomentSensitivities* ds) {
     if (!EvaluateDerivatives()) return false;
     const Eigen::Index n = n_;
-    const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
-    Eigen::MatrixXd L(n * n, n * n);
-    for (Eigen::Index a = 0; a < n; ++a)
-      for (Eigen::Index b = 0; b < n; ++b)
-        L.block(a * n, b * n, n, n) = I(a, b) * J_ + J_(a, b) * I;
-    const Eigen::PartialPivLU<Eigen::MatrixXd> lu(L);
+    const Eigen::PartialPivLU<Eigen::MatrixXd> lu(LyapunovOperator(J_));
     for (int q = 0; q < n_free(); ++q) {
       DerivativesAlong(free_[q], ds->x.col(q));
       Eigen::MatrixXd Q = dJ_ * P + P * dJ_.transpose();
@@ -505,15 +500,10 @@ Status MomentPropagator::StationaryAdjoint(const Eigen::VectorXd& x0, const Eige
   moments_->SetInterval(series_.U.data(), nullptr, series_.time[0], 1.0);
   if (!moments_->EvaluateAt(series_.time[0], x0.data()) || !moments_->EvaluateDerivatives())
     return data::AtRow(*moments_->failure(), series_, 0);
-  // J' Y + Y J = P0_bar through the Kronecker form (I ⊗ J' + J' ⊗ I) vec Y = vec P0_bar.
-  const Eigen::MatrixXd& J = moments_->J();
-  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
-  Eigen::MatrixXd L(n * n, n * n);
-  for (Eigen::Index a = 0; a < n; ++a)
-    for (Eigen::Index b = 0; b < n; ++b)
-      L.block(a * n, b * n, n, n) = I(a, b) * J.transpose() + J(b, a) * I;
-  const Eigen::VectorXd v = Eigen::PartialPivLU<Eigen::MatrixXd>(L).solve(
-      Eigen::Map<const Eigen::VectorXd>(P0_bar.data(), n * n));
+  // J' Y + Y J = P0_bar: the Lyapunov operator's Kronecker form (discretize.h), transposed.
+  const Eigen::VectorXd v = Eigen::PartialPivLU<Eigen::MatrixXd>(LyapunovOperator(moments_->J()))
+                                .transpose()
+                                .solve(Eigen::Map<const Eigen::VectorXd>(P0_bar.data(), n * n));
   const Eigen::Map<const Eigen::MatrixXd> Y(v.data(), n, n);
   const Eigen::MatrixXd minus_Y = -0.5 * (Y + Y.transpose());
   moments_->SetP(P0);
