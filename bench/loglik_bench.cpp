@@ -356,6 +356,13 @@ void TimeBundled(benchmark::State& state, const filter::Likelihood& lik,
       static_cast<double>(rows) * 1e-9,
       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
   state.counters["free"] = static_cast<double>(free.size());
+  const ode::OdeCounts counts = lik.ode_counts();
+  if (counts.intervals > 0) {
+    state.counters["steps_per_interval"] =
+        static_cast<double>(counts.steps) / static_cast<double>(counts.intervals);
+    state.counters["rhs_per_interval"] =
+        static_cast<double>(counts.rhs) / static_cast<double>(counts.intervals);
+  }
 }
 
 // The bundled nonlinear cases through the EKF, interpreter (second argument 0) against native

@@ -33,14 +33,23 @@ namespace {
 namespace fs = std::filesystem;
 
 // Part of every library's hash: a change of the generator's output format makes new names.
-constexpr std::string_view kGeneratorVersion = "greybench-native-1";
+constexpr std::string_view kGeneratorVersion = "greybench-native-2";
 constexpr int kMaxLogLines = 6;  // of the compiler's messages, in an error
 
-// Helpers with Tape's arithmetic (internal.h): sign(±0) = ±0, min and max NaN-propagating.
+// Helpers with Tape's arithmetic (internal.h): sign(±0) = ±0, min and max NaN-propagating,
+// small integer powers as products (internal::Power).
 constexpr std::string_view kPrelude = R"(#include <math.h>
 static double gb_sign(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : x); }
 static double gb_min(double a, double b) { return (a <= b || isnan(a)) ? a : b; }
 static double gb_max(double a, double b) { return (a >= b || isnan(a)) ? a : b; }
+static double gb_pow(double a, double b) {
+  if (b == 2.0) return a * a;
+  if (b == 3.0) return a * a * a;
+  if (b == 4.0) { const double s = a * a; return s * s; }
+  if (b == -1.0) return 1.0 / a;
+  if (b == -2.0) return 1.0 / (a * a);
+  return pow(a, b);
+}
 )";
 
 std::string_view CName(Func f) {
@@ -64,7 +73,7 @@ std::string_view CName(Func f) {
     case Func::kSign:
       return "gb_sign";
     case Func::kPow:
-      return "pow";
+      return "gb_pow";
     case Func::kMin:
       return "gb_min";
     case Func::kMax:
@@ -131,7 +140,7 @@ class FunctionWriter {
         value = args[0] + " / " + args[1];
         break;
       case Op::kPow:
-        value = "pow(" + args[0] + ", " + args[1] + ")";
+        value = "gb_pow(" + args[0] + ", " + args[1] + ")";
         break;
       case Op::kCall:
         value = fmt::format("{}({})", CName(n.func), fmt::join(args, ", "));

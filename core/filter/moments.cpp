@@ -1,7 +1,9 @@
 #include "core/filter/moments.h"
 
+#include <bit>
 #include <cmath>
 #include <complex>
+#include <cstdint>
 #include <limits>
 #include <optional>
 
@@ -14,6 +16,68 @@
 namespace gb::filter {
 
 using Program = model::NonlinearModel::Program;
+
+namespace {
+
+// m = a b for n x n column-major matrices, column by column: m_·j = Σ_k a_·k b_kj, summed over
+// k in order. The moment equations' products are this small (7 x 7 for the engine model):
+// Eigen's blocked product packed and unpacked its operands for every one, a third of the
+// filter's time on the engine model, and a loop over a size known only at run time neither
+// keeps the column in registers nor vectorises (docs/benchmarks.md, issue 37). With the size
+// fixed at compile time it does both; every size sums in the same order.
+template <int N>
+void MultiplyFixed(const double* a, const double* b, double* m) {
+  for (int j = 0; j < N; ++j) {
+    double column[N];
+    for (int i = 0; i < N; ++i) column[i] = a[i] * b[j * N];
+    for (int k = 1; k < N; ++k)
+      for (int i = 0; i < N; ++i) column[i] += a[k * N + i] * b[j * N + k];
+    for (int i = 0; i < N; ++i) m[j * N + i] = column[i];
+  }
+}
+
+// True if every value is finite, in one vectorisable pass: the exponent field of a value is
+// all ones (an infinity or a NaN) exactly when adding one unit to it carries into the sign bit.
+bool AllFinite(std::span<const double> values) {
+  constexpr std::uint64_t kExponent = 0x7ff0000000000000ULL, kUnit = 1ULL << 52;
+  std::uint64_t carry = 0;
+  for (const double v : values) carry |= (std::bit_cast<std::uint64_t>(v) & kExponent) + kUnit;
+  return (carry >> 63) == 0;
+}
+
+void MultiplySquare(const double* a, const double* b, double* m, int n) {
+  switch (n) {
+    case 1:
+      return MultiplyFixed<1>(a, b, m);
+    case 2:
+      return MultiplyFixed<2>(a, b, m);
+    case 3:
+      return MultiplyFixed<3>(a, b, m);
+    case 4:
+      return MultiplyFixed<4>(a, b, m);
+    case 5:
+      return MultiplyFixed<5>(a, b, m);
+    case 6:
+      return MultiplyFixed<6>(a, b, m);
+    case 7:
+      return MultiplyFixed<7>(a, b, m);
+    case 8:
+      return MultiplyFixed<8>(a, b, m);
+    default:
+      break;
+  }
+  for (int j = 0; j < n; ++j) {
+    double* column = m + static_cast<std::ptrdiff_t>(j) * n;
+    const double* b_j = b + static_cast<std::ptrdiff_t>(j) * n;
+    for (int i = 0; i < n; ++i) column[i] = a[i] * b_j[0];
+    for (int k = 1; k < n; ++k) {
+      const double* a_k = a + static_cast<std::ptrdiff_t>(k) * n;
+      for (int i = 0; i < n; ++i) column[i] += a_k[i] * b_j[k];
+    }
+  }
+}
+
+}  // namespace
 
 // The moment equations over one sample interval: z = [x̂; lower triangle of P, column by column],
 // and with `transition` also Φ (column-major), dΦ/dt = J Φ from Φ = I.
@@ -32,7 +96,8 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
         packed_(n_, n_),
         J_(n_, n_),
         P_(n_, n_),
-        M_(n_, n_) {
+        M_(n_, n_),
+        M2_(n_, n_) {
     std::copy(theta.begin(), theta.end(), slots_.begin() + model.parameter_slot());
     int k = n_;
     for (int b = 0; b < n_; ++b)
@@ -62,17 +127,24 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
     dt_ = dt;
   }
 
-  // Evaluates the dynamics at (x, u(t), t) into out_; false (and failure() set) if not finite.
+  // Evaluates the dynamics at (x, u(t), t) into out_ and J_; false (and failure() set) if not
+  // finite.
   bool EvaluateAt(double t, const double* x) {
+    if (!EvaluateDynamics(t, x)) return false;
+    SetJ();
+    return true;
+  }
+  // The same without J_ (the moment equations alone read J from out_).
+  bool EvaluateDynamics(double t, const double* x) {
     SetSlots(t, x);
     model_.Dynamics(slots_, out_);
+    if (AllFinite(out_)) return true;
     for (std::size_t k = 0; k < out_.size(); ++k) {
       if (!std::isfinite(out_[k])) {
         failure_ = model_.NotFinite(Program::kDynamics, k, out_[k], slots_);
         return false;
       }
     }
-    SetJ();
     return true;
   }
   void SetSlots(double t, const double* x) {
@@ -84,6 +156,8 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
     }
     slots_[model_.time_slot()] = t;
   }
+  // J as the dynamics program wrote it into out_, row by row: J' column by column.
+  const double* JRowMajor() const { return out_.data() + n_; }
   void SetJ() {
     for (int i = 0; i < n_; ++i)
       for (int j = 0; j < n_; ++j) J_(i, j) = out_[n_ + i * n_ + j];
@@ -97,7 +171,7 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   }
 
   bool Rhs(double t, std::span<const double> z, std::span<double> dz) override {
-    if (!EvaluateAt(t, z.data())) return false;
+    if (!EvaluateDynamics(t, z.data())) return false;
     if (retrace_next_ < retrace_stages_) {
       std::copy(out_.begin(), out_.end(),
                 retrace_out_.begin() + static_cast<std::ptrdiff_t>(Z(retrace_next_++)) *
@@ -105,15 +179,17 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
     }
     for (int i = 0; i < n_; ++i) dz[i] = out_[i];
     Unpack(z, &P_);
-    M_.noalias() = J_ * P_;
+    // M_ = P J' = (J P)' from J as the program writes it, row by row (J' column by column), so
+    // that the moment equations need no copy of J: M_(b, a) = (J P)_ab, the same sum in the
+    // same order as Multiply(J_, P_) would take it (P is symmetric).
+    MultiplySquare(P_.data(), JRowMajor(), M_.data(), n_);
     const double* sigma = out_.data() + n_ + static_cast<std::ptrdiff_t>(n_) * n_;
+    double* packed = dz.data() + n_;  // the lower triangle column by column, as packed_ numbers it
     for (int b = 0; b < n_; ++b) {
-      for (int a = b; a < n_; ++a) {
-        double v = M_(a, b) + M_(b, a);
-        if (a == b) v += sigma[a] * sigma[a];
-        dz[packed_(a, b)] = v;
-      }
+      *packed++ = M_(b, b) + M_(b, b) + sigma[b] * sigma[b];
+      for (int a = b + 1; a < n_; ++a) *packed++ = M_(b, a) + M_(a, b);
     }
+    if (transition_ || !free_.empty()) SetJ();
     if (transition_) {
       const Eigen::Map<const Eigen::MatrixXd> Phi(z.data() + moments_size(), n_, n_);
       Eigen::Map<Eigen::MatrixXd>(dz.data() + moments_size(), n_, n_).noalias() = J_ * Phi;
@@ -138,11 +214,11 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
       DerivativesAlong(l, S);
       Eigen::Map<Eigen::VectorXd>(dz.data() + base, n_).noalias() = J_ * S + f_theta.col(l);
       Unpack(z.subspan(base), &SP_);
-      M_.noalias() = dJ_ * P_;
-      M_.noalias() += J_ * SP_;
+      Multiply(dJ_, P_, &M_);
+      Multiply(J_, SP_, &M2_);
       for (int b = 0; b < n_; ++b) {
         for (int a = b; a < n_; ++a) {
-          double v = M_(a, b) + M_(b, a);
+          double v = (M_(a, b) + M2_(a, b)) + (M_(b, a) + M2_(b, a));
           if (a == b) v += 2.0 * sigma()[a] * dsigma_(a);
           dz[base + packed_(a, b)] = v;
         }
@@ -216,7 +292,7 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
       z_bar[Z(m)] += v;
     }
     if (static_cast<int>(z_bar.size()) >= moments_size()) {
-      M_.noalias() = J_.transpose().lazyProduct(Lambda);  // small: no blocked product
+      MultiplySquare(JRowMajor(), Lambda.data(), M_.data(), n_);  // J' Λ
       for (int b = 0; b < n_; ++b)
         for (int a = b; a < n_; ++a)
           z_bar[packed_(a, b)] += a == b ? 2.0 * M_(a, a) : 2.0 * (M_(a, b) + M_(b, a));
@@ -224,7 +300,7 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
     // The terms of the derivative program's nonzero entries (ClassifyNonzeros): each adds its
     // value times a coefficient, [λx | 2 W (column-major) | 2 Λ_aa σ_a], to its target,
     // [∂/∂x̂ | ∂/∂θ].
-    M_.noalias() = Lambda.lazyProduct(P_);  // W
+    Multiply(Lambda, P_, &M_);  // W
     const double* s = sigma();
     const std::size_t nn = Z(n_) * Z(n_);
     for (int i = 0; i < n_; ++i) coefficients_[Z(i)] = lambda_x[Z(i)];
@@ -277,6 +353,11 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
     targets_.resize(n + np);
   }
   static std::size_t Z(int i) { return static_cast<std::size_t>(i); }
+  // *M = A B for the moment equations' n x n matrices (n the states), column by column as sums of
+  // A's columns: each entry summed over k in order, whatever n is (MultiplySquare).
+  static void Multiply(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, Eigen::MatrixXd* M) {
+    MultiplySquare(A.data(), B.data(), M->data(), static_cast<int>(A.rows()));
+  }
 
   // ∂F/∂z without the terms of ∂J/∂x̂ and ∂σ/∂x̂ (second derivatives): [J 0; 0 L(J)] with
   // L(J) the Lyapunov operator P -> J P + P J' on the lower triangle.
@@ -347,8 +428,9 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   }
 
   void Unpack(std::span<const double> z, Eigen::MatrixXd* P) const {
+    const double* packed = z.data() + n_;  // packed_'s order
     for (int b = 0; b < n_; ++b)
-      for (int a = b; a < n_; ++a) (*P)(a, b) = (*P)(b, a) = z[packed_(a, b)];
+      for (int a = b; a < n_; ++a) (*P)(a, b) = (*P)(b, a) = *packed++;
   }
   void Pack(const Eigen::MatrixXd& P, std::span<double> z) const {
     for (int b = 0; b < n_; ++b)
@@ -378,7 +460,7 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   std::vector<double> slots_;
   std::vector<double> out_;
   Eigen::MatrixXi packed_;
-  Eigen::MatrixXd J_, P_, M_;
+  Eigen::MatrixXd J_, P_, M_, M2_;
   const double* u0_ = nullptr;
   const double* u1_ = nullptr;
   double t0_ = 0.0, dt_ = 1.0;
