@@ -283,7 +283,7 @@ class HessianByDifferences {
       std::vector<double> zp = z_;
       zp[active_[p.a]] += p.oa * h_[p.a];
       if (p.b >= 0) zp[active_[p.b]] += p.ob * h_[p.b];
-      v[c] = -f_.Objective(zp, delay_);
+      v[c] = -f_.Objective(zp, delay_, /*threads=*/1);
     });
     for (std::size_t c = 0; c < points.size(); ++c) values_[points[c]] = v[c];
   }

@@ -159,9 +159,10 @@ Fitter::Fitter(const Fitter& base, const EstimateOptions& options)
   threads_ = options.threads > 0 ? options.threads : HardwareThreads();
 }
 
-double Fitter::LogLik(const std::vector<double>& z, const std::vector<int>& delay, long* n_obs) {
+double Fitter::LogLik(const std::vector<double>& z, const std::vector<int>& delay, long* n_obs,
+                      int threads) {
   evaluations_.fetch_add(1);
-  auto l = lik_.Evaluate(Theta(z), delay);
+  auto l = lik_.Evaluate(Theta(z), delay, nullptr, threads > 0 ? threads : threads_);
   if (!l) return -std::numeric_limits<double>::infinity();
   if (n_obs) *n_obs = l->n_obs;
   return l->loglik;
@@ -189,8 +190,14 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
     return ScoresByDifferences(z, delay, f, g, info);
   }
   const std::vector<double> theta = Theta(z);
-  // One chunk at least, also with no free parameter (only a delay is estimated).
-  const int chunks = split && k() > 1 ? std::clamp(std::min(threads_, k() / 2), 1, k()) : 1;
+  // The free parameters in chunks on the threads, each chunk's derivatives by forward
+  // sensitivities or by differentiating the filter's own algebra, whose cost grows with the
+  // chunk; one chunk at least, also with no free parameter (only a delay is estimated). The
+  // EKF's adjoint costs the same for any chunk: one chunk, with the records (the series of a
+  // joint fit) on the threads instead.
+  const bool adjoint = !info && lik_.UsesAdjoint(static_cast<std::size_t>(k()));
+  const int chunks =
+      split && !adjoint && k() > 1 ? std::clamp(std::min(threads_, k() / 2), 1, k()) : 1;
   std::vector<std::vector<int>> which(chunks);
   for (int i = 0; i < k(); ++i) which[i * chunks / k()].push_back(free_[i]);
   std::vector<Eigen::VectorXd> g_part(chunks);
@@ -199,8 +206,9 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   std::vector<char> ok(chunks, 0);
   evaluations_.fetch_add(1);
   ParallelFor(chunks, chunks, [&](int c) {
-    auto l =
-        lik_.EvaluateWithScore(theta, delay, which[c], &g_part[c], info ? &J_part[c] : nullptr);
+    auto l = lik_.EvaluateWithScore(theta, delay, which[c], &g_part[c],
+                                    info ? &J_part[c] : nullptr,
+                                    split ? std::max(1, threads_ / chunks) : 1);
     ok[c] = l.ok();
     if (l) value[c] = l->loglik;
   });

@@ -172,13 +172,16 @@ class Fitter {
   }
 
   // The objective at scaled point z: log L, plus Σ log N(θ_i | m_i, s_i²) over the parameters
-  // with a prior (a log posterior); -inf where log L cannot be evaluated.
-  double Objective(const std::vector<double>& z, const std::vector<int>& delay) {
-    return LogLik(z, delay) + LogPrior(z);
+  // with a prior (a log posterior); -inf where log L cannot be evaluated. `threads`: for the
+  // records (Likelihood::Evaluate); 0 the fitter's own, 1 where the caller runs points side by
+  // side already.
+  double Objective(const std::vector<double>& z, const std::vector<int>& delay, int threads = 0) {
+    return LogLik(z, delay, nullptr, threads) + LogPrior(z);
   }
 
-  // log L alone (no prior) at z.
-  double LogLik(const std::vector<double>& z, const std::vector<int>& delay, long* n_obs = nullptr);
+  // log L alone (no prior) at z; `threads` as Objective's.
+  double LogLik(const std::vector<double>& z, const std::vector<int>& delay, long* n_obs = nullptr,
+                int threads = 0);
 
   bool HasPriors() const { return !priors_.empty(); }
 
@@ -196,9 +199,11 @@ class Fitter {
 
   // The objective's value *f, its gradient *g and, with `info`, BHHH's information Σ_j s_j s_j'
   // (plus the priors' information), all in scaled units, from the exact score
-  // (filter::Likelihood::EvaluateWithScore). With `split`, the parameters are shared out over the
-  // threads (each evaluates the filter once more, with its share of the sensitivities). False
-  // where log L or its score cannot be evaluated.
+  // (filter::Likelihood::EvaluateWithScore). With `split`, the threads are used: the parameters
+  // are shared out over them (each evaluates the filter once more, with its share of the
+  // sensitivities), or for the EKF's adjoint, whose cost does not depend on the share, the
+  // records of a joint fit are; without, one thread (the caller runs points side by side).
+  // False where log L or its score cannot be evaluated.
   bool Scores(const std::vector<double>& z, const std::vector<int>& delay, double* f,
               Eigen::VectorXd* g, Eigen::MatrixXd* info, bool split = true, bool* exact = nullptr);
 

@@ -2,14 +2,36 @@
 
 #include <atomic>
 #include <cmath>
+#include <optional>
 
 #include <fmt/format.h>
 
 #include "core/filter/ekf_adjoint.h"
 #include "core/filter/ekf_score.h"
 #include "core/filter/score.h"
+#include "core/util/parallel.h"
 
 namespace gb::filter {
+
+namespace {
+
+// Calls run(i) for the series i in [0, n) on up to `threads` threads; run returns false when
+// series i failed. A series after a failed one is skipped: the caller reports the first failure
+// in the series' order, which always runs.
+template <class Run>
+void OverSeries(int n, int threads, Run&& run) {
+  std::atomic<int> first_failed{n};
+  ParallelFor(n, threads, [&](int i) {
+    if (i > first_failed.load()) return;
+    if (!run(i)) {
+      int seen = first_failed.load();
+      while (i < seen && !first_failed.compare_exchange_weak(seen, i)) {
+      }
+    }
+  });
+}
+
+}  // namespace
 
 struct Likelihood::Counts {
   std::atomic<long> intervals{0}, stiff_intervals{0}, steps{0}, rejected{0}, rhs{0};
@@ -130,21 +152,26 @@ std::vector<std::vector<int>> Likelihood::DelayGrid() const {
 }
 
 // Σ over the series of one(series, settings, terms of that series), with the per-series terms
-// concatenated into *terms.
+// concatenated into *terms; the series on up to `threads` threads, summed in their order.
 template <class One>
 Result<Loglik> Likelihood::SumOverSeries(std::span<const int> delay, std::vector<double>* terms,
-                                         One&& one) const {
+                                         int threads, One&& one) const {
   FilterSettings settings = settings_;
   if (!delay.empty()) settings.delay.assign(delay.begin(), delay.end());
+  const int n = static_cast<int>(series_.size());
+  std::vector<std::optional<Result<Loglik>>> each(series_.size());
+  std::vector<std::vector<double>> series_terms(terms ? series_.size() : 0);
+  OverSeries(n, threads, [&](int i) {
+    each[i] = one(i, *series_[i], settings, terms ? &series_terms[i] : nullptr);
+    return each[i]->ok();
+  });
   Loglik total;
-  std::vector<double> series_terms;
   if (terms) terms->clear();
-  for (std::size_t i = 0; i < series_.size(); ++i) {
-    auto l = one(i, *series_[i], settings, terms ? &series_terms : nullptr);
-    if (!l) return l.error();
-    if (terms) terms->insert(terms->end(), series_terms.begin(), series_terms.end());
-    total.loglik += l->loglik;
-    total.n_obs += l->n_obs;
+  for (int i = 0; i < n; ++i) {
+    if (!*each[i]) return each[i]->error();
+    if (terms) terms->insert(terms->end(), series_terms[i].begin(), series_terms[i].end());
+    total.loglik += (*each[i])->loglik;
+    total.n_obs += (*each[i])->n_obs;
   }
   return total;
 }
@@ -202,9 +229,9 @@ Result<std::vector<model::StateSpace>> Likelihood::LinearAt(std::span<const doub
 }
 
 Result<Loglik> Likelihood::EvaluateAt(const std::vector<model::StateSpace>& ss,
-                                      std::span<const int> delay,
-                                      std::vector<double>* terms) const {
-  return SumOverSeries(delay, terms,
+                                      std::span<const int> delay, std::vector<double>* terms,
+                                      int threads) const {
+  return SumOverSeries(delay, terms, threads,
                        [&](std::size_t i, const data::Series& s, const FilterSettings& settings,
                            std::vector<double>* t) {
                          return LogLikelihood(ss[ss.size() == 1 ? 0 : i], s, settings, t);
@@ -212,15 +239,15 @@ Result<Loglik> Likelihood::EvaluateAt(const std::vector<model::StateSpace>& ss,
 }
 
 Result<Loglik> Likelihood::EvaluateEkf(std::span<const double> theta, std::span<const int> delay,
-                                       std::vector<double>* terms) const {
-  ode::OdeCounts counts;
-  auto total = SumOverSeries(delay, terms,
+                                       std::vector<double>* terms, int threads) const {
+  std::vector<ode::OdeCounts> counts(series_.size());
+  auto total = SumOverSeries(delay, terms, threads,
                              [&](std::size_t i, const data::Series& s,
                                  const FilterSettings& settings, std::vector<double>* t) {
                                return EkfLogLikelihood(*nonlinear_, SeriesTheta(theta, i), s,
-                                                       settings, t, &counts);
+                                                       settings, t, &counts[i]);
                              });
-  counts_->Add(counts);
+  for (const ode::OdeCounts& c : counts) counts_->Add(c);
   return total;
 }
 
@@ -280,11 +307,11 @@ Result<Loglik> Likelihood::EkfScore(std::span<const double> theta, std::span<con
 }
 
 Result<Loglik> Likelihood::Evaluate(std::span<const double> theta, std::span<const int> delay,
-                                    std::vector<double>* terms) const {
-  if (nonlinear_) return EvaluateEkf(theta, delay, terms);
+                                    std::vector<double>* terms, int threads) const {
+  if (nonlinear_) return EvaluateEkf(theta, delay, terms, threads);
   auto ss = LinearAt(theta);
   if (!ss) return ss.error();
-  return EvaluateAt(*ss, delay, terms);
+  return EvaluateAt(*ss, delay, terms, threads);
 }
 
 // The scores of every series summed, and their per-term rows stacked series after series.
@@ -293,36 +320,38 @@ Result<Loglik> Likelihood::Evaluate(std::span<const double> theta, std::span<con
 template <class One>
 Result<Loglik> Likelihood::ScoreOverSeries(std::span<const int> delay, std::span<const int> free,
                                            Eigen::VectorXd* gradient,
-                                           Eigen::MatrixXd* J_terms_theta, One&& one) const {
+                                           Eigen::MatrixXd* J_terms_theta, int threads,
+                                           One&& one) const {
   FilterSettings settings = settings_;
   if (!delay.empty()) settings.delay.assign(delay.begin(), delay.end());
   const Eigen::Index k = static_cast<Eigen::Index>(free.size());
+  const int n = static_cast<int>(series_.size());
+  std::vector<std::optional<Result<Loglik>>> each(series_.size());
+  std::vector<SeriesFree> free_per_series(series_.size());
+  std::vector<Eigen::VectorXd> gradient_per_series(series_.size());
+  std::vector<Eigen::MatrixXd> J_per_series(series_.size());
+  OverSeries(n, threads, [&](int s) {
+    free_per_series[s] = FreeOf(free, s);
+    each[s] = one(s, *series_[s], settings, std::span<const int>(free_per_series[s].params),
+                  &gradient_per_series[s], J_terms_theta ? &J_per_series[s] : nullptr);
+    return each[s]->ok();
+  });
   Loglik total;
   gradient->setZero(k);
-  Eigen::VectorXd one_gradient;
-  std::vector<Eigen::MatrixXd> J_per_series;
-  std::vector<SeriesFree> free_per_series;
-  for (std::size_t s = 0; s < series_.size(); ++s) {
-    SeriesFree own = FreeOf(free, s);
-    Eigen::MatrixXd one_J;
-    auto l = one(s, *series_[s], settings, std::span<const int>(own.params), &one_gradient,
-                 J_terms_theta ? &one_J : nullptr);
-    if (!l) return l.error();
-    total.loglik += l->loglik;
-    total.n_obs += l->n_obs;
-    for (std::size_t c = 0; c < own.columns.size(); ++c)
-      (*gradient)(own.columns[c]) += one_gradient(static_cast<Eigen::Index>(c));
-    if (J_terms_theta) {
-      J_per_series.push_back(std::move(one_J));
-      free_per_series.push_back(std::move(own));
-    }
+  for (int s = 0; s < n; ++s) {
+    if (!*each[s]) return each[s]->error();
+    total.loglik += (*each[s])->loglik;
+    total.n_obs += (*each[s])->n_obs;
+    const std::vector<Eigen::Index>& columns = free_per_series[s].columns;
+    for (std::size_t c = 0; c < columns.size(); ++c)
+      (*gradient)(columns[c]) += gradient_per_series[s](static_cast<Eigen::Index>(c));
   }
   if (J_terms_theta) {
     Eigen::Index rows = 0;
     for (const auto& J : J_per_series) rows += J.rows();
     J_terms_theta->setZero(rows, k);
     Eigen::Index at = 0;
-    for (std::size_t s = 0; s < J_per_series.size(); ++s) {
+    for (int s = 0; s < n; ++s) {
       const Eigen::MatrixXd& J = J_per_series[s];
       const std::vector<Eigen::Index>& columns = free_per_series[s].columns;
       for (std::size_t c = 0; c < columns.size(); ++c)
@@ -336,27 +365,27 @@ Result<Loglik> Likelihood::ScoreOverSeries(std::span<const int> delay, std::span
 Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
                                              std::span<const int> delay, std::span<const int> free,
                                              Eigen::VectorXd* gradient,
-                                             Eigen::MatrixXd* J_terms_theta) const {
+                                             Eigen::MatrixXd* J_terms_theta, int threads) const {
   assert(gradient != nullptr);
   if (nonlinear_ && !exact_scores()) return EkfScore(theta, delay, free, gradient, J_terms_theta);
   if (nonlinear_) {
-    ode::OdeCounts counts;
+    std::vector<ode::OdeCounts> counts(series_.size());
     const bool adjoint = J_terms_theta == nullptr && UsesAdjoint(free.size());
     auto total = ScoreOverSeries(
-        delay, free, gradient, J_terms_theta,
+        delay, free, gradient, J_terms_theta, threads,
         [&](std::size_t i, const data::Series& s, const FilterSettings& settings,
             std::span<const int> params, Eigen::VectorXd* g, Eigen::MatrixXd* J) -> Result<Loglik> {
           const std::vector<double> own = SeriesTheta(theta, i);
           if (adjoint) {
             bool applicable = false;
             auto l = EkfLogLikelihoodWithAdjoint(*nonlinear_, *sensitivity_, own, s, settings,
-                                                 params, g, &applicable, &counts);
+                                                 params, g, &applicable, &counts[i]);
             if (!l || applicable) return l;
           }
           return EkfLogLikelihoodWithScore(*nonlinear_, *sensitivity_, own, s, settings, params, g,
-                                           J, &counts);
+                                           J, &counts[i]);
         });
-    counts_->Add(counts);
+    for (const ode::OdeCounts& c : counts) counts_->Add(c);
     return total;
   }
   if (series_parameters_.empty()) {
@@ -364,14 +393,14 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
     if (!ss) return ss.error();
     auto dss = linear_->EvaluateJacobian(theta, free);
     if (!dss) return dss.error();
-    return ScoreOverSeries(delay, free, gradient, J_terms_theta,
+    return ScoreOverSeries(delay, free, gradient, J_terms_theta, threads,
                            [&](std::size_t, const data::Series& s, const FilterSettings& settings,
                                std::span<const int>, Eigen::VectorXd* g, Eigen::MatrixXd* J) {
                              return LogLikelihoodScore(*ss, *dss, s, settings, g, J);
                            });
   }
   return ScoreOverSeries(
-      delay, free, gradient, J_terms_theta,
+      delay, free, gradient, J_terms_theta, threads,
       [&](std::size_t i, const data::Series& s, const FilterSettings& settings,
           std::span<const int> params, Eigen::VectorXd* g, Eigen::MatrixXd* J) -> Result<Loglik> {
         const std::vector<double> own = SeriesTheta(theta, i);

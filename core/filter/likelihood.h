@@ -63,8 +63,11 @@ class Likelihood {
   // log L at θ (all parameters, natural scale) with the given delay per output (empty: each
   // output's min).
   // With `terms`: the per-state-index terms of every series, concatenated (see LogLikelihood).
+  // With `threads` > 1 the series are filtered side by side on up to that many threads (records
+  // of a joint fit); the sums are taken in the series' order, so the result is the same bit for
+  // bit whatever the count.
   Result<Loglik> Evaluate(std::span<const double> theta, std::span<const int> delay = {},
-                          std::vector<double>* terms = nullptr) const;
+                          std::vector<double>* terms = nullptr, int threads = 1) const;
 
   // log L at θ as Evaluate, and its exact derivatives (core/filter/score.h) with respect to the
   // parameters θ_i, i in `free` (indices into the model's parameters), on their natural scale:
@@ -77,9 +80,11 @@ class Likelihood {
   // then central differences of the terms with the step h_i = kDifferenceStep max(|θ_i|,
   // 1e-3 s_i), s_i the width of θ_i's bounds or 1 when unbounded (one-sided where a step would
   // leave the bounds), as accurate as the ODE tolerance allows (about rtol / kDifferenceStep).
+  // `threads` as Evaluate's.
   Result<Loglik> EvaluateWithScore(std::span<const double> theta, std::span<const int> delay,
                                    std::span<const int> free, Eigen::VectorXd* gradient,
-                                   Eigen::MatrixXd* J_terms_theta = nullptr) const;
+                                   Eigen::MatrixXd* J_terms_theta = nullptr,
+                                   int threads = 1) const;
 
   // Every delay candidate at θ. The model is evaluated once.
   Result<DelayProfile> Profile(std::span<const double> theta) const;
@@ -148,14 +153,14 @@ class Likelihood {
   template <class One>
   Result<Loglik> ScoreOverSeries(std::span<const int> delay, std::span<const int> free,
                                  Eigen::VectorXd* gradient, Eigen::MatrixXd* J_terms_theta,
-                                 One&& one) const;
+                                 int threads, One&& one) const;
   template <class One>
   Result<Loglik> SumOverSeries(std::span<const int> delay, std::vector<double>* terms,
-                               One&& one) const;
+                               int threads, One&& one) const;
   Result<Loglik> EvaluateAt(const std::vector<model::StateSpace>& ss, std::span<const int> delay,
-                            std::vector<double>* terms = nullptr) const;
+                            std::vector<double>* terms = nullptr, int threads = 1) const;
   Result<Loglik> EvaluateEkf(std::span<const double> theta, std::span<const int> delay,
-                             std::vector<double>* terms = nullptr) const;
+                             std::vector<double>* terms = nullptr, int threads = 1) const;
   Result<Loglik> EkfScore(std::span<const double> theta, std::span<const int> delay,
                           std::span<const int> free, Eigen::VectorXd* gradient,
                           Eigen::MatrixXd* J_terms_theta) const;
