@@ -3,6 +3,7 @@
 # alternate between the binaries, so a change of load on the shared machine hits both alike.
 #
 #   bench/loglik_ab.sh BASE_BIN NEW_BIN [ROUNDS]      (default 7)
+#   FILTER='BM_BundledEkf/[0-3]/1' bench/loglik_ab.sh ...   other benchmarks (issue 37)
 #
 # BASE_BIN: a loglik_bench built from another commit (git worktree add, then its own build).
 # Prints, per benchmark, the median CPU ms of each binary, their ratio and every round.
@@ -10,7 +11,7 @@ set -euo pipefail
 base=${1:?BASE_BIN}
 new=${2:?NEW_BIN}
 rounds=${3:-7}
-filter='BM_FuelFilm2State$|BM_Chain4State$|BM_FuelFilm2StateScore/1$|BM_Chain4StateScore/1$|BM_Chain10StateScore/1$|BM_EkfTanks2State/1$'
+filter=${FILTER:-'BM_FuelFilm2State$|BM_Chain4State$|BM_FuelFilm2StateScore/1$|BM_Chain4StateScore/1$|BM_Chain10StateScore/1$|BM_EkfTanks2State/1$'}
 out=$(mktemp)
 trap 'rm -f "$out"' EXIT
 for _ in $(seq 1 "$rounds"); do
