@@ -206,8 +206,7 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   std::vector<char> ok(chunks, 0);
   evaluations_.fetch_add(1);
   ParallelFor(chunks, chunks, [&](int c) {
-    auto l = lik_.EvaluateWithScore(theta, delay, which[c], &g_part[c],
-                                    info ? &J_part[c] : nullptr,
+    auto l = lik_.EvaluateWithScore(theta, delay, which[c], &g_part[c], info ? &J_part[c] : nullptr,
                                     split ? std::max(1, threads_ / chunks) : 1);
     ok[c] = l.ok();
     if (l) value[c] = l->loglik;

@@ -219,7 +219,12 @@ std::string FirstLines(const fs::path& log) {
 }
 
 // Runs the compiler on `source` into `library`; its messages go to `log`.
-Status RunCompiler(const fs::path& source, const fs::path& library, const fs::path& log) {
+// Compiles `source` into `library`, the compiler's messages into `log`. *ran: whether the
+// compiler ran (and failed, if the status is an error); its failure names `kept`, where the
+// caller keeps the source for a reader.
+Status RunCompiler(const fs::path& source, const fs::path& library, const fs::path& log,
+                   const fs::path& kept, bool* ran) {
+  *ran = false;
   std::vector<std::string> args{Compiler()};
   for (std::string& f : CompilerFlags()) args.push_back(std::move(f));
   args.insert(args.end(), {"-o", library.string(), source.string(), "-lm"});
@@ -243,9 +248,12 @@ Status RunCompiler(const fs::path& source, const fs::path& library, const fs::pa
   while (waitpid(pid, &status, 0) < 0) {
     if (errno != EINTR) return NumericalError("native code: lost the C compiler's process");
   }
+  *ran = true;
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    return NumericalError(fmt::format("native code: the C compiler '{}' failed on {}:{}", args[0],
-                                      source.string(), FirstLines(log)));
+    return NumericalError(
+        fmt::format("native code: the C compiler '{}' failed on the model's "
+                    "generated C (kept as {}):{}",
+                    args[0], kept.string(), FirstLines(log)));
   }
   return Ok();
 }
@@ -305,17 +313,23 @@ Result<std::shared_ptr<const NativeCode>> NativeCode::Compile(
       out << *source;
       if (!out.flush()) return NumericalError("native code: cannot write " + c_file.string());
     }
+    // Where a compiler that ran failed, its source stays for a reader (and a bug report) as
+    // gb-HASH.failed.c; where it works, the source stays beside its library as gb-HASH.c.
+    fs::path failed = library;
+    failed.replace_extension(".failed.c");
     const auto start = std::chrono::steady_clock::now();
-    const Status built = RunCompiler(c_file, partial, log);
+    bool ran = false;
+    const Status built = RunCompiler(c_file, partial, log, failed, &ran);
     code->compile_seconds_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     fs::remove(log, ec);
+    fs::remove(failed, ec);
     if (!built) {
-      fs::remove(c_file, ec);
+      if (ran) fs::rename(c_file, failed, ec);
+      if (!ran || ec) fs::remove(c_file, ec);
       fs::remove(partial, ec);
       return built.error();
     }
-    // The source stays beside its library, for a reader (and for measuring other compilers).
     fs::path kept = library;
     fs::rename(c_file, kept.replace_extension(".c"), ec);
     if (ec) fs::remove(c_file, ec);

@@ -83,8 +83,7 @@ class Likelihood {
   // `threads` as Evaluate's.
   Result<Loglik> EvaluateWithScore(std::span<const double> theta, std::span<const int> delay,
                                    std::span<const int> free, Eigen::VectorXd* gradient,
-                                   Eigen::MatrixXd* J_terms_theta = nullptr,
-                                   int threads = 1) const;
+                                   Eigen::MatrixXd* J_terms_theta = nullptr, int threads = 1) const;
 
   // Every delay candidate at θ. The model is evaluated once.
   Result<DelayProfile> Profile(std::span<const double> theta) const;
@@ -155,8 +154,8 @@ class Likelihood {
                                  Eigen::VectorXd* gradient, Eigen::MatrixXd* J_terms_theta,
                                  int threads, One&& one) const;
   template <class One>
-  Result<Loglik> SumOverSeries(std::span<const int> delay, std::vector<double>* terms,
-                               int threads, One&& one) const;
+  Result<Loglik> SumOverSeries(std::span<const int> delay, std::vector<double>* terms, int threads,
+                               One&& one) const;
   Result<Loglik> EvaluateAt(const std::vector<model::StateSpace>& ss, std::span<const int> delay,
                             std::vector<double>* terms = nullptr, int threads = 1) const;
   Result<Loglik> EvaluateEkf(std::span<const double> theta, std::span<const int> delay,

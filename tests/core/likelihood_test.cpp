@@ -82,9 +82,9 @@ TEST(Likelihood, RecordsOnThreadsGiveWhatOneThreadGivesBitForBit) {
   };
   {
     const auto m = Compile(kModel);
-    const auto lik = *Likelihood::Create(
-        m, {SimulatedSeries(*m, 2, 1, 30.0), SimulatedSeries(*m, 2, 2, 20.0),
-            SimulatedSeries(*m, 2, 3, 25.0)});
+    const auto lik =
+        *Likelihood::Create(m, {SimulatedSeries(*m, 2, 1, 30.0), SimulatedSeries(*m, 2, 2, 20.0),
+                                SimulatedSeries(*m, 2, 3, 25.0)});
     const std::vector<double> theta = m->spec().Values();
     const std::vector<int> delay = {2}, free = {0, 1, 2, 3};
     std::vector<double> terms1, terms3;

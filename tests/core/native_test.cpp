@@ -298,6 +298,7 @@ TEST(NativeCode, AMissingOrFailingCompilerIsAnErrorThatNamesIt) {
               std::string::npos)
         << code.error().message;
   }
+  EXPECT_TRUE(fs::is_empty(dir));  // nothing left behind where no compiler ran
   {
     const ScopedEnv cc("GREYBENCH_CC", "false");
     auto code = NativeCode::Compile(programs, slot_of);
@@ -305,8 +306,17 @@ TEST(NativeCode, AMissingOrFailingCompilerIsAnErrorThatNamesIt) {
     EXPECT_NE(code.error().message.find("the C compiler 'false' failed"), std::string::npos)
         << code.error().message;
   }
-  // Nothing is left behind, and a working compiler then builds it.
-  EXPECT_TRUE(fs::is_empty(dir));
+  // The failing source is kept where the message says, and nothing else (the library's name,
+  // and so the kept source's, hashes the compiler too); a working compiler then builds it.
+  std::vector<fs::path> left;
+  for (const auto& entry : fs::directory_iterator(dir)) left.push_back(entry.path());
+  ASSERT_EQ(left.size(), 1u);
+  EXPECT_TRUE(left[0].string().ends_with(".failed.c")) << left[0];
+  {
+    const ScopedEnv cc("GREYBENCH_CC", "false");
+    const std::string message = NativeCode::Compile(programs, slot_of).error().message;
+    EXPECT_NE(message.find("(kept as " + left[0].string() + ")"), std::string::npos) << message;
+  }
   EXPECT_TRUE(NativeCode::Compile(programs, slot_of).ok());
 }
 
