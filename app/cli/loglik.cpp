@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "app/cli/cli.h"
+#include "core/expr/native.h"
 #include "core/util/json.h"
 
 namespace gb::cli {
@@ -12,6 +13,11 @@ int RunLoglik(const LoglikArgs& args) {
   if (!in) return Fail(in.error());
   auto loaded = LoadLikelihood(*in, args.sets);
   if (!loaded) return Fail(loaded.error());
+  // A nonlinear model's filter runs on native code where it can be built, as a fit's does (the
+  // same values bit for bit, from the same cache), and on the interpreter where it cannot.
+  if (loaded->likelihood.nonlinear() && expr::NativeCode::Enabled()) {
+    if (auto native = loaded->likelihood.WithNativeCode()) loaded->likelihood = std::move(*native);
+  }
   const filter::Likelihood* lik = &loaded->likelihood;
   const std::vector<double>& theta = loaded->theta;
 
