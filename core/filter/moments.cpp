@@ -3,6 +3,7 @@
 #include <bit>
 #include <cmath>
 #include <complex>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <optional>
@@ -25,14 +26,14 @@ namespace {
 // filter's time on the engine model, and a loop over a size known only at run time neither
 // keeps the column in registers nor vectorises (docs/benchmarks.md, issue 37). With the size
 // fixed at compile time it does both; every size sums in the same order.
-template <int N>
+template <std::ptrdiff_t N>
 void MultiplyFixed(const double* a, const double* b, double* m) {
-  for (int j = 0; j < N; ++j) {
+  for (std::ptrdiff_t j = 0; j < N; ++j) {
     double column[N];
-    for (int i = 0; i < N; ++i) column[i] = a[i] * b[j * N];
-    for (int k = 1; k < N; ++k)
-      for (int i = 0; i < N; ++i) column[i] += a[k * N + i] * b[j * N + k];
-    for (int i = 0; i < N; ++i) m[j * N + i] = column[i];
+    for (std::ptrdiff_t i = 0; i < N; ++i) column[i] = a[i] * b[j * N];
+    for (std::ptrdiff_t k = 1; k < N; ++k)
+      for (std::ptrdiff_t i = 0; i < N; ++i) column[i] += a[k * N + i] * b[j * N + k];
+    for (std::ptrdiff_t i = 0; i < N; ++i) m[j * N + i] = column[i];
   }
 }
 
