@@ -218,7 +218,6 @@ std::string FirstLines(const fs::path& log) {
   return text;
 }
 
-// Runs the compiler on `source` into `library`; its messages go to `log`.
 // Compiles `source` into `library`, the compiler's messages into `log`. *ran: whether the
 // compiler ran (and failed, if the status is an error); its failure names `kept`, where the
 // caller keeps the source for a reader.
