@@ -37,13 +37,24 @@ void MultiplyFixed(const double* a, const double* b, double* m) {
   }
 }
 
-// True if every value is finite, in one vectorisable pass: the exponent field of a value is
-// all ones (an infinity or a NaN) exactly when adding one unit to it carries into the sign bit.
+// A test that every value added is finite, without a branch per value: the exponent field of a
+// value is all ones (an infinity or a NaN) exactly when adding one unit to it carries into the
+// sign bit.
+class FiniteTest {
+ public:
+  void Add(double v) { carry_ |= (std::bit_cast<std::uint64_t>(v) & kExponent) + kUnit; }
+  bool Passed() const { return (carry_ >> 63) == 0; }
+
+ private:
+  static constexpr std::uint64_t kExponent = 0x7ff0000000000000ULL, kUnit = 1ULL << 52;
+  std::uint64_t carry_ = 0;
+};
+
+// True if every value is finite, in one vectorisable pass.
 bool AllFinite(std::span<const double> values) {
-  constexpr std::uint64_t kExponent = 0x7ff0000000000000ULL, kUnit = 1ULL << 52;
-  std::uint64_t carry = 0;
-  for (const double v : values) carry |= (std::bit_cast<std::uint64_t>(v) & kExponent) + kUnit;
-  return (carry >> 63) == 0;
+  FiniteTest finite;
+  for (const double v : values) finite.Add(v);
+  return finite.Passed();
 }
 
 void MultiplySquare(const double* a, const double* b, double* m, int n) {
@@ -92,6 +103,7 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
         sens_(sens),
         free_(free.begin(), free.end()),
         m_(model.n_inputs()),
+        time_slot_(model.time_slot()),
         slots_(model.n_slots(), 0.0),
         out_(model.dynamics_size()),
         packed_(n_, n_),
@@ -148,14 +160,18 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
     }
     return true;
   }
+  // The slots at (t, x): x, u(t) and t; N > 0 the state count at compile time (the copy then is
+  // a few moves, not a call of memmove).
+  template <std::ptrdiff_t N = 0>
   void SetSlots(double t, const double* x) {
-    std::copy(x, x + n_, slots_.begin());
+    const std::ptrdiff_t n = N > 0 ? N : n_;
+    for (std::ptrdiff_t i = 0; i < n; ++i) slots_[i] = x[i];
     for (int i = 0; i < m_; ++i) {
       double u = u0_[i];
       if (u1_) u += (t - t0_) / dt_ * (u1_[i] - u0_[i]);
       slots_[n_ + i] = u;
     }
-    slots_[model_.time_slot()] = t;
+    slots_[time_slot_] = t;
   }
   // J as the dynamics program wrote it into out_, row by row: J' column by column.
   const double* JRowMajor() const { return out_.data() + n_; }
@@ -172,38 +188,112 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   }
 
   bool Rhs(double t, std::span<const double> z, std::span<double> dz) override {
-    if (!EvaluateDynamics(t, z.data())) return false;
+    return (this->*rhs_)(t, z.data(), dz.data());
+  }
+  // Rhs for N states (N > 0: known at compile time, for 1 to 8 states; 0: n_).
+  template <std::ptrdiff_t N>
+  bool RhsOf(double t, const double* z, double* dz) {
+    SetSlots<N>(t, z);
+    model_.Dynamics(slots_, out_);
     if (retrace_next_ < retrace_stages_) {
       std::copy(out_.begin(), out_.end(),
                 retrace_out_.begin() + static_cast<std::ptrdiff_t>(Z(retrace_next_++)) *
                                            static_cast<std::ptrdiff_t>(out_.size()));
     }
-    for (int i = 0; i < n_; ++i) dz[i] = out_[i];
-    Unpack(z, &P_);
-    // M_ = P J' = (J P)' from J as the program writes it, row by row (J' column by column), so
-    // that the moment equations need no copy of J: M_(b, a) = (J P)_ab, the same sum in the
-    // same order as Multiply(J_, P_) would take it (P is symmetric).
-    MultiplySquare(P_.data(), JRowMajor(), M_.data(), n_);
-    const double* sigma = out_.data() + n_ + static_cast<std::ptrdiff_t>(n_) * n_;
-    double* packed = dz.data() + n_;  // the lower triangle column by column, as packed_ numbers it
-    for (int b = 0; b < n_; ++b) {
-      *packed++ = M_(b, b) + M_(b, b) + sigma[b] * sigma[b];
-      for (int a = b + 1; a < n_; ++a) *packed++ = M_(b, a) + M_(a, b);
+    // The moments' derivatives, tested for finiteness as they are made: a value of f, J or σ
+    // that is not finite makes one of them not finite (each is a sum of products that takes
+    // every entry), so the dynamics' own output needs no second pass, which read back the model
+    // code's stores in wider loads than they were written and stalled (issue 37).
+    if (!MomentsRhs<N>(z, dz)) {
+      NameNotFinite();
+      return false;
     }
-    if (transition_ || !free_.empty()) SetJ();
+    if (!transition_ && free_.empty()) return true;
+    SetJ();
+    const auto size = static_cast<std::size_t>(this->size());
     if (transition_) {
-      const Eigen::Map<const Eigen::MatrixXd> Phi(z.data() + moments_size(), n_, n_);
-      Eigen::Map<Eigen::MatrixXd>(dz.data() + moments_size(), n_, n_).noalias() = J_ * Phi;
+      const Eigen::Map<const Eigen::MatrixXd> Phi(z + moments_size(), n_, n_);
+      Eigen::Map<Eigen::MatrixXd>(dz + moments_size(), n_, n_).noalias() = J_ * Phi;
     }
-    if (!free_.empty()) return SensitivityRhs(z, dz);
-    return true;
+    if (free_.empty()) return true;
+    Unpack({z, size}, &P_);
+    return SensitivityRhs({z, size}, {dz, size});
+  }
+  using RhsFunction = bool (Moments::*)(double, const double*, double*);
+  static RhsFunction RhsFor(int n) {
+    switch (n) {
+      case 1:
+        return &Moments::RhsOf<1>;
+      case 2:
+        return &Moments::RhsOf<2>;
+      case 3:
+        return &Moments::RhsOf<3>;
+      case 4:
+        return &Moments::RhsOf<4>;
+      case 5:
+        return &Moments::RhsOf<5>;
+      case 6:
+        return &Moments::RhsOf<6>;
+      case 7:
+        return &Moments::RhsOf<7>;
+      case 8:
+        return &Moments::RhsOf<8>;
+      default:
+        return &Moments::RhsOf<0>;
+    }
+  }
+
+  // dx̂ = f and the packed dP = J P + P J' + diag σ² from the dynamics in out_, with
+  // M = P J' = (J P)' from J as the program writes it, row by row (J' column by column), so that
+  // no copy of J is made: M(b, a) = (J P)_ab (P is symmetric); each entry of M is summed over k
+  // in order at every size. False if a value is not finite. N as RhsOf's.
+  template <std::ptrdiff_t N>
+  bool MomentsRhs(const double* z, double* dz) {
+    if constexpr (N > 0) {
+      double P[N * N], M[N * N];
+      const double* packed = z + N;  // packed_'s order
+      for (std::ptrdiff_t b = 0; b < N; ++b)
+        for (std::ptrdiff_t a = b; a < N; ++a) P[b * N + a] = P[a * N + b] = *packed++;
+      MultiplyFixed<N>(P, JRowMajor(), M);
+      const double* f = out_.data();
+      const double* sigma = f + N + N * N;
+      FiniteTest finite;
+      for (std::ptrdiff_t i = 0; i < N; ++i) finite.Add(dz[i] = f[i]);
+      double* d = dz + N;
+      for (std::ptrdiff_t b = 0; b < N; ++b) {
+        finite.Add(*d++ = M[b * N + b] + M[b * N + b] + sigma[b] * sigma[b]);
+        for (std::ptrdiff_t a = b + 1; a < N; ++a) finite.Add(*d++ = M[a * N + b] + M[b * N + a]);
+      }
+      return finite.Passed();
+    } else {
+      for (int i = 0; i < n_; ++i) dz[i] = out_[i];
+      Unpack({z, static_cast<std::size_t>(moments_size())}, &P_);
+      MultiplySquare(P_.data(), JRowMajor(), M_.data(), n_);
+      const double* sigma = out_.data() + n_ + static_cast<std::ptrdiff_t>(n_) * n_;
+      double* packed = dz + n_;
+      for (int b = 0; b < n_; ++b) {
+        *packed++ = M_(b, b) + M_(b, b) + sigma[b] * sigma[b];
+        for (int a = b + 1; a < n_; ++a) *packed++ = M_(b, a) + M_(a, b);
+      }
+      return AllFinite({dz, static_cast<std::size_t>(moments_size())});
+    }
+  }
+  // After MomentsRhs found a value that is not finite: the dynamics' entry that is not, into
+  // failure() (none when they are all finite and the products overflowed).
+  void NameNotFinite() {
+    for (std::size_t k = 0; k < out_.size(); ++k) {
+      if (!std::isfinite(out_[k])) {
+        failure_ = model_.NotFinite(Program::kDynamics, k, out_[k], slots_);
+        return;
+      }
+    }
   }
 
   // For each free θ_l, with S = ∂x̂/∂θ_l and SP = ∂P/∂θ_l:
   //   dS/dt  = J S + ∂f/∂θ_l
   //   dSP/dt = dJ P + P dJ' + J SP + SP J' + diag(2 σ_i dσ_i)
   // with dJ = Σ_m ∂J/∂x_m S_m + ∂J/∂θ_l and dσ = ∂σ/∂x S + ∂σ/∂θ_l. EvaluateAt has filled the
-  // slots, J_ and σ; P_ holds P.
+  // slots, J_ and σ; P_ holds P (Rhs unpacks it).
   bool SensitivityRhs(std::span<const double> z, std::span<double> dz) {
     if (!EvaluateDerivatives()) return false;
     const Eigen::Map<const Eigen::MatrixXd> f_theta(dense_.data(), n_, model_.n_parameters());
@@ -451,6 +541,7 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   const model::NonlinearSensitivity* sens_;
   const std::vector<int> free_;
   const int m_;
+  const int time_slot_;
   std::vector<double> dense_, scratch_;                  // the sensitivity program's output
   std::vector<std::size_t> target_of_, coefficient_of_;  // per nonzero (ClassifyNonzeros)
   std::vector<double> coefficients_, targets_;           // Vjp's workspace
@@ -466,6 +557,7 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   const double* u1_ = nullptr;
   double t0_ = 0.0, dt_ = 1.0;
   std::optional<Error> failure_;
+  RhsFunction rhs_ = RhsFor(n_);
 };
 
 MomentPropagator::MomentPropagator(const model::NonlinearModel& model,

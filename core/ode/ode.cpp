@@ -4,11 +4,10 @@
 #include <cassert>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <string>
 #include <vector>
 
-#include <boost/numeric/odeint/stepper/controlled_runge_kutta.hpp>
-#include <boost/numeric/odeint/stepper/runge_kutta_dopri5.hpp>
 #include <cvode/cvode.h>
 #include <fmt/format.h>
 #include <nvector/nvector_serial.h>
@@ -21,41 +20,6 @@ namespace {
 constexpr long kMaxSteps = 100000;          // per interval
 constexpr double kMinStepFraction = 1e-14;  // of the interval
 
-using State = std::vector<double>;
-namespace odeint = boost::numeric::odeint;
-using Dopri5 = odeint::runge_kutta_dopri5<State>;
-
-// Odeint's default error test (|err_i| / (atol + rtol (|x_i| + Δt |dx_i/dt|)), the largest over
-// i) on the first `controlled` components only: the others (sensitivities) ride along on the
-// steps the moments need, as CVODES does by default for its sensitivities.
-class PartialErrorChecker {
- public:
-  using value_type = double;
-  using algebra_type = odeint::range_algebra;
-  using operations_type = odeint::default_operations;
-
-  PartialErrorChecker(double atol, double rtol, std::size_t controlled)
-      : atol_(atol), rtol_(rtol), controlled_(controlled) {}
-
-  template <class St, class Deriv, class Err, class Time>
-  double error(algebra_type& /*algebra*/, const St& x_old, const Deriv& dxdt_old, Err& x_err,
-               Time dt) const {
-    double worst = 0.0;
-    for (std::size_t i = 0; i < controlled_; ++i) {
-      const double scale =
-          atol_ + rtol_ * (std::abs(x_old[i]) + std::abs(dt) * std::abs(dxdt_old[i]));
-      worst = std::max(worst, std::abs(x_err[i]) / scale);
-    }
-    return worst;
-  }
-
- private:
-  double atol_, rtol_;
-  std::size_t controlled_;
-};
-
-using Controlled = odeint::controlled_runge_kutta<Dopri5, PartialErrorChecker>;
-
 // CVODE's name of a return flag ("CV_TOO_MUCH_WORK"); CVodeGetReturnFlagName allocates it.
 std::string FlagName(int flag) {
   char* name = CVodeGetReturnFlagName(flag);
@@ -64,84 +28,9 @@ std::string FlagName(int flag) {
   return copy;
 }
 
-}  // namespace
-
-// ---- explicit: Dormand-Prince 5(4) ------------------------------------------------------------
-
-struct OdeSolver::Explicit {
-  Explicit(double atol, double rtol, int size, int controlled)
-      : stepper(PartialErrorChecker(atol, rtol, static_cast<std::size_t>(controlled))),
-        x(size),
-        dxdt(size),
-        x_new(size),
-        dxdt_new(size) {}
-  Controlled stepper;
-  State x, dxdt, x_new, dxdt_new;
-  double dt_hint = 0.0;  // the step size the last interval ended with (0: none yet)
-};
-
-Status OdeSolver::AdvanceExplicit(OdeSystem& system, double t0, double t1, std::span<double> z) {
-  if (!explicit_)
-    explicit_ =
-        std::make_unique<Explicit>(options_.atol, options_.rtol, size_, system.controlled_size());
-  Explicit& e = *explicit_;
-  bool finite = true;
-  auto rhs = [&](const State& x, State& dxdt, double t) {
-    ++counts_.rhs;
-    if (!system.Rhs(t, x, dxdt)) finite = false;
-  };
-  std::copy(z.begin(), z.end(), e.x.begin());
-  const double length = t1 - t0;
-  double t = t0;
-  rhs(e.x, e.dxdt, t);
-  if (!finite) return NumericalError("the moment equations are not finite at the interval's start");
-  double dt = e.dt_hint > 0.0 ? std::min(e.dt_hint, length) : length;
-  for (long attempt = 0;; ++attempt) {
-    if (attempt > kMaxSteps)
-      return NumericalError(fmt::format("more than {} steps in one sample interval", kMaxSteps));
-    const double left = t1 - t;
-    const bool last = dt >= left;
-    if (last) dt = left;
-    const double dt_tried = dt;
-    double t_step = t;
-    finite = true;
-    const auto result = e.stepper.try_step(rhs, e.x, e.dxdt, t_step, e.x_new, e.dxdt_new, dt);
-    if (!finite) {  // the trial step left the domain of the model (a sqrt of a negative level)
-      ++counts_.rejected;
-      dt = 0.25 * dt_tried;
-    } else if (result == odeint::success) {
-      ++counts_.steps;
-      if (step_log_) {
-        step_log_->push_back(t);
-        step_log_->push_back(dt_tried);
-      }
-      std::swap(e.x, e.x_new);
-      std::swap(e.dxdt, e.dxdt_new);
-      if (last) {
-        // Keep the proposal unless the last step was cut short to land on t1.
-        if (dt_tried >= 0.5 * e.dt_hint || e.dt_hint == 0.0) e.dt_hint = dt;
-        break;
-      }
-      t = t_step;
-      e.dt_hint = dt;
-    } else {
-      ++counts_.rejected;
-    }
-    if (!(dt > kMinStepFraction * length))
-      return NumericalError(
-          fmt::format("the step size fell below {:g} of the sample interval", kMinStepFraction));
-  }
-  std::copy(e.x.begin(), e.x.end(), z.begin());
-  return Ok{};
-}
-
-// ---- the discrete adjoint of the explicit steps ------------------------------------------------
-
-namespace {
-
-// Dormand-Prince 5(4)'s tableau (Boost.Odeint's runge_kutta_dopri5): the nodes, the stage
-// weights a_ik (k < i) and the fifth-order weights b (b_2 = 0; the seventh stage only estimates
-// the error and is the next step's first, so it does not enter the accepted solution).
+// Dormand-Prince 5(4)'s tableau: the nodes c, the stage weights a_ik (k < i), the fifth-order
+// weights b (b_2 = 0; the seventh stage, F at the new point, is the next step's first) and the
+// error weights e = b - b̂ (e_7 = -1/40 on the seventh stage).
 constexpr int kStages = 6;
 constexpr double kC[kStages] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0};
 constexpr double kA[kStages][kStages] = {
@@ -153,8 +42,185 @@ constexpr double kA[kStages][kStages] = {
     {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656}};
 constexpr double kB[kStages] = {35.0 / 384,     0.0,      500.0 / 1113, 125.0 / 192,
                                 -2187.0 / 6784, 11.0 / 84};
+constexpr double kE1 = kB[0] - 5179.0 / 57600, kE3 = kB[2] - 7571.0 / 16695,
+                 kE4 = kB[3] - 393.0 / 640, kE5 = kB[4] - -92097.0 / 339200,
+                 kE6 = kB[5] - 187.0 / 2100, kE7 = -1.0 / 40;
 
 }  // namespace
+
+// ---- explicit: Dormand-Prince 5(4) ------------------------------------------------------------
+
+// The method's own loops, for a size fixed at compile time (N > 0: the moment equations of 1 to
+// 7 states) or known at run time (N = 0). A step is the same operations in the same order as
+// Boost.Odeint's runge_kutta_dopri5 under its controlled_runge_kutta (each stage
+// x + (h a_i1) k_1 + (h a_i2) k_2 + ... summed left to right, the same error norm and step-size
+// rules), so it takes the same steps to the last bit (tests/core/ode_test.cpp); Odeint's generic
+// loops over std::vector cost a fifth of the 2-state filter's time (docs/benchmarks.md, issue 37).
+struct OdeSolver::Explicit {
+  Explicit(double atol, double rtol, int size, int controlled)
+      : atol(atol),
+        rtol(rtol),
+        size(size),
+        controlled(controlled),
+        x(size),
+        dxdt(size),
+        x_new(size),
+        dxdt_new(size),
+        stages(static_cast<std::size_t>(size) * 6) {}
+  double atol, rtol;
+  int size, controlled;
+  std::vector<double> x, dxdt, x_new, dxdt_new;
+  std::vector<double> stages;  // k2..k6 and the trial point, size each
+  double dt_hint = 0.0;        // the step size the last interval ended with (0: none yet)
+};
+
+namespace {
+
+// One trial step from (t, x) with k1 = F(t, x): x_new, k7 = F(t + h, x_new) and the scaled error
+// max_i |err_i| / (atol + rtol (|x_i| + h |k1_i|)) over the first `controlled` components
+// (returned). `rhs(t, y, k)` evaluates F and returns false where it is not finite; the step then
+// returns a NaN error after its last stage. `stages`: 6 size.
+template <std::ptrdiff_t N, class Rhs>
+double TrialStep(Rhs& rhs, std::ptrdiff_t size, std::ptrdiff_t controlled, double atol, double rtol,
+                 double t, double h, const double* x, const double* k1, double* x_new, double* k7,
+                 double* stages) {
+  const std::ptrdiff_t n = N > 0 ? N : size;
+  double* k2 = stages;
+  double* k3 = k2 + n;
+  double* k4 = k3 + n;
+  double* k5 = k4 + n;
+  double* k6 = k5 + n;
+  double* y = k6 + n;
+  bool finite = true;
+  const double a21 = h * kA[1][0];
+  for (std::ptrdiff_t i = 0; i < n; ++i) y[i] = x[i] + a21 * k1[i];
+  finite &= rhs(t + h * kC[1], y, k2);
+  const double a31 = h * kA[2][0], a32 = h * kA[2][1];
+  for (std::ptrdiff_t i = 0; i < n; ++i) y[i] = x[i] + a31 * k1[i] + a32 * k2[i];
+  finite &= rhs(t + h * kC[2], y, k3);
+  const double a41 = h * kA[3][0], a42 = h * kA[3][1], a43 = h * kA[3][2];
+  for (std::ptrdiff_t i = 0; i < n; ++i) y[i] = x[i] + a41 * k1[i] + a42 * k2[i] + a43 * k3[i];
+  finite &= rhs(t + h * kC[3], y, k4);
+  const double a51 = h * kA[4][0], a52 = h * kA[4][1], a53 = h * kA[4][2], a54 = h * kA[4][3];
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+    y[i] = x[i] + a51 * k1[i] + a52 * k2[i] + a53 * k3[i] + a54 * k4[i];
+  finite &= rhs(t + h * kC[4], y, k5);
+  const double a61 = h * kA[5][0], a62 = h * kA[5][1], a63 = h * kA[5][2], a64 = h * kA[5][3],
+               a65 = h * kA[5][4];
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+    y[i] = x[i] + a61 * k1[i] + a62 * k2[i] + a63 * k3[i] + a64 * k4[i] + a65 * k5[i];
+  finite &= rhs(t + h, y, k6);
+  const double b1 = h * kB[0], b3 = h * kB[2], b4 = h * kB[3], b5 = h * kB[4], b6 = h * kB[5];
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+    x_new[i] = x[i] + b1 * k1[i] + b3 * k3[i] + b4 * k4[i] + b5 * k5[i] + b6 * k6[i];
+  finite &= rhs(t + h, x_new, k7);
+  if (!finite) return std::numeric_limits<double>::quiet_NaN();
+  const double e1 = h * kE1, e3 = h * kE3, e4 = h * kE4, e5 = h * kE5, e6 = h * kE6, e7 = h * kE7;
+  double worst = 0.0;
+  for (std::ptrdiff_t i = 0; i < controlled; ++i) {
+    const double err = e1 * k1[i] + e3 * k3[i] + e4 * k4[i] + e5 * k5[i] + e6 * k6[i] + e7 * k7[i];
+    const double scale = atol + rtol * (std::abs(x[i]) + std::abs(h) * std::abs(k1[i]));
+    worst = std::max(worst, std::abs(err) / scale);
+  }
+  return worst;
+}
+
+// The step-size rules after a trial step with scaled error `error` (Hairer, Nørsett & Wanner's,
+// as Odeint's default_step_adjuster has them): rejected (error > 1), h × max(0.9 error^(-1/3),
+// 1/5); accepted, h × 0.9 max(error, 5^-5)^(-1/5) when error < 1/2, else h.
+double ShorterStep(double h, double error) {
+  return h * std::max(0.9 * std::pow(error, -1.0 / 3), 1.0 / 5);
+}
+double NextStep(double h, double error) {
+  if (!(error < 0.5)) return h;
+  return h * (0.9 * std::pow(std::max(std::pow(5.0, -5.0), error), -1.0 / 5));
+}
+
+}  // namespace
+
+template <std::ptrdiff_t N>
+Status OdeSolver::AdvanceExplicitSized(OdeSystem& system, double t0, double t1,
+                                       std::span<double> z) {
+  Explicit& e = *explicit_;
+  const std::ptrdiff_t size = e.size;
+  auto rhs = [&](double t, const double* x, double* dxdt) {
+    ++counts_.rhs;
+    return system.Rhs(t, {x, static_cast<std::size_t>(size)},
+                      {dxdt, static_cast<std::size_t>(size)});
+  };
+  std::copy(z.begin(), z.end(), e.x.begin());
+  const double length = t1 - t0;
+  double t = t0;
+  if (!rhs(t, e.x.data(), e.dxdt.data()))
+    return NumericalError("the moment equations are not finite at the interval's start");
+  double dt = e.dt_hint > 0.0 ? std::min(e.dt_hint, length) : length;
+  for (long attempt = 0;; ++attempt) {
+    if (attempt > kMaxSteps)
+      return NumericalError(fmt::format("more than {} steps in one sample interval", kMaxSteps));
+    const double left = t1 - t;
+    const bool last = dt >= left;
+    if (last) dt = left;
+    const double dt_tried = dt;
+    const double error =
+        TrialStep<N>(rhs, size, e.controlled, e.atol, e.rtol, t, dt, e.x.data(), e.dxdt.data(),
+                     e.x_new.data(), e.dxdt_new.data(), e.stages.data());
+    if (std::isnan(error)) {  // the trial step left the domain of the model (a sqrt of a
+                              // negative level)
+      ++counts_.rejected;
+      dt = 0.25 * dt_tried;
+    } else if (!(error > 1.0)) {
+      ++counts_.steps;
+      if (step_log_) {
+        step_log_->push_back(t);
+        step_log_->push_back(dt_tried);
+      }
+      std::swap(e.x, e.x_new);
+      std::swap(e.dxdt, e.dxdt_new);
+      dt = NextStep(dt_tried, error);
+      if (last) {
+        // Keep the proposal unless the last step was cut short to land on t1.
+        if (dt_tried >= 0.5 * e.dt_hint || e.dt_hint == 0.0) e.dt_hint = dt;
+        break;
+      }
+      t += dt_tried;
+      e.dt_hint = dt;
+    } else {
+      ++counts_.rejected;
+      dt = ShorterStep(dt_tried, error);
+    }
+    if (!(dt > kMinStepFraction * length))
+      return NumericalError(
+          fmt::format("the step size fell below {:g} of the sample interval", kMinStepFraction));
+  }
+  std::copy(e.x.begin(), e.x.end(), z.begin());
+  return Ok{};
+}
+
+Status OdeSolver::AdvanceExplicit(OdeSystem& system, double t0, double t1, std::span<double> z) {
+  if (!explicit_)
+    explicit_ =
+        std::make_unique<Explicit>(options_.atol, options_.rtol, size_, system.controlled_size());
+  switch (size_) {  // the moment equations of 1 to 7 states: n + n (n + 1) / 2
+    case 2:
+      return AdvanceExplicitSized<2>(system, t0, t1, z);
+    case 5:
+      return AdvanceExplicitSized<5>(system, t0, t1, z);
+    case 9:
+      return AdvanceExplicitSized<9>(system, t0, t1, z);
+    case 14:
+      return AdvanceExplicitSized<14>(system, t0, t1, z);
+    case 20:
+      return AdvanceExplicitSized<20>(system, t0, t1, z);
+    case 27:
+      return AdvanceExplicitSized<27>(system, t0, t1, z);
+    case 35:
+      return AdvanceExplicitSized<35>(system, t0, t1, z);
+    default:
+      return AdvanceExplicitSized<0>(system, t0, t1, z);
+  }
+}
+
+// ---- the discrete adjoint of the explicit steps ------------------------------------------------
 
 Status ReverseExplicitSteps(AdjointSystem& system, std::span<const double> steps,
                             std::span<const double> z0, std::span<double> z_bar,

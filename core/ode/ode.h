@@ -8,8 +8,9 @@
 // moves the state), so what counts is the cost of one short integration from a cold start, not
 // of one long one. Two methods, both with error control on every component
 // (|err_i| <= atol + rtol |z_i|):
-//   explicit  Dormand-Prince 5(4) (Boost.Odeint's runge_kutta_dopri5), a one-step method: no
-//             start-up cost, and each interval begins with the step size the last one ended with.
+//   explicit  Dormand-Prince 5(4) (ode.cpp's own loops, taking Boost.Odeint's runge_kutta_dopri5
+//             steps bit for bit), a one-step method: no start-up cost, and each interval begins
+//             with the step size the last one ended with.
 //   bdf       variable-order BDF (SUNDIALS CVODE) with a dense Newton solver, for stiff models.
 //             Its Newton matrix comes from OdeSystem::Jacobian (an approximation is enough: it
 //             only steers the Newton iteration, never the solution).
@@ -20,6 +21,7 @@
 // magnitude cheaper on non-stiff intervals, BDF about twice as cheap on a stiff one.
 #pragma once
 
+#include <cstddef>
 #include <memory>
 #include <span>
 #include <vector>
@@ -98,6 +100,8 @@ class OdeSolver {
   struct Explicit;
   struct Bdf;
   Status AdvanceExplicit(OdeSystem& system, double t0, double t1, std::span<double> z);
+  template <std::ptrdiff_t N>  // the size at compile time (0: at run time)
+  Status AdvanceExplicitSized(OdeSystem& system, double t0, double t1, std::span<double> z);
   Status AdvanceBdf(OdeSystem& system, double t0, double t1, std::span<double> z);
 
   model::EkfOptions options_;
