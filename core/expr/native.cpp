@@ -33,7 +33,7 @@ namespace {
 namespace fs = std::filesystem;
 
 // Part of every library's hash: a change of the generator's output format makes new names.
-constexpr std::string_view kGeneratorVersion = "greybench-native-2";
+constexpr std::string_view kGeneratorVersion = "greybench-native-3";
 constexpr int kMaxLogLines = 6;  // of the compiler's messages, in an error
 
 // Helpers with Tape's arithmetic (internal.h): sign(±0) = ±0, min and max NaN-propagating,
@@ -58,8 +58,8 @@ std::string_view CName(Func f) {
       return "exp";
     case Func::kLog:
       return "log";
-    case Func::kSqrt:
-      return "sqrt";
+    case Func::kSqrt:  // the instruction, correctly rounded as the library's (no errno to set)
+      return "__builtin_sqrt";
     case Func::kSin:
       return "sin";
     case Func::kCos:
@@ -69,7 +69,7 @@ std::string_view CName(Func f) {
     case Func::kTanh:
       return "tanh";
     case Func::kAbs:
-      return "fabs";
+      return "__builtin_fabs";
     case Func::kSign:
       return "gb_sign";
     case Func::kPow:
@@ -180,8 +180,8 @@ std::string Compiler() {
 }
 
 std::vector<std::string> CompilerFlags() {
-  return {"-O2",          "-fPIC",    "-shared", "-ffp-contract=off", "-fno-fast-math",
-          "-fno-builtin", "-std=c99", "-w"};
+  return {"-O2",          "-fPIC",           "-shared",  "-ffp-contract=off", "-fno-fast-math",
+          "-fno-builtin", "-fno-math-errno", "-std=c99", "-w"};
 }
 
 // The cache folder (created, mode 0700), or an error.

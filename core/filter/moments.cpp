@@ -165,13 +165,17 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   template <std::ptrdiff_t N = 0>
   void SetSlots(double t, const double* x) {
     const std::ptrdiff_t n = N > 0 ? N : n_;
-    for (std::ptrdiff_t i = 0; i < n; ++i) slots_[i] = x[i];
-    for (int i = 0; i < m_; ++i) {
-      double u = u0_[i];
-      if (u1_) u += (t - t0_) / dt_ * (u1_[i] - u0_[i]);
-      slots_[n_ + i] = u;
+    double* __restrict slots = slots_.data();
+    for (std::ptrdiff_t i = 0; i < n; ++i) slots[i] = x[i];
+    const double* __restrict u0 = u0_;
+    if (u1_) {
+      const double* __restrict u1 = u1_;
+      const double s = (t - t0_) / dt_;
+      for (int i = 0; i < m_; ++i) slots[n + i] = u0[i] + s * (u1[i] - u0[i]);
+    } else {
+      for (int i = 0; i < m_; ++i) slots[n + i] = u0[i];
     }
-    slots_[time_slot_] = t;
+    slots[time_slot_] = t;
   }
   // J as the dynamics program wrote it into out_, row by row: J' column by column.
   const double* JRowMajor() const { return out_.data() + n_; }
