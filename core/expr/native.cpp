@@ -3,7 +3,6 @@
 
 #include <atomic>
 #include <cerrno>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -180,8 +179,15 @@ std::string Compiler() {
 }
 
 std::vector<std::string> CompilerFlags() {
-  return {"-O2",          "-fPIC",           "-shared",  "-ffp-contract=off", "-fno-fast-math",
-          "-fno-builtin", "-fno-math-errno", "-std=c99", "-w"};
+  return {"-O2",
+          "-fPIC",
+          "-shared",
+          "-ffp-contract=off",
+          "-fno-fast-math",
+          "-fno-builtin",
+          "-fno-math-errno",
+          "-std=c99",
+          "-w"};
 }
 
 // The cache folder (created, mode 0700), or an error.
@@ -316,11 +322,8 @@ Result<std::shared_ptr<const NativeCode>> NativeCode::Compile(
     // gb-HASH.failed.c; where it works, the source stays beside its library as gb-HASH.c.
     fs::path failed = library;
     failed.replace_extension(".failed.c");
-    const auto start = std::chrono::steady_clock::now();
     bool ran = false;
     const Status built = RunCompiler(c_file, partial, log, failed, &ran);
-    code->compile_seconds_ =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     fs::remove(log, ec);
     fs::remove(failed, ec);
     if (!built) {

@@ -72,15 +72,12 @@ class NativeCode {
   std::size_t size() const { return functions_.size(); }
   // Whether the library came from the cache (compiled by an earlier call or process).
   bool cached() const { return cached_; }
-  // The seconds the compiler took (0 when cached).
-  double compile_seconds() const { return compile_seconds_; }
 
  private:
   NativeCode() = default;
   void* handle_ = nullptr;
   std::vector<Function> functions_;
   bool cached_ = false;
-  double compile_seconds_ = 0.0;
 };
 
 }  // namespace gb::expr

@@ -40,14 +40,6 @@ void UnpackAdjoint(std::span<const double> z, Eigen::VectorXd* x_bar, Eigen::Mat
   }
 }
 
-void UnpackMoments(std::span<const double> z, Eigen::VectorXd* x, Eigen::MatrixXd* P) {
-  const auto n = x->size();
-  std::copy(z.begin(), z.begin() + n, x->data());
-  std::size_t k = static_cast<std::size_t>(n);
-  for (Eigen::Index b = 0; b < n; ++b)
-    for (Eigen::Index a = b; a < n; ++a) (*P)(a, b) = (*P)(b, a) = z[k++];
-}
-
 // One scalar update as ScalarUpdate computed it: the values before it and its gain.
 struct UpdateRecord {
   int o = 0;
@@ -170,7 +162,7 @@ Result<Loglik> EkfLogLikelihoodWithAdjoint(
     UnpackAdjoint(z_bar, &x_bar, &P_bar);  // at the posterior (Pack's convention)
     if (prior_of[J] >= 0) {
       // The index's updates again from its prior, each one's inputs kept.
-      UnpackMoments(
+      propagator.Unpack(
           std::span<const double>(priors).subspan(static_cast<std::size_t>(prior_of[J]) * nz, nz),
           &x, &P);
       x_prior = x;

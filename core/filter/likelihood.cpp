@@ -414,6 +414,9 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
 
 bool Likelihood::UsesAdjoint(std::size_t free_count) const {
   if (!nonlinear_ || !exact_scores()) return false;
+  // The adjoint retraces the explicit method's steps only: with BDF on every interval its
+  // forward pass would be thrown away for the forward sensitivities.
+  if (nonlinear_->spec().ekf.method == model::OdeMethod::kBdf) return false;
   switch (gradient_method_) {
     case GradientMethod::kForward:
       return false;

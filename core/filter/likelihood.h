@@ -103,7 +103,7 @@ class Likelihood {
   void set_gradient_method(GradientMethod method) { gradient_method_ = method; }
   GradientMethod gradient_method() const { return gradient_method_; }
   // Whether a gradient of `free_count` free parameters (no per-term scores) is the adjoint's:
-  // under kAuto from kAdjointFrom free parameters on.
+  // under kAuto from kAdjointFrom free parameters on; never for a model whose "ode" is "bdf".
   bool UsesAdjoint(std::size_t free_count) const;
   static constexpr std::size_t kAdjointFrom = 3;
 
@@ -118,6 +118,10 @@ class Likelihood {
   const model::LinearModel* linear() const { return linear_.get(); }
   // The model the extended Kalman filter runs, or null for a linear model.
   const model::NonlinearModel* nonlinear() const { return nonlinear_.get(); }
+  // The same model, shared (WithNativeCode's copy runs native code).
+  const std::shared_ptr<const model::NonlinearModel>& nonlinear_shared() const {
+    return nonlinear_;
+  }
   // The ODE solver's work summed over every EKF evaluation since creation (zero for a linear
   // model). Not synchronised: read it when no evaluation runs.
   ode::OdeCounts ode_counts() const;

@@ -650,6 +650,14 @@ void MomentPropagator::Pack(const Eigen::VectorXd& x, const Eigen::MatrixXd& P,
   moments_->Pack(P, z);
 }
 
+void MomentPropagator::Unpack(std::span<const double> z, Eigen::VectorXd* x,
+                              Eigen::MatrixXd* P) const {
+  const int n = model_.n_states();
+  *x = Eigen::Map<const Eigen::VectorXd>(z.data(), n);
+  P->resize(n, n);
+  moments_->Unpack(z, P);
+}
+
 Status MomentPropagator::ReverseAdvance(int j, std::span<const double> z0,
                                         std::span<const double> steps, std::span<double> z_bar,
                                         std::span<double> theta_bar) {

@@ -80,6 +80,8 @@ class MomentPropagator {
   // The packed moments [x̂; lower triangle of P, column by column] that Advance integrates.
   int moments_size() const;
   void Pack(const Eigen::VectorXd& x, const Eigen::MatrixXd& P, std::span<double> z) const;
+  // Pack's inverse: x (resized to n) and the symmetric P (n x n) from z.
+  void Unpack(std::span<const double> z, Eigen::VectorXd* x, Eigen::MatrixXd* P) const;
   // Interval j's adjoint (ode::ReverseExplicitSteps): z0 the packed moments Advance started from
   // at t_j, `steps` the steps it logged; z_bar, ∂L/∂z at t_{j+1}, becomes ∂L/∂z at t_j, and
   // ∂L/∂θ (every parameter) is added to theta_bar. Errors name row j + 1.

@@ -236,6 +236,13 @@ TEST(EkfAdjoint, IsNotApplicableWhereAnIntervalNeedsBdf) {
       EkfLogLikelihoodWithAdjoint(nm, sens, spec.Values(), series, settings, free, &g, &applicable);
   ASSERT_TRUE(a);
   EXPECT_FALSE(applicable);
+  // A model whose "ode" is "bdf" does not start the adjoint's forward pass at all.
+  auto lik = Likelihood::Create(std::make_shared<const model::NonlinearModel>(nm),
+                                {std::make_shared<const data::Series>(series)});
+  ASSERT_TRUE(lik);
+  EXPECT_FALSE(lik->UsesAdjoint(5));
+  lik->set_gradient_method(Likelihood::GradientMethod::kAdjoint);
+  EXPECT_FALSE(lik->UsesAdjoint(5));
 }
 
 TEST(EkfScore, OfALinearModelEqualsTheLinearFiltersExactScore) {
