@@ -64,6 +64,12 @@ struct CommandInputs {
 // "estimation": {"initial_states": ...}; "" keeps it (shared without a project).
 Result<CommandInputs> ResolveInputs(const std::string& first, const std::vector<std::string>& data,
                                     const std::string& initial_states = "");
+// Whether `path` holds a project: a JSON object with "greybench_project" (what is not JSON, or
+// not readable, is left to the model's reader to report).
+bool IsProjectFile(const std::string& path);
+// The file a result names under `key` ("project_file", "model_file"), relative to the result
+// file; "" when it names none.
+std::string NamedFile(const Json& result, const char* key, const std::string& result_path);
 // The datasets a fit uses (role estimation); an input error when there are none.
 Result<std::vector<data::DatasetSpec>> FittedDatasets(const CommandInputs& in);
 // The one dataset `predict` and `diagnose` work on: `choice` is its 1-based number in the
@@ -318,6 +324,18 @@ struct ExportModelArgs {
   std::string out;
 };
 int RunExportModel(const ExportModelArgs& args);
+
+// export-fmu RESULT.json [--model MODEL] [--interface me|cs|both] --out NAME.fmu: the fitted
+// model's deterministic part at the result's estimates as an FMI 2.0 FMU (core/fmu/fmu.h); the
+// model is --model (a model or a project file), else the project or model file the result
+// names. NAME (sanitised to a C identifier) is the FMU's model identifier.
+struct ExportFmuArgs {
+  std::string result;
+  std::string model;
+  std::string interface = "both";
+  std::string out;
+};
+int RunExportFmu(const ExportFmuArgs& args);
 
 // report RESULT.json --out FILE: the estimation report as Markdown or HTML
 // (core/report/report.h); with the model and the data (--model, --data, else the project or

@@ -55,16 +55,17 @@ std::vector<FileRole> CommandInputs::Files() const {
   return files;
 }
 
-namespace {
-
-// Whether `path` holds a project: a JSON object with "greybench_project" (what is not JSON, or
-// not readable, is left to the model's reader to report).
 bool IsProjectFile(const std::string& path) {
   auto j = ReadJsonFile(path);
   return j && j->is_object() && j->contains("greybench_project");
 }
 
-}  // namespace
+std::string NamedFile(const Json& result, const char* key, const std::string& result_path) {
+  if (!result.is_object() || !result.contains(key) || !result[key].is_string()) return "";
+  const std::filesystem::path file = result[key].get<std::string>();
+  if (file.empty() || file.is_absolute()) return file.string();
+  return (std::filesystem::path(result_path).parent_path() / file).lexically_normal().string();
+}
 
 namespace {
 

@@ -339,6 +339,21 @@ int Main(int argc, char** argv) {
   c_export->add_option("--out", export_model.out, "model file to write (JSON)")->required();
   c_export->callback([&] { run = [&] { return RunExportModel(export_model); }; });
 
+  ExportFmuArgs export_fmu;
+  auto* c_fmu = app.add_subcommand(
+      "export-fmu", "write a fit's model as an FMI 2.0 FMU (Model Exchange, Co-Simulation)");
+  c_fmu->add_option("result", export_fmu.result, "result file (JSON) of the fit")->required();
+  c_fmu->add_option("--model", export_fmu.model,
+                    "model or project file (default: the one the result names)");
+  c_fmu->add_option("--interface", export_fmu.interface, "me, cs or both (default)")
+      ->check(CLI::IsMember({"me", "cs", "both"}));
+  c_fmu
+      ->add_option("--out", export_fmu.out,
+                   "the FMU to write (NAME.fmu; NAME is its model "
+                   "identifier)")
+      ->required();
+  c_fmu->callback([&] { run = [&] { return RunExportFmu(export_fmu); }; });
+
   ReportArgs report;
   auto* c_report =
       app.add_subcommand("report", "the estimation report of a result file as Markdown or HTML");

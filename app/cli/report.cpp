@@ -17,15 +17,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The file a result names under `key` ("project_file", "model_file"), relative to the result
-// file; "" when it names none.
-std::string NamedFile(const Json& result, const char* key, const std::string& result_path) {
-  if (!result.is_object() || !result.contains(key) || !result[key].is_string()) return "";
-  const fs::path file = result[key].get<std::string>();
-  if (file.empty() || file.is_absolute()) return file.string();
-  return (fs::path(result_path).parent_path() / file).lexically_normal().string();
-}
-
 // The residual sections of the report: one-step predictions at the result's estimates and their
 // diagnostics, per output, as `diagnose` computes them.
 Result<std::vector<report::ResidualSection>> ResidualSections(const CommandInputs& in,
@@ -87,11 +78,6 @@ std::vector<std::string> NamedData(const Json& result, const std::string& result
   return files;
 }
 
-bool IsProject(const std::string& path) {
-  auto j = ReadJsonFile(path);
-  return j && j->is_object() && j->contains("greybench_project");
-}
-
 }  // namespace
 
 int RunReport(const ReportArgs& args) {
@@ -121,7 +107,8 @@ int RunReport(const ReportArgs& args) {
   if (model.empty()) model = NamedFile(*result, "model_file", args.result);
   // A model file without --data: the data files the result names (a project has its own).
   std::vector<std::string> data = args.data;
-  if (data.empty() && !model.empty() && !IsProject(model)) data = NamedData(*result, args.result);
+  if (data.empty() && !model.empty() && !IsProjectFile(model))
+    data = NamedData(*result, args.result);
   std::vector<FileRole> files = {{args.result, "the result file"}};
   std::optional<CommandInputs> in;
   std::string note;

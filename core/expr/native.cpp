@@ -224,15 +224,15 @@ std::string FirstLines(const fs::path& log) {
   return text;
 }
 
-// Compiles `source` into `library`, the compiler's messages into `log`. *ran: whether the
-// compiler ran (and failed, if the status is an error); its failure names `kept`, where the
-// caller keeps the source for a reader.
-Status RunCompiler(const fs::path& source, const fs::path& library, const fs::path& log,
-                   const fs::path& kept, bool* ran) {
+}  // namespace
+
+Status RunCCompiler(const fs::path& source, const fs::path& output,
+                    std::span<const std::string> flags, const fs::path& log,
+                    const std::string& what, bool* ran) {
   *ran = false;
   std::vector<std::string> args{Compiler()};
-  for (std::string& f : CompilerFlags()) args.push_back(std::move(f));
-  args.insert(args.end(), {"-o", library.string(), source.string(), "-lm"});
+  args.insert(args.end(), flags.begin(), flags.end());
+  args.insert(args.end(), {"-o", output.string(), source.string(), "-lm"});
   std::vector<char*> argv;
   argv.reserve(args.size() + 1);
   for (std::string& a : args) argv.push_back(a.data());
@@ -246,24 +246,20 @@ Status RunCompiler(const fs::path& source, const fs::path& library, const fs::pa
   const int spawned = posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
   if (spawned != 0) {
-    return NumericalError(fmt::format("native code: cannot run the C compiler '{}': {}", args[0],
+    return NumericalError(fmt::format("cannot run the C compiler '{}': {}", args[0],
                                       std::error_code(spawned, std::generic_category()).message()));
   }
   int status = 0;
   while (waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) return NumericalError("native code: lost the C compiler's process");
+    if (errno != EINTR) return NumericalError("lost the C compiler's process");
   }
   *ran = true;
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
     return NumericalError(
-        fmt::format("native code: the C compiler '{}' failed on the model's "
-                    "generated C (kept as {}):{}",
-                    args[0], kept.string(), FirstLines(log)));
+        fmt::format("the C compiler '{}' failed on {}:{}", args[0], what, FirstLines(log)));
   }
   return Ok();
 }
-
-}  // namespace
 
 bool NativeCode::Enabled() {
   const char* v = std::getenv("GREYBENCH_NATIVE");  // NOLINT(concurrency-mt-unsafe): read only
@@ -323,7 +319,10 @@ Result<std::shared_ptr<const NativeCode>> NativeCode::Compile(
     fs::path failed = library;
     failed.replace_extension(".failed.c");
     bool ran = false;
-    const Status built = RunCompiler(c_file, partial, log, failed, &ran);
+    Status built =
+        RunCCompiler(c_file, partial, CompilerFlags(), log,
+                     fmt::format("the model's generated C (kept as {})", failed.string()), &ran);
+    if (!built) built = NumericalError("native code: " + built.error().message);
     fs::remove(log, ec);
     fs::remove(failed, ec);
     if (!built) {

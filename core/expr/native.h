@@ -31,6 +31,7 @@
 #pragma once
 
 #include <cstddef>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <span>
@@ -79,5 +80,13 @@ class NativeCode {
   std::vector<Function> functions_;
   bool cached_ = false;
 };
+
+// Runs the system's C compiler (the one NativeCode uses: $GREYBENCH_CC, else $CC, else cc) on
+// `source` with `flags` (and -lm) into `output`, its messages into `log`. Errors (kNumerical) say
+// why: no compiler, or the compiler's first error lines, naming `what` ("the model's generated
+// C"). *ran: whether the compiler ran (so a failure is the code's, not a missing compiler).
+Status RunCCompiler(const std::filesystem::path& source, const std::filesystem::path& output,
+                    std::span<const std::string> flags, const std::filesystem::path& log,
+                    const std::string& what, bool* ran);
 
 }  // namespace gb::expr

@@ -1,0 +1,337 @@
+#include "core/fmu/fmu.h"
+
+#include <atomic>
+#include <cassert>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include "core/expr/expr.h"
+#include "core/expr/native.h"
+#include "core/fmu/embedded.h"
+#include "core/util/file.h"
+#include "core/util/zip.h"
+
+namespace gb::fmu {
+namespace {
+
+namespace fs = std::filesystem;
+using Program = model::NonlinearModel::Program;
+
+std::string XmlEscape(const std::string& s) {
+  std::string out;
+  for (const char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+// The shortest text that reads back to v.
+std::string Number(double v) { return fmt::format("{}", v); }
+
+std::uint64_t Fnv1a(const std::string& s) {
+  std::uint64_t h = 1469598103934665603ULL;
+  for (const unsigned char c : s) {
+    h ^= c;
+    h *= 1099511628211ULL;
+  }
+  return h;
+}
+
+// A C string literal of a name (identifiers only: no escapes needed).
+std::string CString(const std::string& s) { return "\"" + s + "\""; }
+
+// The 1-based indices (in ModelVariables) of the states and inputs `e` depends on: those whose
+// partial derivative is not identically zero.
+std::string Dependencies(const expr::ExprPtr& e, const model::ModelSpec& spec) {
+  std::set<std::string> used;
+  expr::CollectNames(e, &used);
+  const std::size_t n = spec.states.size();
+  std::string out;
+  auto add = [&](const std::string& name, std::size_t index) {
+    if (!used.count(name)) return;
+    double value = 0.0;
+    if (expr::IsConstant(expr::Simplify(expr::Differentiate(e, name)), &value) && value == 0.0)
+      return;
+    out += (out.empty() ? "" : " ") + std::to_string(index);
+  };
+  for (std::size_t i = 0; i < n; ++i) add(spec.states[i], i + 1);
+  for (std::size_t i = 0; i < spec.inputs.size(); ++i) add(spec.inputs[i], 2 * n + i + 1);
+  return out;
+}
+
+}  // namespace
+
+std::string IdentifierOf(const std::string& name) {
+  std::string id;
+  for (const char c : name) id += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
+  if (id.empty()) return "model";
+  if (std::isdigit(static_cast<unsigned char>(id.front()))) id.insert(id.begin(), '_');
+  return id;
+}
+
+Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<const double> theta,
+                                  const FmuOptions& options) {
+  const model::ModelSpec& spec = model.spec();
+  const std::size_t n = spec.states.size(), m = spec.inputs.size(), p = spec.outputs.size(),
+                    k = spec.parameters.size();
+  assert(theta.size() == k && "one value per parameter");
+  FmuSources out;
+  out.identifier = options.identifier.empty() ? IdentifierOf(spec.name) : options.identifier;
+  if (!model::IsIdentifier(out.identifier))
+    return InputError(fmt::format(
+        "the FMU's model identifier '{}' is not a C identifier (letters, digits and '_', not "
+        "starting with a digit)",
+        out.identifier));
+  {
+    std::map<std::string, std::string> seen;
+    auto claim = [&](const std::string& name, const std::string& what) -> Status {
+      auto [it, fresh] = seen.emplace(name, what);
+      if (!fresh)
+        return InputError(
+            fmt::format("'{}' names both {} and {}: an FMU's variables need names of their own",
+                        name, it->second, what));
+      return Ok{};
+    };
+    for (const auto& s : spec.states) {
+      if (auto c = claim(s, "a state"); !c) return c.error();
+      if (auto c = claim("der(" + s + ")", "a derivative"); !c) return c.error();
+    }
+    for (const auto& u : spec.inputs)
+      if (auto c = claim(u, "an input"); !c) return c.error();
+    for (const auto& y : spec.outputs)
+      if (auto c = claim(y, "an output"); !c) return c.error();
+    for (const auto& q : spec.parameters)
+      if (auto c = claim(q.name, "a parameter"); !c) return c.error();
+  }
+  for (std::size_t i = 0; i < k; ++i)
+    if (!std::isfinite(theta[i]))
+      return InputError(fmt::format("parameter {} is {}: an FMU's start values must be finite",
+                                    spec.parameters[i].name, theta[i]));
+
+  // The states' start: given, or the model's initial state at θ.
+  std::vector<double> slots(static_cast<std::size_t>(model.n_slots()), 0.0);
+  std::copy(theta.begin(), theta.end(), slots.begin() + model.parameter_slot());
+  std::vector<double> x0 = options.initial_state;
+  if (x0.empty()) {
+    std::vector<double> initial(model.initial_size());
+    model.Initial(slots, initial);
+    x0.assign(initial.begin(), initial.begin() + static_cast<std::ptrdiff_t>(n));
+  }
+  if (x0.size() != n)
+    return InputError(fmt::format("{} initial states given, the model has {}", x0.size(), n));
+  for (std::size_t i = 0; i < n; ++i)
+    if (!std::isfinite(x0[i]))
+      return InputError(
+          fmt::format("the initial state of {} is {}: an FMU's start values must "
+                      "be finite",
+                      spec.states[i], x0[i]));
+
+  // The C: f and h (the first n and p entries of the dynamics and measurement programs).
+  expr::NativeCode::Program drift, observation;
+  for (std::size_t i = 0; i < n; ++i) drift.exprs.push_back(model.Entry(Program::kDynamics, i));
+  for (std::size_t o = 0; o < p; ++o)
+    observation.exprs.push_back(model.Entry(Program::kMeasurement, o));
+  const std::vector<expr::NativeCode::Program> programs = {drift, observation};
+  auto generated = expr::NativeCode::Source(
+      programs, [&model](const std::string& name) { return model.SlotOf(name); });
+  if (!generated) return generated.error();
+
+  // modelDescription.xml (its guid filled in last, from a hash of everything else).
+  const bool me = options.interface != Interface::kCoSimulation;
+  const bool cs = options.interface != Interface::kModelExchange;
+  std::set<std::string> units;
+  for (const model::Parameter& q : spec.parameters)
+    if (!q.unit.empty()) units.insert(q.unit);
+  std::ostringstream x;
+  x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+    << "<fmiModelDescription fmiVersion=\"2.0\" modelName=\"" << XmlEscape(spec.name) << "\"\n"
+    << "  guid=\"@GUID@\"\n"
+    << "  description=\"" << XmlEscape(spec.name)
+    << ": the deterministic part of a stochastic grey-box model at its estimates\"\n"
+    << "  generationTool=\"greybench\" variableNamingConvention=\"structured\""
+    << " numberOfEventIndicators=\"0\">\n";
+  if (me)
+    x << "  <ModelExchange modelIdentifier=\"" << out.identifier
+      << "\" canGetAndSetFMUstate=\"false\" canSerializeFMUstate=\"false\""
+      << " providesDirectionalDerivative=\"false\">\n"
+      << "    <SourceFiles><File name=\"" << out.identifier << ".c\"/></SourceFiles>\n"
+      << "  </ModelExchange>\n";
+  if (cs)
+    x << "  <CoSimulation modelIdentifier=\"" << out.identifier
+      << "\" canHandleVariableCommunicationStepSize=\"true\" canInterpolateInputs=\"true\""
+      << " maxOutputDerivativeOrder=\"0\" canGetAndSetFMUstate=\"false\""
+      << " canSerializeFMUstate=\"false\" providesDirectionalDerivative=\"false\">\n"
+      << "    <SourceFiles><File name=\"" << out.identifier << ".c\"/></SourceFiles>\n"
+      << "  </CoSimulation>\n";
+  if (!units.empty()) {
+    x << "  <UnitDefinitions>\n";
+    for (const std::string& u : units) x << "    <Unit name=\"" << XmlEscape(u) << "\"/>\n";
+    x << "  </UnitDefinitions>\n";
+  }
+  x << "  <LogCategories>\n    <Category name=\"logStatusError\" description=\"refused calls "
+       "and values that are not finite\"/>\n  </LogCategories>\n"
+    << "  <DefaultExperiment tolerance=\"" << Number(spec.ekf.rtol) << "\"/>\n"
+    << "  <ModelVariables>\n";
+  auto variable = [&x](const std::string& name, std::size_t vr, const char* causality,
+                       const char* variability, const char* initial, const std::string& description,
+                       const std::string& real) {
+    x << "    <ScalarVariable name=\"" << XmlEscape(name) << "\" valueReference=\"" << vr
+      << "\" causality=\"" << causality << "\" variability=\"" << variability << "\"";
+    if (*initial) x << " initial=\"" << initial << "\"";
+    if (!description.empty()) x << " description=\"" << XmlEscape(description) << "\"";
+    x << ">\n      <Real" << real << "/>\n    </ScalarVariable>\n";
+  };
+  std::size_t vr = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    variable(spec.states[i], vr++, "local", "continuous", "exact", "state",
+             " start=\"" + Number(x0[i]) + "\"");
+  for (std::size_t i = 0; i < n; ++i)
+    variable("der(" + spec.states[i] + ")", vr++, "local", "continuous", "", "",
+             " derivative=\"" + std::to_string(i + 1) + "\"");
+  for (std::size_t i = 0; i < m; ++i)
+    variable(spec.inputs[i], vr++, "input", "continuous", "", "input", " start=\"0\"");
+  for (std::size_t o = 0; o < p; ++o)
+    variable(spec.outputs[o], vr++, "output", "continuous", "", "output (the observation h)", "");
+  for (std::size_t i = 0; i < k; ++i) {
+    const model::Parameter& q = spec.parameters[i];
+    std::string real = " start=\"" + Number(theta[i]) + "\"";
+    if (!q.unit.empty()) real += " unit=\"" + XmlEscape(q.unit) + "\"";
+    variable(q.name, vr++, "parameter", "tunable", "exact",
+             q.description.empty() ? (q.fixed ? "fixed in the fit" : "estimate") : q.description,
+             real);
+  }
+  x << "  </ModelVariables>\n  <ModelStructure>\n";
+  if (p > 0) {
+    x << "    <Outputs>\n";
+    for (std::size_t o = 0; o < p; ++o)
+      x << "      <Unknown index=\"" << 2 * n + m + o + 1 << "\" dependencies=\""
+        << Dependencies(observation.exprs[o], spec) << "\"/>\n";
+    x << "    </Outputs>\n";
+  }
+  x << "    <Derivatives>\n";
+  for (std::size_t i = 0; i < n; ++i)
+    x << "      <Unknown index=\"" << n + i + 1 << "\" dependencies=\""
+      << Dependencies(drift.exprs[i], spec) << "\"/>\n";
+  x << "    </Derivatives>\n    <InitialUnknowns>\n";
+  for (std::size_t i = 0; i < n; ++i) x << "      <Unknown index=\"" << n + i + 1 << "\"/>\n";
+  for (std::size_t o = 0; o < p; ++o)
+    x << "      <Unknown index=\"" << 2 * n + m + o + 1 << "\"/>\n";
+  x << "    </InitialUnknowns>\n  </ModelStructure>\n</fmiModelDescription>\n";
+
+  // The generated part the runtime expects (runtime.c's header says what).
+  std::ostringstream c;
+  c << "/* " << out.identifier << ": " << spec.name
+    << "\n   An FMI 2.0 FMU exported by greybench: the model's generated code, then greybench's "
+       "FMI runtime. */\n"
+    << "#include \"fmi2Functions.h\"\n"
+    << *generated << "\n"
+    << "#define GB_N_STATES " << n << "\n#define GB_N_INPUTS " << m << "\n#define GB_N_OUTPUTS "
+    << p << "\n#define GB_N_PARAMETERS " << k << "\n#define GB_SLOT_INPUT " << model.input_slot()
+    << "\n#define GB_SLOT_PARAMETER " << model.parameter_slot() << "\n#define GB_SLOT_TIME "
+    << model.time_slot() << "\n#define GB_RTOL " << fmt::format("{:a}", spec.ekf.rtol)
+    << "\n#define GB_ATOL " << fmt::format("{:a}", spec.ekf.atol) << "\n#define GB_SUPPORTS(type) ("
+    << (me && cs ? "1"
+        : me     ? "(type) == fmi2ModelExchange"
+                 : "(type) == fmi2CoSimulation")
+    << ")\n#define gb_drift gb_program_0\n#define gb_observation gb_program_1\n";
+  auto array = [&c](const char* name, const std::vector<std::string>& values) {
+    c << "static const " << name << "[] = {";
+    for (std::size_t i = 0; i < values.size(); ++i) c << (i ? ", " : "") << values[i];
+    if (values.empty()) c << "0";
+    c << "};\n";
+  };
+  std::vector<std::string> v;
+  for (const double t : theta) v.push_back(fmt::format("{:a}", t));
+  array("double gb_theta_start", v);
+  v.clear();
+  for (const double s : x0) v.push_back(fmt::format("{:a}", s));
+  array("double gb_x_start", v);
+  array("double gb_u_start", std::vector<std::string>(m, "0.0"));
+  v.clear();
+  for (const auto& s : spec.states) v.push_back(CString(s));
+  array("char* const gb_state_name", v);
+  v.clear();
+  for (const auto& y : spec.outputs) v.push_back(CString(y));
+  array("char* const gb_output_name", v);
+  const std::string description = x.str();
+  const std::string body = c.str();
+  const std::uint64_t h1 = Fnv1a(description + body), h2 = Fnv1a(body + description + "2");
+  out.guid = fmt::format("{{{:08x}-{:04x}-{:04x}-{:04x}-{:012x}}}", h1 >> 32, (h1 >> 16) & 0xffff,
+                         h1 & 0xffff, h2 >> 48, h2 & 0xffffffffffffULL);
+  out.model_description = description;
+  out.model_description.replace(out.model_description.find("@GUID@"), 6, out.guid);
+  out.source = body + "#define GB_GUID " + CString(out.guid) + "\n" + embedded::kRuntime;
+  return out;
+}
+
+Status ExportFmu(const model::NonlinearModel& model, std::span<const double> theta,
+                 const FmuOptions& options, const std::string& path) {
+  auto sources = MakeFmuSources(model, theta, options);
+  if (!sources) return sources.error();
+  // A private folder for the build: the source, the headers and the library.
+  static std::atomic<int> counter{0};
+  std::error_code ec;
+  const fs::path dir =
+      fs::temp_directory_path(ec) / fmt::format("greybench-fmu-{}-{}", getpid(), counter++);
+  if (ec || !fs::create_directories(dir, ec))
+    return FileError(dir.string(), "cannot create a folder to build the FMU in");
+  struct Cleanup {
+    fs::path dir;
+    ~Cleanup() {
+      std::error_code ignored;
+      fs::remove_all(dir, ignored);
+    }
+  } cleanup{dir};
+  const std::string id = sources->identifier;
+  const std::vector<std::pair<std::string, const char*>> headers = {
+      {"fmi2TypesPlatform.h", embedded::kTypesPlatform},
+      {"fmi2FunctionTypes.h", embedded::kFunctionTypes},
+      {"fmi2Functions.h", embedded::kFunctions}};
+  for (const auto& [name, text] : headers) {
+    if (auto s = WriteFileAtomic((dir / name).string(), text); !s) return s.error();
+  }
+  const fs::path c_file = dir / (id + ".c"), library = dir / (id + ".so"), log = dir / "cc.log";
+  if (auto s = WriteFileAtomic(c_file.string(), sources->source); !s) return s.error();
+  const std::vector<std::string> flags = {
+      "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-std=c99", "-I" + dir.string(), "-w"};
+  bool ran = false;
+  if (auto s = expr::RunCCompiler(c_file, library, flags, log, "the FMU's generated C", &ran); !s)
+    return NumericalError("FMU export: " + s.error().message);
+  std::ifstream in(library, std::ios::binary);
+  std::string binary((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (!in.good() && !in.eof()) return FileError(library.string(), "cannot read the built library");
+  const std::vector<ZipEntry> entries = {{"modelDescription.xml", sources->model_description},
+                                         {"binaries/linux64/" + id + ".so", binary},
+                                         {"sources/" + id + ".c", sources->source},
+                                         {"sources/fmi2TypesPlatform.h", embedded::kTypesPlatform},
+                                         {"sources/fmi2FunctionTypes.h", embedded::kFunctionTypes},
+                                         {"sources/fmi2Functions.h", embedded::kFunctions},
+                                         {"sources/LICENSE.txt", embedded::kLicence}};
+  return WriteZipFile(path, entries);
+}
+
+}  // namespace gb::fmu

@@ -1,0 +1,69 @@
+// The fitted model as an FMI 2.0 FMU (issue 38): the model's deterministic part at the
+// estimates,
+//
+//   dx/dt = f(x, u, θ̂, t),   y = h(x, u, θ̂, t),   x(t0) = x̂0
+//
+// for Model Exchange (the importer integrates: states, derivatives, outputs) and Co-Simulation
+// (fmi2DoStep integrates with Dormand-Prince 5(4) under the model file's "ekf" tolerances, the
+// inputs held over each communication step, or ramped where the importer gives their first
+// derivatives: fmi2SetRealInputDerivatives). The estimates are tunable parameters
+// (causality="parameter") with their units and descriptions; the states start at x̂0.
+//
+// The FMU is a zip (core/util/zip.h) of
+//   modelDescription.xml          the variables in value-reference order: states, their
+//                                 derivatives der(x), inputs, outputs, parameters; the
+//                                 ModelStructure's dependencies from the symbolic Jacobians
+//                                 (an output or a derivative depends on a state or an input
+//                                 where its derivative with respect to it is not zero)
+//   binaries/linux64/ID.so        the model's C (core/expr/native.h's generator) and greybench's
+//                                 FMI runtime (core/fmu/runtime.c: the standard's state
+//                                 machine, illegal call sequences refused with a logged message),
+//                                 built by the system's C compiler
+//   sources/ID.c                  the same C, with the FMI 2.0 headers (sources/fmi2*.h, their
+//                                 BSD 2-Clause licence in sources/LICENSE.txt), to build elsewhere
+// The exporting machine needs a C compiler (cc, $GREYBENCH_CC or $CC), as native code does.
+#pragma once
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/model/nonlinear_model.h"
+#include "core/util/result.h"
+
+namespace gb::fmu {
+
+enum class Interface { kModelExchange, kCoSimulation, kBoth };
+
+struct FmuOptions {
+  Interface interface = Interface::kBoth;
+  // The FMU's modelIdentifier (a C identifier: letters, digits, '_', not starting with a digit);
+  // empty: from the model's name.
+  std::string identifier;
+  // The states' start values; empty: the model's initial state at θ.
+  std::vector<double> initial_state;
+};
+
+struct FmuSources {
+  std::string identifier;
+  std::string guid;
+  std::string model_description;  // modelDescription.xml
+  std::string source;             // the C, without the FMI headers
+};
+
+// modelDescription.xml and the C source of `model` at the parameter values θ (all of the
+// model's parameters, in its order). Errors: a name two variables share (a state and an output,
+// say), an identifier that is not a C identifier, a start value that is not finite.
+Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<const double> theta,
+                                  const FmuOptions& options);
+
+// Builds the binary and writes the FMU to `path` (atomically). Errors: MakeFmuSources', the
+// compiler's (its first lines), the file's.
+Status ExportFmu(const model::NonlinearModel& model, std::span<const double> theta,
+                 const FmuOptions& options, const std::string& path);
+
+// A C identifier from a name: every other character as '_', a leading digit prefixed by '_';
+// "model" for an empty name.
+std::string IdentifierOf(const std::string& name);
+
+}  // namespace gb::fmu

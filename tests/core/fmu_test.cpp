@@ -1,0 +1,345 @@
+// The FMU export (core/fmu/fmu.h), driven as an importer drives it: the archive unpacked by
+// Python's zipfile, the binary loaded with dlopen, the FMI 2.0 call sequence of Model Exchange
+// and of Co-Simulation, checked against the closed form of a first-order lag
+// (x(t) = b u / a + (x0 - b u / a) e^{-a t}), and illegal call orders refused with a logged
+// message. modelDescription.xml is checked against the standard's schema where xmllint and the
+// schema are on the machine (GREYBENCH_FMI_SCHEMA, else ../shared/fmi/fmi2/schema beside the
+// source tree).
+#include "core/fmu/fmu.h"
+
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <dlfcn.h>
+#include <gtest/gtest.h>
+
+#include "core/fmu/fmi2/fmi2Functions.h"
+#include "core/util/json.h"
+
+namespace gb::fmu {
+namespace {
+
+namespace fs = std::filesystem;
+
+// dx = (b u - a x) dt, y = c x, with a sqrt-free nonlinear second state z' = x - z^3 / 3 for the
+// dependencies.
+constexpr const char* kLag = R"({
+  "greybench_model": 1,
+  "name": "First-order lag",
+  "states": ["x", "z"],
+  "inputs": ["u"],
+  "outputs": ["y", "w"],
+  "parameters": {
+    "a": {"value": 2.0, "unit": "1/s", "description": "the lag's rate"},
+    "b": {"value": 3.0},
+    "c": {"value": 0.5},
+    "s": {"value": 0.1},
+    "x0": {"value": 0.25}
+  },
+  "drift": {"x": "b*u - a*x", "z": "x - z^3/3"},
+  "diffusion": {"x": "s"},
+  "observation": {"y": "c*x", "w": "z + u"},
+  "measurement_variance": {"y": "0.01", "w": "0.01"},
+  "initial_state": {"x": "x0", "z": "0"},
+  "ekf": {"rtol": 1e-10, "atol": 1e-12}
+})";
+
+model::NonlinearModel Lag() {
+  auto spec = model::ParseModel(Json::parse(kLag), "lag.json");
+  EXPECT_TRUE(spec.ok()) << spec.error().ToString();
+  return *model::NonlinearModel::Compile(*spec);
+}
+
+struct Logged {
+  std::vector<std::string> messages;
+};
+
+void Logger(fmi2ComponentEnvironment env, fmi2String, fmi2Status, fmi2String, fmi2String format,
+            ...) {
+  char text[1024];
+  va_list args;
+  va_start(args, format);
+  vsnprintf(text, sizeof text, format, args);
+  va_end(args);
+  static_cast<Logged*>(env)->messages.emplace_back(text);
+}
+
+// The FMU exported, unpacked and loaded.
+class Fmu {
+ public:
+  explicit Fmu(const std::string& name, Interface interface = Interface::kBoth) {
+    dir_ = fs::path(::testing::TempDir()) / ("gb-fmu-test-" + name);
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    const model::NonlinearModel model = Lag();
+    FmuOptions options;
+    options.interface = interface;
+    path_ = (dir_ / "lag.fmu").string();
+    status_ = ExportFmu(model, model.spec().Values(), options, path_);
+    if (!status_.ok()) return;
+    const std::string unpack =
+        "python3 -c \"import zipfile,sys; zipfile.ZipFile(sys.argv[1])"
+        ".extractall(sys.argv[2])\" '" +
+        path_ + "' '" + (dir_ / "unpacked").string() + "'";
+    if (std::system(unpack.c_str()) != 0) return;
+    const fs::path so = dir_ / "unpacked" / "binaries" / "linux64" / "First_order_lag.so";
+    handle_ = dlopen(so.c_str(), RTLD_NOW | RTLD_LOCAL);
+    std::ifstream xml(dir_ / "unpacked" / "modelDescription.xml");
+    description_.assign(std::istreambuf_iterator<char>(xml), std::istreambuf_iterator<char>());
+    const auto at = description_.find("guid=\"");
+    if (at != std::string::npos)
+      guid_ = description_.substr(at + 6, description_.find('"', at + 6) - at - 6);
+  }
+  ~Fmu() {
+    if (handle_) dlclose(handle_);
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  template <class F>
+  F* Get(const char* name) const {
+    return reinterpret_cast<F*>(dlsym(handle_, name));
+  }
+  bool loaded() const { return handle_ != nullptr; }
+  const Status& status() const { return status_; }
+  const std::string& description() const { return description_; }
+  const std::string& guid() const { return guid_; }
+  const fs::path& dir() const { return dir_; }
+
+  fmi2Component Instantiate(fmi2Type type, Logged* logged, const char* guid = nullptr) const {
+    callbacks_ = {&Logger, &std::calloc, &std::free, nullptr, logged};
+    return Get<fmi2InstantiateTYPE>("fmi2Instantiate")("lag", type, guid ? guid : guid_.c_str(), "",
+                                                       &callbacks_, fmi2False, fmi2False);
+  }
+
+ private:
+  fs::path dir_;
+  std::string path_, description_, guid_;
+  Status status_ = Ok{};
+  void* handle_ = nullptr;
+  mutable fmi2CallbackFunctions callbacks_{};
+};
+
+// Value references: x, z, der(x), der(z), u, y, w, a, b, c, s, x0.
+constexpr fmi2ValueReference kX = 0, kU = 4, kY = 5, kW = 6, kA = 7, kB = 8;
+
+double LagClosedForm(double a, double b, double u, double x0, double t) {
+  const double steady = b * u / a;
+  return steady + (x0 - steady) * std::exp(-a * t);
+}
+
+TEST(Fmu, ModelExchangeGivesTheModelsDerivativesAndOutputs) {
+  Fmu fmu("me");
+  ASSERT_TRUE(fmu.status().ok()) << fmu.status().error().ToString();
+  ASSERT_TRUE(fmu.loaded()) << dlerror();
+  Logged logged;
+  fmi2Component c = fmu.Instantiate(fmi2ModelExchange, &logged);
+  ASSERT_NE(c, nullptr);
+  auto set_real = fmu.Get<fmi2SetRealTYPE>("fmi2SetReal");
+  auto get_real = fmu.Get<fmi2GetRealTYPE>("fmi2GetReal");
+  const double u = 1.5;
+  ASSERT_EQ(set_real(c, &kU, 1, &u), fmi2OK);
+  ASSERT_EQ(
+      fmu.Get<fmi2SetupExperimentTYPE>("fmi2SetupExperiment")(c, fmi2False, 0, 0, fmi2False, 0),
+      fmi2OK);
+  ASSERT_EQ(fmu.Get<fmi2EnterInitializationModeTYPE>("fmi2EnterInitializationMode")(c), fmi2OK);
+  ASSERT_EQ(fmu.Get<fmi2ExitInitializationModeTYPE>("fmi2ExitInitializationMode")(c), fmi2OK);
+  fmi2EventInfo info{};
+  ASSERT_EQ(fmu.Get<fmi2NewDiscreteStatesTYPE>("fmi2NewDiscreteStates")(c, &info), fmi2OK);
+  EXPECT_FALSE(info.newDiscreteStatesNeeded);
+  ASSERT_EQ(fmu.Get<fmi2EnterContinuousTimeModeTYPE>("fmi2EnterContinuousTimeMode")(c), fmi2OK);
+  // The importer integrates: classical Runge-Kutta on a fine grid.
+  auto set_time = fmu.Get<fmi2SetTimeTYPE>("fmi2SetTime");
+  auto set_states = fmu.Get<fmi2SetContinuousStatesTYPE>("fmi2SetContinuousStates");
+  auto derivatives = fmu.Get<fmi2GetDerivativesTYPE>("fmi2GetDerivatives");
+  auto completed = fmu.Get<fmi2CompletedIntegratorStepTYPE>("fmi2CompletedIntegratorStep");
+  double x[2];
+  ASSERT_EQ(fmu.Get<fmi2GetContinuousStatesTYPE>("fmi2GetContinuousStates")(c, x, 2), fmi2OK);
+  EXPECT_EQ(x[0], 0.25);  // the start: x0 at the estimates
+  EXPECT_EQ(x[1], 0.0);
+  auto f = [&](double t, const double* at, double* dx) {
+    ASSERT_EQ(set_time(c, t), fmi2OK);
+    ASSERT_EQ(set_states(c, at, 2), fmi2OK);
+    ASSERT_EQ(derivatives(c, dx, 2), fmi2OK);
+  };
+  const double h = 1e-3;
+  double t = 0.0;
+  for (int step = 0; step < 1000; ++step) {
+    double k1[2], k2[2], k3[2], k4[2], y[2];
+    f(t, x, k1);
+    for (int i = 0; i < 2; ++i) y[i] = x[i] + 0.5 * h * k1[i];
+    f(t + 0.5 * h, y, k2);
+    for (int i = 0; i < 2; ++i) y[i] = x[i] + 0.5 * h * k2[i];
+    f(t + 0.5 * h, y, k3);
+    for (int i = 0; i < 2; ++i) y[i] = x[i] + h * k3[i];
+    f(t + h, y, k4);
+    for (int i = 0; i < 2; ++i) x[i] += h / 6 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i]);
+    t += h;
+    ASSERT_EQ(set_time(c, t), fmi2OK);
+    ASSERT_EQ(set_states(c, x, 2), fmi2OK);
+    fmi2Boolean event = fmi2True, stop = fmi2True;
+    ASSERT_EQ(completed(c, fmi2True, &event, &stop), fmi2OK);
+    EXPECT_FALSE(event);
+  }
+  const double expected = LagClosedForm(2.0, 3.0, u, 0.25, 1.0);
+  EXPECT_NEAR(x[0], expected, 1e-11);
+  double y[2];
+  const fmi2ValueReference outputs[2] = {kY, kW};
+  ASSERT_EQ(get_real(c, outputs, 2, y), fmi2OK);
+  EXPECT_NEAR(y[0], 0.5 * expected, 1e-11);
+  EXPECT_EQ(y[1], x[1] + u);
+  // A tunable parameter set in Event Mode takes effect.
+  ASSERT_EQ(fmu.Get<fmi2EnterEventModeTYPE>("fmi2EnterEventMode")(c), fmi2OK);
+  const double a = 4.0;
+  ASSERT_EQ(set_real(c, &kA, 1, &a), fmi2OK);
+  double dx[2];
+  ASSERT_EQ(derivatives(c, dx, 2), fmi2OK);
+  EXPECT_DOUBLE_EQ(dx[0], 3.0 * u - 4.0 * x[0]);
+  ASSERT_EQ(fmu.Get<fmi2TerminateTYPE>("fmi2Terminate")(c), fmi2OK);
+  fmu.Get<fmi2FreeInstanceTYPE>("fmi2FreeInstance")(c);
+  EXPECT_TRUE(logged.messages.empty()) << logged.messages.front();
+}
+
+TEST(Fmu, CoSimulationStepsAtTheModelsTolerance) {
+  Fmu fmu("cs");
+  ASSERT_TRUE(fmu.status().ok()) << fmu.status().error().ToString();
+  ASSERT_TRUE(fmu.loaded()) << dlerror();
+  Logged logged;
+  fmi2Component c = fmu.Instantiate(fmi2CoSimulation, &logged);
+  ASSERT_NE(c, nullptr);
+  auto set_real = fmu.Get<fmi2SetRealTYPE>("fmi2SetReal");
+  auto get_real = fmu.Get<fmi2GetRealTYPE>("fmi2GetReal");
+  auto do_step = fmu.Get<fmi2DoStepTYPE>("fmi2DoStep");
+  const double b = 5.0;
+  ASSERT_EQ(set_real(c, &kB, 1, &b), fmi2OK);  // a parameter set before initialisation
+  ASSERT_EQ(
+      fmu.Get<fmi2SetupExperimentTYPE>("fmi2SetupExperiment")(c, fmi2False, 0, 0, fmi2False, 0),
+      fmi2OK);
+  ASSERT_EQ(fmu.Get<fmi2EnterInitializationModeTYPE>("fmi2EnterInitializationMode")(c), fmi2OK);
+  ASSERT_EQ(fmu.Get<fmi2ExitInitializationModeTYPE>("fmi2ExitInitializationMode")(c), fmi2OK);
+  // The input steps from 0 to 1 at t = 0.5 (held over each communication step).
+  double t = 0.0;
+  const double step = 0.05;
+  for (int k = 0; k < 40; ++k) {
+    const double u = t < 0.5 - 1e-12 ? 0.0 : 1.0;
+    ASSERT_EQ(set_real(c, &kU, 1, &u), fmi2OK);
+    ASSERT_EQ(do_step(c, t, step, fmi2True), fmi2OK);
+    t += step;
+    double x = 0.0;
+    ASSERT_EQ(get_real(c, &kX, 1, &x), fmi2OK);
+    const double expected =
+        t <= 0.5 + 1e-12
+            ? LagClosedForm(2.0, b, 0.0, 0.25, t)
+            : LagClosedForm(2.0, b, 1.0, LagClosedForm(2.0, b, 0.0, 0.25, 0.5), t - 0.5);
+    EXPECT_NEAR(x, expected, 1e-9 * (1.0 + std::abs(expected))) << "t = " << t;
+  }
+  ASSERT_EQ(fmu.Get<fmi2TerminateTYPE>("fmi2Terminate")(c), fmi2OK);
+  fmu.Get<fmi2FreeInstanceTYPE>("fmi2FreeInstance")(c);
+  EXPECT_TRUE(logged.messages.empty()) << logged.messages.front();
+}
+
+TEST(Fmu, IllegalCallOrdersAreRefusedWithAMessage) {
+  Fmu fmu("illegal");
+  ASSERT_TRUE(fmu.status().ok()) << fmu.status().error().ToString();
+  ASSERT_TRUE(fmu.loaded()) << dlerror();
+  Logged logged;
+  EXPECT_EQ(fmu.Instantiate(fmi2ModelExchange, &logged, "{not-this-fmu}"), nullptr);
+  ASSERT_FALSE(logged.messages.empty());
+  EXPECT_NE(logged.messages.back().find("guid"), std::string::npos) << logged.messages.back();
+
+  fmi2Component c = fmu.Instantiate(fmi2ModelExchange, &logged);
+  ASSERT_NE(c, nullptr);
+  double dx[2];
+  EXPECT_EQ(fmu.Get<fmi2GetDerivativesTYPE>("fmi2GetDerivatives")(c, dx, 2), fmi2Error);
+  EXPECT_NE(logged.messages.back().find("fmi2GetDerivatives: not allowed in Instantiated"),
+            std::string::npos)
+      << logged.messages.back();
+  EXPECT_EQ(fmu.Get<fmi2DoStepTYPE>("fmi2DoStep")(c, 0.0, 0.1, fmi2True), fmi2Error);
+  EXPECT_NE(logged.messages.back().find("fmi2DoStep: not allowed"), std::string::npos)
+      << logged.messages.back();
+  const double v = 1.0;
+  EXPECT_EQ(fmu.Get<fmi2SetRealTYPE>("fmi2SetReal")(c, &kY, 1, &v), fmi2Error);
+  EXPECT_NE(logged.messages.back().find("never set"), std::string::npos);
+  const fmi2ValueReference nowhere = 99;
+  double out = 0.0;
+  ASSERT_EQ(fmu.Get<fmi2EnterInitializationModeTYPE>("fmi2EnterInitializationMode")(c), fmi2OK);
+  EXPECT_EQ(fmu.Get<fmi2GetRealTYPE>("fmi2GetReal")(c, &nowhere, 1, &out), fmi2Error);
+  EXPECT_NE(logged.messages.back().find("no variable has value reference 99"), std::string::npos);
+  EXPECT_EQ(fmu.Get<fmi2SetContinuousStatesTYPE>("fmi2SetContinuousStates")(c, dx, 2), fmi2Error);
+  EXPECT_EQ(fmu.Get<fmi2EnterInitializationModeTYPE>("fmi2EnterInitializationMode")(c), fmi2Error);
+  fmu.Get<fmi2FreeInstanceTYPE>("fmi2FreeInstance")(c);
+
+  // Exported for Model Exchange only: Co-Simulation is refused at instantiation.
+  Fmu me_only("me-only", Interface::kModelExchange);
+  ASSERT_TRUE(me_only.loaded());
+  Logged refused;
+  EXPECT_EQ(me_only.Instantiate(fmi2CoSimulation, &refused), nullptr);
+  ASSERT_FALSE(refused.messages.empty());
+  EXPECT_NE(me_only.description().find("<ModelExchange"), std::string::npos);
+  EXPECT_EQ(me_only.description().find("<CoSimulation"), std::string::npos);
+}
+
+TEST(Fmu, ModelDescriptionListsTheVariablesAndTheirDependencies) {
+  const model::NonlinearModel model = Lag();
+  auto sources = MakeFmuSources(model, model.spec().Values(), {});
+  ASSERT_TRUE(sources) << sources.error().ToString();
+  const std::string& d = sources->model_description;
+  EXPECT_EQ(sources->identifier, "First_order_lag");
+  EXPECT_NE(d.find("name=\"a\" valueReference=\"7\" causality=\"parameter\" "
+                   "variability=\"tunable\" initial=\"exact\" description=\"the lag's rate\""),
+            std::string::npos)
+      << d;
+  EXPECT_NE(d.find("<Real start=\"2\" unit=\"1/s\"/>"), std::string::npos);
+  EXPECT_NE(d.find("<Unit name=\"1/s\"/>"), std::string::npos);
+  EXPECT_NE(d.find("name=\"der(x)\" valueReference=\"2\""), std::string::npos);
+  EXPECT_NE(d.find("<Real derivative=\"1\"/>"), std::string::npos);
+  // der(x) = b u - a x: x (index 1) and u (index 5); der(z) = x - z^3/3: x and z;
+  // y = c x: x; w = z + u: z and u.
+  EXPECT_NE(d.find("<Unknown index=\"3\" dependencies=\"1 5\"/>"), std::string::npos) << d;
+  EXPECT_NE(d.find("<Unknown index=\"4\" dependencies=\"1 2\"/>"), std::string::npos) << d;
+  EXPECT_NE(d.find("<Unknown index=\"6\" dependencies=\"1\"/>"), std::string::npos) << d;
+  EXPECT_NE(d.find("<Unknown index=\"7\" dependencies=\"2 5\"/>"), std::string::npos) << d;
+  // The same model and values give the same guid; other values another.
+  std::vector<double> other = model.spec().Values();
+  other[0] = 2.5;
+  EXPECT_EQ(MakeFmuSources(model, model.spec().Values(), {})->guid, sources->guid);
+  EXPECT_NE(MakeFmuSources(model, other, {})->guid, sources->guid);
+  // Bad input is refused with the reason.
+  FmuOptions bad;
+  bad.identifier = "9lives";
+  auto refused = MakeFmuSources(model, model.spec().Values(), bad);
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find("not a C identifier"), std::string::npos);
+  other[1] = std::nan("");
+  auto not_finite = MakeFmuSources(model, other, {});
+  ASSERT_FALSE(not_finite);
+  EXPECT_NE(not_finite.error().message.find("parameter b"), std::string::npos);
+}
+
+TEST(Fmu, ModelDescriptionIsValidAgainstTheStandardsSchema) {
+  std::string schema;
+  if (const char* env = std::getenv("GREYBENCH_FMI_SCHEMA")) schema = env;
+  if (schema.empty())
+    schema = (fs::path(GREYBENCH_SOURCE_DIR) / ".." / "shared" / "fmi" / "fmi2" / "schema" /
+              "fmi2ModelDescription.xsd")
+                 .string();
+  if (!fs::exists(schema) || std::system("xmllint --version > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "needs xmllint and the FMI 2.0 schema (" << schema << ")";
+  Fmu fmu("schema");
+  ASSERT_TRUE(fmu.loaded());
+  const std::string command = "xmllint --noout --schema '" + schema + "' '" +
+                              (fmu.dir() / "unpacked" / "modelDescription.xml").string() + "' > '" +
+                              (fmu.dir() / "xmllint.log").string() + "' 2>&1";
+  const int status = std::system(command.c_str());
+  std::ifstream log(fmu.dir() / "xmllint.log");
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(status, 0) << text;
+}
+
+}  // namespace
+}  // namespace gb::fmu
