@@ -30,8 +30,9 @@ ORDER = [
     ("core/filter", "discretise; Kalman filter, EKF, their scores; the likelihood"),
     ("core/estimate core/design core/diagnose",
      "fitting, profiles; input design (PRBS); residual tests"),
-    ("core/online core/sim core/report core/fmu",
-     "on-line estimation and monitoring; simulation, dyno; reports; FMU export"),
+    ("core/online core/sim core/report",
+     "on-line estimation and monitoring; simulation, dyno; reports"),
+    ("core/fmu", "the fitted model as an FMI 2.0 FMU"),
     ("core/project", "project and result files, problems, sweeps, operating points"),
     ("core/diagram", "block diagrams of a project's model"),
     # ui/ (greybench_ui), above all of core. A file at the top of ui/ is a unit of its own.

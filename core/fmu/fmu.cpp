@@ -17,6 +17,7 @@
 #include "core/expr/expr.h"
 #include "core/expr/native.h"
 #include "core/fmu/embedded.h"
+#include "core/report/figure.h"
 #include "core/util/file.h"
 #include "core/util/zip.h"
 
@@ -25,32 +26,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using Program = model::NonlinearModel::Program;
-
-std::string XmlEscape(const std::string& s) {
-  std::string out;
-  for (const char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
-// The shortest text that reads back to v.
-std::string Number(double v) { return fmt::format("{}", v); }
 
 std::uint64_t Fnv1a(const std::string& s) {
   std::uint64_t h = 1469598103934665603ULL;
@@ -168,9 +143,10 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
     if (!q.unit.empty()) units.insert(q.unit);
   std::ostringstream x;
   x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-    << "<fmiModelDescription fmiVersion=\"2.0\" modelName=\"" << XmlEscape(spec.name) << "\"\n"
+    << "<fmiModelDescription fmiVersion=\"2.0\" modelName=\"" << report::XmlEscape(spec.name)
+    << "\"\n"
     << "  guid=\"@GUID@\"\n"
-    << "  description=\"" << XmlEscape(spec.name)
+    << "  description=\"" << report::XmlEscape(spec.name)
     << ": the deterministic part of a stochastic grey-box model at its estimates\"\n"
     << "  generationTool=\"greybench\" variableNamingConvention=\"structured\""
     << " numberOfEventIndicators=\"0\">\n";
@@ -189,26 +165,26 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
       << "  </CoSimulation>\n";
   if (!units.empty()) {
     x << "  <UnitDefinitions>\n";
-    for (const std::string& u : units) x << "    <Unit name=\"" << XmlEscape(u) << "\"/>\n";
+    for (const std::string& u : units) x << "    <Unit name=\"" << report::XmlEscape(u) << "\"/>\n";
     x << "  </UnitDefinitions>\n";
   }
   x << "  <LogCategories>\n    <Category name=\"logStatusError\" description=\"refused calls "
        "and values that are not finite\"/>\n  </LogCategories>\n"
-    << "  <DefaultExperiment tolerance=\"" << Number(spec.ekf.rtol) << "\"/>\n"
+    << "  <DefaultExperiment tolerance=\"" << report::ShortestDouble(spec.ekf.rtol) << "\"/>\n"
     << "  <ModelVariables>\n";
   auto variable = [&x](const std::string& name, std::size_t vr, const char* causality,
                        const char* variability, const char* initial, const std::string& description,
                        const std::string& real) {
-    x << "    <ScalarVariable name=\"" << XmlEscape(name) << "\" valueReference=\"" << vr
+    x << "    <ScalarVariable name=\"" << report::XmlEscape(name) << "\" valueReference=\"" << vr
       << "\" causality=\"" << causality << "\" variability=\"" << variability << "\"";
     if (*initial) x << " initial=\"" << initial << "\"";
-    if (!description.empty()) x << " description=\"" << XmlEscape(description) << "\"";
+    if (!description.empty()) x << " description=\"" << report::XmlEscape(description) << "\"";
     x << ">\n      <Real" << real << "/>\n    </ScalarVariable>\n";
   };
   std::size_t vr = 0;
   for (std::size_t i = 0; i < n; ++i)
     variable(spec.states[i], vr++, "local", "continuous", "exact", "state",
-             " start=\"" + Number(x0[i]) + "\"");
+             " start=\"" + report::ShortestDouble(x0[i]) + "\"");
   for (std::size_t i = 0; i < n; ++i)
     variable("der(" + spec.states[i] + ")", vr++, "local", "continuous", "", "",
              " derivative=\"" + std::to_string(i + 1) + "\"");
@@ -218,8 +194,8 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
     variable(spec.outputs[o], vr++, "output", "continuous", "", "output (the observation h)", "");
   for (std::size_t i = 0; i < k; ++i) {
     const model::Parameter& q = spec.parameters[i];
-    std::string real = " start=\"" + Number(theta[i]) + "\"";
-    if (!q.unit.empty()) real += " unit=\"" + XmlEscape(q.unit) + "\"";
+    std::string real = " start=\"" + report::ShortestDouble(theta[i]) + "\"";
+    if (!q.unit.empty()) real += " unit=\"" + report::XmlEscape(q.unit) + "\"";
     variable(q.name, vr++, "parameter", "tunable", "exact",
              q.description.empty() ? (q.fixed ? "fixed in the fit" : "estimate") : q.description,
              real);

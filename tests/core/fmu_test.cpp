@@ -291,7 +291,7 @@ TEST(Fmu, ModelDescriptionListsTheVariablesAndTheirDependencies) {
   const std::string& d = sources->model_description;
   EXPECT_EQ(sources->identifier, "First_order_lag");
   EXPECT_NE(d.find("name=\"a\" valueReference=\"7\" causality=\"parameter\" "
-                   "variability=\"tunable\" initial=\"exact\" description=\"the lag's rate\""),
+                   "variability=\"tunable\" initial=\"exact\" description=\"the lag&apos;s rate\""),
             std::string::npos)
       << d;
   EXPECT_NE(d.find("<Real start=\"2\" unit=\"1/s\"/>"), std::string::npos);
