@@ -238,8 +238,13 @@ fmi2Status fmi2Reset(fmi2Component component) {
     return fmi2Error;
   c->state = gbInstantiated;
   c->time = 0.0;
+  c->step_start = 0.0;
+  c->h_hint = 0.0;
   for (i = 0; i < GB_N_STATES; ++i) c->x[i] = gb_x_start[i];
-  for (i = 0; i < GB_N_INPUTS; ++i) c->u[i] = gb_u_start[i];
+  for (i = 0; i < GB_N_INPUTS; ++i) {
+    c->u[i] = gb_u_start[i];
+    c->du[i] = 0.0;
+  }
   for (i = 0; i < GB_N_PARAMETERS; ++i) c->theta[i] = gb_theta_start[i];
   return fmi2OK;
 }

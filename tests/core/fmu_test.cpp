@@ -239,6 +239,17 @@ TEST(Fmu, CoSimulationStepsAtTheModelsTolerance) {
     EXPECT_NEAR(x, expected, 1e-9 * (1.0 + std::abs(expected))) << "t = " << t;
   }
   ASSERT_EQ(fmu.Get<fmi2TerminateTYPE>("fmi2Terminate")(c), fmi2OK);
+  // A reset instance is as instantiated: the states, inputs and parameters at their starts.
+  ASSERT_EQ(fmu.Get<fmi2ResetTYPE>("fmi2Reset")(c), fmi2OK);
+  ASSERT_EQ(fmu.Get<fmi2EnterInitializationModeTYPE>("fmi2EnterInitializationMode")(c), fmi2OK);
+  double start[3];
+  const fmi2ValueReference starts[3] = {kX, kU, kB};
+  ASSERT_EQ(get_real(c, starts, 3, start), fmi2OK);
+  EXPECT_EQ(start[0], 0.25);
+  EXPECT_EQ(start[1], 0.0);
+  EXPECT_EQ(start[2], 3.0);
+  ASSERT_EQ(fmu.Get<fmi2ExitInitializationModeTYPE>("fmi2ExitInitializationMode")(c), fmi2OK);
+  ASSERT_EQ(fmu.Get<fmi2TerminateTYPE>("fmi2Terminate")(c), fmi2OK);
   fmu.Get<fmi2FreeInstanceTYPE>("fmi2FreeInstance")(c);
   EXPECT_TRUE(logged.messages.empty()) << logged.messages.front();
 }
