@@ -33,8 +33,8 @@ inline double Sign(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : x); }
 // a^-1 = 1 / a, a^-2 = 1 / (a a); std::pow otherwise. Products are some 20 times cheaper than
 // std::pow (19 % of the engine model's filter, docs/benchmarks.md) and within 2 units in the
 // last place of it (at most two roundings against pow's one; tests/core/expr_test.cpp).
-// NativeCode's gb_pow does the same
-// operations in the same order, so native code and the interpreter stay equal bit for bit.
+// NativeCode's gb_pow does the same operations in the same order, so native code and the
+// interpreter stay equal bit for bit.
 inline double Power(double a, double b) {
   if (b == 2.0) return a * a;
   if (b == 3.0) return a * a * a;

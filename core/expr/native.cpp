@@ -23,6 +23,7 @@
 #include <unistd.h>
 
 #include "core/expr/internal.h"
+#include "core/util/hash.h"
 
 extern char** environ;  // NOLINT(readability-redundant-declaration): POSIX, for posix_spawnp
 
@@ -160,15 +161,6 @@ class FunctionWriter {
   std::vector<int> temp_;  // per id: its temporary, -1 none yet
   int n_temps_ = 0;
 };
-
-std::uint64_t Fnv1a(std::string_view text) {
-  std::uint64_t h = 14695981039346656037ULL;
-  for (const char c : text) {
-    h ^= static_cast<unsigned char>(c);
-    h *= 1099511628211ULL;
-  }
-  return h;
-}
 
 std::string Compiler() {
   for (const char* name : {"GREYBENCH_CC", "CC"}) {

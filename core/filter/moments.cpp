@@ -152,13 +152,8 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
     SetSlots(t, x);
     model_.Dynamics(slots_, out_);
     if (AllFinite(out_)) return true;
-    for (std::size_t k = 0; k < out_.size(); ++k) {
-      if (!std::isfinite(out_[k])) {
-        failure_ = model_.NotFinite(Program::kDynamics, k, out_[k], slots_);
-        return false;
-      }
-    }
-    return true;
+    NameNotFinite();
+    return false;
   }
   // The slots at (t, x): x, u(t) and t; N > 0 the state count at compile time (the copy then is
   // a few moves, not a call of memmove).
@@ -253,34 +248,29 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   // in order at every size. False if a value is not finite. N as RhsOf's.
   template <std::ptrdiff_t N>
   bool MomentsRhs(const double* z, double* dz) {
+    const std::ptrdiff_t n = N > 0 ? N : n_;
+    // P and M on the stack for a fixed size, in the members' storage otherwise.
+    double P_fixed[N > 0 ? N * N : 1], M_fixed[N > 0 ? N * N : 1];
+    double* P = N > 0 ? P_fixed : P_.data();
+    double* M = N > 0 ? M_fixed : M_.data();
+    const double* packed = z + n;  // packed_'s order
+    for (std::ptrdiff_t b = 0; b < n; ++b)
+      for (std::ptrdiff_t a = b; a < n; ++a) P[b * n + a] = P[a * n + b] = *packed++;
     if constexpr (N > 0) {
-      double P[N * N], M[N * N];
-      const double* packed = z + N;  // packed_'s order
-      for (std::ptrdiff_t b = 0; b < N; ++b)
-        for (std::ptrdiff_t a = b; a < N; ++a) P[b * N + a] = P[a * N + b] = *packed++;
       MultiplyFixed<N>(P, JRowMajor(), M);
-      const double* f = out_.data();
-      const double* sigma = f + N + N * N;
-      FiniteTest finite;
-      for (std::ptrdiff_t i = 0; i < N; ++i) finite.Add(dz[i] = f[i]);
-      double* d = dz + N;
-      for (std::ptrdiff_t b = 0; b < N; ++b) {
-        finite.Add(*d++ = M[b * N + b] + M[b * N + b] + sigma[b] * sigma[b]);
-        for (std::ptrdiff_t a = b + 1; a < N; ++a) finite.Add(*d++ = M[a * N + b] + M[b * N + a]);
-      }
-      return finite.Passed();
     } else {
-      for (int i = 0; i < n_; ++i) dz[i] = out_[i];
-      Unpack({z, static_cast<std::size_t>(moments_size())}, &P_);
-      MultiplySquare(P_.data(), JRowMajor(), M_.data(), n_);
-      const double* sigma = out_.data() + n_ + static_cast<std::ptrdiff_t>(n_) * n_;
-      double* packed = dz + n_;
-      for (int b = 0; b < n_; ++b) {
-        *packed++ = M_(b, b) + M_(b, b) + sigma[b] * sigma[b];
-        for (int a = b + 1; a < n_; ++a) *packed++ = M_(b, a) + M_(a, b);
-      }
-      return AllFinite({dz, static_cast<std::size_t>(moments_size())});
+      MultiplySquare(P, JRowMajor(), M, n_);
     }
+    const double* f = out_.data();
+    const double* sigma = f + n + n * n;
+    FiniteTest finite;
+    for (std::ptrdiff_t i = 0; i < n; ++i) finite.Add(dz[i] = f[i]);
+    double* d = dz + n;
+    for (std::ptrdiff_t b = 0; b < n; ++b) {
+      finite.Add(*d++ = M[b * n + b] + M[b * n + b] + sigma[b] * sigma[b]);
+      for (std::ptrdiff_t a = b + 1; a < n; ++a) finite.Add(*d++ = M[a * n + b] + M[b * n + a]);
+    }
+    return finite.Passed();
   }
   // After MomentsRhs found a value that is not finite: the dynamics' entry that is not, into
   // failure() (none when they are all finite and the products overflowed).

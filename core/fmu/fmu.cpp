@@ -19,6 +19,7 @@
 #include "core/fmu/embedded.h"
 #include "core/report/figure.h"
 #include "core/util/file.h"
+#include "core/util/hash.h"
 #include "core/util/zip.h"
 
 namespace gb::fmu {
@@ -26,15 +27,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using Program = model::NonlinearModel::Program;
-
-std::uint64_t Fnv1a(const std::string& s) {
-  std::uint64_t h = 1469598103934665603ULL;
-  for (const unsigned char c : s) {
-    h ^= c;
-    h *= 1099511628211ULL;
-  }
-  return h;
-}
 
 // A C string literal of a name (identifiers only: no escapes needed).
 std::string CString(const std::string& s) { return "\"" + s + "\""; }
@@ -283,7 +275,7 @@ Status ExportFmu(const model::NonlinearModel& model, std::span<const double> the
     }
   } cleanup{dir};
   const std::string id = sources->identifier;
-  const std::vector<std::pair<std::string, const char*>> headers = {
+  const std::pair<const char*, const char*> headers[] = {
       {"fmi2TypesPlatform.h", embedded::kTypesPlatform},
       {"fmi2FunctionTypes.h", embedded::kFunctionTypes},
       {"fmi2Functions.h", embedded::kFunctions}};
@@ -300,13 +292,12 @@ Status ExportFmu(const model::NonlinearModel& model, std::span<const double> the
   std::ifstream in(library, std::ios::binary);
   std::string binary((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (!in.good() && !in.eof()) return FileError(library.string(), "cannot read the built library");
-  const std::vector<ZipEntry> entries = {{"modelDescription.xml", sources->model_description},
-                                         {"binaries/linux64/" + id + ".so", binary},
-                                         {"sources/" + id + ".c", sources->source},
-                                         {"sources/fmi2TypesPlatform.h", embedded::kTypesPlatform},
-                                         {"sources/fmi2FunctionTypes.h", embedded::kFunctionTypes},
-                                         {"sources/fmi2Functions.h", embedded::kFunctions},
-                                         {"sources/LICENSE.txt", embedded::kLicence}};
+  std::vector<ZipEntry> entries = {{"modelDescription.xml", sources->model_description},
+                                   {"binaries/linux64/" + id + ".so", binary},
+                                   {"sources/" + id + ".c", sources->source}};
+  for (const auto& [name, text] : headers)
+    entries.push_back({std::string("sources/") + name, text});
+  entries.push_back({"sources/LICENSE.txt", embedded::kLicence});
   return WriteZipFile(path, entries);
 }
 

@@ -647,31 +647,28 @@ not_finite:
 
 fmi2Status fmi2CancelStep(fmi2Component c) { return gb_not_provided(c, "fmi2CancelStep"); }
 
-static fmi2Status gb_no_status(fmi2Component c, const char* function) {
-  return gb_not_provided(c, function);
-}
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status* value) {
   (void)s;
   (void)value;
-  return gb_no_status(c, "fmi2GetStatus");
+  return gb_not_provided(c, "fmi2GetStatus");
 }
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real* value) {
   (void)s;
   (void)value;
-  return gb_no_status(c, "fmi2GetRealStatus");
+  return gb_not_provided(c, "fmi2GetRealStatus");
 }
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer* value) {
   (void)s;
   (void)value;
-  return gb_no_status(c, "fmi2GetIntegerStatus");
+  return gb_not_provided(c, "fmi2GetIntegerStatus");
 }
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean* value) {
   (void)s;
   (void)value;
-  return gb_no_status(c, "fmi2GetBooleanStatus");
+  return gb_not_provided(c, "fmi2GetBooleanStatus");
 }
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String* value) {
   (void)s;
   (void)value;
-  return gb_no_status(c, "fmi2GetStringStatus");
+  return gb_not_provided(c, "fmi2GetStringStatus");
 }

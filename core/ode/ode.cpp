@@ -57,18 +57,14 @@ constexpr double kE1 = kB[0] - 5179.0 / 57600, kE3 = kB[2] - 7571.0 / 16695,
 // rules), so it takes the same steps to the last bit (tests/core/ode_test.cpp); Odeint's generic
 // loops over std::vector cost a fifth of the 2-state filter's time (docs/benchmarks.md, issue 37).
 struct OdeSolver::Explicit {
-  Explicit(double atol, double rtol, int size, int controlled)
-      : atol(atol),
-        rtol(rtol),
-        size(size),
-        controlled(controlled),
+  Explicit(int size, int controlled)
+      : controlled(controlled),
         x(size),
         dxdt(size),
         x_new(size),
         dxdt_new(size),
         stages(static_cast<std::size_t>(size) * 6) {}
-  double atol, rtol;
-  int size, controlled;
+  int controlled;  // the system's controlled_size()
   std::vector<double> x, dxdt, x_new, dxdt_new;
   std::vector<double> stages;  // k2..k6 and the trial point, size each
   double dt_hint = 0.0;        // the step size the last interval ended with (0: none yet)
@@ -142,7 +138,7 @@ template <std::ptrdiff_t N>
 Status OdeSolver::AdvanceExplicitSized(OdeSystem& system, double t0, double t1,
                                        std::span<double> z) {
   Explicit& e = *explicit_;
-  const std::ptrdiff_t size = e.size;
+  const std::ptrdiff_t size = size_;
   auto rhs = [&](double t, const double* x, double* dxdt) {
     ++counts_.rhs;
     return system.Rhs(t, {x, static_cast<std::size_t>(size)},
@@ -162,8 +158,8 @@ Status OdeSolver::AdvanceExplicitSized(OdeSystem& system, double t0, double t1,
     if (last) dt = left;
     const double dt_tried = dt;
     const double error =
-        TrialStep<N>(rhs, size, e.controlled, e.atol, e.rtol, t, dt, e.x.data(), e.dxdt.data(),
-                     e.x_new.data(), e.dxdt_new.data(), e.stages.data());
+        TrialStep<N>(rhs, size, e.controlled, options_.atol, options_.rtol, t, dt, e.x.data(),
+                     e.dxdt.data(), e.x_new.data(), e.dxdt_new.data(), e.stages.data());
     if (std::isnan(error)) {  // the trial step left the domain of the model (a sqrt of a
                               // negative level)
       ++counts_.rejected;
@@ -197,9 +193,7 @@ Status OdeSolver::AdvanceExplicitSized(OdeSystem& system, double t0, double t1,
 }
 
 Status OdeSolver::AdvanceExplicit(OdeSystem& system, double t0, double t1, std::span<double> z) {
-  if (!explicit_)
-    explicit_ =
-        std::make_unique<Explicit>(options_.atol, options_.rtol, size_, system.controlled_size());
+  if (!explicit_) explicit_ = std::make_unique<Explicit>(size_, system.controlled_size());
   switch (size_) {  // the moment equations of 1 to 7 states: n + n (n + 1) / 2
     case 2:
       return AdvanceExplicitSized<2>(system, t0, t1, z);
