@@ -123,7 +123,10 @@ struct SimulateArgs {
   std::string model;
   std::string inputs;
   std::vector<std::string> sets;
+  std::string result;  // the parameter values and delays of a result file
   std::uint64_t seed = 1;
+  bool seed_given = false;
+  bool deterministic = false;  // the noise-free response from x0
   std::string out;
 };
 int RunSimulate(const SimulateArgs& args);

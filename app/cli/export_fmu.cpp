@@ -38,7 +38,8 @@ int RunExportFmu(const ExportFmuArgs& args) {
   }
   if (!spec) return Fail(spec.error());
   if (int s = GuardOutputs(files, {{args.out, "--out"}})) return s;
-  if (auto d = project::ApplyResultFile(args.result, {}, &*spec); !d) return Fail(d.error());
+  auto delays = project::ApplyResultFile(args.result, {}, &*spec);
+  if (!delays) return Fail(delays.error());
   auto compiled = model::NonlinearModel::Compile(*spec);
   if (!compiled) return Fail(compiled.error());
   fmu::FmuOptions options;
@@ -51,6 +52,18 @@ int RunExportFmu(const ExportFmuArgs& args) {
     if (e.file.empty()) e.file = args.out;
     return Fail(e);
   }
+  // The FMU's outputs are h at the same instant; a delay the fit estimated is left to the
+  // importer (a transport delay of d sample times after the output), and said.
+  std::string delayed;
+  for (std::size_t o = 0; o < delays->size(); ++o)
+    if ((*delays)[o] > 0)
+      delayed += fmt::format("{}{} by {} sample{}", delayed.empty() ? "" : ", ", spec->outputs[o],
+                             (*delays)[o], (*delays)[o] == 1 ? "" : "s");
+  if (!delayed.empty())
+    std::fprintf(stderr,
+                 "greybench-cli: warning: the fit delays %s; the FMU's outputs are not delayed "
+                 "(add the delay after the output in the importer)\n",
+                 delayed.c_str());
   std::printf("%s\n",
               fmt::format("wrote {}: FMI 2.0, {}, model identifier {}; {} states, {} inputs, {} "
                           "outputs, {} parameters at the estimates of {}",

@@ -179,14 +179,23 @@ int Main(int argc, char** argv) {
   c_bench->callback([&] { run = [&] { return RunBench(bench); }; });
 
   SimulateArgs simulate;
-  auto* c_sim = app.add_subcommand("simulate", "a sample path of the SDE at the input times");
+  auto* c_sim = app.add_subcommand(
+      "simulate", "a sample path of the SDE at the input times, or its deterministic response");
   c_sim->add_option("model", simulate.model, "model file (JSON)")->required();
   c_sim->add_option("--inputs", simulate.inputs, "CSV with t and the model's inputs")->required();
   c_sim->add_option("--set", simulate.sets, "NAME=VALUE: override a parameter's value");
-  c_sim->add_option("--seed", simulate.seed, "random seed (default 1)")
-      ->check(Seed(std::numeric_limits<std::uint64_t>::max()));
+  c_sim->add_option("--result", simulate.result,
+                    "result file (JSON): the parameter values and output delays of a fit");
+  auto* sim_seed = c_sim->add_option("--seed", simulate.seed, "random seed (default 1)")
+                       ->check(Seed(std::numeric_limits<std::uint64_t>::max()));
+  c_sim->add_flag("--deterministic", simulate.deterministic,
+                  "the noise-free response from the initial state: no process or measurement "
+                  "noise (exact for a linear model, error-controlled for any other)");
   c_sim->add_option("--out", simulate.out, "output CSV")->required();
-  c_sim->callback([&] { run = [&] { return RunSimulate(simulate); }; });
+  c_sim->callback([&, sim_seed] {
+    simulate.seed_given = sim_seed->count() > 0;
+    run = [&] { return RunSimulate(simulate); };
+  });
 
   PrbsArgs prbs;
   auto* c_prbs = app.add_subcommand("prbs", "a maximal-length PRBS input signal");

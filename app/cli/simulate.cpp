@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <set>
 
 #include <fmt/format.h>
 
@@ -9,16 +10,30 @@
 #include "core/data/write_csv.h"
 #include "core/design/prbs.h"
 #include "core/model/linear_model.h"
+#include "core/project/result_file.h"
+#include "core/sim/response.h"
 #include "core/sim/sde.h"
 
 namespace gb::cli {
 
 int RunSimulate(const SimulateArgs& args) {
-  if (int s = GuardOutputs({{args.model, "the model file"}, {args.inputs, "the --inputs file"}},
-                           {{args.out, "--out"}}))
-    return s;
+  if (args.deterministic && args.seed_given)
+    return Fail(InputError("--seed: a deterministic response (--deterministic) draws no noise"));
+  std::vector<FileRole> inputs_read = {{args.model, "the model file"},
+                                       {args.inputs, "the --inputs file"}};
+  if (!args.result.empty()) inputs_read.push_back({args.result, "the --result file"});
+  if (int s = GuardOutputs(inputs_read, {{args.out, "--out"}})) return s;
   auto spec = LoadModelWithOverrides(args.model, args.sets);
   if (!spec) return Fail(spec.error());
+  // A result's estimates (parameters given with --set keep their value) and its delays.
+  std::vector<int> result_delay(spec->outputs.size(), -1);
+  if (!args.result.empty()) {
+    std::set<std::string> set_names;
+    for (const auto& s : args.sets) set_names.insert(s.substr(0, s.find('=')));
+    auto d = project::ApplyResultFile(args.result, set_names, &*spec);
+    if (!d) return Fail(d.error());
+    result_delay = *d;
+  }
   const std::vector<double> theta = spec->Values();
   // A linear model is simulated exactly; any other by the Milstein scheme (core/sim/sde.h).
   auto lm = model::LinearModel::Compile(*spec);
@@ -47,13 +62,17 @@ int RunSimulate(const SimulateArgs& args) {
   with_outputs.Y.setConstant(m.outputs.size(), with_outputs.size(),
                              std::numeric_limits<double>::quiet_NaN());
   filter::FilterSettings settings = filter::FilterSettings::FromModel(m);
+  settings.delay.resize(m.outputs.size());
+  for (std::size_t o = 0; o < m.outputs.size(); ++o)
+    if (result_delay[o] >= 0) settings.delay[o] = result_delay[o];
   Result<sim::Simulation> result = InputError("");
   if (lm) {
     auto ss = lm->Evaluate(theta);
     if (!ss) return Fail(ss.error());
-    sim::SimulateOptions options;
-    options.seed = args.seed;
-    result = sim::Simulate(*ss, with_outputs, settings, options);
+    result = args.deterministic ? sim::DeterministicResponse(*ss, with_outputs, settings)
+                                : sim::SamplePath(*ss, with_outputs, settings, args.seed);
+  } else if (args.deterministic) {
+    result = sim::DeterministicResponse(*nm, theta, with_outputs, settings);
   } else {
     result = sim::SamplePath(*nm, theta, with_outputs, settings, args.seed);
   }
@@ -73,12 +92,28 @@ int RunSimulate(const SimulateArgs& args) {
     storage.emplace_back(y.begin(), y.end());
     cols.push_back({m.outputs[o], storage.back()});
   }
-  std::vector<std::string> comments = {
-      fmt::format("simulated by greybench-cli from {} (seed {})", args.model, args.seed)};
+  std::vector<std::string> comments;
+  const std::string values_from =
+      args.result.empty() ? "" : fmt::format(" at the estimates of {}", args.result);
+  if (!args.deterministic)
+    comments.push_back(fmt::format("simulated by greybench-cli from {}{} (seed {})", args.model,
+                                   values_from, args.seed));
+  else
+    comments.push_back(fmt::format(
+        "the deterministic response of {}{}: no process or measurement noise, from the initial "
+        "state ({})",
+        args.model, values_from,
+        lm ? "exact discretisation"
+           : fmt::format("the moment equations' mean, rtol {} atol {}", m.ekf.rtol, m.ekf.atol)));
   std::string values;
   for (std::size_t i = 0; i < m.parameters.size(); ++i)
     values += fmt::format("{}{}={}", i ? " " : "", m.parameters[i].name, theta[i]);
   comments.push_back("parameters: " + values);
+  std::string delays;
+  for (std::size_t o = 0; o < m.outputs.size(); ++o)
+    if (settings.delay[o] > 0)
+      delays += fmt::format("{}{}={}", delays.empty() ? "" : " ", m.outputs[o], settings.delay[o]);
+  if (!delays.empty()) comments.push_back("output delays (samples): " + delays);
   if (auto st = data::WriteCsvFile(args.out, cols, comments); !st) return Fail(st.error());
   return 0;
 }

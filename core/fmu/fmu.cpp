@@ -73,6 +73,23 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
         "the FMU's model identifier '{}' is not a C identifier (letters, digits and '_', not "
         "starting with a digit)",
         out.identifier));
+  // The inputs, outputs and parameters keep their names: they are the FMU's interface. A state
+  // named like one of them (an output y = N of a state N) takes a suffix: N_state.
+  std::vector<std::string> state_var = spec.states;
+  {
+    std::set<std::string> interface_names(spec.inputs.begin(), spec.inputs.end());
+    interface_names.insert(spec.outputs.begin(), spec.outputs.end());
+    for (const auto& q : spec.parameters) interface_names.insert(q.name);
+    std::set<std::string> taken = interface_names;
+    taken.insert(spec.states.begin(), spec.states.end());
+    for (auto& name : state_var) {
+      if (!interface_names.count(name)) continue;
+      const std::string base = name + "_state";
+      name = base;
+      for (int k = 2; taken.count(name); ++k) name = base + std::to_string(k);
+      taken.insert(name);
+    }
+  }
   {
     std::map<std::string, std::string> seen;
     auto claim = [&](const std::string& name, const std::string& what) -> Status {
@@ -83,7 +100,7 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
                         name, it->second, what));
       return Ok{};
     };
-    for (const auto& s : spec.states) {
+    for (const auto& s : state_var) {
       if (auto c = claim(s, "a state"); !c) return c.error();
       if (auto c = claim("der(" + s + ")", "a derivative"); !c) return c.error();
     }
@@ -175,10 +192,14 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
   };
   std::size_t vr = 0;
   for (std::size_t i = 0; i < n; ++i)
-    variable(spec.states[i], vr++, "local", "continuous", "exact", "state",
+    variable(state_var[i], vr++, "local", "continuous", "exact",
+             state_var[i] == spec.states[i]
+                 ? "state"
+                 : fmt::format("state {} of the model (a variable of the interface has its name)",
+                               spec.states[i]),
              " start=\"" + report::ShortestDouble(x0[i]) + "\"");
   for (std::size_t i = 0; i < n; ++i)
-    variable("der(" + spec.states[i] + ")", vr++, "local", "continuous", "", "",
+    variable("der(" + state_var[i] + ")", vr++, "local", "continuous", "", "",
              " derivative=\"" + std::to_string(i + 1) + "\"");
   for (std::size_t i = 0; i < m; ++i)
     variable(spec.inputs[i], vr++, "input", "continuous", "", "input", " start=\"0\"");
@@ -240,7 +261,7 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
   array("double gb_x_start", v);
   array("double gb_u_start", std::vector<std::string>(m, "0.0"));
   v.clear();
-  for (const auto& s : spec.states) v.push_back(CString(s));
+  for (const auto& s : state_var) v.push_back(CString(s));
   array("char* const gb_state_name", v);
   v.clear();
   for (const auto& y : spec.outputs) v.push_back(CString(y));

@@ -58,6 +58,7 @@ typedef struct {
   double du[GB_MAX1(GB_N_INPUTS)]; /* Co-Simulation: the inputs' slopes over the next step */
   double step_start;               /* Co-Simulation: where the current step began */
   double h_hint;                   /* Co-Simulation: the last accepted step's proposal */
+  fmi2Boolean jumped;              /* an input or parameter changed since the last event */
 } gbInstance;
 
 static const char* gb_state_text(gbState s) {
@@ -219,6 +220,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component component) {
   gbInstance* c = (gbInstance*)component;
   if (!gb_allowed(c, "fmi2ExitInitializationMode", gbInitialization)) return fmi2Error;
   c->state = c->type == fmi2ModelExchange ? gbEvent : gbStepComplete;
+  c->jumped = fmi2False; /* the importer starts its integrator here in any case */
   return fmi2OK;
 }
 
@@ -240,6 +242,7 @@ fmi2Status fmi2Reset(fmi2Component component) {
   c->time = 0.0;
   c->step_start = 0.0;
   c->h_hint = 0.0;
+  c->jumped = fmi2False;
   for (i = 0; i < GB_N_STATES; ++i) c->x[i] = gb_x_start[i];
   for (i = 0; i < GB_N_INPUTS; ++i) {
     c->u[i] = gb_u_start[i];
@@ -307,6 +310,7 @@ fmi2Status fmi2SetReal(fmi2Component component, const fmi2ValueReference vr[], s
       }
       c->x[r - GB_VR_STATE] = value[k];
     } else if (r >= GB_VR_INPUT && r < GB_VR_OUTPUT) {
+      if (c->u[r - GB_VR_INPUT] != value[k]) c->jumped = fmi2True;
       c->u[r - GB_VR_INPUT] = value[k];
     } else if (r >= GB_VR_PARAMETER && r < GB_VR_END) {
       if (c->state & gbContinuousTime) {
@@ -315,6 +319,7 @@ fmi2Status fmi2SetReal(fmi2Component component, const fmi2ValueReference vr[], s
                gb_state_text(c->state));
         return fmi2Error;
       }
+      if (c->theta[r - GB_VR_PARAMETER] != value[k]) c->jumped = fmi2True;
       c->theta[r - GB_VR_PARAMETER] = value[k];
     } else {
       gb_log(c, fmi2Error, "logStatusError",
@@ -412,7 +417,14 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component component, fmi2EventInfo* info) {
   info->newDiscreteStatesNeeded = fmi2False;
   info->terminateSimulation = fmi2False;
   info->nominalsOfContinuousStatesChanged = fmi2False;
-  info->valuesOfContinuousStatesChanged = fmi2False;
+  /* An input or a parameter that changed since the last event may have jumped (an importer
+     sets a stepped input in Event Mode or just before it, in Continuous-Time Mode). The
+     states keep their values, but an integrator that carries history (CVODE's BDF or Adams)
+     must restart here, and FMI 2.0's way to ask for that is this flag: fmusim restarts on it
+     and on nothing else, and without it CVODE's error test fails just after an input step. A
+     restart where the input only moved continuously costs the importer a few small steps. */
+  info->valuesOfContinuousStatesChanged = c->jumped;
+  c->jumped = fmi2False;
   info->nextEventTimeDefined = fmi2False;
   info->nextEventTime = 0.0;
   return fmi2OK;

@@ -48,7 +48,49 @@ JSON
 python3 -c "print('t,u'); [print(f'{k},0') for k in range(801)]" >"$tmp/in.csv"
 "$cli" simulate "$tmp/grow.json" --inputs "$tmp/in.csv" --set a=-1 --out "$tmp/sim.csv"
 check "a stable path is simulated" test "$(grep -vc '^#' "$tmp/sim.csv")" -eq 802
-kept=("$tmp/grow.json" "$tmp/in.csv" "$tmp/sim.csv")
+# --deterministic: the noise-free response from x0, e^{-t} exactly (a linear model's exact
+# discretisation), the same for any seed; with a result file, at its estimates.
+"$cli" simulate "$tmp/grow.json" --inputs "$tmp/in.csv" --set a=-1 --deterministic \
+  --out "$tmp/det.csv"
+check "the deterministic response is e^-t" python3 - "$tmp/det.csv" <<'PY'
+import csv, math, sys
+rows = [r for r in csv.DictReader(l for l in open(sys.argv[1]) if not l.startswith("#"))]
+for r in rows[:50]:
+    t, y = float(r["t"]), float(r["y"])
+    assert abs(y - math.exp(-t)) <= 1e-14 * max(1.0, math.exp(-t)), (t, y)
+PY
+# The same model through the EKF's moment equations (a nonlinear term u x^2, zero at u = 0):
+# e^{-t} to the ODE tolerance.
+sed 's/"a\*x + 0\*u"/"a*x + u*x^2"/' "$tmp/grow.json" >"$tmp/grow_nl.json"
+"$cli" simulate "$tmp/grow_nl.json" --inputs "$tmp/in.csv" --set a=-1 --deterministic \
+  --out "$tmp/det_nl.csv"
+check "the nonlinear deterministic response is e^-t to the tolerance" python3 - "$tmp/det_nl.csv" <<'PY'
+import csv, math, sys
+rows = [r for r in csv.DictReader(l for l in open(sys.argv[1]) if not l.startswith("#"))]
+assert any("moment equations' mean" in l for l in open(sys.argv[1]) if l.startswith("#"))
+for r in rows[:30]:
+    t, y = float(r["t"]), float(r["y"])
+    assert abs(y - math.exp(-t)) <= 1e-8, (t, y)
+PY
+cat >"$tmp/fit.json" <<'JSON'
+{"greybench_result": 1, "converged": true, "loglik": 1, "n_obs": 801,
+ "parameters": {"a": {"estimate": -0.5, "fixed": true}, "r": {"estimate": 0.01, "fixed": true}}}
+JSON
+"$cli" simulate "$tmp/grow.json" --inputs "$tmp/in.csv" --result "$tmp/fit.json" \
+  --deterministic --out "$tmp/det_fit.csv"
+check "--result gives the estimates" python3 - "$tmp/det_fit.csv" <<'PY'
+import csv, math, sys
+rows = [r for r in csv.DictReader(l for l in open(sys.argv[1]) if not l.startswith("#"))]
+assert abs(float(rows[10]["y"]) - math.exp(-5)) <= 1e-14, rows[10]
+PY
+kept=("$tmp/grow.json" "$tmp/in.csv" "$tmp/sim.csv" "$tmp/fit.json")
+expect_kept 2 "--seed: a deterministic response \(--deterministic\) draws no noise" -- \
+  simulate "$tmp/grow.json" --inputs "$tmp/in.csv" --set a=-1 --deterministic --seed 3 \
+  --out "$tmp/sim.csv"
+expect_kept 2 "--out .*is the --result file" -- simulate "$tmp/grow.json" --inputs "$tmp/in.csv" \
+  --result "$tmp/fit.json" --out "$tmp/fit.json"
+expect_kept 2 "in.csv:1:2: JSON syntax error" -- simulate "$tmp/grow.json" --inputs "$tmp/in.csv" \
+  --result "$tmp/in.csv" --out "$tmp/sim.csv"
 sim=(simulate "$tmp/grow.json" --inputs "$tmp/in.csv" --out "$tmp/sim.csv")
 expect_kept 1 "in.csv:712: the simulated state number 1 is inf at t = 710: the model's path is not finite" -- "${sim[@]}"
 expect_kept 2 "--seed: '' is not a whole number" -- "${sim[@]}" --set a=-1 --seed ''

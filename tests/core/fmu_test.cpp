@@ -150,8 +150,10 @@ TEST(Fmu, ModelExchangeGivesTheModelsDerivativesAndOutputs) {
   ASSERT_EQ(fmu.Get<fmi2EnterInitializationModeTYPE>("fmi2EnterInitializationMode")(c), fmi2OK);
   ASSERT_EQ(fmu.Get<fmi2ExitInitializationModeTYPE>("fmi2ExitInitializationMode")(c), fmi2OK);
   fmi2EventInfo info{};
-  ASSERT_EQ(fmu.Get<fmi2NewDiscreteStatesTYPE>("fmi2NewDiscreteStates")(c, &info), fmi2OK);
+  auto new_discrete = fmu.Get<fmi2NewDiscreteStatesTYPE>("fmi2NewDiscreteStates");
+  ASSERT_EQ(new_discrete(c, &info), fmi2OK);
   EXPECT_FALSE(info.newDiscreteStatesNeeded);
+  EXPECT_FALSE(info.valuesOfContinuousStatesChanged);
   ASSERT_EQ(fmu.Get<fmi2EnterContinuousTimeModeTYPE>("fmi2EnterContinuousTimeMode")(c), fmi2OK);
   // The importer integrates: classical Runge-Kutta on a fine grid.
   auto set_time = fmu.Get<fmi2SetTimeTYPE>("fmi2SetTime");
@@ -200,6 +202,24 @@ TEST(Fmu, ModelExchangeGivesTheModelsDerivativesAndOutputs) {
   double dx[2];
   ASSERT_EQ(derivatives(c, dx, 2), fmi2OK);
   EXPECT_DOUBLE_EQ(dx[0], 3.0 * u - 4.0 * x[0]);
+  // The derivatives jumped: the event asks the importer to restart its integrator (fmusim's
+  // CVODE restarts on valuesOfContinuousStatesChanged and on nothing else), once.
+  ASSERT_EQ(new_discrete(c, &info), fmi2OK);
+  EXPECT_TRUE(info.valuesOfContinuousStatesChanged);
+  ASSERT_EQ(new_discrete(c, &info), fmi2OK);
+  EXPECT_FALSE(info.valuesOfContinuousStatesChanged);
+  // An input stepped in Continuous-Time Mode, just before the importer's event (as fmusim
+  // sets a stepped input), asks for the same; an input set to the value it has does not.
+  ASSERT_EQ(fmu.Get<fmi2EnterContinuousTimeModeTYPE>("fmi2EnterContinuousTimeMode")(c), fmi2OK);
+  const double stepped = 2.5;
+  ASSERT_EQ(set_real(c, &kU, 1, &stepped), fmi2OK);
+  ASSERT_EQ(fmu.Get<fmi2EnterEventModeTYPE>("fmi2EnterEventMode")(c), fmi2OK);
+  ASSERT_EQ(set_real(c, &kU, 1, &stepped), fmi2OK);
+  ASSERT_EQ(new_discrete(c, &info), fmi2OK);
+  EXPECT_TRUE(info.valuesOfContinuousStatesChanged);
+  ASSERT_EQ(set_real(c, &kU, 1, &stepped), fmi2OK);
+  ASSERT_EQ(new_discrete(c, &info), fmi2OK);
+  EXPECT_FALSE(info.valuesOfContinuousStatesChanged);
   ASSERT_EQ(fmu.Get<fmi2TerminateTYPE>("fmi2Terminate")(c), fmi2OK);
   fmu.Get<fmi2FreeInstanceTYPE>("fmi2FreeInstance")(c);
   EXPECT_TRUE(logged.messages.empty()) << logged.messages.front();
@@ -330,6 +350,33 @@ TEST(Fmu, ModelDescriptionListsTheVariablesAndTheirDependencies) {
   auto not_finite = MakeFmuSources(model, other, {});
   ASSERT_FALSE(not_finite);
   EXPECT_NE(not_finite.error().message.find("parameter b"), std::string::npos);
+}
+
+TEST(Fmu, AStateNamedLikeAnOutputIsRenamedAndTheInterfaceKeepsItsNames) {
+  // The crankshaft's shape: the state N is also measured as the output N.
+  auto spec = model::ParseModel(Json::parse(R"({
+    "greybench_model": 1, "name": "speed",
+    "states": ["N", "N_state"], "inputs": ["u"], "outputs": ["N"],
+    "parameters": {"a": {"value": 1.0}, "s": {"value": 0.1}},
+    "drift": {"N": "u - a*N", "N_state": "N - N_state"}, "diffusion": {"N": "s"},
+    "observation": {"N": "N"}, "measurement_variance": {"N": "0.01"},
+    "initial_state": {"N": "0", "N_state": "0"}})"),
+                                "speed.json");
+  ASSERT_TRUE(spec.ok()) << spec.error().ToString();
+  const auto model = *model::NonlinearModel::Compile(*spec);
+  auto sources = MakeFmuSources(model, model.spec().Values(), {});
+  ASSERT_TRUE(sources) << sources.error().ToString();
+  const std::string& d = sources->model_description;
+  // N_state is taken by the model's second state: the first becomes N_state2.
+  EXPECT_NE(d.find("name=\"N_state2\" valueReference=\"0\" causality=\"local\""),
+            std::string::npos)
+      << d;
+  EXPECT_NE(d.find("description=\"state N of the model (a variable of the interface has its "
+                   "name)\""),
+            std::string::npos);
+  EXPECT_NE(d.find("name=\"N_state\" valueReference=\"1\""), std::string::npos);
+  EXPECT_NE(d.find("name=\"der(N_state2)\" valueReference=\"2\""), std::string::npos);
+  EXPECT_NE(d.find("name=\"N\" valueReference=\"5\" causality=\"output\""), std::string::npos);
 }
 
 TEST(Fmu, ModelDescriptionIsValidAgainstTheStandardsSchema) {
