@@ -52,26 +52,12 @@ int RunExportFmu(const ExportFmuArgs& args) {
     if (e.file.empty()) e.file = args.out;
     return Fail(e);
   }
-  // The FMU's outputs are h at the same instant; a delay the fit estimated is left to the
-  // importer (a transport delay of d sample times after the output), and said.
-  std::string delayed;
-  for (std::size_t o = 0; o < delays->size(); ++o)
-    if ((*delays)[o] > 0)
-      delayed += fmt::format("{}{} by {} sample{}", delayed.empty() ? "" : ", ", spec->outputs[o],
-                             (*delays)[o], (*delays)[o] == 1 ? "" : "s");
-  if (!delayed.empty())
-    std::fprintf(stderr,
-                 "greybench-cli: warning: the fit delays %s; the FMU's outputs are not delayed "
-                 "(add the delay after the output in the importer)\n",
-                 delayed.c_str());
+  if (const std::string note = fmu::DelayNote(*spec, *delays); !note.empty())
+    std::fprintf(stderr, "greybench-cli: warning: %s\n", note.c_str());
   std::printf("%s\n",
               fmt::format("wrote {}: FMI 2.0, {}, model identifier {}; {} states, {} inputs, {} "
                           "outputs, {} parameters at the estimates of {}",
-                          args.out,
-                          args.interface == "me"   ? "Model Exchange"
-                          : args.interface == "cs" ? "Co-Simulation"
-                                                   : "Model Exchange and Co-Simulation",
-                          options.identifier, spec->states.size(), spec->inputs.size(),
+                          args.out, fmu::InterfaceName(options.interface), options.identifier, spec->states.size(), spec->inputs.size(),
                           spec->outputs.size(), spec->parameters.size(), args.result)
                   .c_str());
   return 0;

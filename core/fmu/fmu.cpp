@@ -52,6 +52,26 @@ std::string Dependencies(const expr::ExprPtr& e, const model::ModelSpec& spec) {
 
 }  // namespace
 
+const char* InterfaceName(Interface interface) {
+  switch (interface) {
+    case Interface::kModelExchange: return "Model Exchange";
+    case Interface::kCoSimulation: return "Co-Simulation";
+    case Interface::kBoth: break;
+  }
+  return "Model Exchange and Co-Simulation";
+}
+
+std::string DelayNote(const model::ModelSpec& spec, std::span<const int> delays) {
+  std::string delayed;
+  for (std::size_t o = 0; o < delays.size() && o < spec.outputs.size(); ++o)
+    if (delays[o] > 0)
+      delayed += fmt::format("{}{} by {} sample{}", delayed.empty() ? "" : ", ", spec.outputs[o],
+                             delays[o], delays[o] == 1 ? "" : "s");
+  if (delayed.empty()) return "";
+  return "the fit delays " + delayed +
+         "; the FMU's outputs are not delayed (add the delay after the output in the importer)";
+}
+
 std::string IdentifierOf(const std::string& name) {
   std::string id;
   for (const char c : name) id += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';

@@ -62,6 +62,15 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
 Status ExportFmu(const model::NonlinearModel& model, std::span<const double> theta,
                  const FmuOptions& options, const std::string& path);
 
+// "Model Exchange", "Co-Simulation", "Model Exchange and Co-Simulation".
+const char* InterfaceName(Interface interface);
+
+// The FMU's outputs are h at the same instant: a delay the fit estimated (samples per output,
+// -1 or 0 for none) is left to the importer. The sentence that says so ("the fit delays ilambda
+// by 5 samples; the FMU's outputs are not delayed (add the delay after the output in the
+// importer)"), or "" when no output is delayed.
+std::string DelayNote(const model::ModelSpec& spec, std::span<const int> delays);
+
 // A C identifier from a name: every other character as '_', a leading digit prefixed by '_';
 // "model" for an empty name.
 std::string IdentifierOf(const std::string& name);

@@ -193,5 +193,66 @@ TEST_F(WorkbenchExport, ExportModelWritesTheModelTheViewsShow) {
   EXPECT_TRUE(LastMessageIsError("project.json"));
 }
 
+TEST_F(WorkbenchExport, ExportFmuBuildsTheModelAtTheFitsEstimatesOffTheUiThread) {
+  d_.state.estimation.settings.threads = 1;
+  std::string why;
+  ASSERT_TRUE(StartEstimation(d_.state, &why)) << why;
+  WaitForJobs(d_.state);
+  d_.Frame();
+  ASSERT_TRUE(d_.state.estimation.result) << d_.state.estimation.last_failure;
+  const estimate::EstimateSummary& fit = d_.state.estimation.result->summary;
+
+  BrowseExportFmu(d_.state, fmu::Interface::kCoSimulation);
+  EXPECT_EQ(d_.state.shell.browser.request.purpose, static_cast<int>(BrowsePurpose::kExportFmu));
+  EXPECT_EQ(d_.state.shell.browser.request.file_name.substr(
+                d_.state.shell.browser.request.file_name.size() - 4),
+            ".fmu");
+  // A name without an extension gets ".fmu"; its stem is the model identifier.
+  FinishExport(d_.state, BrowsePurpose::kExportFmu, (dir_ / "film").string());
+  d_.state.shell.fmu_job.Wait();
+  ASSERT_TRUE(PollFmuExport(d_.state));
+  const fs::path fmu = dir_ / "film.fmu";
+  ASSERT_TRUE(fs::exists(fmu)) << d_.state.messages.back().text;
+  bool written = false;
+  for (const Message& m : d_.state.messages)
+    written = written || (m.severity == Severity::kInfo &&
+                          m.text.find("The FMU written to " + fmu.string() +
+                                      ": FMI 2.0, Co-Simulation, model identifier film") == 0 &&
+                          m.text.find("at the fit's estimates") != std::string::npos);
+  EXPECT_TRUE(written) << d_.state.messages.back().text;
+  // The estimates are the parameters' start values (Python reads the zip).
+  const fs::path xml = dir_ / "film.xml";
+  const std::string unzip = "python3 -c \"import zipfile,sys; open(sys.argv[2],'wb').write("
+                            "zipfile.ZipFile(sys.argv[1]).read('modelDescription.xml'))\" '" +
+                            fmu.string() + "' '" + xml.string() + "'";
+  ASSERT_EQ(std::system(unzip.c_str()), 0);
+  const std::string description = Read(xml);
+  EXPECT_NE(description.find("<CoSimulation modelIdentifier=\"film\""), std::string::npos);
+  EXPECT_EQ(description.find("<ModelExchange"), std::string::npos);
+  const model::ModelSpec& m = *d_.state.model;
+  for (std::size_t i = 0; i < m.parameters.size(); ++i) {
+    const std::string variable = "name=\"" + m.parameters[i].name + "\"";
+    const auto at = description.find(variable);
+    ASSERT_NE(at, std::string::npos) << variable;
+    const auto start = description.find("start=\"", at) + 7;
+    const double value = std::stod(description.substr(start, description.find('"', start) - start));
+    EXPECT_EQ(value, fit.theta[i]) << m.parameters[i].name;
+  }
+  // A delay the fit estimated is not in the FMU, and the Messages window says so.
+  bool delayed = false;
+  for (const estimate::DelayEstimate& dl : fit.delays) delayed = delayed || dl.estimate > 0;
+  if (delayed) {
+    EXPECT_EQ(d_.state.messages.back().severity, Severity::kWarning);
+    EXPECT_NE(d_.state.messages.back().text.find("the FMU's outputs are not delayed"),
+              std::string::npos);
+  }
+  // Onto a file of the project: refused before anything is built.
+  const std::string model_before = Read(dir_ / "fuel_film.json");
+  FinishExport(d_.state, BrowsePurpose::kExportFmu, (dir_ / "fuel_film.json").string());
+  EXPECT_FALSE(d_.state.shell.fmu_job.active());
+  EXPECT_EQ(Read(dir_ / "fuel_film.json"), model_before);
+  EXPECT_TRUE(LastMessageIsError("fuel_film.json"));
+}
+
 }  // namespace
 }  // namespace gb::ui

@@ -6,9 +6,12 @@
 #include <filesystem>
 #include <utility>
 
+#include <fmt/format.h>
 #include <imgui.h>
 
+#include "core/fmu/fmu.h"
 #include "core/model/model.h"
+#include "core/model/nonlinear_model.h"
 #include "core/project/project.h"
 #include "core/report/figure.h"
 #include "core/util/file.h"
@@ -122,7 +125,101 @@ void FinishReport(AppState& state, std::string path) {
   Report(state, WriteFileAtomic(path, *text), "the report", path);
 }
 
+// The parameter values the views show and the delays with them: the fit's when the views show a
+// fit of this model (its model part for a fit with initial states per record: record 1's), else
+// the model's values and no delays (as AnalysisRequestNow chooses).
+struct ShownValues {
+  std::vector<double> theta;
+  std::vector<int> delays;
+  bool from_fit = false;
+};
+
+ShownValues ValuesShown(const AppState& state) {
+  const model::ModelSpec& m = *state.model;
+  const FitResult* fit = state.estimation.result ? &*state.estimation.result : nullptr;
+  ShownValues shown;
+  shown.from_fit = fit && !state.analysis.use_current_values && FitMatchesModel(*fit, m);
+  if (!shown.from_fit) {
+    shown.theta = m.Values();
+    return shown;
+  }
+  shown.theta = fit->summary.theta;
+  shown.theta.resize(m.parameters.size());
+  for (const estimate::DelayEstimate& d : fit->summary.delays) shown.delays.push_back(d.estimate);
+  return shown;
+}
+
+void StartFmuExport(AppState& state, std::string path) {
+  if (!state.model) return;
+  if (state.shell.fmu_job.active()) {
+    AddMessage(state, Severity::kError,
+               "Could not export the FMU to " + path + ": another FMU is being built");
+    return;
+  }
+  if (std::filesystem::path(path).extension().empty()) path += ".fmu";
+  if (Status st = CheckOutput(state, path); !st) return Report(state, st, "the FMU", path);
+  const std::string identifier =
+      fmu::IdentifierOf(std::filesystem::path(path).stem().string());
+  ShownValues shown = ValuesShown(state);
+  const bool at_fit = shown.from_fit;
+  fmu::FmuOptions options;
+  options.interface = state.shell.fmu_interface;
+  options.identifier = identifier;
+  AddMessage(state, Severity::kInfo,
+             "Building the FMU " + path + " (" + fmu::InterfaceName(options.interface) + ", " +
+                 (at_fit ? "at the fit's estimates" : "at the model's values") + ")\xE2\x80\xA6");
+  state.shell.fmu_job.Start([spec = *state.model, theta = std::move(shown.theta),
+                             delays = std::move(shown.delays), options, path,
+                             at_fit](JobControl&) {
+    FmuExportEnd end;
+    end.path = path;
+    auto compiled = model::NonlinearModel::Compile(spec);
+    Status st = compiled ? fmu::ExportFmu(*compiled, theta, options, path) : compiled.error();
+    if (!st) {
+      end.error = st.error().ToString();
+      return end;
+    }
+    end.summary = fmt::format(
+        "FMI 2.0, {}, model identifier {}; {} states, {} inputs, {} outputs, {} parameters at {}",
+        fmu::InterfaceName(options.interface), options.identifier, spec.states.size(),
+        spec.inputs.size(), spec.outputs.size(), spec.parameters.size(),
+        at_fit ? "the fit's estimates" : "the model's values");
+    end.warning = fmu::DelayNote(spec, delays);
+    return end;
+  });
+}
+
 }  // namespace
+
+void BrowseExportFmu(AppState& state, fmu::Interface interface) {
+  if (!state.model) return;
+  state.shell.fmu_interface = interface;
+  FileBrowserRequest r;
+  r.title = std::string("Export the model as an FMU (") + fmu::InterfaceName(interface) + ")";
+  r.confirm = "Export";
+  r.mode = FileBrowserMode::kSave;
+  r.filters = {{"FMUs (*.fmu)", {".fmu"}}};
+  r.start = StartDirectory(state);
+  r.file_name = fmu::IdentifierOf(state.model->name.empty() ? "model" : state.model->name) + ".fmu";
+  r.purpose = static_cast<int>(BrowsePurpose::kExportFmu);
+  OpenFileBrowser(state.shell.browser, std::move(r));
+}
+
+bool PollFmuExport(AppState& state) {
+  std::optional<FmuExportEnd> end = state.shell.fmu_job.TakeIfReady();
+  if (!end) return false;
+  if (!end->error.empty()) {
+    AddMessage(state, Severity::kError, "Could not export the FMU: " + end->error);
+    return true;
+  }
+  AddMessage(state, Severity::kInfo, "The FMU written to " + end->path + ": " + end->summary);
+  if (!end->warning.empty()) {
+    std::string text = end->warning;
+    text[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(text[0])));
+    AddMessage(state, Severity::kWarning, text);
+  }
+  return true;
+}
 
 void BrowseSaveReport(AppState& state, const FitResult& fit, bool with_residuals) {
   report::ReportInput input;
@@ -146,6 +243,7 @@ void BrowseSaveReport(AppState& state, const FitResult& fit, bool with_residuals
 }
 
 void UpdateExports(AppState& state) {
+  PollFmuExport(state);
   std::optional<plot::ExportRequest>& asked = state.plots.export_request;
   if (!asked) return;
   plot::ExportRequest request = std::move(*asked);
@@ -181,6 +279,21 @@ void DrawExportMenu(AppState& state) {
   if (!ImGui::BeginMenu("Export", state.project.has_value())) return;
   if (ImGui::MenuItem("Export model\xE2\x80\xA6", nullptr, false, state.model.has_value()))
     BrowseExportModel(state);
+  const bool building = state.shell.fmu_job.active();
+  if (ImGui::BeginMenu(building ? "FMU (building\xE2\x80\xA6)" : "FMU", state.model && !building)) {
+    static constexpr std::pair<const char*, fmu::Interface> kChoices[] = {
+        {"Model Exchange and Co-Simulation\xE2\x80\xA6", fmu::Interface::kBoth},
+        {"Model Exchange\xE2\x80\xA6", fmu::Interface::kModelExchange},
+        {"Co-Simulation\xE2\x80\xA6", fmu::Interface::kCoSimulation}};
+    for (const auto& [label, interface] : kChoices)
+      if (ImGui::MenuItem(label)) BrowseExportFmu(state, interface);
+    ImGui::EndMenu();
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "The model's deterministic part as an FMI 2.0 FMU for Simulink, OpenModelica or an ECU "
+        "test bench,\nat the values the views show (after a fit, its estimates); built by the "
+        "system's C compiler");
   ImGui::EndMenu();
 }
 
@@ -191,6 +304,9 @@ void FinishExport(AppState& state, BrowsePurpose purpose, const std::string& pat
       break;
     case BrowsePurpose::kSaveReport:
       FinishReport(state, path);
+      break;
+    case BrowsePurpose::kExportFmu:
+      StartFmuExport(state, path);
       break;
     case BrowsePurpose::kExportModel: {
       if (!state.model) break;

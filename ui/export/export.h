@@ -37,6 +37,14 @@ void BrowseSaveReport(AppState& state, const FitResult& fit, bool with_residuals
 
 // File > Export model: the model the views show (with its edits) as a model file.
 void BrowseExportModel(AppState& state);
+// File > Export > FMU: the model the views show, at the values they show (a fit's estimates and
+// delays when the views show a fit of this model, else the model's values), as an FMI 2.0 FMU of
+// `interface` (core/fmu/fmu.h). The browser chooses the file (its stem is the model
+// identifier); the C compiler builds it off the UI thread, and the Messages window says when it
+// is written (with the delays the FMU leaves to the importer), or why not.
+void BrowseExportFmu(AppState& state, fmu::Interface interface);
+// Takes a finished FMU build (every frame, from UpdateExports); true when one finished.
+bool PollFmuExport(AppState& state);
 // The File menu's Export submenu.
 void DrawExportMenu(AppState& state);
 

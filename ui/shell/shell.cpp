@@ -404,6 +404,7 @@ void UseBrowsedFile(AppState& state, BrowsePurpose purpose, const std::string& p
     case BrowsePurpose::kExportPlot:
     case BrowsePurpose::kSaveReport:
     case BrowsePurpose::kExportModel:
+    case BrowsePurpose::kExportFmu:
       FinishExport(state, purpose, path);
       break;
   }

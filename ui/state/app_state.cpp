@@ -323,7 +323,8 @@ void WaitForJobs(AppState& state) {
 
 bool AnyJobActive(const AppState& state) {
   // A paused live run changes nothing on screen until the user acts.
-  return FiniteJobActive(state) || (state.live.job.active() && !state.live.paused);
+  return FiniteJobActive(state) || state.shell.fmu_job.active() ||
+         (state.live.job.active() && !state.live.paused);
 }
 
 bool EstimationRunning(const AppState& state) { return state.estimation.job.active(); }

@@ -13,6 +13,7 @@
 #include "core/data/dataset.h"
 #include "core/data/import.h"
 #include "core/data/mdf4.h"
+#include "core/fmu/fmu.h"
 #include "core/model/model_structure.h"
 #include "core/report/report.h"
 #include "ui/jobs/job.h"
@@ -35,6 +36,7 @@ enum class BrowsePurpose {
   kExportPlot,  // ui/export/export.h
   kSaveReport,
   kExportModel,
+  kExportFmu,
 };
 
 // An action that replaces or closes the open project: it waits for "save changes?" when the
@@ -50,6 +52,14 @@ struct PendingPng {
   report::Figure figure;
   int width = 0, height = 0;
   std::string path;
+};
+
+// How an FMU export ended (ui/export/export.h): written, or why not.
+struct FmuExportEnd {
+  std::string path;
+  std::string error;    // empty when written
+  std::string summary;  // "Model Exchange and Co-Simulation, identifier fuel_film; ..."
+  std::string warning;  // the output delays the FMU does not carry, or empty
 };
 
 // A dataset file read off the UI thread for File > Add dataset.
@@ -136,6 +146,10 @@ struct ShellState {
   std::optional<plot::ExportRequest> plot_export;
   std::optional<report::ReportInput> report_export;
   std::optional<PendingPng> png_export;
+  // File > Export > FMU: the interfaces chosen in the menu, and the build under way (the C
+  // compiler runs off the UI thread).
+  fmu::Interface fmu_interface = fmu::Interface::kBoth;
+  Job<FmuExportEnd> fmu_job;
 
   // Recent projects, autosave and recovery read and write files under the user's
   // $XDG_CONFIG_HOME and $XDG_STATE_HOME; only the greybench window turns them on
