@@ -26,6 +26,19 @@ did not change (the "rows" column counts the rows compared).
 
 The error of an output is max_k |y_fmu - y_gb| / max_k |y_gb| (relative to the output's size on
 the record); the issue asks for 1e-6.
+
+The virtual sensors (export-fmu --virtual-sensor) of the fuel film (linear, ilambda delayed by 5
+samples, first-order hold) and the engine model (nonlinear, three outputs) run through fmusim's
+Co-Simulation with the record's u and y, and their outputs are compared with `greybench-cli
+predict --result --states`: the filtered states, the one-step predictions and their sd, the
+innovations (the issue asks for 1e-8 on the filtered states). After fmi2DoStep from row k the
+filtered states are those of row k - D (D the largest delay: the filter waits for the rows it
+needs), the innovations those of row k - D + d, and the predictions those of row k + 1, the row
+fmusim records them at. With the first-order hold (both cases) the prediction of a state after
+the newest row holds its input, since fmusim gives no input derivatives: the engine's
+predictions, of the next row, differ from greybench's by that. greybench's fit leaves the first
+rows of an output whose delay it scanned unused (as many as the range's largest delay), so the
+sensor is given them as not valid.
 """
 import argparse
 import csv
@@ -183,9 +196,89 @@ def main():
                     print(f"{name:16} {hold:4} {interface:10} {o:8} {n:6d} {err:14.2e} "
                           f"{seconds:8.2f}")
     print(f"largest relative error: {worst_all:.2e} (the issue asks for 1e-6)")
+    worst_sensor = virtual_sensors(args, work)
+    print(f"virtual sensors, largest relative error of the filtered states: {worst_sensor:.2e} "
+          "(the issue asks for 1e-8)")
     if not args.keep:
         print(f"files in {work}")
-    return 0 if worst_all <= 1e-6 else 1
+    return 0 if worst_all <= 1e-6 and worst_sensor <= 1e-8 else 1
+
+
+SENSORS = [
+    ("fuel_film", "assets/models/fuel_film.json", "assets/results/fuel_f1.json",
+     "assets/data/fuel_f1.csv"),
+    ("engine_mvem", "assets/models/engine_mvem.json", "assets/results/engine_mvem.json",
+     "assets/data/engine_sweep.csv"),
+]
+
+
+def virtual_sensors(args, work):
+    print(f"\n{'virtual sensor':16} {'column':22} {'rows':>6} {'max rel. error':>14} {'fmusim s':>8}")
+    worst_states = 0.0
+    for name, model, result, data in SENSORS:
+        model, result, data = (os.path.join(ROOT, f) for f in (model, result, data))
+        spec = json.load(open(model))
+        res = json.load(open(result))
+        delays = {o: v.get("estimate", 0) or 0 for o, v in res.get("output_delay", {}).items()}
+        d = [delays.get(o, 0) for o in spec["outputs"]]
+        first = [spec.get("output_delay", {}).get(o, {}).get("max", d[i]) if isinstance(
+            spec.get("output_delay", {}).get(o), dict) else d[i] for i, o in enumerate(spec["outputs"])]
+        lag = max(d)
+        fmu = os.path.join(work, f"{name}_sensor.fmu")
+        run([args.cli, "export-fmu", result, "--model", model, "--virtual-sensor", "--out", fmu])
+        states_csv = os.path.join(work, f"{name}_states.csv")
+        pred_csv = os.path.join(work, f"{name}_pred.csv")
+        run([args.cli, "predict", model, data, "--result", result, "--states", states_csv,
+             "--out", pred_csv])
+        st, pr = read_csv(states_csv), read_csv(pred_csv)
+        record = read_csv(data)
+        t = record["t"] if "t" in record else record["time"]
+        in_csv = os.path.join(work, f"{name}_sensor_inputs.csv")
+        with open(in_csv, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(["time"] + spec["inputs"] + spec["outputs"] +
+                       [o + "_valid" for o in spec["outputs"]])
+            for k in range(len(t)):
+                ys = [record[o][k] for o in spec["outputs"]]
+                valid = [1 if k >= first[i] and ys[i] == ys[i] else 0 for i in range(len(ys))]
+                w.writerow([repr(t[k])] + [repr(record[u][k]) for u in spec["inputs"]] +
+                           [repr(y) if y == y else "0" for y in ys] + valid)
+        out_csv = os.path.join(work, f"{name}_sensor.csv")
+        seconds = run([args.fmusim, "--interface-type", "cs", "--start-time", repr(t[0]),
+                       "--stop-time", repr(t[-1]), "--output-interval", repr(t[1] - t[0]),
+                       "--input-file", in_csv, "--output-file", out_csv, fmu])
+        f = read_csv(out_csv)
+
+        def compare(column, reference, shift, only=None):
+            worst, size, n = 0.0, 0.0, 0
+            for r in range(len(f["time"])):
+                g = r + shift
+                if f["ready"][r] < 0.5 or g < 0 or g >= len(reference) or reference[g] != reference[g]:
+                    continue
+                if only and not only(g):
+                    continue
+                worst = max(worst, abs(f[column][r] - reference[g]))
+                size = max(size, abs(reference[g]))
+                n += 1
+            return (worst / size if size > 0 else worst), n
+
+        rows = []
+        for x in spec["states"]:
+            for col in (x + "_filtered", x + "_filtered_sd"):
+                err, n = compare(col, st[col], -(lag + 1))
+                if col.endswith("_filtered"):
+                    worst_states = max(worst_states, err)
+                rows.append((col, n, err))
+        for i, o in enumerate(spec["outputs"]):
+            for col, ref, shift in ((o + "_pred", pr[o + "_pred"], 0), (o + "_sd", pr[o + "_sd"], 0)):
+                err, n = compare(col, ref, shift)
+                rows.append((col, n, err))
+            err, n = compare(o + "_residual", pr[o + "_residual"], -(lag + 1) + d[i],
+                             only=lambda g, i=i: g >= first[i])
+            rows.append((o + "_residual", n, err))
+        for col, n, err in rows:
+            print(f"{name:16} {col:22} {n:6d} {err:14.2e} {seconds:8.2f}")
+    return worst_states
 
 
 if __name__ == "__main__":

@@ -336,6 +336,8 @@ struct ExportFmuArgs {
   std::string result;
   std::string model;
   std::string interface = "both";
+  bool interface_given = false;
+  bool virtual_sensor = false;  // the filter as a Co-Simulation FMU (core/fmu/sensor.c)
   std::string out;
 };
 int RunExportFmu(const ExportFmuArgs& args);

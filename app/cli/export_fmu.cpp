@@ -13,6 +13,10 @@
 namespace gb::cli {
 
 int RunExportFmu(const ExportFmuArgs& args) {
+  if (args.virtual_sensor && args.interface_given && args.interface != "cs")
+    return Fail(InputError(fmt::format(
+        "--interface {}: a virtual sensor is a Co-Simulation FMU (leave --interface out)",
+        args.interface)));
   auto result = ReadJsonFile(args.result);
   if (!result) return Fail(result.error());
   if (Status st = report::CheckResultJson(*result, args.result); !st) return Fail(st.error());
@@ -43,21 +47,33 @@ int RunExportFmu(const ExportFmuArgs& args) {
   auto compiled = model::NonlinearModel::Compile(*spec);
   if (!compiled) return Fail(compiled.error());
   fmu::FmuOptions options;
-  options.interface = args.interface == "me"   ? fmu::Interface::kModelExchange
-                      : args.interface == "cs" ? fmu::Interface::kCoSimulation
-                                               : fmu::Interface::kBoth;
+  if (args.virtual_sensor) {
+    auto sensor = fmu::VirtualSensorOptions(*compiled, spec->Values(), *delays);
+    if (!sensor) return Fail(sensor.error());
+    options = std::move(*sensor);
+  } else {
+    options.interface = args.interface == "me"   ? fmu::Interface::kModelExchange
+                        : args.interface == "cs" ? fmu::Interface::kCoSimulation
+                                                 : fmu::Interface::kBoth;
+  }
   options.identifier = fmu::IdentifierOf(std::filesystem::path(args.out).stem().string());
   if (auto s = fmu::ExportFmu(*compiled, spec->Values(), options, args.out); !s) {
     Error e = s.error();
     if (e.file.empty()) e.file = args.out;
     return Fail(e);
   }
-  if (const std::string note = fmu::DelayNote(*spec, *delays); !note.empty())
+  if (const std::string note = fmu::DelayNote(*spec, *delays);
+      !note.empty() && !args.virtual_sensor)
     std::fprintf(stderr, "greybench-cli: warning: %s\n", note.c_str());
   std::printf("%s\n",
               fmt::format("wrote {}: FMI 2.0, {}, model identifier {}; {} states, {} inputs, {} "
                           "outputs, {} parameters at the estimates of {}",
-                          args.out, fmu::InterfaceName(options.interface), options.identifier, spec->states.size(), spec->inputs.size(),
+                          args.out,
+                          args.virtual_sensor
+                              ? std::string("a virtual sensor (the extended Kalman filter, "
+                                            "Co-Simulation)")
+                              : std::string(fmu::InterfaceName(options.interface)),
+                          options.identifier, spec->states.size(), spec->inputs.size(),
                           spec->outputs.size(), spec->parameters.size(), args.result)
                   .c_str());
   return 0;

@@ -354,14 +354,21 @@ int Main(int argc, char** argv) {
   c_fmu->add_option("result", export_fmu.result, "result file (JSON) of the fit")->required();
   c_fmu->add_option("--model", export_fmu.model,
                     "model or project file (default: the one the result names)");
-  c_fmu->add_option("--interface", export_fmu.interface, "me, cs or both (default)")
-      ->check(CLI::IsMember({"me", "cs", "both"}));
+  auto* fmu_interface =
+      c_fmu->add_option("--interface", export_fmu.interface, "me, cs or both (default)")
+          ->check(CLI::IsMember({"me", "cs", "both"}));
+  c_fmu->add_flag("--virtual-sensor", export_fmu.virtual_sensor,
+                  "the fitted filter instead (Co-Simulation): inputs u, the measurements and "
+                  "their validity; outputs the filtered states, predictions and innovations");
   c_fmu
       ->add_option("--out", export_fmu.out,
                    "the FMU to write (NAME.fmu; NAME is its model "
                    "identifier)")
       ->required();
-  c_fmu->callback([&] { run = [&] { return RunExportFmu(export_fmu); }; });
+  c_fmu->callback([&, fmu_interface] {
+    export_fmu.interface_given = fmu_interface->count() > 0;
+    run = [&] { return RunExportFmu(export_fmu); };
+  });
 
   ReportArgs report;
   auto* c_report =

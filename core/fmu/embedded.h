@@ -5,6 +5,7 @@
 namespace gb::fmu::embedded {
 
 extern const char kRuntime[];        // runtime.c
+extern const char kSensor[];         // sensor.c (the virtual sensor's filter)
 extern const char kTypesPlatform[];  // fmi2TypesPlatform.h
 extern const char kFunctionTypes[];  // fmi2FunctionTypes.h
 extern const char kFunctions[];      // fmi2Functions.h

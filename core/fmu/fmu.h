@@ -21,6 +21,10 @@
 //                                 built by the system's C compiler
 //   sources/ID.c                  the same C, with the FMI 2.0 headers (sources/fmi2*.h, their
 //                                 BSD 2-Clause licence in sources/LICENSE.txt), to build elsewhere
+// With FmuOptions::virtual_sensor, a Co-Simulation FMU of the model's filter instead
+// (core/fmu/sensor.c, appended to the runtime): inputs u, the measurements and their validity,
+// outputs the filtered and predicted states and their sd, the one-step predictions and their sd,
+// the innovations.
 // The exporting machine needs a C compiler (cc, $GREYBENCH_CC or $CC), as native code does.
 #pragma once
 
@@ -42,6 +46,19 @@ struct FmuOptions {
   std::string identifier;
   // The states' start values; empty: the model's initial state at θ.
   std::vector<double> initial_state;
+  // The error control of the Co-Simulation's integration (and the filter's); 0: the model
+  // file's "ekf" tolerances.
+  double rtol = 0.0, atol = 0.0;
+  // The DefaultExperiment's stepSize (0: none).
+  double sample_time = 0.0;
+
+  // The virtual sensor (core/fmu/sensor.c says what it computes): a Co-Simulation FMU of the
+  // model's extended Kalman filter instead of its deterministic part. `interface` is ignored.
+  bool virtual_sensor = false;
+  std::vector<int> delays;  // per output, in samples (the fit's)
+  // P0, n x n row-major; empty: "ctsm", the covariance equation integrated from P = 0 at x0 over
+  // the first interval (as the filter starts).
+  std::vector<double> initial_covariance;
 };
 
 struct FmuSources {
@@ -61,6 +78,14 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
 // compiler's (its first lines), the file's.
 Status ExportFmu(const model::NonlinearModel& model, std::span<const double> theta,
                  const FmuOptions& options, const std::string& path);
+
+// The options of a virtual sensor of `model` at θ with the fit's output delays (samples; -1: the
+// model's smallest): its delays; P0 from the model's explicit initial variances, or empty for
+// "ctsm"; and for a linear model, which greybench filters with the exact discretisation, the
+// moment equations at rtol 1e-10, atol 1e-12. Errors (kInput): "stationary" initial covariance
+// (it needs the inputs at the first sample), the iterated EKF, a delay or variance out of range.
+Result<FmuOptions> VirtualSensorOptions(const model::NonlinearModel& model,
+                                        std::span<const double> theta, std::span<const int> delays);
 
 // "Model Exchange", "Co-Simulation", "Model Exchange and Co-Simulation".
 const char* InterfaceName(Interface interface);

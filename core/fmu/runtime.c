@@ -59,7 +59,15 @@ typedef struct {
   double step_start;               /* Co-Simulation: where the current step began */
   double h_hint;                   /* Co-Simulation: the last accepted step's proposal */
   fmi2Boolean jumped;              /* an input or parameter changed since the last event */
+  void* sensor;                    /* a virtual sensor's filter (sensor.c) */
 } gbInstance;
+
+#ifdef GB_VIRTUAL_SENSOR
+static int gb_sensor_new(gbInstance* c);
+static void gb_sensor_free(gbInstance* c);
+static void gb_sensor_reset(gbInstance* c);
+static fmi2Status gb_derivatives(gbInstance* c, double* f);
+#endif
 
 static const char* gb_state_text(gbState s) {
   switch (s) {
@@ -102,6 +110,7 @@ static void gb_slots(const gbInstance* c, double* s) {
   s[GB_SLOT_TIME] = c->time;
 }
 
+#ifndef GB_VIRTUAL_SENSOR
 /* f at the instance's (x, u, theta, t); fmi2Error with a message naming the entry if not finite. */
 static fmi2Status gb_derivatives(gbInstance* c, double* f) {
   double s[GB_N_SLOTS];
@@ -132,6 +141,8 @@ static fmi2Status gb_outputs(gbInstance* c, double* h) {
   }
   return fmi2OK;
 }
+
+#endif
 
 /* ---- common functions --------------------------------------------------------------------- */
 
@@ -181,6 +192,13 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
   c = (gbInstance*)functions->allocateMemory(1, sizeof(gbInstance));
   if (!c) return NULL;
   *c = probe;
+#ifdef GB_VIRTUAL_SENSOR
+  if (!gb_sensor_new(c)) {
+    functions->freeMemory(c);
+    return NULL;
+  }
+  gb_sensor_reset(c);
+#endif
   c->logging = loggingOn;
   c->type = fmuType;
   c->state = gbInstantiated;
@@ -193,6 +211,9 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
 void fmi2FreeInstance(fmi2Component component) {
   gbInstance* c = (gbInstance*)component;
   if (!c) return;
+#ifdef GB_VIRTUAL_SENSOR
+  gb_sensor_free(c);
+#endif
   c->callbacks.freeMemory(c);
 }
 
@@ -249,11 +270,15 @@ fmi2Status fmi2Reset(fmi2Component component) {
     c->du[i] = 0.0;
   }
   for (i = 0; i < GB_N_PARAMETERS; ++i) c->theta[i] = gb_theta_start[i];
+#ifdef GB_VIRTUAL_SENSOR
+  gb_sensor_reset(c);
+#endif
   return fmi2OK;
 }
 
 /* ---- values ------------------------------------------------------------------------------- */
 
+#ifndef GB_VIRTUAL_SENSOR
 fmi2Status fmi2GetReal(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
                        fmi2Real value[]) {
   gbInstance* c = (gbInstance*)component;
@@ -332,6 +357,8 @@ fmi2Status fmi2SetReal(fmi2Component component, const fmi2ValueReference vr[], s
   return fmi2OK;
 }
 
+#endif
+
 /* No integer, boolean or string variables: only empty requests succeed. */
 #define GB_NO_VARIABLES(function, value_type, const_)                                          \
   fmi2Status function(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,     \
@@ -344,12 +371,14 @@ fmi2Status fmi2SetReal(fmi2Component component, const fmi2ValueReference vr[], s
     gb_log(c, fmi2Error, "logStatusError", "%s: this FMU has no such variables", #function); \
     return fmi2Error;                                                                          \
   }
+#ifndef GB_VIRTUAL_SENSOR
 GB_NO_VARIABLES(fmi2GetInteger, fmi2Integer, )
 GB_NO_VARIABLES(fmi2GetBoolean, fmi2Boolean, )
 GB_NO_VARIABLES(fmi2GetString, fmi2String, )
 GB_NO_VARIABLES(fmi2SetInteger, fmi2Integer, const)
 GB_NO_VARIABLES(fmi2SetBoolean, fmi2Boolean, const)
 GB_NO_VARIABLES(fmi2SetString, fmi2String, const)
+#endif
 
 /* ---- what this FMU does not provide (modelDescription.xml says so) ----------------------- */
 
@@ -514,6 +543,7 @@ fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component component, fmi2Real n
   return fmi2OK;
 }
 
+#ifndef GB_VIRTUAL_SENSOR
 /* ---- Co-Simulation: the model integrated by Dormand-Prince 5(4) under error control -------- */
 
 /* f at (t, x) with the inputs held over the step (or ramped by their derivatives). */
@@ -550,15 +580,6 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component component, const fmi2ValueR
     c->du[vr[k] - GB_VR_INPUT] = value[k];
   }
   return fmi2OK;
-}
-
-fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                                        const fmi2Integer order[], fmi2Real value[]) {
-  (void)vr;
-  (void)nvr;
-  (void)order;
-  (void)value;
-  return gb_not_provided(c, "fmi2GetRealOutputDerivatives");
 }
 
 fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoint,
@@ -655,6 +676,17 @@ not_finite:
          gb_state_name[bad - 1], t);
   c->state = gbError;
   return fmi2Error;
+}
+
+#endif
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                        const fmi2Integer order[], fmi2Real value[]) {
+  (void)vr;
+  (void)nvr;
+  (void)order;
+  (void)value;
+  return gb_not_provided(c, "fmi2GetRealOutputDerivatives");
 }
 
 fmi2Status fmi2CancelStep(fmi2Component c) { return gb_not_provided(c, "fmi2CancelStep"); }
