@@ -9,8 +9,8 @@
      gb_theta_start[], gb_x_start[], gb_u_start[]              the start values
      gb_state_name[], gb_output_name[]                         for messages
      void gb_drift(const double* slots, double* f)             f(x, u, theta, t), GB_N_STATES values
-     void gb_observation(const double* slots, double* h)       h(x, u, theta, t), GB_N_OUTPUTS values
-     GB_SUPPORTS(type)                                         whether fmi2Instantiate accepts
+     void gb_observation(const double* slots, double* h)       h(x, u, theta, t), GB_N_OUTPUTS
+   values GB_SUPPORTS(type)                                         whether fmi2Instantiate accepts
                                                                fmi2ModelExchange / fmi2CoSimulation
      GB_RTOL, GB_ATOL                                          Co-Simulation's error control (the
                                                                model's ekf tolerances)
@@ -20,7 +20,11 @@
 
    The state machine is the standard's (FMI 2.0, section 3.2.3 for Model Exchange): a call that
    is not allowed in the instance's state is refused with fmi2Error and a logged message naming
-   the function and the state, never a crash. */
+   the function and the state, never a crash.
+
+   With GB_VIRTUAL_SENSOR the generated part is a virtual sensor's, and sensor.c, appended after
+   this file, gives the values, the variables and the Co-Simulation step in place of the parts
+   marked #ifndef GB_VIRTUAL_SENSOR here. */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -71,18 +75,26 @@ static fmi2Status gb_derivatives(gbInstance* c, double* f);
 
 static const char* gb_state_text(gbState s) {
   switch (s) {
-    case gbInstantiated: return "Instantiated";
-    case gbInitialization: return "Initialization Mode";
-    case gbEvent: return "Event Mode";
-    case gbContinuousTime: return "Continuous-Time Mode";
-    case gbStepComplete: return "Step Complete";
-    case gbTerminated: return "Terminated";
-    case gbError: return "Error";
+    case gbInstantiated:
+      return "Instantiated";
+    case gbInitialization:
+      return "Initialization Mode";
+    case gbEvent:
+      return "Event Mode";
+    case gbContinuousTime:
+      return "Continuous-Time Mode";
+    case gbStepComplete:
+      return "Step Complete";
+    case gbTerminated:
+      return "Terminated";
+    case gbError:
+      return "Error";
   }
   return "?";
 }
 
-static void gb_log(gbInstance* c, fmi2Status status, const char* category, const char* format, ...) {
+static void gb_log(gbInstance* c, fmi2Status status, const char* category, const char* format,
+                   ...) {
   char message[512];
   va_list args;
   if (!c || !c->callbacks.logger) return;
@@ -247,7 +259,8 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component component) {
 
 fmi2Status fmi2Terminate(fmi2Component component) {
   gbInstance* c = (gbInstance*)component;
-  if (!gb_allowed(c, "fmi2Terminate", gbEvent | gbContinuousTime | gbStepComplete)) return fmi2Error;
+  if (!gb_allowed(c, "fmi2Terminate", gbEvent | gbContinuousTime | gbStepComplete))
+    return fmi2Error;
   c->state = gbTerminated;
   return fmi2OK;
 }
@@ -285,9 +298,9 @@ fmi2Status fmi2GetReal(fmi2Component component, const fmi2ValueReference vr[], s
   double f[GB_N_STATES], h[GB_MAX1(GB_N_OUTPUTS)];
   int have_f = 0, have_h = 0;
   size_t k;
-  if (!gb_allowed(c, "fmi2GetReal",
-                  gbInitialization | gbEvent | gbContinuousTime | gbStepComplete | gbTerminated |
-                      gbError))
+  if (!gb_allowed(
+          c, "fmi2GetReal",
+          gbInitialization | gbEvent | gbContinuousTime | gbStepComplete | gbTerminated | gbError))
     return fmi2Error;
   if (nvr > 0 && (!vr || !value)) return fmi2Error;
   for (k = 0; k < nvr; ++k) {
@@ -360,16 +373,16 @@ fmi2Status fmi2SetReal(fmi2Component component, const fmi2ValueReference vr[], s
 #endif
 
 /* No integer, boolean or string variables: only empty requests succeed. */
-#define GB_NO_VARIABLES(function, value_type, const_)                                          \
-  fmi2Status function(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,     \
-                      const_ value_type value[]) {                                             \
-    gbInstance* c = (gbInstance*)component;                                                    \
-    (void)vr;                                                                                  \
-    (void)value;                                                                               \
-    if (!c) return fmi2Error;                                                                  \
-    if (nvr == 0) return fmi2OK;                                                               \
+#define GB_NO_VARIABLES(function, value_type, const_)                                        \
+  fmi2Status function(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,    \
+                      const_ value_type value[]) {                                           \
+    gbInstance* c = (gbInstance*)component;                                                  \
+    (void)vr;                                                                                \
+    (void)value;                                                                             \
+    if (!c) return fmi2Error;                                                                \
+    if (nvr == 0) return fmi2OK;                                                             \
     gb_log(c, fmi2Error, "logStatusError", "%s: this FMU has no such variables", #function); \
-    return fmi2Error;                                                                          \
+    return fmi2Error;                                                                        \
   }
 #ifndef GB_VIRTUAL_SENSOR
 GB_NO_VARIABLES(fmi2GetInteger, fmi2Integer, )
@@ -490,8 +503,8 @@ fmi2Status fmi2SetContinuousStates(fmi2Component component, const fmi2Real x[], 
   size_t i;
   if (!gb_allowed(c, "fmi2SetContinuousStates", gbContinuousTime)) return fmi2Error;
   if (nx != GB_N_STATES || !x) {
-    gb_log(c, fmi2Error, "logStatusError", "fmi2SetContinuousStates: %u states given, the model has %d",
-           (unsigned)nx, GB_N_STATES);
+    gb_log(c, fmi2Error, "logStatusError",
+           "fmi2SetContinuousStates: %u states given, the model has %d", (unsigned)nx, GB_N_STATES);
     return fmi2Error;
   }
   for (i = 0; i < nx; ++i) c->x[i] = x[i];
@@ -500,8 +513,7 @@ fmi2Status fmi2SetContinuousStates(fmi2Component component, const fmi2Real x[], 
 
 fmi2Status fmi2GetDerivatives(fmi2Component component, fmi2Real derivatives[], size_t nx) {
   gbInstance* c = (gbInstance*)component;
-  if (!gb_allowed(c, "fmi2GetDerivatives",
-                  gbEvent | gbContinuousTime | gbTerminated | gbError))
+  if (!gb_allowed(c, "fmi2GetDerivatives", gbEvent | gbContinuousTime | gbTerminated | gbError))
     return fmi2Error;
   if (nx != GB_N_STATES || !derivatives) {
     gb_log(c, fmi2Error, "logStatusError", "fmi2GetDerivatives: %u asked for, the model has %d",
@@ -514,8 +526,7 @@ fmi2Status fmi2GetDerivatives(fmi2Component component, fmi2Real derivatives[], s
 fmi2Status fmi2GetEventIndicators(fmi2Component component, fmi2Real indicators[], size_t ni) {
   gbInstance* c = (gbInstance*)component;
   (void)indicators;
-  if (!gb_allowed(c, "fmi2GetEventIndicators",
-                  gbEvent | gbContinuousTime | gbTerminated | gbError))
+  if (!gb_allowed(c, "fmi2GetEventIndicators", gbEvent | gbContinuousTime | gbTerminated | gbError))
     return fmi2Error;
   return ni == 0 ? fmi2OK : fmi2Error;
 }
@@ -551,8 +562,7 @@ static int gb_rhs(gbInstance* c, double t, const double* x, double* f) {
   double s[GB_N_SLOTS];
   int i;
   for (i = 0; i < GB_N_STATES; ++i) s[i] = x[i];
-  for (i = 0; i < GB_N_INPUTS; ++i)
-    s[GB_SLOT_INPUT + i] = c->u[i] + c->du[i] * (t - c->step_start);
+  for (i = 0; i < GB_N_INPUTS; ++i) s[GB_SLOT_INPUT + i] = c->u[i] + c->du[i] * (t - c->step_start);
   for (i = 0; i < GB_N_PARAMETERS; ++i) s[GB_SLOT_PARAMETER + i] = c->theta[i];
   s[GB_SLOT_TIME] = t;
   gb_drift(s, f);
@@ -583,13 +593,14 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component component, const fmi2ValueR
 }
 
 fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoint,
-                      fmi2Real communicationStepSize, fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
+                      fmi2Real communicationStepSize,
+                      fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
   static const double a21 = 1.0 / 5, a31 = 3.0 / 40, a32 = 9.0 / 40, a41 = 44.0 / 45,
-                      a42 = -56.0 / 15, a43 = 32.0 / 9, a51 = 19372.0 / 6561,
-                      a52 = -25360.0 / 2187, a53 = 64448.0 / 6561, a54 = -212.0 / 729,
-                      a61 = 9017.0 / 3168, a62 = -355.0 / 33, a63 = 46732.0 / 5247,
-                      a64 = 49.0 / 176, a65 = -5103.0 / 18656, b1 = 35.0 / 384, b3 = 500.0 / 1113,
-                      b4 = 125.0 / 192, b5 = -2187.0 / 6784, b6 = 11.0 / 84;
+                      a42 = -56.0 / 15, a43 = 32.0 / 9, a51 = 19372.0 / 6561, a52 = -25360.0 / 2187,
+                      a53 = 64448.0 / 6561, a54 = -212.0 / 729, a61 = 9017.0 / 3168,
+                      a62 = -355.0 / 33, a63 = 46732.0 / 5247, a64 = 49.0 / 176,
+                      a65 = -5103.0 / 18656, b1 = 35.0 / 384, b3 = 500.0 / 1113, b4 = 125.0 / 192,
+                      b5 = -2187.0 / 6784, b6 = 11.0 / 84;
   static const double e1 = 35.0 / 384 - 5179.0 / 57600, e3 = 500.0 / 1113 - 7571.0 / 16695,
                       e4 = 125.0 / 192 - 393.0 / 640, e5 = -2187.0 / 6784 + 92097.0 / 339200,
                       e6 = 11.0 / 84 - 187.0 / 2100, e7 = -1.0 / 40;

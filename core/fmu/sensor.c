@@ -101,8 +101,8 @@ static const double gb_kA[6][5] = {
     {44.0 / 45, -56.0 / 15, 32.0 / 9},
     {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729},
     {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656}};
-static const double gb_kB[6] = {35.0 / 384, 0.0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784,
-                                11.0 / 84};
+static const double gb_kB[6] = {35.0 / 384,     0.0,      500.0 / 1113, 125.0 / 192,
+                                -2187.0 / 6784, 11.0 / 84};
 #define GB_KE1 (35.0 / 384 - 5179.0 / 57600)
 #define GB_KE3 (500.0 / 1113 - 7571.0 / 16695)
 #define GB_KE4 (125.0 / 192 - 393.0 / 640)
@@ -184,8 +184,8 @@ static int gb_moments(const gbInstance* c, const gbInterval* iv, double t, const
     }
   for (a = 0; a < GB_N_STATES; ++a) finite &= isfinite(dz[a] = out[a]) != 0;
   for (b = 0; b < GB_N_STATES; ++b) {
-    finite &= isfinite(*d++ = M[b * GB_N_STATES + b] + M[b * GB_N_STATES + b] +
-                              sigma[b] * sigma[b]) != 0;
+    finite &=
+        isfinite(*d++ = M[b * GB_N_STATES + b] + M[b * GB_N_STATES + b] + sigma[b] * sigma[b]) != 0;
     for (a = b + 1; a < GB_N_STATES; ++a)
       finite &= isfinite(*d++ = M[a * GB_N_STATES + b] + M[b * GB_N_STATES + a]) != 0;
   }
@@ -214,8 +214,8 @@ static double gb_trial(const gbInstance* c, const gbInterval* iv, gbOde* e, doub
                a64 = h * gb_kA[5][3], a65 = h * gb_kA[5][4];
   const double b1 = h * gb_kB[0], b3 = h * gb_kB[2], b4 = h * gb_kB[3], b5 = h * gb_kB[4],
                b6 = h * gb_kB[5];
-  const double e1 = h * GB_KE1, e3 = h * GB_KE3, e4 = h * GB_KE4, e5 = h * GB_KE5,
-               e6 = h * GB_KE6, e7 = h * GB_KE7;
+  const double e1 = h * GB_KE1, e3 = h * GB_KE3, e4 = h * GB_KE4, e5 = h * GB_KE5, e6 = h * GB_KE6,
+               e7 = h * GB_KE7;
   for (i = 0; i < GB_NZ; ++i) y[i] = x[i] + a21 * k1[i];
   finite &= gb_moments(c, iv, t + h * gb_kC[1], y, k2);
   for (i = 0; i < GB_NZ; ++i) y[i] = x[i] + a31 * k1[i] + a32 * k2[i];
@@ -232,8 +232,8 @@ static double gb_trial(const gbInstance* c, const gbInterval* iv, gbOde* e, doub
   finite &= gb_moments(c, iv, t + h, e->x_new, e->dxdt_new);
   if (!finite) return NAN;
   for (i = 0; i < GB_NZ; ++i) {
-    const double err = e1 * k1[i] + e3 * k3[i] + e4 * k4[i] + e5 * k5[i] + e6 * k6[i] +
-                       e7 * e->dxdt_new[i];
+    const double err =
+        e1 * k1[i] + e3 * k3[i] + e4 * k4[i] + e5 * k5[i] + e6 * k6[i] + e7 * e->dxdt_new[i];
     const double scale = GB_ATOL + GB_RTOL * (fabs(x[i]) + fabs(h) * fabs(k1[i]));
     const double r = fabs(err) / scale;
     if (r > worst) worst = r;
@@ -277,9 +277,9 @@ static int gb_advance(gbInstance* c, gbOde* e, const gbInterval* iv, double t0, 
         e->x[i] = e->x_new[i];
         e->dxdt[i] = e->dxdt_new[i];
       }
-      dt = error < 0.5 ? dt_tried * (0.9 * pow(error > pow(5.0, -5.0) ? error : pow(5.0, -5.0),
-                                               -1.0 / 5))
-                       : dt_tried;
+      dt = error < 0.5
+               ? dt_tried * (0.9 * pow(error > pow(5.0, -5.0) ? error : pow(5.0, -5.0), -1.0 / 5))
+               : dt_tried;
       if (last) {
         if (dt_tried >= 0.5 * e->dt_hint || e->dt_hint == 0.0) e->dt_hint = dt;
         break;
@@ -366,37 +366,29 @@ static double gb_output_sd(const double* P, const double* out, int o) {
   return v > 0.0 ? sqrt(v) : 0.0;
 }
 
-/* The measurement update of the filter's state j with the measurements that see it (the prior
-   first, at j = 0). */
-static int gb_update(gbInstance* c, long j, double h) {
-  gbSensor* s = gb_sensor(c);
+/* The measurement update of the moments z (x, P packed) at state j with the measurements of it
+   that have arrived (rows up to `newest`): output after output, each a scalar update
+   linearised at the prior (ŷ = h_o + H_o (x - x_prior), k = P H_o', R = H_o k + S_o,
+   x += k ε/R, P -= k k'/R), as core/filter/ekf.cpp does. `residual` (may be null) gets each
+   output's innovation at the prior, y - h_o (0 where not valid or not arrived). */
+static int gb_measurements(gbInstance* c, long j, double* z, long newest, double* residual) {
+  const gbSensor* s = gb_sensor(c);
   double x[GB_N_STATES], x_prior[GB_N_STATES], P[GB_N_STATES * GB_N_STATES], PHt[GB_N_STATES];
-  double out[GB_NP * (GB_N_STATES + 2)], u_end[GB_NU], t1;
-  gbInterval iv;
-  int o, a, b;
-  if (j == 0) { /* the prior: x0, and P0 given or gathered over the first interval */
-    for (a = 0; a < GB_N_STATES; ++a) x[a] = gb_x_start[a];
-#if GB_P0_CTSM
-    for (a = 0; a < GB_N_STATES * GB_N_STATES; ++a) P[a] = 0.0;
-    gb_pack(x, P, s->z);
-    gb_interval(c, 0, h, u_end, &iv, &t1);
-    if (!gb_advance(c, &s->ode, &iv, iv.t0, t1, s->z)) return 0;
-    for (a = 0; a < GB_N_STATES; ++a) s->z[a] = x[a];
-#else
-    gb_pack(x, gb_P0_start, s->z);
-#endif
-  }
-  for (a = 0; a < GB_N_STATES; ++a) x[a] = x_prior[a] = s->z[a];
-  gb_unpack(s->z, P);
-  if (!gb_measure(c, j, gb_row(s, j)->t, x_prior, out)) return 0;
+  double out[GB_NP * (GB_N_STATES + 2)];
+  int o, a, b, measured = 0;
+  for (a = 0; a < GB_N_STATES; ++a) x[a] = x_prior[a] = z[a];
+  gb_unpack(z, P);
   for (o = 0; o < GB_N_OUTPUTS; ++o) {
     const gbRow* row = gb_row(s, j + gb_delay[o]);
     const double* H = out + GB_N_OUTPUTS + o * GB_N_STATES;
-    const double S = out[GB_N_OUTPUTS + GB_N_OUTPUTS * GB_N_STATES + o];
-    double yhat = out[o], R = S, eps;
-    s->residual[o] = 0.0;
-    if (!row->valid[o] || !isfinite(row->y[o])) continue;
-    s->residual[o] = row->y[o] - out[o];
+    double yhat, R, eps;
+    if (residual) residual[o] = 0.0;
+    if (j + gb_delay[o] > newest || !row->valid[o] || !isfinite(row->y[o])) continue;
+    if (!measured && !gb_measure(c, j, gb_row(s, j)->t, x_prior, out)) return 0;
+    measured = 1;
+    if (residual) residual[o] = row->y[o] - out[o];
+    yhat = out[o];
+    R = out[GB_N_OUTPUTS + GB_N_OUTPUTS * GB_N_STATES + o];
     for (a = 0; a < GB_N_STATES; ++a) yhat += H[a] * (x[a] - x_prior[a]);
     for (a = 0; a < GB_N_STATES; ++a) {
       double sum = 0.0;
@@ -415,11 +407,36 @@ static int gb_update(gbInstance* c, long j, double h) {
     for (a = 0; a < GB_N_STATES; ++a)
       for (b = 0; b < GB_N_STATES; ++b) P[a * GB_N_STATES + b] -= (1.0 / R) * PHt[a] * PHt[b];
   }
+  if (measured) gb_pack(x, P, z);
+  return 1;
+}
+
+/* The measurement update of the filter's state j with the measurements that see it (the prior
+   first, at j = 0). */
+static int gb_update(gbInstance* c, long j, double h) {
+  gbSensor* s = gb_sensor(c);
+  double x[GB_N_STATES], P[GB_N_STATES * GB_N_STATES];
+  int a;
+  if (j == 0) { /* the prior: x0, and P0 given or gathered over the first interval */
+    for (a = 0; a < GB_N_STATES; ++a) x[a] = gb_x_start[a];
+#if GB_P0_CTSM
+    double u_end[GB_NU], t1;
+    gbInterval iv;
+    for (a = 0; a < GB_N_STATES * GB_N_STATES; ++a) P[a] = 0.0;
+    gb_pack(x, P, s->z);
+    gb_interval(c, 0, h, u_end, &iv, &t1);
+    if (!gb_advance(c, &s->ode, &iv, iv.t0, t1, s->z)) return 0;
+    for (a = 0; a < GB_N_STATES; ++a) s->z[a] = x[a];
+#else
+    gb_pack(x, gb_P0_start, s->z);
+#endif
+  }
+  if (!gb_measurements(c, j, s->z, s->k - 1, s->residual)) return 0;
+  gb_unpack(s->z, P);
   for (a = 0; a < GB_N_STATES; ++a) {
-    s->filtered[a] = x[a];
+    s->filtered[a] = s->z[a];
     s->filtered_sd[a] = P[a * GB_N_STATES + a] > 0.0 ? sqrt(P[a * GB_N_STATES + a]) : 0.0;
   }
-  gb_pack(x, P, s->z);
   return 1;
 }
 
@@ -432,8 +449,9 @@ static int gb_time_update(gbInstance* c, long j, double h) {
   return gb_advance(c, &s->ode, &iv, iv.t0, t1, s->z);
 }
 
-/* From the filter's state through the rows kept to t_{k+1} = t_k + h: the predicted states, and
-   each output's prediction at row k + 1 (h at the prior of state k + 1 - d_o). */
+/* From the filter's state through the rows kept to t_{k+1} = t_k + h, with every measurement that
+   has arrived: the predicted states, and each output's prediction at row k + 1 (h at the prior
+   of state k + 1 - d_o, before that state's own measurements). */
 static int gb_predict_now(gbInstance* c, double h) {
   gbSensor* s = gb_sensor(c);
   double z[GB_NZ], P[GB_N_STATES * GB_N_STATES], out[GB_NP * (GB_N_STATES + 2)], u_end[GB_NU];
@@ -454,10 +472,9 @@ static int gb_predict_now(gbInstance* c, double h) {
     for (o = 0; o < GB_N_OUTPUTS; ++o) {
       if (state + gb_delay[o] != newest + 1) continue;
       /* state newest + 1 has no row yet: t_k + h, and the newest row's inputs */
-      if (!measured && !gb_measure(c, state <= newest ? state : newest,
-                                   state <= newest ? gb_row(s, state)->t
-                                                   : gb_row(s, newest)->t + h,
-                                   z, out))
+      if (!measured &&
+          !gb_measure(c, state <= newest ? state : newest,
+                      state <= newest ? gb_row(s, state)->t : gb_row(s, newest)->t + h, z, out))
         return 0;
       measured = 1;
       gb_unpack(z, P);
@@ -465,6 +482,9 @@ static int gb_predict_now(gbInstance* c, double h) {
       s->y_sd[o] = gb_output_sd(P, out, o);
     }
     if (state > newest) break;
+    /* the measurements of this state that have arrived (the filter uses them, with the rest,
+       once they are all there) */
+    if (!gb_measurements(c, state, z, newest, NULL)) return 0;
     gb_interval(c, state, h, u_end, &iv, &t1);
     if (!gb_advance(c, &s->scratch, &iv, iv.t0, t1, z)) return 0;
   }
@@ -495,16 +515,26 @@ fmi2Status fmi2GetReal(fmi2Component component, const fmi2ValueReference vr[], s
   s = gb_sensor(c);
   for (k = 0; k < nvr; ++k) {
     const fmi2ValueReference r = vr[k];
-    if (r < GB_SVR_MEASURED) value[k] = c->u[r - GB_SVR_INPUT];
-    else if (r < GB_SVR_FILTERED) value[k] = s->y_in[r - GB_SVR_MEASURED];
-    else if (r < GB_SVR_FILTERED_SD) value[k] = s->filtered[r - GB_SVR_FILTERED];
-    else if (r < GB_SVR_PREDICTED) value[k] = s->filtered_sd[r - GB_SVR_FILTERED_SD];
-    else if (r < GB_SVR_PREDICTED_SD) value[k] = s->predicted[r - GB_SVR_PREDICTED];
-    else if (r < GB_SVR_Y_PRED) value[k] = s->predicted_sd[r - GB_SVR_PREDICTED_SD];
-    else if (r < GB_SVR_Y_SD) value[k] = s->y_pred[r - GB_SVR_Y_PRED];
-    else if (r < GB_SVR_RESIDUAL) value[k] = s->y_sd[r - GB_SVR_Y_SD];
-    else if (r < GB_SVR_PARAMETER) value[k] = s->residual[r - GB_SVR_RESIDUAL];
-    else if (r < GB_SVR_END) value[k] = c->theta[r - GB_SVR_PARAMETER];
+    if (r < GB_SVR_MEASURED)
+      value[k] = c->u[r - GB_SVR_INPUT];
+    else if (r < GB_SVR_FILTERED)
+      value[k] = s->y_in[r - GB_SVR_MEASURED];
+    else if (r < GB_SVR_FILTERED_SD)
+      value[k] = s->filtered[r - GB_SVR_FILTERED];
+    else if (r < GB_SVR_PREDICTED)
+      value[k] = s->filtered_sd[r - GB_SVR_FILTERED_SD];
+    else if (r < GB_SVR_PREDICTED_SD)
+      value[k] = s->predicted[r - GB_SVR_PREDICTED];
+    else if (r < GB_SVR_Y_PRED)
+      value[k] = s->predicted_sd[r - GB_SVR_PREDICTED_SD];
+    else if (r < GB_SVR_Y_SD)
+      value[k] = s->y_pred[r - GB_SVR_Y_PRED];
+    else if (r < GB_SVR_RESIDUAL)
+      value[k] = s->y_sd[r - GB_SVR_Y_SD];
+    else if (r < GB_SVR_PARAMETER)
+      value[k] = s->residual[r - GB_SVR_RESIDUAL];
+    else if (r < GB_SVR_END)
+      value[k] = c->theta[r - GB_SVR_PARAMETER];
     else {
       gb_log(c, fmi2Error, "logStatusError", "fmi2GetReal: no variable has value reference %u",
              (unsigned)r);
@@ -553,8 +583,8 @@ fmi2Status fmi2GetBoolean(fmi2Component component, const fmi2ValueReference vr[]
     } else if (vr[k] == GB_BVR_READY) {
       value[k] = gb_sensor(c)->ready;
     } else {
-      gb_log(c, fmi2Error, "logStatusError",
-             "fmi2GetBoolean: no variable has value reference %u", (unsigned)vr[k]);
+      gb_log(c, fmi2Error, "logStatusError", "fmi2GetBoolean: no variable has value reference %u",
+             (unsigned)vr[k]);
       return fmi2Error;
     }
   }
@@ -571,8 +601,7 @@ fmi2Status fmi2SetBoolean(fmi2Component component, const fmi2ValueReference vr[]
   for (k = 0; k < nvr; ++k) {
     if (vr[k] >= GB_BVR_READY) {
       gb_log(c, fmi2Error, "logStatusError",
-             "fmi2SetBoolean: value reference %u is not a measurement's validity",
-             (unsigned)vr[k]);
+             "fmi2SetBoolean: value reference %u is not a measurement's validity", (unsigned)vr[k]);
       return fmi2Error;
     }
     gb_sensor(c)->valid_in[vr[k]] = value[k] ? fmi2True : fmi2False;
@@ -609,7 +638,8 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component component, const fmi2ValueR
 }
 
 fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoint,
-                      fmi2Real communicationStepSize, fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
+                      fmi2Real communicationStepSize,
+                      fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
   gbInstance* c = (gbInstance*)component;
   gbSensor* s;
   gbRow* row;
@@ -642,8 +672,7 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
   for (;;) {
     const long newest = s->k - 1;
     if (!s->updated) {
-      if (s->j + GB_DELAY_MAX > newest || (s->j == 0 && GB_P0_CTSM && GB_FOH && newest < 1))
-        break;
+      if (s->j + GB_DELAY_MAX > newest || (s->j == 0 && GB_P0_CTSM && GB_FOH && newest < 1)) break;
       if (!gb_update(c, s->j, communicationStepSize)) goto failed;
       s->updated = fmi2True;
       s->ready = fmi2True;

@@ -37,7 +37,24 @@ d = zipfile.ZipFile(sys.argv[1]).read("modelDescription.xml").decode()
 assert "<CoSimulation" in d and "<ModelExchange" not in d
 PY
 
+expect 0 '' -- export-fmu "$tmp/fit.json" --virtual-sensor --out "$tmp/sensor.fmu"
+check "a virtual sensor is the filter's Co-Simulation FMU" python3 - "$tmp/sensor.fmu" <<'PY'
+import sys, zipfile
+d = zipfile.ZipFile(sys.argv[1]).read("modelDescription.xml").decode()
+assert "<CoSimulation" in d and "<ModelExchange" not in d
+for name in ("mff_filtered", "mff_filtered_sd", "mfv_predicted", "ilambda_pred", "ilambda_sd",
+             "ilambda_residual", "ilambda_valid", "ready"):
+    assert f'name="{name}"' in d, name
+PY
+
 kept=("$tmp/fit.json" "$tmp/fuel_film.json" "$tmp/fuel_f1.csv")
+expect_kept 2 "--interface me: a virtual sensor is a Co-Simulation FMU" -- export-fmu \
+  "$tmp/fit.json" --virtual-sensor --interface me --out "$tmp/x.fmu"
+sed 's/"initial_covariance": *"ctsm"/"initial_covariance": "stationary"/' "$tmp/fuel_film.json" \
+  >"$tmp/stationary.json"
+kept+=("$tmp/stationary.json")
+expect_kept 2 'initial_covariance is "stationary" is not exported' -- export-fmu "$tmp/fit.json" \
+  --model "$tmp/stationary.json" --virtual-sensor --out "$tmp/x.fmu"
 expect_kept 2 'out' -- export-fmu "$tmp/fit.json" --out "$tmp/fit.json"
 expect_kept 2 'out' -- export-fmu "$tmp/fit.json" --out "$tmp/fuel_film.json"
 python3 - "$tmp/fit.json" "$tmp/nameless.json" <<'PY'

@@ -19,6 +19,7 @@
 #include <dlfcn.h>
 #include <gtest/gtest.h>
 
+#include "core/filter/ekf.h"
 #include "core/fmu/fmi2/fmi2Functions.h"
 #include "core/util/json.h"
 
@@ -73,13 +74,16 @@ void Logger(fmi2ComponentEnvironment env, fmi2String, fmi2Status, fmi2String, fm
 // The FMU exported, unpacked and loaded.
 class Fmu {
  public:
-  explicit Fmu(const std::string& name, Interface interface = Interface::kBoth) {
+  explicit Fmu(const std::string& name, Interface interface = Interface::kBoth)
+      : Fmu(name, Lag(), [interface] {
+          FmuOptions options;
+          options.interface = interface;
+          return options;
+        }()) {}
+  Fmu(const std::string& name, const model::NonlinearModel& model, const FmuOptions& options) {
     dir_ = fs::path(::testing::TempDir()) / ("gb-fmu-test-" + name);
     fs::remove_all(dir_);
     fs::create_directories(dir_);
-    const model::NonlinearModel model = Lag();
-    FmuOptions options;
-    options.interface = interface;
     path_ = (dir_ / "lag.fmu").string();
     status_ = ExportFmu(model, model.spec().Values(), options, path_);
     if (!status_.ok()) return;
@@ -352,6 +356,147 @@ TEST(Fmu, ModelDescriptionListsTheVariablesAndTheirDependencies) {
   EXPECT_NE(not_finite.error().message.find("parameter b"), std::string::npos);
 }
 
+// The virtual sensor against greybench's own extended Kalman filter (EkfRunFilter's trace) on a
+// record of the lag with w delayed by 2 samples and measurements missing: after the step from
+// row k the filtered states are x_{j|j} of j = k - 2, the innovations those of rows j + d_o, the
+// predictions those of row k + 1 from every measurement given so far (the same integrator's
+// steps: to rounding).
+TEST(Fmu, VirtualSensorIsGreybenchsFilter) {
+  auto spec = model::ParseModel(Json::parse(kLag), "lag.json");
+  ASSERT_TRUE(spec.ok()) << spec.error().ToString();
+  spec->output_delay[1] = {2, 2};
+  const model::NonlinearModel model = *model::NonlinearModel::Compile(*spec);
+  const std::vector<double> theta = spec->Values();
+  auto options = VirtualSensorOptions(model, theta, std::vector<int>{-1, -1});
+  ASSERT_TRUE(options) << options.error().ToString();
+  EXPECT_EQ(options->delays, (std::vector<int>{0, 2}));
+  Fmu fmu("sensor", model, *options);
+  ASSERT_TRUE(fmu.status().ok()) << fmu.status().error().ToString();
+  ASSERT_TRUE(fmu.loaded()) << dlerror();
+
+  const int N = 120, D = 2;
+  data::Series series;
+  series.U.resize(1, N);
+  series.Y.resize(2, N);
+  for (int k = 0; k < N; ++k) {
+    const double t = 0.05 * k + 0.001 * (k % 3);  // uneven intervals
+    series.time.push_back(t);
+    series.U(0, k) = (k / 15) % 2 ? 1.0 : -0.5;
+    series.Y(0, k) = 0.5 * (0.4 + 0.3 * std::sin(0.7 * k));
+    series.Y(1, k) = 0.2 * std::cos(0.3 * k) + series.U(0, k);
+  }
+  series.Y(0, 30) = series.Y(1, 31) = series.Y(0, 60) = std::nan("");  // missing
+  series.intervals = data::GroupIntervals(series.time);
+  filter::FilterSettings settings = filter::FilterSettings::FromModel(*spec);
+  filter::FilterTrace trace;
+  auto run = filter::EkfRunFilter(model, theta, series, settings, &trace);
+  ASSERT_TRUE(run) << run.error().ToString();
+
+  Logged logged;
+  fmi2Component c = fmu.Instantiate(fmi2CoSimulation, &logged);
+  ASSERT_NE(c, nullptr);
+  EXPECT_EQ(fmu.Instantiate(fmi2ModelExchange, &logged), nullptr);  // Co-Simulation only
+  auto set_real = fmu.Get<fmi2SetRealTYPE>("fmi2SetReal");
+  auto get_real = fmu.Get<fmi2GetRealTYPE>("fmi2GetReal");
+  auto set_bool = fmu.Get<fmi2SetBooleanTYPE>("fmi2SetBoolean");
+  auto get_bool = fmu.Get<fmi2GetBooleanTYPE>("fmi2GetBoolean");
+  auto do_step = fmu.Get<fmi2DoStepTYPE>("fmi2DoStep");
+  ASSERT_EQ(
+      fmu.Get<fmi2SetupExperimentTYPE>("fmi2SetupExperiment")(c, fmi2False, 0, 0, fmi2False, 0),
+      fmi2OK);
+  ASSERT_EQ(fmu.Get<fmi2EnterInitializationModeTYPE>("fmi2EnterInitializationMode")(c), fmi2OK);
+  ASSERT_EQ(fmu.Get<fmi2ExitInitializationModeTYPE>("fmi2ExitInitializationMode")(c), fmi2OK);
+  // Real value references: u; y, w; x, z filtered, their sd; predicted, their sd; y, w
+  // predictions, their sd, innovations; parameters. Boolean: y_valid, w_valid, ready.
+  const fmi2ValueReference kUIn = 0, kMeasured[2] = {1, 2}, kFiltered[2] = {3, 4},
+                           kFilteredSd[2] = {5, 6}, kPred[2] = {11, 12}, kSd[2] = {13, 14},
+                           kResidual[2] = {15, 16}, kValid[2] = {0, 1}, kReady = 2;
+  // Bad calls: an output set, a validity flag that is not one.
+  const double value = 1.0;
+  EXPECT_EQ(set_real(c, &kFiltered[0], 1, &value), fmi2Error);
+  const fmi2Boolean yes = fmi2True;
+  EXPECT_EQ(set_bool(c, &kReady, 1, &yes), fmi2Error);
+  logged.messages.clear();
+  int compared = 0, cut_compared = 0;
+  for (int k = 0; k < N; ++k) {
+    const double h = k + 1 < N ? series.time[k + 1] - series.time[k] : 0.05;
+    ASSERT_EQ(set_real(c, &kUIn, 1, &series.U(0, k)), fmi2OK);
+    for (int o = 0; o < 2; ++o) {
+      const bool valid = std::isfinite(series.Y(o, k));
+      const double y = valid ? series.Y(o, k) : 0.0;
+      const fmi2Boolean flag = valid ? fmi2True : fmi2False;
+      ASSERT_EQ(set_real(c, &kMeasured[o], 1, &y), fmi2OK);
+      ASSERT_EQ(set_bool(c, &kValid[o], 1, &flag), fmi2OK);
+    }
+    ASSERT_EQ(do_step(c, series.time[k], h, fmi2True), fmi2OK) << "row " << k;
+    fmi2Boolean ready = fmi2False;
+    ASSERT_EQ(get_bool(c, &kReady, 1, &ready), fmi2OK);
+    EXPECT_EQ(ready == fmi2True, k >= D) << "row " << k;
+    if (k < D) continue;
+    const int j = k - D;
+    for (int i = 0; i < 2; ++i) {
+      double x = 0.0, sd = 0.0;
+      ASSERT_EQ(get_real(c, &kFiltered[i], 1, &x), fmi2OK);
+      ASSERT_EQ(get_real(c, &kFilteredSd[i], 1, &sd), fmi2OK);
+      EXPECT_NEAR(x, trace.x_filt(i, j), 1e-10 * (1.0 + std::abs(x))) << "row " << k;
+      EXPECT_NEAR(sd, std::sqrt(trace.P_filt[j](i, i)), 1e-10) << "row " << k;
+    }
+    for (int o = 0; o < 2; ++o) {
+      const int row = j + options->delays[o];
+      double residual = 0.0;
+      ASSERT_EQ(get_real(c, &kResidual[o], 1, &residual), fmi2OK);
+      const double expected = std::isfinite(series.Y(o, row))
+                                  ? series.Y(o, row) - trace.y_pred(o, row)
+                                  : 0.0;  // not valid
+      EXPECT_NEAR(residual, expected, 1e-10) << "output " << o << ", row " << row;
+      // w's prediction of row k + 1 is the filter's (state k - 1, before its measurements).
+      // y's (state k + 1) uses every measurement that has arrived, which the filter's own does
+      // not: the w of rows k + 1 and k + 2 belong to states k - 1 and k but have not arrived.
+      // It is the filter's prediction on the record cut after row k (every later measurement
+      // missing), checked at a few rows.
+      if (k + 1 >= N) continue;
+      double pred = 0.0, sd = 0.0;
+      ASSERT_EQ(get_real(c, &kPred[o], 1, &pred), fmi2OK);
+      ASSERT_EQ(get_real(c, &kSd[o], 1, &sd), fmi2OK);
+      if (o == 1) {
+        EXPECT_NEAR(pred, trace.y_pred(o, k + 1), 1e-10) << "row " << k + 1;
+        EXPECT_NEAR(sd, std::sqrt(trace.y_var(o, k + 1)), 1e-10);
+      } else if (k % 20 == 7) {
+        data::Series cut = series;
+        cut.Y.rightCols(N - k - 1).setConstant(std::nan(""));
+        filter::FilterTrace now;
+        ASSERT_TRUE(filter::EkfRunFilter(model, theta, cut, settings, &now));
+        EXPECT_NEAR(pred, now.y_pred(o, k + 1), 1e-10) << "row " << k + 1;
+        EXPECT_NEAR(sd, std::sqrt(now.y_var(o, k + 1)), 1e-10);
+        ++cut_compared;
+      }
+    }
+    ++compared;
+  }
+  EXPECT_EQ(compared, N - D);
+  EXPECT_EQ(cut_compared, 6);
+  ASSERT_EQ(fmu.Get<fmi2TerminateTYPE>("fmi2Terminate")(c), fmi2OK);
+  fmu.Get<fmi2FreeInstanceTYPE>("fmi2FreeInstance")(c);
+  EXPECT_TRUE(logged.messages.empty()) << logged.messages.front();
+}
+
+TEST(Fmu, VirtualSensorOptionsRefuseWhatTheFilterCannotBe) {
+  auto spec = model::ParseModel(Json::parse(kLag), "lag.json");
+  ASSERT_TRUE(spec.ok());
+  model::ModelSpec iterated = *spec;
+  iterated.ekf.iterations = 3;
+  auto refused = VirtualSensorOptions(*model::NonlinearModel::Compile(iterated), spec->Values(),
+                                      std::vector<int>{0, 0});
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find("not the iterated one"), std::string::npos);
+  model::ModelSpec stationary = *spec;
+  stationary.initial_covariance = model::InitialCovariance::kStationary;
+  refused = VirtualSensorOptions(*model::NonlinearModel::Compile(stationary), spec->Values(),
+                                 std::vector<int>{0, 0});
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find("\"stationary\""), std::string::npos);
+}
+
 TEST(Fmu, AStateNamedLikeAnOutputIsRenamedAndTheInterfaceKeepsItsNames) {
   // The crankshaft's shape: the state N is also measured as the output N.
   auto spec = model::ParseModel(Json::parse(R"({
@@ -368,8 +513,7 @@ TEST(Fmu, AStateNamedLikeAnOutputIsRenamedAndTheInterfaceKeepsItsNames) {
   ASSERT_TRUE(sources) << sources.error().ToString();
   const std::string& d = sources->model_description;
   // N_state is taken by the model's second state: the first becomes N_state2.
-  EXPECT_NE(d.find("name=\"N_state2\" valueReference=\"0\" causality=\"local\""),
-            std::string::npos)
+  EXPECT_NE(d.find("name=\"N_state2\" valueReference=\"0\" causality=\"local\""), std::string::npos)
       << d;
   EXPECT_NE(d.find("description=\"state N of the model (a variable of the interface has its "
                    "name)\""),
@@ -388,15 +532,21 @@ TEST(Fmu, ModelDescriptionIsValidAgainstTheStandardsSchema) {
                  .string();
   if (!fs::exists(schema) || std::system("xmllint --version > /dev/null 2>&1") != 0)
     GTEST_SKIP() << "needs xmllint and the FMI 2.0 schema (" << schema << ")";
-  Fmu fmu("schema");
-  ASSERT_TRUE(fmu.loaded());
-  const std::string command = "xmllint --noout --schema '" + schema + "' '" +
-                              (fmu.dir() / "unpacked" / "modelDescription.xml").string() + "' > '" +
-                              (fmu.dir() / "xmllint.log").string() + "' 2>&1";
-  const int status = std::system(command.c_str());
-  std::ifstream log(fmu.dir() / "xmllint.log");
-  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
-  EXPECT_EQ(status, 0) << text;
+  // The model's FMU and its virtual sensor's.
+  const model::NonlinearModel model = Lag();
+  auto sensor = VirtualSensorOptions(model, model.spec().Values(), std::vector<int>{0, 0});
+  ASSERT_TRUE(sensor);
+  const Fmu fmus[] = {Fmu("schema"), Fmu("schema-sensor", model, *sensor)};
+  for (const Fmu& fmu : fmus) {
+    ASSERT_TRUE(fmu.loaded());
+    const std::string command = "xmllint --noout --schema '" + schema + "' '" +
+                                (fmu.dir() / "unpacked" / "modelDescription.xml").string() +
+                                "' > '" + (fmu.dir() / "xmllint.log").string() + "' 2>&1";
+    const int status = std::system(command.c_str());
+    std::ifstream log(fmu.dir() / "xmllint.log");
+    const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(status, 0) << fmu.dir() << ": " << text;
+  }
 }
 
 }  // namespace

@@ -222,9 +222,10 @@ TEST_F(WorkbenchExport, ExportFmuBuildsTheModelAtTheFitsEstimatesOffTheUiThread)
   EXPECT_TRUE(written) << d_.state.messages.back().text;
   // The estimates are the parameters' start values (Python reads the zip).
   const fs::path xml = dir_ / "film.xml";
-  const std::string unzip = "python3 -c \"import zipfile,sys; open(sys.argv[2],'wb').write("
-                            "zipfile.ZipFile(sys.argv[1]).read('modelDescription.xml'))\" '" +
-                            fmu.string() + "' '" + xml.string() + "'";
+  const std::string unzip =
+      "python3 -c \"import zipfile,sys; open(sys.argv[2],'wb').write("
+      "zipfile.ZipFile(sys.argv[1]).read('modelDescription.xml'))\" '" +
+      fmu.string() + "' '" + xml.string() + "'";
   ASSERT_EQ(std::system(unzip.c_str()), 0);
   const std::string description = Read(xml);
   EXPECT_NE(description.find("<CoSimulation modelIdentifier=\"film\""), std::string::npos);
@@ -246,6 +247,25 @@ TEST_F(WorkbenchExport, ExportFmuBuildsTheModelAtTheFitsEstimatesOffTheUiThread)
     EXPECT_NE(d_.state.messages.back().text.find("the FMU's outputs are not delayed"),
               std::string::npos);
   }
+  // The virtual sensor: the filter's variables, with the fit's delay (no warning: it is in the
+  // filter).
+  BrowseExportFmu(d_.state, fmu::Interface::kCoSimulation, true);
+  EXPECT_NE(d_.state.shell.browser.request.file_name.find("_sensor.fmu"), std::string::npos);
+  FinishExport(d_.state, BrowsePurpose::kExportFmu, (dir_ / "sensor.fmu").string());
+  d_.state.shell.fmu_job.Wait();
+  ASSERT_TRUE(PollFmuExport(d_.state));
+  ASSERT_TRUE(fs::exists(dir_ / "sensor.fmu")) << d_.state.messages.back().text;
+  EXPECT_EQ(d_.state.messages.back().severity, Severity::kInfo) << d_.state.messages.back().text;
+  EXPECT_NE(d_.state.messages.back().text.find("a virtual sensor"), std::string::npos);
+  const std::string sensor_unzip =
+      "python3 -c \"import zipfile,sys; open(sys.argv[2],'wb').write("
+      "zipfile.ZipFile(sys.argv[1]).read('modelDescription.xml'))\" '" +
+      (dir_ / "sensor.fmu").string() + "' '" + (dir_ / "sensor.xml").string() + "'";
+  ASSERT_EQ(std::system(sensor_unzip.c_str()), 0);
+  const std::string sensor_description = Read(dir_ / "sensor.xml");
+  EXPECT_NE(sensor_description.find("name=\"mff_filtered\""), std::string::npos);
+  EXPECT_NE(sensor_description.find("name=\"ilambda_valid\""), std::string::npos);
+
   // Onto a file of the project: refused before anything is built.
   const std::string model_before = Read(dir_ / "fuel_film.json");
   FinishExport(d_.state, BrowsePurpose::kExportFmu, (dir_ / "fuel_film.json").string());

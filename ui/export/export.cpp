@@ -158,22 +158,33 @@ void StartFmuExport(AppState& state, std::string path) {
   }
   if (std::filesystem::path(path).extension().empty()) path += ".fmu";
   if (Status st = CheckOutput(state, path); !st) return Report(state, st, "the FMU", path);
-  const std::string identifier =
-      fmu::IdentifierOf(std::filesystem::path(path).stem().string());
+  const std::string identifier = fmu::IdentifierOf(std::filesystem::path(path).stem().string());
   ShownValues shown = ValuesShown(state);
   const bool at_fit = shown.from_fit;
+  const bool sensor = state.shell.fmu_virtual_sensor;
   fmu::FmuOptions options;
   options.interface = state.shell.fmu_interface;
   options.identifier = identifier;
+  const std::string kind = sensor ? std::string("a virtual sensor, the model's filter")
+                                  : std::string(fmu::InterfaceName(options.interface));
   AddMessage(state, Severity::kInfo,
-             "Building the FMU " + path + " (" + fmu::InterfaceName(options.interface) + ", " +
+             "Building the FMU " + path + " (" + kind + ", " +
                  (at_fit ? "at the fit's estimates" : "at the model's values") + ")\xE2\x80\xA6");
   state.shell.fmu_job.Start([spec = *state.model, theta = std::move(shown.theta),
-                             delays = std::move(shown.delays), options, path,
-                             at_fit](JobControl&) {
+                             delays = std::move(shown.delays), options, path, at_fit, sensor,
+                             kind](JobControl&) mutable {
     FmuExportEnd end;
     end.path = path;
     auto compiled = model::NonlinearModel::Compile(spec);
+    if (compiled && sensor) {
+      auto sensor_options = fmu::VirtualSensorOptions(*compiled, theta, delays);
+      if (!sensor_options) {
+        end.error = sensor_options.error().ToString();
+        return end;
+      }
+      sensor_options->identifier = options.identifier;
+      options = std::move(*sensor_options);
+    }
     Status st = compiled ? fmu::ExportFmu(*compiled, theta, options, path) : compiled.error();
     if (!st) {
       end.error = st.error().ToString();
@@ -181,26 +192,29 @@ void StartFmuExport(AppState& state, std::string path) {
     }
     end.summary = fmt::format(
         "FMI 2.0, {}, model identifier {}; {} states, {} inputs, {} outputs, {} parameters at {}",
-        fmu::InterfaceName(options.interface), options.identifier, spec.states.size(),
-        spec.inputs.size(), spec.outputs.size(), spec.parameters.size(),
-        at_fit ? "the fit's estimates" : "the model's values");
-    end.warning = fmu::DelayNote(spec, delays);
+        kind, options.identifier, spec.states.size(), spec.inputs.size(), spec.outputs.size(),
+        spec.parameters.size(), at_fit ? "the fit's estimates" : "the model's values");
+    if (!sensor) end.warning = fmu::DelayNote(spec, delays);
     return end;
   });
 }
 
 }  // namespace
 
-void BrowseExportFmu(AppState& state, fmu::Interface interface) {
+void BrowseExportFmu(AppState& state, fmu::Interface interface, bool virtual_sensor) {
   if (!state.model) return;
   state.shell.fmu_interface = interface;
+  state.shell.fmu_virtual_sensor = virtual_sensor;
   FileBrowserRequest r;
-  r.title = std::string("Export the model as an FMU (") + fmu::InterfaceName(interface) + ")";
+  r.title = virtual_sensor
+                ? std::string("Export the model's filter as a virtual sensor FMU")
+                : std::string("Export the model as an FMU (") + fmu::InterfaceName(interface) + ")";
   r.confirm = "Export";
   r.mode = FileBrowserMode::kSave;
   r.filters = {{"FMUs (*.fmu)", {".fmu"}}};
   r.start = StartDirectory(state);
-  r.file_name = fmu::IdentifierOf(state.model->name.empty() ? "model" : state.model->name) + ".fmu";
+  r.file_name = fmu::IdentifierOf(state.model->name.empty() ? "model" : state.model->name) +
+                (virtual_sensor ? "_sensor.fmu" : ".fmu");
   r.purpose = static_cast<int>(BrowsePurpose::kExportFmu);
   OpenFileBrowser(state.shell.browser, std::move(r));
 }
@@ -287,6 +301,14 @@ void DrawExportMenu(AppState& state) {
         {"Co-Simulation\xE2\x80\xA6", fmu::Interface::kCoSimulation}};
     for (const auto& [label, interface] : kChoices)
       if (ImGui::MenuItem(label)) BrowseExportFmu(state, interface);
+    ImGui::Separator();
+    if (ImGui::MenuItem("Virtual sensor (the filter)\xE2\x80\xA6"))
+      BrowseExportFmu(state, fmu::Interface::kCoSimulation, true);
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip(
+          "The model's extended Kalman filter as a Co-Simulation FMU: inputs u and the "
+          "measurements,\noutputs the filtered states with their sd, the one-step predictions "
+          "and the innovations");
     ImGui::EndMenu();
   }
   if (ImGui::IsItemHovered())

@@ -42,7 +42,9 @@ void BrowseExportModel(AppState& state);
 // `interface` (core/fmu/fmu.h). The browser chooses the file (its stem is the model
 // identifier); the C compiler builds it off the UI thread, and the Messages window says when it
 // is written (with the delays the FMU leaves to the importer), or why not.
-void BrowseExportFmu(AppState& state, fmu::Interface interface);
+// With `virtual_sensor`, the model's filter as a Co-Simulation FMU instead (export-fmu
+// --virtual-sensor), with the delays the views show.
+void BrowseExportFmu(AppState& state, fmu::Interface interface, bool virtual_sensor = false);
 // Takes a finished FMU build (every frame, from UpdateExports); true when one finished.
 bool PollFmuExport(AppState& state);
 // The File menu's Export submenu.

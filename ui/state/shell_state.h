@@ -149,6 +149,7 @@ struct ShellState {
   // File > Export > FMU: the interfaces chosen in the menu, and the build under way (the C
   // compiler runs off the UI thread).
   fmu::Interface fmu_interface = fmu::Interface::kBoth;
+  bool fmu_virtual_sensor = false;  // the filter instead (export-fmu --virtual-sensor)
   Job<FmuExportEnd> fmu_job;
 
   // Recent projects, autosave and recovery read and write files under the user's
