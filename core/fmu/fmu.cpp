@@ -66,17 +66,14 @@ Result<FmuOptions> VirtualSensorOptions(const model::NonlinearModel& model,
         "a virtual sensor runs the extended Kalman filter, not the iterated one (ekf.iterations "
         "{}): set \"iterations\" to 1 to export it",
         spec.ekf.iterations));
-  if (spec.initial_covariance == model::InitialCovariance::kStationary)
-    return InputError(
-        "a virtual sensor of a model whose initial_covariance is \"stationary\" is not "
-        "exported: P0 depends on the inputs at the first sample; give explicit initial variances "
-        "or \"ctsm\"");
+  options.initial_covariance_kind = spec.initial_covariance;
   for (std::size_t o = 0; o < p; ++o) {
     const int d = o < delays.size() && delays[o] >= 0 ? delays[o] : spec.output_delay[o].min;
     if (d < 0 || d > 10000)
-      return InputError(fmt::format("output {}: a delay of {} samples is not exported (0 to "
-                                    "10000)",
-                                    spec.outputs[o], d));
+      return InputError(
+          fmt::format("output {}: a delay of {} samples is not exported (0 to "
+                      "10000)",
+                      spec.outputs[o], d));
     options.delays.push_back(d);
   }
   if (spec.initial_covariance == model::InitialCovariance::kExplicit) {
@@ -88,8 +85,8 @@ Result<FmuOptions> VirtualSensorOptions(const model::NonlinearModel& model,
     for (std::size_t i = 0; i < n; ++i) {
       const double v = initial[n + i];
       if (!std::isfinite(v) || v < 0.0)
-        return InputError(fmt::format("the initial variance of {} is {}: not a variance",
-                                      spec.states[i], v));
+        return InputError(
+            fmt::format("the initial variance of {} is {}: not a variance", spec.states[i], v));
       options.initial_covariance[i * n + i] = v;
     }
   }
@@ -102,9 +99,12 @@ Result<FmuOptions> VirtualSensorOptions(const model::NonlinearModel& model,
 
 const char* InterfaceName(Interface interface) {
   switch (interface) {
-    case Interface::kModelExchange: return "Model Exchange";
-    case Interface::kCoSimulation: return "Co-Simulation";
-    case Interface::kBoth: break;
+    case Interface::kModelExchange:
+      return "Model Exchange";
+    case Interface::kCoSimulation:
+      return "Co-Simulation";
+    case Interface::kBoth:
+      break;
   }
   return "Model Exchange and Co-Simulation";
 }
@@ -224,12 +224,14 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
     observation.exprs.push_back(model.Entry(Program::kMeasurement, o));
   const std::vector<expr::NativeCode::Program> programs = {drift, observation};
   if (sensor && options.delays.size() != p)
-    return InputError(fmt::format("{} output delays given, the model has {} outputs",
-                                  options.delays.size(), p));
-  if (sensor && !options.initial_covariance.empty() && options.initial_covariance.size() != n * n)
-    return InputError(fmt::format("an initial covariance of {} entries given, the model has {} "
-                                  "states",
-                                  options.initial_covariance.size(), n));
+    return InputError(
+        fmt::format("{} output delays given, the model has {} outputs", options.delays.size(), p));
+  if (sensor && options.initial_covariance_kind == model::InitialCovariance::kExplicit &&
+      options.initial_covariance.size() != n * n)
+    return InputError(
+        fmt::format("an initial covariance of {} entries given, the model has {} "
+                    "states",
+                    options.initial_covariance.size(), n));
   auto generated = expr::NativeCode::Source(
       programs, [&model](const std::string& name) { return model.SlotOf(name); });
   if (!generated) return generated.error();
@@ -311,8 +313,7 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
     for (std::size_t i = 0; i < m; ++i)
       variable(spec.inputs[i], vr++, "input", "continuous", "", "input", " start=\"0\"");
     for (std::size_t o = 0; o < p; ++o)
-      variable(spec.outputs[o], vr++, "output", "continuous", "", "output (the observation h)",
-               "");
+      variable(spec.outputs[o], vr++, "output", "continuous", "", "output (the observation h)", "");
     parameters(vr);
     x << "  </ModelVariables>\n  <ModelStructure>\n";
     if (p > 0) {
@@ -353,8 +354,9 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
     const std::pair<const char*, const char*> output_outputs[] = {
         {"_pred", "one-step prediction of the next measurement"},
         {"_sd", "its standard deviation, with the measurement noise"},
-        {"_residual", "innovation of the newest measurement the filter has used (0 where not "
-                      "valid)"}};
+        {"_residual",
+         "innovation of the newest measurement the filter has used (0 where not "
+         "valid)"}};
     for (const auto& [suffix, what] : output_outputs)
       for (std::size_t o = 0; o < p; ++o)
         variable(spec.outputs[o] + suffix, vr++, "output", "discrete", "calculated", what, "");
@@ -405,7 +407,11 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
     c << "#define GB_VIRTUAL_SENSOR 1\n#define gb_dynamics gb_program_0\n"
       << "#define gb_measurement gb_program_1\n#define GB_DELAY_MAX " << largest
       << "\n#define GB_FOH " << (spec.input_hold == model::InputHold::kFoh ? 1 : 0)
-      << "\n#define GB_P0_CTSM " << (options.initial_covariance.empty() ? 1 : 0) << "\n";
+      << "\n#define GB_P0 "
+      << (options.initial_covariance_kind == model::InitialCovariance::kCtsm         ? 1
+          : options.initial_covariance_kind == model::InitialCovariance::kStationary ? 2
+                                                                                     : 0)
+      << "\n";
   }
   auto array = [&c](const char* name, const std::vector<std::string>& values) {
     c << "static const " << name << "[] = {";
@@ -432,7 +438,8 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
     array("int gb_delay", v);
     v.clear();
     for (const double e : options.initial_covariance) v.push_back(fmt::format("{:a}", e));
-    if (!v.empty()) array("double gb_P0_start", v);
+    if (options.initial_covariance_kind == model::InitialCovariance::kExplicit)
+      array("double gb_P0_start", v);
   }
   const std::string description = x.str();
   const std::string body = c.str();

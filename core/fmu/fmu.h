@@ -56,8 +56,10 @@ struct FmuOptions {
   // model's extended Kalman filter instead of its deterministic part. `interface` is ignored.
   bool virtual_sensor = false;
   std::vector<int> delays;  // per output, in samples (the fit's)
-  // P0, n x n row-major; empty: "ctsm", the covariance equation integrated from P = 0 at x0 over
-  // the first interval (as the filter starts).
+  // P0 as the filter starts: kCtsm, the covariance equation integrated from P = 0 at x0 over the
+  // first interval; kStationary, the solution of J P + P J' + diag σ² = 0 at x0 and the first
+  // sample's inputs; kExplicit, `initial_covariance` (n x n, row-major).
+  model::InitialCovariance initial_covariance_kind = model::InitialCovariance::kCtsm;
   std::vector<double> initial_covariance;
 };
 
@@ -80,10 +82,10 @@ Status ExportFmu(const model::NonlinearModel& model, std::span<const double> the
                  const FmuOptions& options, const std::string& path);
 
 // The options of a virtual sensor of `model` at θ with the fit's output delays (samples; -1: the
-// model's smallest): its delays; P0 from the model's explicit initial variances, or empty for
-// "ctsm"; and for a linear model, which greybench filters with the exact discretisation, the
-// moment equations at rtol 1e-10, atol 1e-12. Errors (kInput): "stationary" initial covariance
-// (it needs the inputs at the first sample), the iterated EKF, a delay or variance out of range.
+// model's smallest): its delays; P0 as the model starts its filter (explicit variances taken
+// at θ); and for a linear model, which greybench filters with the exact discretisation, the
+// moment equations at rtol 1e-10, atol 1e-12. Errors (kInput): the iterated EKF, a delay or
+// variance out of range.
 Result<FmuOptions> VirtualSensorOptions(const model::NonlinearModel& model,
                                         std::span<const double> theta, std::span<const int> delays);
 

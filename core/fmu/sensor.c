@@ -8,8 +8,10 @@
                                                             S (p)
      GB_DELAY_MAX, gb_delay[]    each output's delay in samples: y_{o,k} sees x_{k-d_o}
      GB_FOH                      1: the inputs interpolated linearly between samples (else held)
-     GB_P0_CTSM                  1: P0 gathered over the first interval from P = 0 at x0;
-                                 0: gb_P0_start (n x n, row-major)
+     GB_P0                       P0, as the model's filter starts: 1 "ctsm", gathered over the
+                                 first interval from P = 0 at x0; 2 "stationary", the solution
+                                 of J P + P J' + diag(sigma^2) = 0 at x0 and the first row's
+                                 inputs; 0 gb_P0_start (n x n, row-major)
      gb_measured_name[]          the measurements, for messages
 
    Value references, Real: the inputs u (m), the measurements y (p); the outputs: the filtered
@@ -366,6 +368,119 @@ static double gb_output_sd(const double* P, const double* out, int o) {
   return v > 0.0 ? sqrt(v) : 0.0;
 }
 
+#if GB_P0 == 2
+/* Solves K p = b in place by Gaussian elimination with partial pivoting (K m x m, row-major);
+   0 when K is singular. */
+static int gb_solve(double* K, double* b, int m) {
+  int col, row, k;
+  for (col = 0; col < m; ++col) {
+    int pivot = col;
+    for (row = col + 1; row < m; ++row)
+      if (fabs(K[row * m + col]) > fabs(K[pivot * m + col])) pivot = row;
+    if (!(fabs(K[pivot * m + col]) > 0.0)) return 0;
+    if (pivot != col) {
+      double t;
+      for (k = 0; k < m; ++k) {
+        t = K[col * m + k];
+        K[col * m + k] = K[pivot * m + k];
+        K[pivot * m + k] = t;
+      }
+      t = b[col];
+      b[col] = b[pivot];
+      b[pivot] = t;
+    }
+    for (row = col + 1; row < m; ++row) {
+      const double f = K[row * m + col] / K[col * m + col];
+      if (f == 0.0) continue;
+      for (k = col; k < m; ++k) K[row * m + k] -= f * K[col * m + k];
+      b[row] -= f * b[col];
+    }
+  }
+  for (row = m - 1; row >= 0; --row) {
+    double sum = b[row];
+    for (k = row + 1; k < m; ++k) sum -= K[row * m + k] * b[k];
+    b[row] = sum / K[row * m + row];
+  }
+  return 1;
+}
+
+/* P of J P + P J' + diag(q) = 0 (J row-major), symmetrised; 0 when the operator is singular. */
+static int gb_lyapunov(gbInstance* c, const double* J, const double* q, double* P) {
+  const int n = GB_N_STATES, m = GB_N_STATES * GB_N_STATES;
+  double* K = (double*)c->callbacks.allocateMemory((size_t)m * (size_t)m, sizeof(double));
+  double b[GB_N_STATES * GB_N_STATES];
+  int i, j, k, solved;
+  if (!K) return 0;
+  /* vec(P) by columns: P_ij at i + j n; (J P + P J')_ij = sum_k J_ik P_kj + P_ik J_jk */
+  for (i = 0; i < m * m; ++i) K[i] = 0.0;
+  for (i = 0; i < m; ++i) b[i] = 0.0;
+  for (j = 0; j < n; ++j)
+    for (i = 0; i < n; ++i)
+      for (k = 0; k < n; ++k) {
+        K[(i + j * n) * m + (k + j * n)] += J[i * n + k];
+        K[(i + j * n) * m + (i + k * n)] += J[j * n + k];
+      }
+  for (i = 0; i < n; ++i) b[i + i * n] = -q[i];
+  solved = gb_solve(K, b, m);
+  c->callbacks.freeMemory(K);
+  if (!solved) return 0;
+  for (i = 0; i < n; ++i)
+    for (j = 0; j < n; ++j) P[i * n + j] = 0.5 * (b[i + j * n] + b[j + i * n]);
+  return 1;
+}
+
+/* Whether the symmetric P (n x n) is positive definite (its Cholesky factorisation exists). */
+static int gb_positive_definite(const double* P) {
+  double L[GB_N_STATES * GB_N_STATES];
+  int i, j, k;
+  for (j = 0; j < GB_N_STATES; ++j) {
+    double d = P[j * GB_N_STATES + j];
+    for (k = 0; k < j; ++k) d -= L[j * GB_N_STATES + k] * L[j * GB_N_STATES + k];
+    if (!(d > 0.0)) return 0;
+    L[j * GB_N_STATES + j] = sqrt(d);
+    for (i = j + 1; i < GB_N_STATES; ++i) {
+      double v = P[i * GB_N_STATES + j];
+      for (k = 0; k < j; ++k) v -= L[i * GB_N_STATES + k] * L[j * GB_N_STATES + k];
+      L[i * GB_N_STATES + j] = v / L[j * GB_N_STATES + j];
+    }
+  }
+  return 1;
+}
+
+/* "stationary": P0 of J P + P J' + diag(sigma^2) = 0 at x0, the first row's inputs and time. J
+   must be stable (every eigenvalue's real part negative), which holds exactly when the solution
+   for diag(1) in place of diag(sigma^2) is positive definite (Lyapunov's theorem). */
+static int gb_stationary(gbInstance* c, const double* x0, double* P) {
+  const gbRow* row = gb_row(gb_sensor(c), 0);
+  double slots[GB_N_SLOTS], out[GB_N_STATES * (GB_N_STATES + 2)], q[GB_N_STATES];
+  const double* sigma = out + GB_N_STATES + GB_N_STATES * GB_N_STATES;
+  gbInterval iv;
+  int i;
+  iv.u0 = row->u;
+  iv.u1 = NULL;
+  iv.t0 = row->t;
+  iv.dt = 1.0;
+  gb_sensor_slots(c, x0, &iv, row->t, slots);
+  gb_dynamics(slots, out);
+  for (i = 0; i < GB_N_STATES * (GB_N_STATES + 2); ++i)
+    if (!isfinite(out[i])) {
+      gb_log(c, fmi2Error, "logStatusError",
+             "fmi2DoStep: the dynamics are not finite at the initial state (t = %g)", row->t);
+      return 0;
+    }
+  for (i = 0; i < GB_N_STATES; ++i) q[i] = 1.0;
+  if (!gb_lyapunov(c, out + GB_N_STATES, q, P) || !gb_positive_definite(P)) {
+    gb_log(c, fmi2Error, "logStatusError",
+           "fmi2DoStep: initial_covariance \"stationary\" needs a stable linearisation at the "
+           "initial state (t = %g), and it is not stable",
+           row->t);
+    return 0;
+  }
+  for (i = 0; i < GB_N_STATES; ++i) q[i] = sigma[i] * sigma[i];
+  return gb_lyapunov(c, out + GB_N_STATES, q, P);
+}
+#endif
+
 /* The measurement update of the moments z (x, P packed) at state j with the measurements of it
    that have arrived (rows up to `newest`): output after output, each a scalar update
    linearised at the prior (ŷ = h_o + H_o (x - x_prior), k = P H_o', R = H_o k + S_o,
@@ -419,7 +534,7 @@ static int gb_update(gbInstance* c, long j, double h) {
   int a;
   if (j == 0) { /* the prior: x0, and P0 given or gathered over the first interval */
     for (a = 0; a < GB_N_STATES; ++a) x[a] = gb_x_start[a];
-#if GB_P0_CTSM
+#if GB_P0 == 1
     double u_end[GB_NU], t1;
     gbInterval iv;
     for (a = 0; a < GB_N_STATES * GB_N_STATES; ++a) P[a] = 0.0;
@@ -427,7 +542,12 @@ static int gb_update(gbInstance* c, long j, double h) {
     gb_interval(c, 0, h, u_end, &iv, &t1);
     if (!gb_advance(c, &s->ode, &iv, iv.t0, t1, s->z)) return 0;
     for (a = 0; a < GB_N_STATES; ++a) s->z[a] = x[a];
+#elif GB_P0 == 2
+    (void)h;
+    if (!gb_stationary(c, x, P)) return 0;
+    gb_pack(x, P, s->z);
 #else
+    (void)h;
     gb_pack(x, gb_P0_start, s->z);
 #endif
   }
@@ -672,7 +792,7 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
   for (;;) {
     const long newest = s->k - 1;
     if (!s->updated) {
-      if (s->j + GB_DELAY_MAX > newest || (s->j == 0 && GB_P0_CTSM && GB_FOH && newest < 1)) break;
+      if (s->j + GB_DELAY_MAX > newest || (s->j == 0 && GB_P0 == 1 && GB_FOH && newest < 1)) break;
       if (!gb_update(c, s->j, communicationStepSize)) goto failed;
       s->updated = fmi2True;
       s->ready = fmi2True;

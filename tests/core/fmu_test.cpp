@@ -480,7 +480,7 @@ TEST(Fmu, VirtualSensorIsGreybenchsFilter) {
   EXPECT_TRUE(logged.messages.empty()) << logged.messages.front();
 }
 
-TEST(Fmu, VirtualSensorOptionsRefuseWhatTheFilterCannotBe) {
+TEST(Fmu, VirtualSensorOptionsRefuseTheIteratedFilter) {
   auto spec = model::ParseModel(Json::parse(kLag), "lag.json");
   ASSERT_TRUE(spec.ok());
   model::ModelSpec iterated = *spec;
@@ -489,12 +489,6 @@ TEST(Fmu, VirtualSensorOptionsRefuseWhatTheFilterCannotBe) {
                                       std::vector<int>{0, 0});
   ASSERT_FALSE(refused);
   EXPECT_NE(refused.error().message.find("not the iterated one"), std::string::npos);
-  model::ModelSpec stationary = *spec;
-  stationary.initial_covariance = model::InitialCovariance::kStationary;
-  refused = VirtualSensorOptions(*model::NonlinearModel::Compile(stationary), spec->Values(),
-                                 std::vector<int>{0, 0});
-  ASSERT_FALSE(refused);
-  EXPECT_NE(refused.error().message.find("\"stationary\""), std::string::npos);
 }
 
 TEST(Fmu, AStateNamedLikeAnOutputIsRenamedAndTheInterfaceKeepsItsNames) {
