@@ -38,6 +38,73 @@ double FailedObjective(const std::vector<double>& z, std::vector<double>& grad,
 
 }  // namespace
 
+Eigen::VectorXd BoxModelStep(const Eigen::MatrixXd& S, const Eigen::VectorXd& gF,
+                             const Eigen::VectorXd& lo, const Eigen::VectorXd& hi,
+                             const Eigen::VectorXd& newton) {
+  const int m = static_cast<int>(gF.size());
+  auto inside = [&](const Eigen::VectorXd& d) {
+    for (int a = 0; a < m; ++a)
+      if (d(a) < lo(a) || d(a) > hi(a)) return false;
+    return true;
+  };
+  if (inside(newton)) return newton;
+  Eigen::VectorXd d = Eigen::VectorXd::Zero(m);
+  std::vector<char> held(static_cast<std::size_t>(m), 0);
+  for (int pass = 0; pass < 4 * m + 4; ++pass) {
+    std::vector<int> rest;
+    for (int a = 0; a < m; ++a)
+      if (!held[static_cast<std::size_t>(a)]) rest.push_back(a);
+    Eigen::VectorXd target = d;
+    if (!rest.empty()) {
+      // S_rr d_r = g_r - S_rW d_W
+      Eigen::VectorXd d_held = Eigen::VectorXd::Zero(m);
+      for (int a = 0; a < m; ++a)
+        if (held[static_cast<std::size_t>(a)]) d_held(a) = d(a);
+      const Eigen::VectorXd rhs = gF - S * d_held;
+      const Eigen::VectorXd dr = Fitter::NewtonStep(S, rhs, rest);
+      if (dr.size() == 0) return newton;  // singular: the clamped step as before
+      for (std::size_t r = 0; r < rest.size(); ++r)
+        target(rest[r]) = dr(static_cast<Eigen::Index>(r));
+    }
+    if (!inside(target)) {
+      double alpha = 1.0;
+      int blocking = -1;
+      for (const int a : rest) {
+        const double delta = target(a) - d(a);
+        const double room = delta > 0 ? hi(a) - d(a) : delta < 0 ? lo(a) - d(a) : 0.0;
+        if (delta != 0.0 && room / delta < alpha) {
+          alpha = std::max(0.0, room / delta);
+          blocking = a;
+        }
+      }
+      d += alpha * (target - d);
+      if (blocking >= 0) {
+        d(blocking) = target(blocking) > d(blocking) ? hi(blocking) : lo(blocking);
+        d(blocking) = std::clamp(d(blocking), lo(blocking), hi(blocking));
+        held[static_cast<std::size_t>(blocking)] = 1;
+      }
+      continue;
+    }
+    d = target;
+    // The model's gradient at d; a held entry on its lower face whose gradient points up (into
+    // the box), or on its upper face pointing down, is released.
+    const Eigen::VectorXd r = gF - S * d;
+    int release = -1;
+    double most = 0.0;
+    for (int a = 0; a < m; ++a) {
+      if (!held[static_cast<std::size_t>(a)]) continue;
+      const double into = d(a) <= lo(a) ? r(a) : -r(a);
+      if (into > most) {
+        most = into;
+        release = a;
+      }
+    }
+    if (release < 0) return d;
+    held[static_cast<std::size_t>(release)] = 0;
+  }
+  return d;
+}
+
 Eigen::VectorXd TrustRegionStep(const Eigen::MatrixXd& B, const Eigen::VectorXd& g, double radius) {
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(B);
   const Eigen::VectorXd& lam = es.eigenvalues();  // ascending
@@ -304,6 +371,27 @@ Eigen::VectorXd Fitter::NewtonStep(const Eigen::MatrixXd& info, const Eigen::Vec
   return {};
 }
 
+Eigen::MatrixXd Fitter::SubMatrix(const Eigen::MatrixXd& B, const std::vector<int>& F) {
+  const int m = static_cast<int>(F.size());
+  Eigen::MatrixXd S(m, m);
+  for (int a = 0; a < m; ++a)
+    for (int b = 0; b < m; ++b) S(a, b) = B(F[a], F[b]);
+  return S;
+}
+
+Eigen::VectorXd Fitter::BoxNewtonStep(const Eigen::MatrixXd& B, const Eigen::VectorXd& g,
+                                      const std::vector<int>& F, const std::vector<double>& z,
+                                      const Eigen::VectorXd& newton) const {
+  const int m = static_cast<int>(F.size());
+  Eigen::VectorXd gF(m), lo(m), hi(m);
+  for (int a = 0; a < m; ++a) {
+    gF(a) = g(F[a]);
+    lo(a) = lower_[F[a]] - z[F[a]];
+    hi(a) = upper_[F[a]] - z[F[a]];
+  }
+  return BoxModelStep(SubMatrix(B, F), gF, lo, hi, newton);
+}
+
 FitResult Fitter::FitBhhh(std::vector<double> z, const std::vector<int>& delay,
                           const std::string& stage, int max_iterations, bool bfgs_updates,
                           const Eigen::MatrixXd* first_model, bool hand_over) {
@@ -410,10 +498,17 @@ FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
         return r;
       }
     }
+    // Where the Newton step leaves the box, the model's best step inside it is not the step
+    // clamped: solve the model's box-constrained problem (a parameter that the model drives
+    // onto its bound held there, the others re-solved with it).
+    const Eigen::VectorXd in_box = BoxNewtonStep(B, g, F, z, d);
+    const bool boxed = in_box.size() != d.size() || in_box != d;
+    d = in_box;
     const int m = static_cast<int>(F.size());
     gF.resize(m);
     for (int a = 0; a < m; ++a) gF(a) = g(F[a]);
-    const double expected = 0.5 * gF.dot(d);  // the Newton decrement / 2
+    // The model's gain: the Newton decrement / 2, or g'd - d'Bd/2 for a step the box bent.
+    const double expected = boxed ? gF.dot(d) - 0.5 * d.dot(SubMatrix(B, F) * d) : 0.5 * gF.dot(d);
     last_expected = expected;
     const double tol = std::max(options_.ftol_rel * std::abs(f), 1e-12);
     if (expected < tol) {

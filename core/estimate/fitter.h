@@ -93,6 +93,18 @@ inline constexpr double kHighCorrelation = 0.99;
 // the radius along that eigenvector.
 Eigen::VectorXd TrustRegionStep(const Eigen::MatrixXd& B, const Eigen::VectorXd& g, double radius);
 
+// The step d in the box lo <= d <= hi (lo <= 0 <= hi) that maximises the model g'd - d'S d/2
+// (S positive definite), by a primal active set from d = 0: each pass solves the entries not
+// held with the held ones fixed; a solution outside the box moves to the first face on the
+// way and holds it; one inside releases the held entry whose multiplier points into the box
+// most, or ends. `newton` (S⁻¹ g) when it lies in the box, or where a reduced system is
+// singular. The fit's step where the Newton step leaves the box: a parameter the model drives
+// onto its bound is held there and the others re-solved with it, where clamping the Newton
+// step would leave them where they were for the parameter's old value.
+Eigen::VectorXd BoxModelStep(const Eigen::MatrixXd& S, const Eigen::VectorXd& g,
+                             const Eigen::VectorXd& lo, const Eigen::VectorXd& hi,
+                             const Eigen::VectorXd& newton);
+
 // ---- 2. the fitter ---------------------------------------------------------------------------
 
 struct FitResult {
@@ -217,6 +229,12 @@ class Fitter {
   // ignore). Returns an empty vector if no damping helps.
   static Eigen::VectorXd NewtonStep(const Eigen::MatrixXd& info, const Eigen::VectorXd& g,
                                     const std::vector<int>& F);
+  // BoxModelStep on the free set F with z + d in the box; `newton`, NewtonStep's.
+  Eigen::VectorXd BoxNewtonStep(const Eigen::MatrixXd& B, const Eigen::VectorXd& g,
+                                const std::vector<int>& F, const std::vector<double>& z,
+                                const Eigen::VectorXd& newton) const;
+  // B's rows and columns F.
+  static Eigen::MatrixXd SubMatrix(const Eigen::MatrixXd& B, const std::vector<int>& F);
 
   // BHHH (Berndt-Hall-Hall-Hausman): Newton steps with the information estimated by the outer
   // product of the per-observation scores, projected onto the bounds (a parameter on a bound

@@ -30,6 +30,55 @@ double BruteForceBest(const Eigen::MatrixXd& B, const Eigen::VectorXd& g, double
   return best;
 }
 
+// The best model gain over a fine grid of the box (2 dimensions).
+double GridBest(const Eigen::MatrixXd& B, const Eigen::VectorXd& g, const Eigen::VectorXd& lo,
+                const Eigen::VectorXd& hi) {
+  double best = -HUGE_VAL;
+  for (int i = 0; i <= 400; ++i)
+    for (int j = 0; j <= 400; ++j) {
+      const Eigen::Vector2d e(lo(0) + (hi(0) - lo(0)) * i / 400.0,
+                              lo(1) + (hi(1) - lo(1)) * j / 400.0);
+      best = std::max(best, ModelGain(B, g, e));
+    }
+  return best;
+}
+
+TEST(BoxModelStep, HoldsTheEntryTheModelDrivesOntoItsBoundAndResolvesTheOthers) {
+  Eigen::MatrixXd B(2, 2);
+  B << 2, 1, 1, 2;
+  const Eigen::VectorXd g = Eigen::Vector2d(4, -1);
+  const Eigen::VectorXd newton = B.llt().solve(g);  // (3, -2): leaves the box in d_0
+  const Eigen::VectorXd lo = Eigen::Vector2d(-10, -10), hi = Eigen::Vector2d(1, 10);
+  const Eigen::VectorXd d = BoxModelStep(B, g, lo, hi, newton);
+  // d_0 on its bound 1, d_1 from 2 d_1 = -1 - 1: -1 (the clamped step would keep -2).
+  EXPECT_NEAR(d(0), 1.0, 1e-15);
+  EXPECT_NEAR(d(1), -1.0, 1e-15);
+  EXPECT_GE(ModelGain(B, g, d), GridBest(B, g, lo, hi) - 1e-12);
+  // Inside the box: the Newton step itself.
+  EXPECT_EQ(BoxModelStep(B, g, lo, Eigen::Vector2d(10, 10), newton), newton);
+}
+
+TEST(BoxModelStep, BeatsEveryPointOfAGridOverTheBoxOnRandomProblems) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::MatrixXd A(2, 2);
+    A << unit(rng), unit(rng), unit(rng), unit(rng);
+    const Eigen::MatrixXd B = A * A.transpose() + 0.05 * Eigen::MatrixXd::Identity(2, 2);
+    const Eigen::VectorXd g = 3.0 * Eigen::Vector2d(unit(rng), unit(rng));
+    const Eigen::VectorXd lo =
+        Eigen::Vector2d(-0.1 - std::abs(unit(rng)), -0.1 - std::abs(unit(rng)));
+    const Eigen::VectorXd hi =
+        Eigen::Vector2d(0.1 + std::abs(unit(rng)), 0.1 + std::abs(unit(rng)));
+    const Eigen::VectorXd d = BoxModelStep(B, g, lo, hi, B.llt().solve(g));
+    for (int a = 0; a < 2; ++a) {
+      EXPECT_GE(d(a), lo(a)) << "trial " << trial;
+      EXPECT_LE(d(a), hi(a)) << "trial " << trial;
+    }
+    EXPECT_GE(ModelGain(B, g, d), GridBest(B, g, lo, hi) - 1e-9) << "trial " << trial;
+  }
+}
+
 TEST(TrustRegionStep, IsTheNewtonStepWhenThatLiesInsideTheRadius) {
   Eigen::MatrixXd B(2, 2);
   B << 4, 1, 1, 3;
