@@ -9,6 +9,7 @@
 #include "app/cli/cli.h"
 #include "core/data/write_csv.h"
 #include "core/design/prbs.h"
+#include "core/expr/native.h"
 #include "core/model/linear_model.h"
 #include "core/project/result_file.h"
 #include "core/sim/response.h"
@@ -42,6 +43,14 @@ int RunSimulate(const SimulateArgs& args) {
     auto compiled = model::NonlinearModel::Compile(std::move(*spec));
     if (!compiled) return Fail(compiled.error());
     nm = std::move(*compiled);
+    // On native code where it can be built (as predict's and a fit's filter: the same values to
+    // rounding, the library a fit of the model left in the cache), else on the interpreter.
+    if (expr::NativeCode::Enabled()) {
+      const model::NonlinearModel& m = *nm;
+      if (auto code = expr::NativeCode::Compile(
+              m.NativePrograms(), [&m](const std::string& name) { return m.SlotOf(name); }))
+        nm->UseNative(*code, 0);
+    }
   }
   const model::ModelSpec& m = lm ? lm->spec() : nm->spec();
   auto inputs = data::ReadCsvFile(args.inputs);
