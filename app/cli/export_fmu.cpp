@@ -65,17 +65,17 @@ int RunExportFmu(const ExportFmuArgs& args) {
   if (const std::string note = fmu::DelayNote(*spec, *delays);
       !note.empty() && !args.virtual_sensor)
     std::fprintf(stderr, "greybench-cli: warning: %s\n", note.c_str());
-  std::printf("%s\n",
-              fmt::format("wrote {}: FMI 2.0, {}, model identifier {}; {} states, {} inputs, {} "
-                          "outputs, {} parameters at the estimates of {}",
-                          args.out,
-                          args.virtual_sensor
-                              ? std::string("a virtual sensor (the extended Kalman filter, "
-                                            "Co-Simulation)")
-                              : std::string(fmu::InterfaceName(options.interface)),
-                          options.identifier, spec->states.size(), spec->inputs.size(),
-                          spec->outputs.size(), spec->parameters.size(), args.result)
-                  .c_str());
+  std::printf(
+      "%s\n",
+      fmt::format("wrote {}: FMI 2.0, {}, model identifier {}; {} states, {} inputs, {} "
+                  "outputs, {} parameters at the estimates of {}",
+                  args.out,
+                  args.virtual_sensor ? std::string("a virtual sensor (the extended Kalman filter, "
+                                                    "Co-Simulation)")
+                                      : std::string(fmu::InterfaceName(options.interface)),
+                  options.identifier, spec->states.size(), spec->inputs.size(),
+                  spec->outputs.size(), spec->parameters.size(), args.result)
+          .c_str());
   return 0;
 }
 
