@@ -55,6 +55,16 @@ class WorkbenchExport : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
+  // The project's fit, on one thread, as the Estimate view's Run makes it.
+  void Fit() {
+    d_.state.estimation.settings.threads = 1;
+    std::string why;
+    ASSERT_TRUE(StartEstimation(d_.state, &why)) << why;
+    WaitForJobs(d_.state);
+    d_.Frame();
+    ASSERT_TRUE(d_.state.estimation.result) << d_.state.estimation.last_failure;
+  }
+
   bool LastMessageIsError(const std::string& part) const {
     if (d_.state.messages.empty()) return false;
     const Message& m = d_.state.messages.back();
@@ -66,12 +76,7 @@ class WorkbenchExport : public ::testing::Test {
 };
 
 TEST_F(WorkbenchExport, SaveReportWritesTheFitsEstimatesAsMarkdownAndHtml) {
-  d_.state.estimation.settings.threads = 1;
-  std::string why;
-  ASSERT_TRUE(StartEstimation(d_.state, &why)) << why;
-  WaitForJobs(d_.state);
-  d_.Frame();
-  ASSERT_TRUE(d_.state.estimation.result) << d_.state.estimation.last_failure;
+  ASSERT_NO_FATAL_FAILURE(Fit());
   const estimate::EstimateSummary& fit = d_.state.estimation.result->summary;
   // The residuals the Residuals view shows, computed at the estimates.
   d_.state.view = View::kResiduals;
@@ -194,12 +199,7 @@ TEST_F(WorkbenchExport, ExportModelWritesTheModelTheViewsShow) {
 }
 
 TEST_F(WorkbenchExport, ExportFmuBuildsTheModelAtTheFitsEstimatesOffTheUiThread) {
-  d_.state.estimation.settings.threads = 1;
-  std::string why;
-  ASSERT_TRUE(StartEstimation(d_.state, &why)) << why;
-  WaitForJobs(d_.state);
-  d_.Frame();
-  ASSERT_TRUE(d_.state.estimation.result) << d_.state.estimation.last_failure;
+  ASSERT_NO_FATAL_FAILURE(Fit());
   const estimate::EstimateSummary& fit = d_.state.estimation.result->summary;
 
   BrowseExportFmu(d_.state, fmu::Interface::kCoSimulation);
