@@ -71,12 +71,10 @@ std::string EstimateSummary::Report() const {
   } else {
     line("Filter: Kalman filter, exact discretisation (the model is linear)");
   }
-  // The EKF's gradient is the adjoint's from Likelihood::kAdjointFrom free parameters on, except
-  // with BDF (core/filter/likelihood.h); the per-observation scores are always forward
-  // sensitivities.
-  const bool adjoint = extended &&
-                       static_cast<std::size_t>(n_free) >= filter::Likelihood::kAdjointFrom &&
-                       ekf.method != model::OdeMethod::kBdf;
+  // The EKF's gradient by the rule the fit used (core/filter/likelihood.h); the per-observation
+  // scores are always forward sensitivities.
+  const bool adjoint =
+      extended && filter::Likelihood::AutoUsesAdjoint(static_cast<std::size_t>(n_free), ekf.method);
   line(exact_scores ? (adjoint    ? "Scores: exact (the gradient by the filter's adjoint, "
                                     "per-observation scores by forward sensitivities)"
                        : extended ? "Scores: exact (forward sensitivities of the filter)"

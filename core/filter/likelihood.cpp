@@ -416,7 +416,8 @@ bool Likelihood::UsesAdjoint(std::size_t free_count) const {
   if (!nonlinear_ || !exact_scores()) return false;
   // The adjoint retraces the explicit method's steps only: with BDF on every interval its
   // forward pass would be thrown away for the forward sensitivities.
-  if (nonlinear_->spec().ekf.method == model::OdeMethod::kBdf) return false;
+  const model::OdeMethod method = nonlinear_->spec().ekf.method;
+  if (method == model::OdeMethod::kBdf) return false;
   switch (gradient_method_) {
     case GradientMethod::kForward:
       return false;
@@ -428,7 +429,7 @@ bool Likelihood::UsesAdjoint(std::size_t free_count) const {
   // Measured (docs/benchmarks.md, "The adjoint gradient"): on the Cascaded Tanks SDE model and
   // the engine model the forward sensitivities cost about 1 + 1.3 K evaluations of log L and the
   // adjoint about 3.5 whatever K is, so the adjoint is the cheaper from three free parameters.
-  return free_count >= kAdjointFrom;
+  return AutoUsesAdjoint(free_count, method);
 }
 
 Result<DelayProfile> Likelihood::Profile(std::span<const double> theta) const {

@@ -106,6 +106,12 @@ class Likelihood {
   // under kAuto from kAdjointFrom free parameters on; never for a model whose "ode" is "bdf".
   bool UsesAdjoint(std::size_t free_count) const;
   static constexpr std::size_t kAdjointFrom = 3;
+  // kAuto's rule for an EKF with exact scores (UsesAdjoint's, and the report's, which formats a
+  // fit without its likelihood): the adjoint from kAdjointFrom free parameters on, unless the
+  // model's "ode" is "bdf".
+  static bool AutoUsesAdjoint(std::size_t free_count, model::OdeMethod method) {
+    return method != model::OdeMethod::kBdf && free_count >= kAdjointFrom;
+  }
 
   // Whether EvaluateWithScore's derivatives are exact (to the ODE tolerance for the EKF): every
   // linear model, and every other whose EKF is not iterated.
