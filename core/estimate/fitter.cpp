@@ -78,9 +78,8 @@ Eigen::VectorXd BoxModelStep(const Eigen::MatrixXd& S, const Eigen::VectorXd& gF
         }
       }
       d += alpha * (target - d);
-      if (blocking >= 0) {
+      if (blocking >= 0) {  // exactly on its face
         d(blocking) = target(blocking) > d(blocking) ? hi(blocking) : lo(blocking);
-        d(blocking) = std::clamp(d(blocking), lo(blocking), hi(blocking));
         held[static_cast<std::size_t>(blocking)] = 1;
       }
       continue;
@@ -352,12 +351,9 @@ bool Fitter::ScoresByDifferences(const std::vector<double>& z, const std::vector
 Eigen::VectorXd Fitter::NewtonStep(const Eigen::MatrixXd& info, const Eigen::VectorXd& g,
                                    const std::vector<int>& F) {
   const int m = static_cast<int>(F.size());
-  Eigen::MatrixXd I(m, m);
+  const Eigen::MatrixXd I = SubMatrix(info, F);
   Eigen::VectorXd gF(m);
-  for (int a = 0; a < m; ++a) {
-    gF(a) = g(F[a]);
-    for (int b = 0; b < m; ++b) I(a, b) = info(F[a], F[b]);
-  }
+  for (int a = 0; a < m; ++a) gF(a) = g(F[a]);
   // Damping μ = 0, then 1e-10, 1e-8, ..., 1e4 (an integer counter: no float loop counter).
   for (int attempt = 0; attempt <= kDampingSteps; ++attempt) {
     const double mu = attempt == 0 ? 0.0 : kFirstDamping * std::pow(100.0, attempt - 1);
@@ -377,19 +373,6 @@ Eigen::MatrixXd Fitter::SubMatrix(const Eigen::MatrixXd& B, const std::vector<in
   for (int a = 0; a < m; ++a)
     for (int b = 0; b < m; ++b) S(a, b) = B(F[a], F[b]);
   return S;
-}
-
-Eigen::VectorXd Fitter::BoxNewtonStep(const Eigen::MatrixXd& B, const Eigen::VectorXd& g,
-                                      const std::vector<int>& F, const std::vector<double>& z,
-                                      const Eigen::VectorXd& newton) const {
-  const int m = static_cast<int>(F.size());
-  Eigen::VectorXd gF(m), lo(m), hi(m);
-  for (int a = 0; a < m; ++a) {
-    gF(a) = g(F[a]);
-    lo(a) = lower_[F[a]] - z[F[a]];
-    hi(a) = upper_[F[a]] - z[F[a]];
-  }
-  return BoxModelStep(SubMatrix(B, F), gF, lo, hi, newton);
 }
 
 FitResult Fitter::FitBhhh(std::vector<double> z, const std::vector<int>& delay,
@@ -501,14 +484,20 @@ FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
     // Where the Newton step leaves the box, the model's best step inside it is not the step
     // clamped: solve the model's box-constrained problem (a parameter that the model drives
     // onto its bound held there, the others re-solved with it).
-    const Eigen::VectorXd in_box = BoxNewtonStep(B, g, F, z, d);
-    const bool boxed = in_box.size() != d.size() || in_box != d;
-    d = in_box;
     const int m = static_cast<int>(F.size());
     gF.resize(m);
-    for (int a = 0; a < m; ++a) gF(a) = g(F[a]);
+    Eigen::VectorXd lo(m), hi(m);
+    for (int a = 0; a < m; ++a) {
+      gF(a) = g(F[a]);
+      lo(a) = lower_[F[a]] - z[F[a]];
+      hi(a) = upper_[F[a]] - z[F[a]];
+    }
+    const Eigen::MatrixXd BF = SubMatrix(B, F);
+    const Eigen::VectorXd in_box = BoxModelStep(BF, gF, lo, hi, d);
+    const bool boxed = in_box != d;
+    d = in_box;
     // The model's gain: the Newton decrement / 2, or g'd - d'Bd/2 for a step the box bent.
-    const double expected = boxed ? gF.dot(d) - 0.5 * d.dot(SubMatrix(B, F) * d) : 0.5 * gF.dot(d);
+    const double expected = boxed ? gF.dot(d) - 0.5 * d.dot(BF * d) : 0.5 * gF.dot(d);
     last_expected = expected;
     const double tol = std::max(options_.ftol_rel * std::abs(f), 1e-12);
     if (expected < tol) {

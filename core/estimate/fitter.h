@@ -229,10 +229,6 @@ class Fitter {
   // ignore). Returns an empty vector if no damping helps.
   static Eigen::VectorXd NewtonStep(const Eigen::MatrixXd& info, const Eigen::VectorXd& g,
                                     const std::vector<int>& F);
-  // BoxModelStep on the free set F with z + d in the box; `newton`, NewtonStep's.
-  Eigen::VectorXd BoxNewtonStep(const Eigen::MatrixXd& B, const Eigen::VectorXd& g,
-                                const std::vector<int>& F, const std::vector<double>& z,
-                                const Eigen::VectorXd& newton) const;
   // B's rows and columns F.
   static Eigen::MatrixXd SubMatrix(const Eigen::MatrixXd& B, const std::vector<int>& F);
 

@@ -273,11 +273,7 @@ Result<FmuSources> MakeFmuSources(const model::NonlinearModel& model, std::span<
   }
   x << "  <LogCategories>\n    <Category name=\"logStatusError\" description=\"refused calls "
        "and values that are not finite\"/>\n  </LogCategories>\n"
-    << "  <DefaultExperiment tolerance=\"" << report::ShortestDouble(rtol) << "\""
-    << (options.sample_time > 0.0
-            ? " stepSize=\"" + report::ShortestDouble(options.sample_time) + "\""
-            : std::string())
-    << "/>\n"
+    << "  <DefaultExperiment tolerance=\"" << report::ShortestDouble(rtol) << "\"/>\n"
     << "  <ModelVariables>\n";
   auto variable = [&x](const std::string& name, std::size_t vr, const char* causality,
                        const char* variability, const char* initial, const std::string& description,

@@ -49,8 +49,6 @@ struct FmuOptions {
   // The error control of the Co-Simulation's integration (and the filter's); 0: the model
   // file's "ekf" tolerances.
   double rtol = 0.0, atol = 0.0;
-  // The DefaultExperiment's stepSize (0: none).
-  double sample_time = 0.0;
 
   // The virtual sensor (core/fmu/sensor.c says what it computes): a Co-Simulation FMU of the
   // model's extended Kalman filter instead of its deterministic part. `interface` is ignored.

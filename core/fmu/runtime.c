@@ -10,7 +10,8 @@
      gb_state_name[], gb_output_name[]                         for messages
      void gb_drift(const double* slots, double* f)             f(x, u, theta, t), GB_N_STATES values
      void gb_observation(const double* slots, double* h)       h(x, u, theta, t), GB_N_OUTPUTS
-   values GB_SUPPORTS(type)                                         whether fmi2Instantiate accepts
+                                                               values
+     GB_SUPPORTS(type)                                         whether fmi2Instantiate accepts
                                                                fmi2ModelExchange / fmi2CoSimulation
      GB_RTOL, GB_ATOL                                          Co-Simulation's error control (the
                                                                model's ekf tolerances)
@@ -32,7 +33,11 @@
 
 #define GB_VR_STATE 0
 #define GB_VR_DERIVATIVE (GB_N_STATES)
+#ifdef GB_VIRTUAL_SENSOR
+#define GB_VR_INPUT 0 /* a virtual sensor's Reals start with the inputs (sensor.c) */
+#else
 #define GB_VR_INPUT (2 * GB_N_STATES)
+#endif
 #define GB_VR_OUTPUT (GB_VR_INPUT + GB_N_INPUTS)
 #define GB_VR_PARAMETER (GB_VR_OUTPUT + GB_N_OUTPUTS)
 #define GB_VR_END (GB_VR_PARAMETER + GB_N_PARAMETERS)
@@ -554,22 +559,7 @@ fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component component, fmi2Real n
   return fmi2OK;
 }
 
-#ifndef GB_VIRTUAL_SENSOR
-/* ---- Co-Simulation: the model integrated by Dormand-Prince 5(4) under error control -------- */
-
-/* f at (t, x) with the inputs held over the step (or ramped by their derivatives). */
-static int gb_rhs(gbInstance* c, double t, const double* x, double* f) {
-  double s[GB_N_SLOTS];
-  int i;
-  for (i = 0; i < GB_N_STATES; ++i) s[i] = x[i];
-  for (i = 0; i < GB_N_INPUTS; ++i) s[GB_SLOT_INPUT + i] = c->u[i] + c->du[i] * (t - c->step_start);
-  for (i = 0; i < GB_N_PARAMETERS; ++i) s[GB_SLOT_PARAMETER + i] = c->theta[i];
-  s[GB_SLOT_TIME] = t;
-  gb_drift(s, f);
-  for (i = 0; i < GB_N_STATES; ++i)
-    if (!isfinite(f[i])) return i + 1;
-  return 0;
-}
+/* ---- Co-Simulation: shared by the model's step and a virtual sensor's ---------------------- */
 
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component component, const fmi2ValueReference vr[],
                                        size_t nvr, const fmi2Integer order[],
@@ -592,6 +582,48 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component component, const fmi2ValueR
   return fmi2OK;
 }
 
+/* Whether fmi2DoStep may step from t0 by h in c's state; logs and refuses if not. */
+static int gb_step_allowed(gbInstance* c, double t0, double h) {
+  if (!gb_allowed(c, "fmi2DoStep", gbStepComplete)) return 0;
+  if (!(h > 0.0)) {
+    gb_log(c, fmi2Error, "logStatusError", "fmi2DoStep: the step size %g is not positive", h);
+    return 0;
+  }
+  if (fabs(t0 - c->time) > 1e-9 * (1.0 + fabs(t0))) {
+    gb_log(c, fmi2Error, "logStatusError",
+           "fmi2DoStep: the communication point %g is not the FMU's time %g", t0, c->time);
+    return 0;
+  }
+  return 1;
+}
+
+/* After a step of h: the FMU's time, and the inputs where their slopes took them. */
+static void gb_step_done(gbInstance* c, double t0, double h) {
+  int i;
+  c->time = t0 + h;
+  for (i = 0; i < GB_N_INPUTS; ++i) {
+    c->u[i] += c->du[i] * h;
+    c->du[i] = 0.0;
+  }
+}
+
+#ifndef GB_VIRTUAL_SENSOR
+/* ---- Co-Simulation: the model integrated by Dormand-Prince 5(4) under error control -------- */
+
+/* f at (t, x) with the inputs held over the step (or ramped by their derivatives). */
+static int gb_rhs(gbInstance* c, double t, const double* x, double* f) {
+  double s[GB_N_SLOTS];
+  int i;
+  for (i = 0; i < GB_N_STATES; ++i) s[i] = x[i];
+  for (i = 0; i < GB_N_INPUTS; ++i) s[GB_SLOT_INPUT + i] = c->u[i] + c->du[i] * (t - c->step_start);
+  for (i = 0; i < GB_N_PARAMETERS; ++i) s[GB_SLOT_PARAMETER + i] = c->theta[i];
+  s[GB_SLOT_TIME] = t;
+  gb_drift(s, f);
+  for (i = 0; i < GB_N_STATES; ++i)
+    if (!isfinite(f[i])) return i + 1;
+  return 0;
+}
+
 fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoint,
                       fmi2Real communicationStepSize,
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
@@ -612,17 +644,7 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
   long attempts = 0;
   int i, bad;
   (void)noSetFMUStatePriorToCurrentPoint;
-  if (!gb_allowed(c, "fmi2DoStep", gbStepComplete)) return fmi2Error;
-  if (!(communicationStepSize > 0.0)) {
-    gb_log(c, fmi2Error, "logStatusError", "fmi2DoStep: the step size %g is not positive",
-           communicationStepSize);
-    return fmi2Error;
-  }
-  if (fabs(t0 - c->time) > 1e-9 * (1.0 + fabs(t0))) {
-    gb_log(c, fmi2Error, "logStatusError",
-           "fmi2DoStep: the communication point %g is not the FMU's time %g", t0, c->time);
-    return fmi2Error;
-  }
+  if (!gb_step_allowed(c, t0, communicationStepSize)) return fmi2Error;
   c->step_start = t0;
   h = c->h_hint > 0.0 && c->h_hint < communicationStepSize ? c->h_hint : communicationStepSize;
   if ((bad = gb_rhs(c, t, c->x, k1)) != 0) goto not_finite;
@@ -676,11 +698,7 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
     if (worst < 0.5) h *= 0.9 * pow(worst > 3.2e-4 ? worst : 3.2e-4, -0.2);
     if (!last) c->h_hint = h;
   }
-  c->time = t1;
-  for (i = 0; i < GB_N_INPUTS; ++i) {
-    c->u[i] += c->du[i] * communicationStepSize;
-    c->du[i] = 0.0;
-  }
+  gb_step_done(c, t0, communicationStepSize);
   return fmi2OK;
 not_finite:
   gb_log(c, fmi2Error, "logStatusError", "fmi2DoStep: the drift of %s is not finite at t = %g",

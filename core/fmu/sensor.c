@@ -1,6 +1,7 @@
 /* greybench's virtual sensor (core/fmu/fmu.h, export-fmu --virtual-sensor): the fitted model's
    extended Kalman filter as a Co-Simulation FMU. Appended to runtime.c (the state machine, the
-   logging and the instance) when the generated part defines GB_VIRTUAL_SENSOR and
+   logging, the instance, the input derivatives and a step's checks) when the generated part
+   defines GB_VIRTUAL_SENSOR and
 
      void gb_dynamics(const double* slots, double* out)     f (n), J = df/dx (n x n, row-major),
                                                             sigma (n)
@@ -46,7 +47,7 @@
 #define GB_NP GB_MAX1(GB_N_OUTPUTS)
 #define GB_NU GB_MAX1(GB_N_INPUTS)
 
-#define GB_SVR_INPUT 0
+#define GB_SVR_INPUT GB_VR_INPUT /* 0: runtime.c's input range */
 #define GB_SVR_MEASURED (GB_SVR_INPUT + GB_N_INPUTS)
 #define GB_SVR_FILTERED (GB_SVR_MEASURED + GB_N_OUTPUTS)
 #define GB_SVR_FILTERED_SD (GB_SVR_FILTERED + GB_N_STATES)
@@ -736,27 +737,6 @@ GB_NO_VARIABLES(fmi2SetString, fmi2String, const)
 
 /* ---- Co-Simulation: the filter's step ------------------------------------------------------ */
 
-fmi2Status fmi2SetRealInputDerivatives(fmi2Component component, const fmi2ValueReference vr[],
-                                       size_t nvr, const fmi2Integer order[],
-                                       const fmi2Real value[]) {
-  gbInstance* c = (gbInstance*)component;
-  size_t k;
-  if (!gb_allowed(c, "fmi2SetRealInputDerivatives",
-                  gbInstantiated | gbInitialization | gbStepComplete))
-    return fmi2Error;
-  for (k = 0; k < nvr; ++k) {
-    if (vr[k] >= GB_SVR_MEASURED || order[k] != 1) {
-      gb_log(c, fmi2Error, "logStatusError",
-             "fmi2SetRealInputDerivatives: value reference %u order %d is not an input's first "
-             "derivative",
-             (unsigned)vr[k], (int)order[k]);
-      return fmi2Error;
-    }
-    c->du[vr[k]] = value[k];
-  }
-  return fmi2OK;
-}
-
 fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoint,
                       fmi2Real communicationStepSize,
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
@@ -765,18 +745,7 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
   gbRow* row;
   int i;
   (void)noSetFMUStatePriorToCurrentPoint;
-  if (!gb_allowed(c, "fmi2DoStep", gbStepComplete)) return fmi2Error;
-  if (!(communicationStepSize > 0.0)) {
-    gb_log(c, fmi2Error, "logStatusError", "fmi2DoStep: the step size %g is not positive",
-           communicationStepSize);
-    return fmi2Error;
-  }
-  if (fabs(currentCommunicationPoint - c->time) > 1e-9 * (1.0 + fabs(c->time))) {
-    gb_log(c, fmi2Error, "logStatusError",
-           "fmi2DoStep: the communication point %g is not the FMU's time %g",
-           currentCommunicationPoint, c->time);
-    return fmi2Error;
-  }
+  if (!gb_step_allowed(c, currentCommunicationPoint, communicationStepSize)) return fmi2Error;
   s = gb_sensor(c);
   row = &s->rows[s->k % GB_RING];
   row->t = currentCommunicationPoint;
@@ -803,11 +772,7 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
     s->updated = fmi2False;
   }
   if (s->ready && !gb_predict_now(c, communicationStepSize)) goto failed;
-  c->time = currentCommunicationPoint + communicationStepSize;
-  for (i = 0; i < GB_N_INPUTS; ++i) {
-    c->u[i] += c->du[i] * communicationStepSize;
-    c->du[i] = 0.0;
-  }
+  gb_step_done(c, currentCommunicationPoint, communicationStepSize);
   return fmi2OK;
 failed:
   c->state = gbError;
