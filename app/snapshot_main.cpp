@@ -43,6 +43,10 @@
 // (core/report/figure.h), W x H pixels; any other --out a PNG of the plot alone drawn at W x H.
 // An unknown NAME is bad input: the message lists the view's plots.
 //
+// --slider NAME[=VALUE] (repeatable): NAME's slider shown beside the view (user guide §6a) and,
+// with a value, moved there as a drag would move it: the view is drawn mid-drag, the curves of
+// before kept as the ghost.
+//
 // --dialog opens one of the shell's dialogs over the view, as its menu item does (the file
 // browser lists a real folder, so its dates make that picture depend on the machine).
 //
@@ -121,7 +125,9 @@ struct Options {
   std::optional<double> live_forgetting;
   std::string live_csv;        // "": the dyno
   std::string live_reference;  // "": the session's estimate
-  int dataset = 0;           // the Predictions and Residuals views' dataset, from 1 (0: the first)
+  int dataset = 0;  // the Predictions and Residuals views' dataset, from 1 (0: the first)
+  // --slider NAME[=VALUE]: the parameter's slider shown (and moved to VALUE, mid-drag).
+  std::vector<std::pair<std::string, std::optional<double>>> sliders;
   std::string pending_plot;  // a --plot waiting for its --out
 };
 
@@ -132,6 +138,7 @@ constexpr const char* kUsage =
     "                          [--dialog DIALOG]\n"
     "                          [--time T0:T1] [--profile PARAMETER]\n"
     "                          [--overlays ahead,simulation,smoothed,compare] [--dataset N]\n"
+    "                          [--slider PARAMETER[=VALUE] ...]\n"
     "                          [--live-until T [--live-fault TIME:PARAMETER*FACTOR[/RAMP] ...]\n"
     "                           [--live-point NAME] [--live-seed N] [--live-forgetting L]\n"
     "                           [--live-csv FILE] [--live-reference RESULT.json]]\n"
@@ -175,7 +182,8 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
         arg == "--height" || arg == "--dialog" || arg == "--time" || arg == "--profile" ||
         arg == "--overlays" || arg == "--live-until" || arg == "--live-fault" ||
         arg == "--live-point" || arg == "--live-seed" || arg == "--live-forgetting" ||
-        arg == "--live-csv" || arg == "--live-reference" || arg == "--dataset" || arg == "--plot";
+        arg == "--live-csv" || arg == "--live-reference" || arg == "--dataset" || arg == "--plot" ||
+        arg == "--slider";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
@@ -246,6 +254,20 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       if (value.empty() || *end != '\0' || n < 1 || n > 100000)
         return "--dataset '" + value + "': expected the dataset's number, from 1";
       o->dataset = static_cast<int>(n);
+    } else if (arg == "--slider") {
+      const std::size_t eq = value.find('=');
+      const std::string name = value.substr(0, eq);
+      if (name.empty()) return "--slider '" + value + "': expected PARAMETER or PARAMETER=VALUE";
+      std::optional<double> moved;
+      if (eq != std::string::npos) {
+        const std::string number = value.substr(eq + 1);
+        char* end = nullptr;
+        const double v = std::strtod(number.c_str(), &end);
+        if (number.empty() || *end != '\0' || !std::isfinite(v))
+          return "--slider '" + value + "': expected a finite number after '='";
+        moved = v;
+      }
+      o->sliders.emplace_back(name, moved);
     } else if (arg == "--live-csv") {
       o->live_csv = value;
     } else if (arg == "--live-reference") {
@@ -367,6 +389,33 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
       std::fprintf(stderr, "greybench-snapshot: error: %s\n",
                    state.estimation.last_failure.c_str());
       status = kExitRenderFailed;
+    }
+  }
+  if (!options.sliders.empty()) {
+    // The sliders shown, then moved as a drag moves them: the views drawn mid-drag, the curves
+    // of before as the ghost.
+    if (!state.model) return Fail(kExitBadInput, "--slider: the model is not valid");
+    bool any_moved = false;
+    for (const auto& [name, value] : options.sliders) {
+      const auto& ps = state.model->parameters;
+      const auto it =
+          std::find_if(ps.begin(), ps.end(), [&](const auto& p) { return p.name == name; });
+      if (it == ps.end())
+        return Fail(kExitBadInput, "--slider " + name + ": the model has no such parameter");
+      if (value && ((it->lower && *value < *it->lower) || (it->upper && *value > *it->upper)))
+        return Fail(kExitBadInput,
+                    fmt::format("--slider {}={}: outside {}'s bounds [{}, {}]", name, *value, name,
+                                it->lower.value_or(-HUGE_VAL), it->upper.value_or(HUGE_VAL)));
+      ui::ShowSlider(state, name, true);
+      any_moved |= value.has_value();
+    }
+    if (any_moved) {
+      state.analysis.enabled = true;
+      ui::WaitForJobs(state);
+      ui::BeginSliderDrag(state);
+      for (const auto& [name, value] : options.sliders)
+        if (value) ui::MoveSlider(state, name, *value);
+      ui::WaitForJobs(state);
     }
   }
   if (!options.live_point.empty()) state.live.settings.point = options.live_point;

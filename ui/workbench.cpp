@@ -28,6 +28,7 @@ namespace gb::ui {
 namespace {
 
 constexpr float kSidebarWidth = 220.0f;  // pixels at scale 1
+constexpr float kSlidersWidth = 250.0f;  // the sliders beside a view, pixels at scale 1
 constexpr const char* kAboutPopup = "About greybench";
 
 // ---------------------------------------------------------------------------------------------
@@ -49,6 +50,12 @@ void DrawMenuBar(AppState& state) {
     if (ImGui::MenuItem("Messages", nullptr, state.show_messages)) {
       state.show_messages = !state.show_messages;
     }
+    if (ImGui::MenuItem("Sliders", nullptr, state.sliders.open, state.model.has_value()))
+      state.sliders.open = !state.sliders.open;
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip(
+          "Parameters as sliders beside the Data, Predictions, Residuals and "
+          "Parameters views");
     ImGui::Separator();
     DrawZoomMenuItems(state);
     ImGui::EndMenu();
@@ -347,9 +354,29 @@ void DrawWorkbench(AppState& state) {
   ImGui::TextUnformatted(title.c_str());
   ImGui::PopFont();
   ImGui::Spacing();
-  ImGui::PushID(static_cast<int>(state.view));
-  DrawPanel(state, state.view);
-  ImGui::PopID();
+  if (SlidersPanelShown(state)) {
+    // The view beside the sliders: each in its own child, the sliders on the right.
+    const float panel_w = std::round(kSlidersWidth * s);
+    const float gap = std::round(10.0f * s);
+    const float view_w = std::max(1.0f, ImGui::GetContentRegionAvail().x - panel_w - gap);
+    ImGui::BeginChild("##view-body", ImVec2(view_w, 0), false, ImGuiWindowFlags_NoScrollbar);
+    ImGui::PushID(static_cast<int>(state.view));
+    DrawPanel(state, state.view);
+    ImGui::PopID();
+    ImGui::EndChild();
+    ImGui::SameLine(0, gap);
+    ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(10.0f * s, 8.0f * s));
+    ImGui::PushStyleColor(ImGuiCol_ChildBg, IM_COL32(247, 248, 250, 255));
+    ImGui::BeginChild("##sliders", ImVec2(0, 0), true, ImGuiWindowFlags_AlwaysUseWindowPadding);
+    DrawSlidersPanel(state);
+    ImGui::EndChild();
+    ImGui::PopStyleColor();
+    ImGui::PopStyleVar();
+  } else {
+    ImGui::PushID(static_cast<int>(state.view));
+    DrawPanel(state, state.view);
+    ImGui::PopID();
+  }
   ImGui::PopStyleVar();
   ImGui::EndChild();
 

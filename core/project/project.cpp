@@ -1,5 +1,7 @@
 #include "core/project/project.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -29,6 +31,65 @@ std::string PathForFile(const std::string& p, const fs::path& dir, bool relative
   const fs::path rel = absolute.lexically_relative(dir);
   if (rel.empty()) return absolute.generic_string();
   return rel.generic_string();
+}
+
+// One entry of "sliders" at `where` ("sliders[1]"): a parameter's name, or an object with its
+// range and scale.
+Result<SliderSpec> ParseSlider(const Json& e, const std::string& file, const std::string& where) {
+  SliderSpec s;
+  if (e.is_string()) {
+    s.parameter = e.get<std::string>();
+    if (s.parameter.empty()) return FileError(file, "expected a parameter's name", where);
+    return s;
+  }
+  if (!e.is_object())
+    return FileError(file,
+                     "expected a parameter's name or an object such as {\"parameter\": \"X\", "
+                     "\"min\": 0, \"max\": 1}",
+                     where);
+  for (auto it = e.begin(); it != e.end(); ++it) {
+    const std::string at = where + "." + it.key();
+    if (it.key() == "parameter") {
+      if (!it.value().is_string() || it.value().get<std::string>().empty())
+        return FileError(file, "expected a parameter's name", at);
+      s.parameter = it.value().get<std::string>();
+    } else if (it.key() == "min" || it.key() == "max") {
+      if (!it.value().is_number() || !std::isfinite(it.value().get<double>()))
+        return FileError(file, "expected a finite number", at);
+      (it.key() == "min" ? s.min : s.max) = it.value().get<double>();
+    } else if (it.key() == "log") {
+      if (!it.value().is_boolean()) return FileError(file, "expected true or false", at);
+      s.log = it.value().get<bool>();
+    } else {
+      return FileError(file, "unknown member (expected parameter, min, max or log)", at);
+    }
+  }
+  if (s.parameter.empty())
+    return FileError(file, "the slider names no parameter (its \"parameter\")", where);
+  if (s.min.has_value() != s.max.has_value())
+    return FileError(file, "give both \"min\" and \"max\", or neither",
+                     where + (s.min ? ".max" : ".min"));
+  if (s.min && !(*s.min < *s.max))
+    return FileError(file, fmt::format("min {} is not below max {}", *s.min, *s.max), where);
+  if (s.log == true && s.min && !(*s.min > 0))
+    return FileError(file, "a log scale needs min > 0", where + ".min");
+  return s;
+}
+
+Status CheckSliders(const Json& list, const std::string& file) {
+  if (!list.is_array())
+    return FileError(file, "expected a list of parameter names such as [\"tau_ff\", \"X\"]",
+                     kSlidersKey);
+  std::vector<std::string> seen;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string where = fmt::format("{}[{}]", kSlidersKey, i);
+    Result<SliderSpec> s = ParseSlider(list[i], file, where);
+    if (!s) return s.error();
+    if (std::find(seen.begin(), seen.end(), s->parameter) != seen.end())
+      return FileError(file, "the parameter " + s->parameter + " has a slider already", where);
+    seen.push_back(s->parameter);
+  }
+  return Ok{};
 }
 
 }  // namespace
@@ -101,6 +162,9 @@ Result<Project> LoadProject(const std::string& path) {
       }
     }
   }
+  if (j.contains(kSlidersKey)) {
+    if (Status checked = CheckSliders(j[kSlidersKey], path); !checked) return checked.error();
+  }
   if (p.name.empty()) p.name = fs::path(path).stem().string();
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (it.key() != "greybench_project" && it.key() != "name" && it.key() != "model" &&
@@ -108,6 +172,35 @@ Result<Project> LoadProject(const std::string& path) {
       p.extra[it.key()] = it.value();
   }
   return p;
+}
+
+std::vector<SliderSpec> ReadSliders(const Project& project) {
+  std::vector<SliderSpec> out;
+  if (!project.extra.is_object() || !project.extra.contains(kSlidersKey)) return out;
+  const Json& list = project.extra[kSlidersKey];
+  if (!list.is_array()) return out;
+  for (const Json& e : list) {
+    Result<SliderSpec> s = ParseSlider(e, "", "");
+    if (s) out.push_back(std::move(*s));
+  }
+  return out;
+}
+
+Json SlidersToJson(const std::vector<SliderSpec>& sliders) {
+  Json list = Json::array();
+  for (const SliderSpec& s : sliders) {
+    if (!s.min && !s.log) {
+      list.push_back(s.parameter);
+      continue;
+    }
+    Json e = Json::object();
+    e["parameter"] = s.parameter;
+    if (s.min) e["min"] = *s.min;
+    if (s.max) e["max"] = *s.max;
+    if (s.log) e["log"] = *s.log;
+    list.push_back(std::move(e));
+  }
+  return list;
 }
 
 EstimationDefaults ReadEstimationDefaults(const Project& project) {

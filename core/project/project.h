@@ -49,6 +49,24 @@ inline constexpr const char* kEstimationKey = "estimation";
 // estimation.steady_start: expected true or false`); this reads what it holds.
 EstimationDefaults ReadEstimationDefaults(const Project& project);
 
+// The project's "sliders" list: the parameters the workbench shows as sliders beside the Data,
+// Predictions and Residuals views (user guide §6a), in order. An entry is a parameter's name, or
+// an object that also sets the slider's range and scale (absent: from the parameter's bounds or
+// its value):
+//   "sliders": ["tau_ff", {"parameter": "X", "min": 0, "max": 0.5, "log": false}]
+struct SliderSpec {
+  std::string parameter;
+  std::optional<double> min, max;  // both or neither; min < max, finite
+  std::optional<bool> log;         // a log scale (min > 0 then)
+  bool operator==(const SliderSpec&) const = default;
+};
+inline constexpr const char* kSlidersKey = "sliders";
+// LoadProject checks the list (errors name the file and JSON path, e.g. `case.json: sliders[1].min:
+// expected a number`; whether the parameters exist is the model's business); this reads it.
+std::vector<SliderSpec> ReadSliders(const Project& project);
+// The list as the project file holds it: a name alone where neither range nor scale is set.
+Json SlidersToJson(const std::vector<SliderSpec>& sliders);
+
 // Reads a project file and the model file it names (the model is only read as JSON here;
 // core/model validates it), and checks its dataset entries' keys (the recordings are read by
 // data::ReadDataset). Errors name the file and JSON path, e.g.

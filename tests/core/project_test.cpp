@@ -178,5 +178,56 @@ TEST(LoadProject, ReadsTheEstimationKeyAndNamesWhatIsWrongInIt) {
   }
 }
 
+TEST(LoadProject, ReadsTheSlidersAndNamesWhatIsWrongInThem) {
+  TempDir dir;
+  auto write = [&](const std::string& sliders) {
+    const std::string path = dir / "p.json";
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    std::fprintf(f,
+                 "{\"greybench_project\": 1, \"model\": \"%s/fuel_film.json\", \"sliders\": "
+                 "%s}\n",
+                 kUiData.c_str(), sliders.c_str());
+    std::fclose(f);
+    return path;
+  };
+  auto ok = LoadProject(write(R"(["tau_ff", {"parameter": "X", "min": 0, "max": 0.5},
+                                  {"parameter": "s11", "log": true}])"));
+  ASSERT_TRUE(ok.ok()) << ok.error().ToString();
+  const std::vector<SliderSpec> expected = {
+      {"tau_ff", {}, {}, {}}, {"X", 0.0, 0.5, {}}, {"s11", {}, {}, true}};
+  EXPECT_EQ(ReadSliders(*ok), expected);
+  // Written back as read: a name alone where nothing else is set.
+  ASSERT_TRUE(SaveProject(*ok, dir / "saved.json").ok());
+  auto saved = LoadProject(dir / "saved.json");
+  ASSERT_TRUE(saved.ok()) << saved.error().ToString();
+  EXPECT_EQ(ReadSliders(*saved), expected);
+  EXPECT_EQ(SlidersToJson(expected).dump(),
+            R"(["tau_ff",{"parameter":"X","min":0.0,"max":0.5},{"parameter":"s11","log":true}])");
+  auto none = LoadProject(kUiData + "/project.json");
+  ASSERT_TRUE(none.ok());
+  EXPECT_TRUE(ReadSliders(*none).empty());
+
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {R"("tau_ff")", "sliders: expected a list of parameter names"},
+      {R"([3])", "sliders[0]: expected a parameter's name or an object"},
+      {R"([""])", "sliders[0]: expected a parameter's name"},
+      {R"(["X", {"parameter": "X"}])", "sliders[1]: the parameter X has a slider already"},
+      {R"([{"min": 0, "max": 1}])", "sliders[0]: the slider names no parameter"},
+      {R"([{"parameter": "X", "min": 0}])", "sliders[0].max: give both"},
+      {R"([{"parameter": "X", "min": 1, "max": 1}])", "sliders[0]: min 1 is not below max 1"},
+      {R"([{"parameter": "X", "min": "a", "max": 1}])", "sliders[0].min: expected a finite number"},
+      {R"([{"parameter": "X", "min": 0, "max": 1, "log": true}])",
+       "sliders[0].min: a log scale needs min > 0"},
+      {R"([{"parameter": "X", "log": 1}])", "sliders[0].log: expected true or false"},
+      {R"([{"parameter": "X", "step": 1}])", "sliders[0].step: unknown member"},
+  };
+  for (const auto& [text, message] : bad) {
+    auto r = LoadProject(write(text));
+    ASSERT_FALSE(r.ok()) << text;
+    EXPECT_NE(r.error().ToString().find("p.json"), std::string::npos) << r.error().ToString();
+    EXPECT_NE(r.error().ToString().find(message), std::string::npos) << r.error().ToString();
+  }
+}
+
 }  // namespace
 }  // namespace gb::project

@@ -67,6 +67,8 @@ struct AnalysisRequest {
   // A fit with initial states per record: fitted record k's own θ (model order), for the k-th
   // estimation dataset in project order; empty: every record at `theta`.
   std::vector<std::vector<double>> record_theta;
+  // The parameters the sliders moved away from the source's values (their values are in θ).
+  std::vector<std::string> moved;
   bool operator==(const AnalysisRequest&) const = default;
 };
 

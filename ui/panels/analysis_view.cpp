@@ -24,6 +24,12 @@ std::string SourceText(const AppState& state, const Analysis& r) {
   } else {
     text = "At the model's current values: no fit yet (run one in the Estimate view)";
   }
+  if (!r.request.moved.empty()) {
+    text += ", with ";
+    for (std::size_t i = 0; i < r.request.moved.size(); ++i)
+      text += (i == 0 ? "" : i + 1 == r.request.moved.size() ? " and " : ", ") + r.request.moved[i];
+    text += " moved by the sliders";
+  }
   text += ". Delay";
   for (std::size_t o = 0; o < r.outputs.size() && o < r.delay.size(); ++o)
     text += (o ? ", " : " ") + r.outputs[o] + " " + SamplesText(r.delay[o]);
@@ -106,6 +112,15 @@ void DrawControls(AppState& state) {
 }
 
 }  // namespace
+
+const OutputAnalysis* GhostOutput(const AppState& state, std::size_t dataset, std::size_t output,
+                                  std::size_t rows) {
+  const std::optional<Analysis>& g = state.sliders.ghost;
+  if (!g || dataset >= g->datasets.size()) return nullptr;
+  const DatasetAnalysis& d = g->datasets[dataset];
+  if (output >= d.outputs.size() || d.time.size() != rows) return nullptr;
+  return &d.outputs[output];
+}
 
 std::string SamplesText(int n) { return std::to_string(n) + (n == 1 ? " sample" : " samples"); }
 

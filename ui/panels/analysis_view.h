@@ -18,6 +18,14 @@ const DatasetAnalysis* DrawAnalysisHeader(AppState& state, bool (*view_controls)
 // "delay 6 samples" and the like.
 std::string SamplesText(int n);
 
+// While a slider is dragged: output `output` of dataset `dataset` in the analysis of before the
+// drag (its curves drawn faintly), or null (no drag, or its record had another length).
+const OutputAnalysis* GhostOutput(const AppState& state, std::size_t dataset, std::size_t output,
+                                  std::size_t rows);
+// `color` faint, for a ghost's curve.
+inline ImU32 GhostColor(ImU32 color) { return (color & ~IM_COL32_A_MASK) | IM_COL32(0, 0, 0, 80); }
+inline constexpr const char* kGhostLabel = "before the slider";
+
 // Colours shared by both views.
 inline constexpr ImU32 kMeasuredColor = IM_COL32(60, 64, 72, 255);
 inline constexpr ImU32 kPredictionColor = IM_COL32(31, 119, 180, 255);

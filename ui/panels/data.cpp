@@ -10,6 +10,7 @@
 
 #include "core/util/json.h"
 #include "ui/format.h"
+#include "ui/panels/analysis_view.h"
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
 
@@ -145,6 +146,20 @@ const std::vector<double>* Preview(const AppState& state, std::size_t index,
   return nullptr;
 }
 
+// The same in the analysis of before a slider's drag, or null.
+const std::vector<double>* GhostPreview(const AppState& state, std::size_t index,
+                                        const std::string& name) {
+  const std::optional<Analysis>& g = state.sliders.ghost;
+  if (!state.data_view.show_preview || !g || index >= g->datasets.size()) return nullptr;
+  const DatasetAnalysis& d = g->datasets[index];
+  for (const OutputAnalysis& o : d.outputs) {
+    if (o.name == name && o.preview.size() == d.time.size() &&
+        d.time.size() == state.datasets[index].data->rows())
+      return &o.preview;
+  }
+  return nullptr;
+}
+
 // The preview's switch and what it shows.
 void DrawPreviewToggle(AppState& state) {
   ImGui::Checkbox("Simulated response", &state.data_view.show_preview);
@@ -218,6 +233,11 @@ void DrawColumnPlots(AppState& state, std::size_t index) {
       style.color = palette[static_cast<std::size_t>(shown[k]) % palette.size()];
       plot::PlotLine(state.plots, column.name.c_str(), data.time.data(), column.values.data(),
                      n_time, style);
+      if (const std::vector<double>* before = GhostPreview(state, index, column.name)) {
+        plot::ItemStyle ghost;
+        ghost.color = GhostColor(kPreviewColor);
+        plot::PlotLine(state.plots, kGhostLabel, data.time.data(), before->data(), n_time, ghost);
+      }
       if (preview) {
         plot::ItemStyle sim;
         sim.color = kPreviewColor;

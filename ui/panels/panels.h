@@ -18,6 +18,11 @@ void DrawParametersPanel(AppState& state);       // parameters.cpp
 void DrawOperatingPointsPanel(AppState& state);  // operating_points.cpp
 void DrawLivePanel(AppState& state);             // live.cpp
 
+// The sliders beside the Data, Predictions, Residuals and Parameters views (sliders.cpp): whether
+// the current view has them, and the panel.
+bool SlidersPanelShown(const AppState& state);
+void DrawSlidersPanel(AppState& state);
+
 // Draws the panel of `view`.
 void DrawPanel(AppState& state, View view);
 

@@ -37,6 +37,7 @@ constexpr double kZ95 = 1.96;               // two-sided 95 % normal quantile
 constexpr int kEstimateDigits = 5;
 constexpr int kErrorDigits = 3;
 constexpr ImU32 kRefusedCellBg = IM_COL32(250, 222, 222, 255);
+constexpr ImU32 kSliderGlyphColor = IM_COL32(31, 119, 180, 255);
 
 // ---------------------------------------------------------------------------------------------
 // 1. Cells
@@ -239,6 +240,33 @@ void ProfileCell(AppState& state, const estimate::ParameterEstimate* e) {
                       e->name.c_str());
 }
 
+// The parameter's name: its description on hover, a right click's menu to show it as a slider
+// (beside the Data, Predictions, Residuals and this view), and a small slider drawn after the
+// name of one that is.
+void NameMenu(AppState& state, const model::Parameter& p) {
+  const bool slider = SliderShown(state, p.name);
+  if (ImGui::IsItemHovered()) {
+    ImGui::SetTooltip("%s%sRight-click: %s", p.description.c_str(),
+                      p.description.empty() ? "" : "\n",
+                      slider ? "remove its slider" : "show it as a slider");
+  }
+  if (slider) {
+    const float s = state.fonts.scale;
+    const ImVec2 a = ImGui::GetItemRectMax();
+    const float y = a.y - 0.5f * ImGui::GetTextLineHeight();
+    const float x = a.x + 6.0f * s;
+    ImDrawList* dl = ImGui::GetWindowDrawList();
+    dl->AddLine(ImVec2(x, y), ImVec2(x + 14.0f * s, y), kSliderGlyphColor, 1.5f * s);
+    dl->AddCircleFilled(ImVec2(x + 9.0f * s, y), 3.0f * s, kSliderGlyphColor, 12);
+  }
+  if (ImGui::BeginPopupContextItem("name-menu")) {
+    ImGui::TextDisabled("%s", p.name.c_str());
+    ImGui::Separator();
+    if (ImGui::MenuItem("Show as a slider", nullptr, slider)) ShowSlider(state, p.name, !slider);
+    ImGui::EndPopup();
+  }
+}
+
 bool HasProfiles(const FitResult* r) {
   if (!r) return false;
   for (const estimate::ParameterEstimate& e : r->summary.parameters)
@@ -333,8 +361,7 @@ void DrawTable(AppState& state, const FitResult* result) {
     ImGui::PushFont(state.fonts.mono);
     ImGui::TextUnformatted(p.name.c_str());
     ImGui::PopFont();
-    if (ImGui::IsItemHovered() && !p.description.empty())
-      ImGui::SetTooltip("%s", p.description.c_str());
+    NameMenu(state, p);
     ImGui::TableNextColumn();
     ImGui::AlignTextToFramePadding();
     if (p.unit.empty()) {

@@ -149,6 +149,15 @@ void DrawOutputPlot(AppState& state, const DatasetAnalysis& d, const OutputAnaly
   measured.color = kMeasuredColor;
   measured.marker_radius = 1.5f;
   plot::PlotMarkers(state.plots, "measured", t, o.measured.data(), n, measured);
+  if (const OutputAnalysis* g =
+          GhostOutput(state, static_cast<std::size_t>(a.dataset),
+                      static_cast<std::size_t>(&o - d.outputs.data()), d.time.size())) {
+    plot::ItemStyle ghost;
+    ghost.color = GhostColor(a.show_simulation ? kSimulationColor : kPredictionColor);
+    const std::vector<double>& before =
+        a.show_simulation && g->simulated.size() == d.time.size() ? g->simulated : g->predicted;
+    plot::PlotLine(state.plots, kGhostLabel, t, before.data(), n, ghost);
+  }
   plot::ItemStyle predicted;
   predicted.color = kPredictionColor;
   plot::PlotLine(state.plots, "one-step prediction", t, o.predicted.data(), n, predicted);

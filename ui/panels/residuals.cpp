@@ -145,6 +145,11 @@ void DrawTimePlot(AppState& state, const DatasetAnalysis& d, const OutputAnalysi
   const int n = static_cast<int>(d.time.size());
   plot::PlotBand(state.plots, "\xC2\xB1 2 sd", d.time.data(), o.residual_lower.data(),
                  o.residual_upper.data(), n, Style(kPredictionColor, kBandAlpha));
+  if (const OutputAnalysis* g =
+          GhostOutput(state, static_cast<std::size_t>(state.analysis.dataset),
+                      static_cast<std::size_t>(&o - d.outputs.data()), d.time.size()))
+    plot::PlotLine(state.plots, kGhostLabel, d.time.data(), g->residual.data(), n,
+                   Style(GhostColor(kReferenceColor)));
   plot::PlotLine(state.plots, "residual", d.time.data(), o.residual.data(), n,
                  Style(kMeasuredColor));
   plot::EndPlot(state.plots);

@@ -10,6 +10,15 @@
 namespace gb::ui {
 namespace {
 
+// The two requests differ at most in θ (a slider moved).
+bool SameButValues(AnalysisRequest a, const AnalysisRequest& b) {
+  a.theta = b.theta;
+  a.record_theta = b.record_theta;
+  a.preview_theta = b.preview_theta;
+  a.moved = b.moved;
+  return a == b;
+}
+
 void StartAnalysis(AppState& state, AnalysisRequest request) {
   AnalysisInput input;
   input.request = request;
@@ -118,6 +127,14 @@ std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state, std::st
     r.source = AnalysisSource::kCurrentValues;
     r.theta = m.Values();
   }
+  // The sliders' what-if values, in every record's θ and in the preview.
+  ApplySliders(state, &r.theta);
+  for (std::vector<double>& theta : r.record_theta) ApplySliders(state, &theta);
+  ApplySliders(state, &r.preview_theta);
+  for (const auto& [name, value] : state.sliders.moved) {
+    for (const model::Parameter& p : m.parameters)
+      if (p.name == name) r.moved.push_back(name);
+  }
   return r;
 }
 
@@ -127,7 +144,11 @@ void PollAnalysis(AppState& state) {
   std::optional<AnalysisRequest> want = AnalysisRequestNow(state);
   if (!a.enabled) want.reset();
   if (a.job.active()) {
-    if (!want || !a.running || *want != *a.running) a.job.RequestCancel();
+    // While a slider is dragged, the run under way for other values of θ finishes first: one
+    // cancelled on every frame would show nothing until the release.
+    const bool only_values =
+        want && a.running && state.sliders.dragging && SameButValues(*want, *a.running);
+    if (!want || !a.running || (*want != *a.running && !only_values)) a.job.RequestCancel();
     return;
   }
   if (!want || (a.attempted && *a.attempted == *want)) return;

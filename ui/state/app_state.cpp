@@ -123,6 +123,7 @@ void InstallProject(AppState& state, ProjectLoad load) {
   }
   ResetSweep(state);
   InstallDiagram(state);  // a project's diagram that compiles supplies the model
+  InstallSliders(state);
   // So was the analysis; PollAnalysis starts the new project's (a run under way is superseded).
   state.analysis.result.reset();
   state.analysis.last_failure.clear();

@@ -301,6 +301,31 @@ struct EquationsViewState {
   bool nonlinear = false;     // the model goes through the extended Kalman filter
 };
 
+// The sliders beside the Data, Predictions and Residuals views (user guide §6a): the parameters
+// shown as sliders (the project's "sliders" list) and the values they were moved to. A moved
+// value is a what-if: the views show the model there, while the model's values and the fit stay
+// as they are until "Use as start values" makes the moved values the model's.
+struct SlidersState {
+  std::vector<project::SliderSpec> shown;
+  std::map<std::string, double> moved;  // parameter -> value; absent: the views' value
+  bool open = false;  // the panel is shown (View > Sliders; opened with a project that has sliders)
+  // A slider is being dragged: a computation under way finishes before the newest starts (one
+  // cancelled on every frame of a drag would show nothing until the release).
+  bool dragging = false;
+  // The analysis on screen when the drag began, drawn faintly until the release.
+  std::optional<Analysis> ghost;
+};
+
+// A slider's range: the project's, else the parameter's bounds, else around its value (a
+// decade each way for a positive value, ± max(|value|, 1) otherwise, within a bound); a log
+// scale where every value is positive and the range spans two decades or more. The range always
+// holds `value`.
+struct SliderScale {
+  double min = 0.0, max = 1.0;
+  bool log = false;
+};
+SliderScale SliderRange(const model::Parameter& p, double value, const project::SliderSpec& spec);
+
 struct AppState {
   // The open project and its data, replaced as a whole when a loading job succeeds.
   std::optional<project::Project> project;
@@ -326,6 +351,7 @@ struct AppState {
   SweepState sweep;  // the operating-point sweep
   AnalysisState analysis;
   LiveState live;
+  SlidersState sliders;
 
   View view = View::kData;
   std::vector<Message> messages;
@@ -418,6 +444,26 @@ void ReadFits(const std::string& project_path, bool deterministic, ProjectLoad* 
 void InstallFits(AppState& state, std::vector<KeptFit> fits,
                  const std::vector<std::string>& problems);
 bool EstimationRunning(const AppState& state);
+
+// The sliders (ui/state/sliders.cpp). Showing or hiding one edits the project's "sliders" list
+// (an unsaved change); moving one is a what-if the analysis is computed at.
+void ShowSlider(AppState& state, const std::string& parameter, bool show);
+bool SliderShown(const AppState& state, const std::string& parameter);
+// The value the views use for parameter `index` without the sliders: the shown fit's estimate,
+// or the model's value.
+double SliderBaseValue(const AppState& state, std::size_t index);
+// The value slider `index` of the model's parameters shows: moved, else SliderBaseValue.
+double SliderValue(const AppState& state, std::size_t index);
+void MoveSlider(AppState& state, const std::string& parameter, double value);
+void BeginSliderDrag(AppState& state);  // keeps the analysis on screen as the ghost
+void EndSliderDrag(AppState& state);
+void ResetSliders(AppState& state);  // every moved value back to the views' own
+// The moved values become the model's (start) values, in one edit, and the views show the model.
+void UseSliderValuesAsStart(AppState& state);
+// θ (model order) with the moved values put in.
+void ApplySliders(const AppState& state, std::vector<double>* theta);
+// The project's list read on opening it (parameters the model lacks are left out, with a warning).
+void InstallSliders(AppState& state);
 
 // The operating-point sweep (ui/state/sweep_state.cpp), run like the estimation.
 // Reads the project's "operating_points" key into state.sweep and drops the last sweep (a new
