@@ -182,12 +182,15 @@ bool AnalyseSeries(const ModelAt& at, const Preview& preview, const data::Series
   if (control.cancel) return false;
   if (l) {
     pred = filter::OneStepFromTrace(series, settings, trace, *l);
+    const bool with_ahead = a.request.horizon >= 1;
     if (at.ss) {
-      ahead = filter::PredictAheadFromTrace(*at.ss, series, settings, trace, a.request.horizon);
+      if (with_ahead)
+        ahead = filter::PredictAheadFromTrace(*at.ss, series, settings, trace, a.request.horizon);
       smoothed = filter::SmoothFromTrace(*at.ss, series, settings, trace);
     } else {
-      ahead = filter::EkfPredictAhead(*at.nonlinear, at.theta, series, settings, trace,
-                                      a.request.horizon);
+      if (with_ahead)
+        ahead = filter::EkfPredictAhead(*at.nonlinear, at.theta, series, settings, trace,
+                                        a.request.horizon);
       if (control.cancel) return false;
       smoothed = filter::EkfSmooth(*at.nonlinear, at.theta, series, settings, trace);
     }

@@ -11,7 +11,8 @@
 //   measured     y_{o,k}                           (NaN where missing)
 //   predicted    ŷ_{o,k|k-1}, band ŷ ± 2 sd         (sd includes the measurement noise S_o)
 //   residual     ε_{o,k} = y_{o,k} - ŷ_{o,k|k-1}, band 0 ± 2 sd
-//   ahead        ŷ_{o,k|k-h}: the h-step prediction (PredictAhead), h chosen in the view
+//   ahead        ŷ_{o,k|k-h}: the h-step prediction (PredictAhead), h chosen in the view (only
+//                while the view shows them: request.horizon 0 otherwise)
 //   smoothed     the noise-free output at the smoothed state x̂_{j|N} (conditioned on every
 //                observation: Rauch-Tung-Striebel, or its extended form for the EKF), band ± 2 sd
 //                of that output (without the measurement noise)
@@ -62,7 +63,7 @@ struct AnalysisRequest {
   AnalysisSource source = AnalysisSource::kCurrentValues;
   std::vector<double> theta;          // every parameter, in model order
   std::vector<int> delay;             // per output (the fit's); empty: chosen as described above
-  int horizon = 1;                    // h of the h-step predictions, >= 1
+  int horizon = 1;  // h of the h-step predictions, >= 1; 0: none (the view does not show them)
   std::vector<double> preview_theta;  // the model's current values, for `preview`
   // A fit with initial states per record: fitted record k's own θ (model order), for the k-th
   // estimation dataset in project order; empty: every record at `theta`.

@@ -109,7 +109,8 @@ std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state, std::st
   r.project_generation = state.project_generation;
   r.datasets_revision = state.datasets_revision;
   r.model_revision = state.model_revision;
-  r.horizon = std::clamp(a.horizon, 1, kMaxHorizon);
+  // The h-step predictions only when they are shown: for an EKF they cost h integrations a row.
+  r.horizon = a.show_ahead ? std::clamp(a.horizon, 1, kMaxHorizon) : 0;
   r.preview_theta = m.Values();
   const FitResult* fit = state.estimation.result ? &*state.estimation.result : nullptr;
   if (fit && !a.use_current_values && FitMatchesModel(*fit, m)) {
