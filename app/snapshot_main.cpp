@@ -47,6 +47,9 @@
 // with a value, moved there as a drag would move it: the view is drawn mid-drag, the curves of
 // before kept as the ghost.
 //
+// --step J: the Predictions view's Step mode at state index J (from 1; past the record's end:
+// its last), as its Step checkbox and keys would show it.
+//
 // --dialog opens one of the shell's dialogs over the view, as its menu item does (the file
 // browser lists a real folder, so its dates make that picture depend on the machine).
 //
@@ -128,6 +131,7 @@ struct Options {
   int dataset = 0;  // the Predictions and Residuals views' dataset, from 1 (0: the first)
   // --slider NAME[=VALUE]: the parameter's slider shown (and moved to VALUE, mid-drag).
   std::vector<std::pair<std::string, std::optional<double>>> sliders;
+  int step = 0;  // --step J: the Predictions view's Step mode at state index J (from 1; 0: off)
   std::string pending_plot;  // a --plot waiting for its --out
 };
 
@@ -138,7 +142,7 @@ constexpr const char* kUsage =
     "                          [--dialog DIALOG]\n"
     "                          [--time T0:T1] [--profile PARAMETER]\n"
     "                          [--overlays ahead,simulation,smoothed,compare] [--dataset N]\n"
-    "                          [--slider PARAMETER[=VALUE] ...]\n"
+    "                          [--slider PARAMETER[=VALUE] ...] [--step J]\n"
     "                          [--live-until T [--live-fault TIME:PARAMETER*FACTOR[/RAMP] ...]\n"
     "                           [--live-point NAME] [--live-seed N] [--live-forgetting L]\n"
     "                           [--live-csv FILE] [--live-reference RESULT.json]]\n"
@@ -183,7 +187,7 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
         arg == "--overlays" || arg == "--live-until" || arg == "--live-fault" ||
         arg == "--live-point" || arg == "--live-seed" || arg == "--live-forgetting" ||
         arg == "--live-csv" || arg == "--live-reference" || arg == "--dataset" || arg == "--plot" ||
-        arg == "--slider";
+        arg == "--slider" || arg == "--step";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
@@ -268,6 +272,12 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
         moved = v;
       }
       o->sliders.emplace_back(name, moved);
+    } else if (arg == "--step") {
+      char* end = nullptr;
+      const long j = std::strtol(value.c_str(), &end, 10);
+      if (value.empty() || *end != '\0' || j < 1 || j > 100000000)
+        return "--step '" + value + "': expected the state index to show, from 1";
+      o->step = static_cast<int>(j);
     } else if (arg == "--live-csv") {
       o->live_csv = value;
     } else if (arg == "--live-reference") {
@@ -336,6 +346,8 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
   state.analysis.show_simulation = options.simulation;
   state.analysis.show_smoothed = options.smoothed;
   state.analysis.show_compare = options.compare;
+  state.analysis.show_step = options.step > 0;
+  state.analysis.step = options.step - 1;
   state.analysis.enabled = Shows(options, ui::View::kData) ||
                            Shows(options, ui::View::kPredictions) ||
                            Shows(options, ui::View::kResiduals);

@@ -49,7 +49,12 @@ void BM_AnalysisCaseStudy(benchmark::State& state) {
                  : state.range(0) == 1 ? "fit delay"
                                        : "fit delay, no h-step");
 }
-BENCHMARK(BM_AnalysisCaseStudy)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_AnalysisCaseStudy)
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 

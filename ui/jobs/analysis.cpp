@@ -168,6 +168,90 @@ void SimulationFigures(const OutputAnalysis& o, int skip, OutputAnalysis* out) {
   if (spread > 0) out->fit_percent = 100 * (1 - std::sqrt(error / spread));
 }
 
+// The filter's steps from its trace (FilterSteps): the prior and posterior states, their sd, the
+// gains of the outputs each state index's update used (those whose standardised residual at row
+// j + d_o is finite), and the output at the posterior.
+FilterSteps MakeSteps(const ModelAt& at, const data::Series& series,
+                      const filter::FilterTrace& trace, const std::vector<int>& delay,
+                      const Eigen::MatrixXd& standardized, const std::vector<std::string>& states) {
+  FilterSteps st;
+  st.states = states;
+  const int n = static_cast<int>(trace.x_pred.rows());
+  const int N = static_cast<int>(trace.x_pred.cols());
+  const int p = static_cast<int>(standardized.rows());
+  st.x_prior = trace.x_pred;
+  st.x_post = trace.x_filt;
+  st.sd_prior.resize(n, N);
+  st.sd_post.resize(n, N);
+  st.gain = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(n) * p, N, kNaN);
+  st.y_post = Eigen::MatrixXd::Constant(p, N, kNaN);
+  std::vector<double> slots, out;
+  if (at.nonlinear) {
+    slots.assign(static_cast<std::size_t>(at.nonlinear->n_slots()), 0.0);
+    std::copy(at.theta.begin(), at.theta.end(), slots.begin() + at.nonlinear->parameter_slot());
+    out.resize(static_cast<std::size_t>(p + p * n + p));
+  }
+  const int m = static_cast<int>(series.U.rows());
+  // H (p x n), h and S at state x and row j.
+  auto measure = [&](const Eigen::VectorXd& x, int j, Eigen::MatrixXd* H, Eigen::VectorXd* h,
+                     Eigen::VectorXd* S) {
+    if (at.ss) {
+      *H = at.ss->C;
+      *h = at.ss->C * x + at.ss->d;
+      if (m > 0) *h += at.ss->D * series.U.col(j);
+      *S = at.ss->S;
+      return true;
+    }
+    for (int i = 0; i < n; ++i) slots[static_cast<std::size_t>(i)] = x(i);
+    for (int i = 0; i < m; ++i) slots[static_cast<std::size_t>(n + i)] = series.U(i, j);
+    slots[static_cast<std::size_t>(at.nonlinear->time_slot())] =
+        series.time[static_cast<std::size_t>(j)];
+    at.nonlinear->Measurement(slots, out);
+    *h = Eigen::Map<const Eigen::VectorXd>(out.data(), p);
+    *H = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+        out.data() + p, p, n);
+    *S = Eigen::Map<const Eigen::VectorXd>(out.data() + p + p * n, p);
+    return h->allFinite() && H->allFinite() && S->allFinite();
+  };
+  Eigen::MatrixXd H;
+  Eigen::VectorXd h, S;
+  for (int j = 0; j < N; ++j) {
+    const auto& Pp = trace.P_pred[static_cast<std::size_t>(j)];
+    const auto& Pf = trace.P_filt[static_cast<std::size_t>(j)];
+    for (int i = 0; i < n; ++i) {
+      st.sd_prior(i, j) = std::sqrt(std::max(Pp(i, i), 0.0));
+      st.sd_post(i, j) = std::sqrt(std::max(Pf(i, i), 0.0));
+    }
+    std::vector<int> seen;  // the outputs the update at j used
+    for (int o = 0; o < p; ++o) {
+      const int k = j + delay[static_cast<std::size_t>(o)];
+      if (k < N && std::isfinite(standardized(o, k))) seen.push_back(o);
+    }
+    if (seen.empty()) continue;
+    if (!measure(trace.x_pred.col(j), j, &H, &h, &S)) {
+      st.error = "the measurement equation is not finite at the prediction of row " +
+                 std::to_string(j + 1);
+      continue;
+    }
+    const int q = static_cast<int>(seen.size());
+    Eigen::MatrixXd Ho(q, n);
+    Eigen::MatrixXd So = Eigen::MatrixXd::Zero(q, q);
+    for (int a = 0; a < q; ++a) {
+      Ho.row(a) = H.row(seen[static_cast<std::size_t>(a)]);
+      So(a, a) = S(seen[static_cast<std::size_t>(a)]);
+    }
+    So += Ho * Pp * Ho.transpose();
+    const Eigen::MatrixXd K = So.ldlt().solve(Ho * Pp).transpose();  // n x q
+    for (int a = 0; a < q; ++a)
+      for (int i = 0; i < n; ++i)
+        st.gain(static_cast<Eigen::Index>(i) * p + seen[static_cast<std::size_t>(a)], j) = K(i, a);
+    if (measure(trace.x_filt.col(j), j, &H, &h, &S)) {
+      for (const int o : seen) st.y_post(o, j + delay[static_cast<std::size_t>(o)]) = h(o);
+    }
+  }
+  return st;
+}
+
 // One dataset at θ. Returns false when cancelled.
 bool AnalyseSeries(const ModelAt& at, const Preview& preview, const data::Series& series,
                    const filter::FilterSettings& settings, const Analysis& a, DatasetAnalysis* out,
@@ -204,6 +288,7 @@ bool AnalyseSeries(const ModelAt& at, const Preview& preview, const data::Series
   }
   out->loglik = pred->loglik.loglik;
   out->n_obs = pred->loglik.n_obs;
+  if (a.request.steps) out->steps = MakeSteps(at, series, trace, a.delay, pred->standardized, a.states);
   Result<sim::Simulation> simulated = at.Simulate(series, settings);
   std::optional<Result<sim::Simulation>> previewed;
   if (preview.model) previewed = preview.model->Simulate(series, settings);
@@ -316,6 +401,7 @@ AnalysisRun Analyse(const AnalysisInput& input, JobControl& control) {
   for (const model::Parameter& p : m.parameters) a.parameter_names.push_back(p.name);
   a.inputs = m.inputs;
   a.outputs = m.outputs;
+  a.states = m.states;
 
   // Bind every readable dataset; one that does not fit the model keeps its error.
   std::vector<std::shared_ptr<const data::Series>> bound;

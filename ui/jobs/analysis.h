@@ -44,6 +44,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Dense>
+
 #include "core/data/dataset.h"
 #include "core/diagnose/residuals.h"
 #include "core/model/model.h"
@@ -61,8 +63,9 @@ struct AnalysisRequest {
   int datasets_revision = 0;   // AppState::datasets_revision
   int model_revision = 0;      // AppState::model_revision
   AnalysisSource source = AnalysisSource::kCurrentValues;
-  std::vector<double> theta;          // every parameter, in model order
-  std::vector<int> delay;             // per output (the fit's); empty: chosen as described above
+  std::vector<double> theta;  // every parameter, in model order
+  std::vector<int> delay;     // per output (the fit's); empty: chosen as described above
+  bool steps = false;         // the filter's steps (FilterSteps: the Predictions view's Step mode)
   int horizon = 1;  // h of the h-step predictions, >= 1; 0: none (the view does not show them)
   std::vector<double> preview_theta;  // the model's current values, for `preview`
   // A fit with initial states per record: fitted record k's own θ (model order), for the k-th
@@ -131,6 +134,18 @@ struct OutputAnalysis {
   std::string diagnose_error;  // why `diagnostics` is absent (e.g. too few residuals)
 };
 
+// The filter sample by sample (the Predictions view's Step mode), at every state index j: the state
+// before the update (x̂_{j|j-1}, sd from P_{j|j-1}) and after it (x̂_{j|j}, sd from P_{j|j}), and the
+// gain K_j = P_{j|j-1} H' (H P_{j|j-1} H' + S)⁻¹ of the outputs observed there (H = C, or ∂h/∂x at
+// x̂_{j|j-1} for the EKF), so that x̂_{j|j} = x̂_{j|j-1} + K_j ε_j. Output o's row is k = j + d_o.
+struct FilterSteps {
+  std::vector<std::string> states;
+  Eigen::MatrixXd x_prior, x_post, sd_prior, sd_post;  // n x N
+  Eigen::MatrixXd gain;    // (n p) x N: K(i, o) in row i p + o; NaN where o is not observed at j
+  Eigen::MatrixXd y_post;  // p x N at row k: the output at x̂_{j|j} (without noise); NaN unobserved
+  std::string error;       // why the gains could not be computed (the rest is there)
+};
+
 struct DatasetAnalysis {
   std::string name;  // file name
   bool validation = false;
@@ -141,6 +156,7 @@ struct DatasetAnalysis {
   std::vector<double> time;
   double sample_interval = 0.0;  // the uniform Δ, or 0 when the intervals vary
   std::vector<OutputAnalysis> outputs;
+  FilterSteps steps;    // empty unless request.steps
   double loglik = 0.0;  // of this dataset at θ (the filter's)
   long n_obs = 0;
 };
@@ -148,7 +164,7 @@ struct DatasetAnalysis {
 struct Analysis {
   AnalysisRequest request;
   std::vector<std::string> parameter_names;
-  std::vector<std::string> inputs, outputs;
+  std::vector<std::string> inputs, outputs, states;
   std::vector<int> delay;     // used, per output
   std::string delay_source;   // "fit", "model", "profile likelihood at these values"
   std::string preview_error;  // why there is no preview (the model's values do not evaluate)

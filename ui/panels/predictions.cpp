@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "ui/format.h"
 #include "ui/panels/analysis_view.h"
@@ -24,6 +25,10 @@ namespace {
 
 constexpr float kMinPlotHeight = 150.0f;  // pixels at scale 1; below it the plots scroll
 constexpr float kHorizonWidth = 96.0f;
+constexpr float kInsetHeight = 130.0f;  // Step mode's plot of P, pixels at scale 1
+constexpr int kStepWindow = 60;         // samples shown around the step when it leaves the window
+constexpr double kBandSd = 2.0;         // the prediction band is ± 2 sd
+constexpr ImU32 kStepColor = IM_COL32(214, 39, 40, 255);
 
 bool DrawOverlayControls(AppState& state) {
   AnalysisState& a = state.analysis;
@@ -52,6 +57,13 @@ bool DrawOverlayControls(AppState& state) {
         "The output at the smoothed state, which every measurement informs, earlier and "
         "later (Rauch-Tung-Striebel; extended for a nonlinear model), \xC2\xB1 2 sd without "
         "the measurement noise");
+  SameLineIfFits(CheckboxWidth("Step through the filter"), gap);
+  if (ImGui::Checkbox("Step through the filter", &a.show_step) && a.show_step)
+    a.step_playing = false;
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "The filter one sample at a time: the prediction before the measurement, the "
+        "measurement, the gain and the state after it (keys: Left and Right)");
   if (state.datasets.size() < 2) return true;  // one record: the plots are the comparison
   SameLineIfFits(CheckboxWidth("Compare records"), gap);
   ImGui::Checkbox("Compare records", &a.show_compare);
@@ -126,6 +138,199 @@ void DrawFitFigures(AppState& state, const Analysis& r) {
   ImGui::EndTable();
 }
 
+// ---------------------------------------------------------------------------------------------
+// Step mode: the filter at state index j = a.step; output o's row k = j + d_o.
+
+// Row k of output o at the step shown, or -1 (beyond the record).
+int StepRow(const AnalysisState& a, const DatasetAnalysis& d, const OutputAnalysis& o) {
+  const int k = a.step + o.delay;
+  return k >= 0 && k < static_cast<int>(d.time.size()) ? k : -1;
+}
+
+// At row k: the line of the instant, the prediction before the measurement with ± 2 sd, the
+// measurement and the output at the state after the update.
+void DrawStepMarkers(AppState& state, const DatasetAnalysis& d, const OutputAnalysis& o) {
+  const int k = StepRow(state.analysis, d, o);
+  if (k < 0) return;
+  const auto i = static_cast<std::size_t>(k);
+  const double t = d.time[i];
+  plot::ItemStyle line;
+  line.color = kStepColor;
+  plot::PlotVLines(state.plots, "now", &t, 1, nullptr, line);
+  const double prior = o.predicted[i], half = 0.5 * (o.upper[i] - o.lower[i]);
+  plot::ItemStyle prior_style;
+  prior_style.color = kPredictionColor;
+  prior_style.marker_radius = 5.0f;
+  plot::PlotErrorBars(state.plots, "before: prediction \xC2\xB1 2 sd", &t, &prior, &half, 1,
+                      prior_style);
+  plot::ItemStyle measured;
+  measured.color = kMeasuredColor;
+  measured.marker_radius = 5.0f;
+  plot::PlotMarkers(state.plots, "the measurement", &t, &o.measured[i], 1, measured);
+  const auto r = static_cast<Eigen::Index>(&o - d.outputs.data());
+  if (r < d.steps.y_post.rows() && std::isfinite(d.steps.y_post(r, k))) {
+    const double post = d.steps.y_post(r, k);
+    plot::ItemStyle after;
+    after.color = kStepColor;
+    after.marker_radius = 5.0f;
+    plot::PlotMarkers(state.plots, "after: at the updated state", &t, &post, 1, after);
+  }
+}
+
+// The step bar: back, next, play, the rate and where the step is; the keys Left and Right.
+void DrawStepBar(AppState& state, const DatasetAnalysis& d) {
+  AnalysisState& a = state.analysis;
+  const int N = static_cast<int>(d.time.size());
+  if (N == 0) return;
+  const int before = a.step;
+  if (ImGui::Button("\xE2\x97\x80 Back")) --a.step;
+  ImGui::SameLine();
+  if (ImGui::Button("Next \xE2\x96\xB6")) ++a.step;
+  ImGui::SameLine();
+  if (ImGui::Button(a.step_playing ? "Pause" : "Play")) {
+    a.step_playing = !a.step_playing;
+    a.step_clock = 0.0;
+  }
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(120.0f * state.fonts.scale);
+  ImGui::SliderFloat("##rate", &a.step_rate, 1.0f, 100.0f, "%.0f samples/s",
+                     ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp);
+  if (!ImGui::GetIO().WantTextInput) {
+    if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_LeftArrow))) --a.step;
+    if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_RightArrow))) ++a.step;
+  }
+  if (a.step_playing) {
+    a.step_clock += static_cast<double>(ImGui::GetIO().DeltaTime);
+    const double every = 1.0 / std::max(a.step_rate, 1.0f);
+    while (a.step_clock >= every) {
+      a.step_clock -= every;
+      ++a.step;
+    }
+    if (a.step >= N - 1) a.step_playing = false;
+  }
+  a.step = std::clamp(a.step, 0, N - 1);
+  ImGui::SameLine();
+  ImGui::AlignTextToFramePadding();
+  ImGui::TextDisabled("state %s of %s (%s = %s)", GroupedCount(a.step + 1).c_str(),
+                      GroupedCount(N).c_str(), d.time_name.c_str(),
+                      FormatSig(d.time[static_cast<std::size_t>(a.step)], 6).c_str());
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "The state at this sample is updated with each output's measurement that "
+        "many rows later (its delay); the plots mark that row");
+  // The time window follows the step: a stretch of 60 samples when it leaves the window.
+  const double t = d.time[static_cast<std::size_t>(a.step)];
+  plot::Range& x = a.time_x.range;
+  if (a.step != before || !(t >= x.min && t <= x.max)) {
+    if (!(t >= x.min && t <= x.max) || x.max - x.min > kStepWindow * d.sample_interval * 2) {
+      const int lo = std::max(0, a.step - kStepWindow / 2);
+      const int hi = std::min(N - 1, lo + kStepWindow);
+      a.time_x.fit_request_frame = plot::LinkedRange::kNoFit;
+      x = {d.time[static_cast<std::size_t>(lo)], d.time[static_cast<std::size_t>(hi)]};
+    }
+  }
+}
+
+// Under the plots: per state, the prediction before the update with its sd, the gain of each
+// output observed, the state after with its sd; the innovations; and P over the record.
+void DrawStepTable(AppState& state, const DatasetAnalysis& d) {
+  const AnalysisState& a = state.analysis;
+  const FilterSteps& st = d.steps;
+  const auto j = static_cast<Eigen::Index>(a.step);
+  if (st.x_prior.cols() == 0) {
+    ImGui::TextDisabled("Computing the filter's steps\xE2\x80\xA6");
+    return;
+  }
+  if (j >= st.x_prior.cols()) return;
+  const auto p = static_cast<Eigen::Index>(d.outputs.size());
+  // The innovations of this step.
+  std::string innovations;
+  for (const OutputAnalysis& o : d.outputs) {
+    const int k = StepRow(a, d, o);
+    if (!innovations.empty()) innovations += "    ";
+    if (k < 0) {
+      innovations += o.name + ": its measurement of this state (" + SamplesText(o.delay) +
+                     " later) is after the record's end";
+      continue;
+    }
+    const auto i = static_cast<std::size_t>(k);
+    if (!std::isfinite(o.standardized[i])) {
+      innovations += o.name + ": no measurement used at this step";
+      continue;
+    }
+    const double sd = 0.5 * (o.upper[i] - o.lower[i]) / kBandSd;
+    innovations +=
+        o.name + " at " + d.time_name + " = " + FormatSig(d.time[i], 6) +
+        ": innovation \xCE\xB5 = measured \xE2\x88\x92 predicted = " + FormatSig(o.residual[i], 4) +
+        ", sd " + FormatSig(sd, 4) + ", \xCE\xB5/sd = " + FormatSig(o.standardized[i], 3);
+  }
+  ImGui::PushTextWrapPos(0.0f);
+  ImGui::TextUnformatted(innovations.c_str());
+  ImGui::PopTextWrapPos();
+  if (!st.error.empty())
+    ImGui::TextColored(SeverityColor(Severity::kWarning), "%s", st.error.c_str());
+  const int columns = 3 + static_cast<int>(p);
+  constexpr ImGuiTableFlags kFlags = ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_RowBg |
+                                     ImGuiTableFlags_BordersInnerH |
+                                     ImGuiTableFlags_NoSavedSettings;
+  if (!ImGui::BeginTable("##step", columns, kFlags)) return;
+  ImGui::TableSetupColumn("State");
+  ImGui::TableSetupColumn("Before the update \xC2\xB1 sd");
+  std::vector<std::string> gain_titles;
+  for (const OutputAnalysis& o : d.outputs) gain_titles.push_back("Gain K (" + o.name + ")");
+  for (const std::string& g : gain_titles) ImGui::TableSetupColumn(g.c_str());
+  ImGui::TableSetupColumn("After the update \xC2\xB1 sd");
+  ImGui::TableHeadersRow();
+  for (Eigen::Index i = 0; i < st.x_prior.rows(); ++i) {
+    ImGui::TableNextRow();
+    ImGui::TableNextColumn();
+    ImGui::TextUnformatted(i < static_cast<Eigen::Index>(st.states.size())
+                               ? st.states[static_cast<std::size_t>(i)].c_str()
+                               : "");
+    ImGui::TableNextColumn();
+    ImGui::Text("%s \xC2\xB1 %s", FormatSig(st.x_prior(i, j), 5).c_str(),
+                FormatSig(st.sd_prior(i, j), 3).c_str());
+    for (Eigen::Index o = 0; o < p; ++o) {
+      ImGui::TableNextColumn();
+      const double g = st.gain(i * p + o, j);
+      if (std::isfinite(g)) {
+        ImGui::TextUnformatted(FormatSig(g, 4).c_str());
+      } else {
+        ImGui::TextDisabled("\xE2\x80\x94");
+      }
+    }
+    ImGui::TableNextColumn();
+    ImGui::Text("%s \xC2\xB1 %s", FormatSig(st.x_post(i, j), 5).c_str(),
+                FormatSig(st.sd_post(i, j), 3).c_str());
+  }
+  ImGui::EndTable();
+}
+
+// P over the record: each state's sd after the update, the step marked.
+void DrawCovarianceInset(AppState& state, const DatasetAnalysis& d, ImVec2 size) {
+  const FilterSteps& st = d.steps;
+  if (st.sd_post.cols() != static_cast<Eigen::Index>(d.time.size()) || d.time.empty()) return;
+  plot::PlotOptions options;
+  options.title = "sd of the states after each update (from P)";
+  options.x_label = d.time_name.c_str();
+  options.x_title = true;
+  options.legend = plot::Legend::kShow;
+  if (!plot::BeginPlot(state.plots, "##covariance", size, options)) return;
+  const int n = static_cast<int>(d.time.size());
+  for (Eigen::Index i = 0; i < st.sd_post.rows(); ++i) {
+    const Eigen::VectorXd row = st.sd_post.row(i).transpose();
+    const std::string label = i < static_cast<Eigen::Index>(st.states.size())
+                                  ? st.states[static_cast<std::size_t>(i)]
+                                  : std::to_string(i);
+    plot::PlotLine(state.plots, label.c_str(), d.time.data(), row.data(), n);
+  }
+  const double t = d.time[static_cast<std::size_t>(std::clamp(state.analysis.step, 0, n - 1))];
+  plot::ItemStyle line;
+  line.color = kStepColor;
+  plot::PlotVLines(state.plots, "now", &t, 1, nullptr, line);
+  plot::EndPlot(state.plots);
+}
+
 void DrawOutputPlot(AppState& state, const DatasetAnalysis& d, const OutputAnalysis& o, ImVec2 size,
                     bool last) {
   const AnalysisState& a = state.analysis;
@@ -179,6 +384,7 @@ void DrawOutputPlot(AppState& state, const DatasetAnalysis& d, const OutputAnaly
                    o.smoothed_upper.data(), n, smoothed);
     plot::PlotLine(state.plots, "smoothed", t, o.smoothed.data(), n, smoothed);
   }
+  if (a.show_step) DrawStepMarkers(state, d, o);
   plot::EndPlot(state.plots);
 }
 
@@ -268,11 +474,18 @@ void DrawPredictionsPanel(AppState& state) {
     }
   }
 
+  if (state.analysis.show_step) DrawStepBar(state, *d);
   // Equal plot areas: the bottom plot also carries the time axis' title.
   const float s = state.fonts.scale;
   const float spacing = 4.0f * s;
   const float title_h = 1.2f * ImGui::GetFontSize();
-  const float avail = ImGui::GetContentRegionAvail().y;
+  // Step mode: the table and the inset of P under the plots take their share.
+  const float step_h = state.analysis.show_step
+                           ? ImGui::GetTextLineHeightWithSpacing() *
+                                     (static_cast<float>(d->steps.x_prior.rows()) + 3.0f) +
+                                 kInsetHeight * s
+                           : 0.0f;
+  const float avail = ImGui::GetContentRegionAvail().y - step_h;
   const float n = static_cast<float>(std::max<std::size_t>(1, d->outputs.size()));
   const float height =
       std::max(kMinPlotHeight * s, (avail - spacing * (n - 1.0f) - title_h) / n - 1.0f);
@@ -286,6 +499,10 @@ void DrawPredictionsPanel(AppState& state) {
     ImGui::PushID(static_cast<int>(k));
     DrawOutputPlot(state, *d, d->outputs[k], ImVec2(-1, last ? height + title_h : height), last);
     ImGui::PopID();
+  }
+  if (state.analysis.show_step) {
+    DrawStepTable(state, *d);
+    DrawCovarianceInset(state, *d, ImVec2(-1, kInsetHeight * s));
   }
   ImGui::PopID();
   ImGui::PopStyleVar();

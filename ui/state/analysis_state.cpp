@@ -110,6 +110,7 @@ std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state, std::st
   r.datasets_revision = state.datasets_revision;
   r.model_revision = state.model_revision;
   // The h-step predictions only when they are shown: for an EKF they cost h integrations a row.
+  r.steps = a.show_step;
   r.horizon = a.show_ahead ? std::clamp(a.horizon, 1, kMaxHorizon) : 0;
   r.preview_theta = m.Values();
   const FitResult* fit = state.estimation.result ? &*state.estimation.result : nullptr;
