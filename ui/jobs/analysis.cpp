@@ -288,7 +288,8 @@ bool AnalyseSeries(const ModelAt& at, const Preview& preview, const data::Series
   }
   out->loglik = pred->loglik.loglik;
   out->n_obs = pred->loglik.n_obs;
-  if (a.request.steps) out->steps = MakeSteps(at, series, trace, a.delay, pred->standardized, a.states);
+  if (a.request.steps)
+    out->steps = MakeSteps(at, series, trace, a.delay, pred->standardized, a.states);
   Result<sim::Simulation> simulated = at.Simulate(series, settings);
   std::optional<Result<sim::Simulation>> previewed;
   if (preview.model) previewed = preview.model->Simulate(series, settings);
