@@ -348,6 +348,7 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
   state.analysis.show_compare = options.compare;
   state.analysis.show_step = options.step > 0;
   state.analysis.step = options.step - 1;
+  state.analysis.step_recentre = options.step > 0;
   state.analysis.enabled = Shows(options, ui::View::kData) ||
                            Shows(options, ui::View::kPredictions) ||
                            Shows(options, ui::View::kResiduals);
@@ -408,7 +409,9 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
     // of before as the ghost.
     if (!state.model) return Fail(kExitBadInput, "--slider: the model is not valid");
     bool any_moved = false;
-    for (const auto& [name, value] : options.sliders) {
+    for (const auto& slider : options.sliders) {
+      const std::string& name = slider.first;
+      const std::optional<double>& value = slider.second;
       const auto& ps = state.model->parameters;
       const auto it =
           std::find_if(ps.begin(), ps.end(), [&](const auto& p) { return p.name == name; });

@@ -50,8 +50,11 @@ void DrawMenuBar(AppState& state) {
     if (ImGui::MenuItem("Messages", nullptr, state.show_messages)) {
       state.show_messages = !state.show_messages;
     }
-    if (ImGui::MenuItem("Sliders", nullptr, state.sliders.open, state.model.has_value()))
+    if (ImGui::MenuItem("Sliders", nullptr, state.sliders.open, state.model.has_value())) {
       state.sliders.open = !state.sliders.open;
+      // Shown beside the views they act on: from any other, go to the predictions.
+      if (state.sliders.open && !SlidersPanelShown(state)) state.view = View::kPredictions;
+    }
     if (ImGui::IsItemHovered())
       ImGui::SetTooltip(
           "Parameters as sliders beside the Data, Predictions, Residuals and "

@@ -58,8 +58,10 @@ bool DrawOverlayControls(AppState& state) {
         "later (Rauch-Tung-Striebel; extended for a nonlinear model), \xC2\xB1 2 sd without "
         "the measurement noise");
   SameLineIfFits(CheckboxWidth("Step through the filter"), gap);
-  if (ImGui::Checkbox("Step through the filter", &a.show_step) && a.show_step)
+  if (ImGui::Checkbox("Step through the filter", &a.show_step) && a.show_step) {
     a.step_playing = false;
+    a.step_recentre = true;
+  }
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "The filter one sample at a time: the prediction before the measurement, the "
@@ -221,14 +223,16 @@ void DrawStepBar(AppState& state, const DatasetAnalysis& d) {
   // The time window follows the step: a stretch of 60 samples when it leaves the window.
   const double t = d.time[static_cast<std::size_t>(a.step)];
   plot::Range& x = a.time_x.range;
-  if (a.step != before || !(t >= x.min && t <= x.max)) {
-    if (!(t >= x.min && t <= x.max) || x.max - x.min > kStepWindow * d.sample_interval * 2) {
+  if (a.step != before || a.step_recentre || !(t >= x.min && t <= x.max)) {
+    if (a.step_recentre || !(t >= x.min && t <= x.max) ||
+        x.max - x.min > kStepWindow * d.sample_interval * 2) {
       const int lo = std::max(0, a.step - kStepWindow / 2);
       const int hi = std::min(N - 1, lo + kStepWindow);
       a.time_x.fit_request_frame = plot::LinkedRange::kNoFit;
       x = {d.time[static_cast<std::size_t>(lo)], d.time[static_cast<std::size_t>(hi)]};
     }
   }
+  a.step_recentre = false;
 }
 
 // Under the plots: per state, the prediction before the update with its sd, the gain of each

@@ -109,9 +109,10 @@ std::optional<AnalysisRequest> AnalysisRequestNow(const AppState& state, std::st
   r.project_generation = state.project_generation;
   r.datasets_revision = state.datasets_revision;
   r.model_revision = state.model_revision;
-  // The h-step predictions only when they are shown: for an EKF they cost h integrations a row.
-  r.steps = a.show_step;
+  // The h-step predictions and the filter's steps only while they are shown (for an EKF the
+  // h-step predictions cost h integrations a row).
   r.horizon = a.show_ahead ? std::clamp(a.horizon, 1, kMaxHorizon) : 0;
+  r.steps = a.show_step;
   r.preview_theta = m.Values();
   const FitResult* fit = state.estimation.result ? &*state.estimation.result : nullptr;
   if (fit && !a.use_current_values && FitMatchesModel(*fit, m)) {

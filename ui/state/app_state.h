@@ -200,10 +200,11 @@ struct AnalysisState {
   int step = 0;               // the state index shown
   bool step_playing = false;  // advancing at step_rate samples a second
   float step_rate = 5.0f;
-  double step_clock = 0.0;  // seconds played since the last step
-  int dataset = 0;          // shown in both views
-  int output = 0;           // the Residuals view's output
-  int input = 0;            // the Residuals view's cross-correlation input
+  double step_clock = 0.0;     // seconds played since the last step
+  bool step_recentre = false;  // Step was just ticked: the time window goes to the step
+  int dataset = 0;             // shown in both views
+  int output = 0;              // the Residuals view's output
+  int input = 0;               // the Residuals view's cross-correlation input
   // Time axes of the predictions and the residuals against time (linked with each other),
   // and the x ranges of the diagnostics plots; refitted when a new result or selection arrives.
   plot::LinkedRange time_x;
