@@ -149,33 +149,41 @@ int StepRow(const AnalysisState& a, const DatasetAnalysis& d, const OutputAnalys
   return k >= 0 && k < static_cast<int>(d.time.size()) ? k : -1;
 }
 
+// The step's points in one output's plot. The plot keeps pointers to its items' data until
+// EndPlot, so they live in the caller's frame, not in DrawStepMarkers'.
+struct StepPoints {
+  double t = 0, prior = 0, half = 0, post = 0;
+};
+
 // At row k: the line of the instant, the prediction before the measurement with ± 2 sd, the
 // measurement and the output at the state after the update.
-void DrawStepMarkers(AppState& state, const DatasetAnalysis& d, const OutputAnalysis& o) {
+void DrawStepMarkers(AppState& state, const DatasetAnalysis& d, const OutputAnalysis& o,
+                     StepPoints* at) {
   const int k = StepRow(state.analysis, d, o);
   if (k < 0) return;
   const auto i = static_cast<std::size_t>(k);
-  const double t = d.time[i];
+  at->t = d.time[i];
   plot::ItemStyle line;
   line.color = kStepColor;
-  plot::PlotVLines(state.plots, "now", &t, 1, nullptr, line);
-  const double prior = o.predicted[i], half = 0.5 * (o.upper[i] - o.lower[i]);
+  plot::PlotVLines(state.plots, "now", &at->t, 1, nullptr, line);
+  at->prior = o.predicted[i];
+  at->half = 0.5 * (o.upper[i] - o.lower[i]);
   plot::ItemStyle prior_style;
   prior_style.color = kPredictionColor;
   prior_style.marker_radius = 5.0f;
-  plot::PlotErrorBars(state.plots, "before: prediction \xC2\xB1 2 sd", &t, &prior, &half, 1,
-                      prior_style);
+  plot::PlotErrorBars(state.plots, "before: prediction \xC2\xB1 2 sd", &at->t, &at->prior,
+                      &at->half, 1, prior_style);
   plot::ItemStyle measured;
   measured.color = kMeasuredColor;
   measured.marker_radius = 5.0f;
-  plot::PlotMarkers(state.plots, "the measurement", &t, &o.measured[i], 1, measured);
+  plot::PlotMarkers(state.plots, "the measurement", &at->t, &o.measured[i], 1, measured);
   const auto r = static_cast<Eigen::Index>(&o - d.outputs.data());
   if (r < d.steps.y_post.rows() && std::isfinite(d.steps.y_post(r, k))) {
-    const double post = d.steps.y_post(r, k);
+    at->post = d.steps.y_post(r, k);
     plot::ItemStyle after;
     after.color = kStepColor;
     after.marker_radius = 5.0f;
-    plot::PlotMarkers(state.plots, "after: at the updated state", &t, &post, 1, after);
+    plot::PlotMarkers(state.plots, "after: at the updated state", &at->t, &at->post, 1, after);
   }
 }
 
@@ -319,15 +327,19 @@ void DrawCovarianceInset(AppState& state, const DatasetAnalysis& d, ImVec2 size)
   options.x_label = d.time_name.c_str();
   options.x_title = true;
   options.legend = plot::Legend::kShow;
+  // The plot keeps pointers to the rows and labels until EndPlot.
+  std::vector<Eigen::VectorXd> rows;
+  std::vector<std::string> labels;
+  for (Eigen::Index i = 0; i < st.sd_post.rows(); ++i) {
+    rows.emplace_back(st.sd_post.row(i).transpose());
+    labels.push_back(i < static_cast<Eigen::Index>(st.states.size())
+                         ? st.states[static_cast<std::size_t>(i)]
+                         : std::to_string(i));
+  }
   if (!plot::BeginPlot(state.plots, "##covariance", size, options)) return;
   const int n = static_cast<int>(d.time.size());
-  for (Eigen::Index i = 0; i < st.sd_post.rows(); ++i) {
-    const Eigen::VectorXd row = st.sd_post.row(i).transpose();
-    const std::string label = i < static_cast<Eigen::Index>(st.states.size())
-                                  ? st.states[static_cast<std::size_t>(i)]
-                                  : std::to_string(i);
-    plot::PlotLine(state.plots, label.c_str(), d.time.data(), row.data(), n);
-  }
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    plot::PlotLine(state.plots, labels[i].c_str(), d.time.data(), rows[i].data(), n);
   const double t = d.time[static_cast<std::size_t>(std::clamp(state.analysis.step, 0, n - 1))];
   plot::ItemStyle line;
   line.color = kStepColor;
@@ -388,7 +400,8 @@ void DrawOutputPlot(AppState& state, const DatasetAnalysis& d, const OutputAnaly
                    o.smoothed_upper.data(), n, smoothed);
     plot::PlotLine(state.plots, "smoothed", t, o.smoothed.data(), n, smoothed);
   }
-  if (a.show_step) DrawStepMarkers(state, d, o);
+  StepPoints step;  // lives until EndPlot
+  if (a.show_step) DrawStepMarkers(state, d, o, &step);
   plot::EndPlot(state.plots);
 }
 
