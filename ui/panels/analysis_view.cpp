@@ -122,6 +122,16 @@ const OutputAnalysis* GhostOutput(const AppState& state, std::size_t dataset, st
   return &d.outputs[output];
 }
 
+const char* VerdictWord(const diagnose::ResidualDiagnostics& st) {
+  return st.white && st.normal ? "White and normal" : st.white ? "White, not normal" : "Not white";
+}
+
+ImU32 VerdictColor(const diagnose::ResidualDiagnostics& st) {
+  return st.white && st.normal ? kGoodColor
+                               : ImGui::ColorConvertFloat4ToU32(SeverityColor(
+                                     st.white ? Severity::kWarning : Severity::kError));
+}
+
 std::string SamplesText(int n) { return std::to_string(n) + (n == 1 ? " sample" : " samples"); }
 
 const DatasetAnalysis* DrawAnalysisHeader(AppState& state, bool (*view_controls)(AppState&)) {

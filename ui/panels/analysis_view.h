@@ -26,6 +26,11 @@ const OutputAnalysis* GhostOutput(const AppState& state, std::size_t dataset, st
 inline ImU32 GhostColor(ImU32 color) { return (color & ~IM_COL32_A_MASK) | IM_COL32(0, 0, 0, 80); }
 inline constexpr const char* kGhostLabel = "before the slider";
 
+// The residual verdict in a word ("White and normal", "White, not normal", "Not white") and
+// its colour (green, amber, red), as the Residuals view and the sliders' table show it.
+const char* VerdictWord(const diagnose::ResidualDiagnostics& st);
+ImU32 VerdictColor(const diagnose::ResidualDiagnostics& st);
+
 // Colours shared by both views.
 inline constexpr ImU32 kMeasuredColor = IM_COL32(60, 64, 72, 255);
 inline constexpr ImU32 kPredictionColor = IM_COL32(31, 119, 180, 255);

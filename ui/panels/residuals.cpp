@@ -67,13 +67,8 @@ bool DrawSelectors(AppState& state) {
 // white but not normal, red when not white.
 void DrawVerdict(AppState& state, const diagnose::ResidualDiagnostics& st) {
   const float s = state.fonts.scale;
-  const ImU32 color = st.white && st.normal
-                          ? kGoodColor
-                          : ImGui::ColorConvertFloat4ToU32(
-                                SeverityColor(st.white ? Severity::kWarning : Severity::kError));
-  const char* word = st.white && st.normal ? "White and normal"
-                     : st.white            ? "White, not normal"
-                                           : "Not white";
+  const ImU32 color = VerdictColor(st);
+  const char* word = VerdictWord(st);
   ImDrawList* dl = ImGui::GetWindowDrawList();
   dl->ChannelsSplit(2);
   dl->ChannelsSetCurrent(1);

@@ -122,13 +122,7 @@ void DrawAddCombo(AppState& state) {
 // 2. The response's figures
 
 void DrawVerdictText(const diagnose::ResidualDiagnostics& st) {
-  const ImVec4 color = st.white && st.normal ? ImGui::ColorConvertU32ToFloat4(kGoodColor)
-                       : st.white            ? SeverityColor(Severity::kWarning)
-                                             : SeverityColor(Severity::kError);
-  ImGui::TextColored(color, "%s",
-                     st.white && st.normal ? "White and normal"
-                     : st.white            ? "White, not normal"
-                                           : "Not white");
+  ImGui::TextColored(ImGui::ColorConvertU32ToFloat4(VerdictColor(st)), "%s", VerdictWord(st));
 }
 
 // One row of the figures: its name, the value now and (while a drag is under way) before it.
