@@ -215,6 +215,22 @@ int RunDyno(const DynoArgs& args);
 
 // linearise RESULT.json --point NAME=VALUE,...: the linearised model (A, B, C, D) of a fitted
 // model at a steady state, with standard errors by the delta method (core/model/linearise.h).
+// design MODEL --design SPEC [--design SPEC]: the standard errors an experiment would give
+// (core/design/experiment.h), one design or two side by side; --fit N also simulates N records
+// with each and fits them (core/project/design_fits.h).
+struct DesignArgs {
+  std::string model;
+  std::vector<std::string> designs;  // the text form of design::InputDesign, 1 or 2
+  std::string drive;                 // the input the designs drive (default: the only one)
+  std::vector<std::string> holds;    // INPUT=VALUE: the other inputs' levels
+  std::vector<std::string> sets;
+  std::string result;  // the parameter values of a result file
+  int fit = 0;         // records simulated and fitted per design
+  std::uint64_t seed = 1;
+  std::string out;  // JSON; empty: none
+};
+int RunDesign(const DesignArgs& args);
+
 struct LineariseArgs {
   std::string result;
   std::string model;  // empty: the result file's "model_file"

@@ -16,6 +16,7 @@
 #include "app/cli/cli.h"
 #include "core/design/prbs.h"
 #include "core/estimate/estimate.h"
+#include "core/project/design_fits.h"
 #include "core/util/json.h"
 
 namespace gb::cli {
@@ -500,6 +501,30 @@ int Main(int argc, char** argv) {
                  "with --live: also columns true_tau_ff, true_X, true_delay, true_Kb")
       ->needs(live);
   c_dyno->callback([&] { run = [&] { return RunDyno(dyno); }; });
+
+  DesignArgs design;
+  auto* c_design = app.add_subcommand(
+      "design", "the standard errors an experiment would give: one input design, or two compared");
+  c_design->add_option("model", design.model, "model file (JSON; a linear model)")->required();
+  c_design
+      ->add_option("--design", design.designs,
+                   "SHAPE:KEY=VALUE,...: prbs:order=6,bit=0.5,level=1.19,amplitude=0.12,ts=0.0125,"
+                   "duration=125; square:period=..; step:at=.. (once, or twice to compare)")
+      ->required();
+  c_design->add_option("--drive", design.drive,
+                       "the input the design drives (default: the model's only input)");
+  c_design->add_option("--hold", design.holds, "INPUT=VALUE: the level of another input");
+  c_design->add_option("--set", design.sets, "NAME=VALUE: override a parameter's value");
+  c_design->add_option("--result", design.result,
+                       "the parameter values of a result file (--set overrides)");
+  c_design
+      ->add_option("--fit", design.fit,
+                   "also simulate this many records with each design and fit them, 1..1000")
+      ->check(Number({.lo = 1, .hi = project::kMaxDesignRecords, .whole = true}));
+  c_design->add_option("--seed", design.seed, "the first record's seed (default 1)")
+      ->check(Seed(std::numeric_limits<std::uint64_t>::max()));
+  c_design->add_option("--out", design.out, "write the designs' standard errors as JSON");
+  c_design->callback([&] { run = [&] { return RunDesign(design); }; });
 
   LineariseArgs linearise;
   auto* c_lin = app.add_subcommand(
