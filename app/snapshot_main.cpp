@@ -50,6 +50,9 @@
 // --step J: the Predictions view's Step mode at state index J (from 1; past the record's end:
 // its last), as its Step checkbox and keys would show it.
 //
+// --design-try SLOT[:N]: the Experiment design view's Try of design SLOT (A or B) with N records
+// (default 1), as its button would start it, waited for.
+//
 // --dialog opens one of the shell's dialogs over the view, as its menu item does (the file
 // browser lists a real folder, so its dates make that picture depend on the machine).
 //
@@ -132,6 +135,8 @@ struct Options {
   // --slider NAME[=VALUE]: the parameter's slider shown (and moved to VALUE, mid-drag).
   std::vector<std::pair<std::string, std::optional<double>>> sliders;
   int step = 0;  // --step J: the Predictions view's Step mode at state index J (from 1; 0: off)
+  int design_try = -1;       // --design-try SLOT[:N]: the slot (0 A, 1 B; -1: none) ...
+  int design_records = 1;    // ... and N
   std::string pending_plot;  // a --plot waiting for its --out
 };
 
@@ -142,7 +147,7 @@ constexpr const char* kUsage =
     "                          [--dialog DIALOG]\n"
     "                          [--time T0:T1] [--profile PARAMETER]\n"
     "                          [--overlays ahead,simulation,smoothed,compare] [--dataset N]\n"
-    "                          [--slider PARAMETER[=VALUE] ...] [--step J]\n"
+    "                          [--slider PARAMETER[=VALUE] ...] [--step J] [--design-try A|B[:N]]\n"
     "                          [--live-until T [--live-fault TIME:PARAMETER*FACTOR[/RAMP] ...]\n"
     "                           [--live-point NAME] [--live-seed N] [--live-forgetting L]\n"
     "                           [--live-csv FILE] [--live-reference RESULT.json]]\n"
@@ -187,7 +192,7 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
         arg == "--overlays" || arg == "--live-until" || arg == "--live-fault" ||
         arg == "--live-point" || arg == "--live-seed" || arg == "--live-forgetting" ||
         arg == "--live-csv" || arg == "--live-reference" || arg == "--dataset" || arg == "--plot" ||
-        arg == "--slider" || arg == "--step";
+        arg == "--slider" || arg == "--step" || arg == "--design-try";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
@@ -278,6 +283,19 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       if (value.empty() || *end != '\0' || j < 1 || j > 100000000)
         return "--step '" + value + "': expected the state index to show, from 1";
       o->step = static_cast<int>(j);
+    } else if (arg == "--design-try") {
+      const std::string slot = value.substr(0, value.find(':'));
+      if (slot != "A" && slot != "B")
+        return "--design-try '" + value + "': expected A or B, then :N for N records";
+      o->design_try = slot == "A" ? 0 : 1;
+      if (value.size() > 1) {
+        char* end = nullptr;
+        const std::string n = value.substr(slot.size() + 1);
+        const long records = std::strtol(n.c_str(), &end, 10);
+        if (value[1] != ':' || n.empty() || *end != '\0' || records < 1 || records > 1000)
+          return "--design-try '" + value + "': expected A or B, then :N for 1 to 1000 records";
+        o->design_records = static_cast<int>(records);
+      }
     } else if (arg == "--live-csv") {
       o->live_csv = value;
     } else if (arg == "--live-reference") {
@@ -432,6 +450,14 @@ int Prepare(const Options& options, gb::ui::AppState& state, bool* fatal) {
         if (value) ui::MoveSlider(state, name, *value);
       ui::WaitForJobs(state);
     }
+  }
+  if (options.design_try >= 0 && Shows(options, ui::View::kDesign)) {
+    ui::WaitForJobs(state);
+    state.design.records = options.design_records;
+    std::string why;
+    if (!ui::StartDesignFit(state, options.design_try, &why))
+      return Fail(kExitBadInput, "--design-try: " + why);
+    ui::WaitForJobs(state);
   }
   if (!options.live_point.empty()) state.live.settings.point = options.live_point;
   if (options.live_seed) state.live.settings.seed = *options.live_seed;

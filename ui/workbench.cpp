@@ -305,6 +305,9 @@ void DrawPanel(AppState& state, View view) {
     case View::kLive:
       DrawLivePanel(state);
       break;
+    case View::kDesign:
+      DrawDesignPanel(state);
+      break;
   }
 }
 

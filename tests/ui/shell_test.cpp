@@ -355,7 +355,7 @@ TEST_F(ShellTest, AnAutosaveThatCannotWriteWarnsOnceAndSaysWhenItWorksAgain) {
 TEST_F(ShellTest, ShortcutsSwitchViewsAndRunAndCancelTheEstimation) {
   WorkbenchDriver& d = Start();
   d.Open(project());
-  for (std::size_t i = 0; i < kAllViews.size(); ++i) {
+  for (std::size_t i = 0; i < kAllViews.size() && i < 9; ++i) {  // Ctrl+0 resets the zoom
     Key('1' + static_cast<int>(i), /*ctrl=*/true);
     EXPECT_EQ(d.state.view, kAllViews[i]) << i;
   }

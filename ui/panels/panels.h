@@ -17,6 +17,7 @@ void DrawResidualsPanel(AppState& state);        // residuals.cpp
 void DrawParametersPanel(AppState& state);       // parameters.cpp
 void DrawOperatingPointsPanel(AppState& state);  // operating_points.cpp
 void DrawLivePanel(AppState& state);             // live.cpp
+void DrawDesignPanel(AppState& state);           // design.cpp
 
 // The sliders beside the Data, Predictions, Residuals and Parameters views (sliders.cpp): whether
 // the current view has them, and the panel.

@@ -347,7 +347,7 @@ void HandleShortcuts(AppState& state) {
   if (ctrl && Pressed(kKeyMinus)) Zoom(state, 1.0f / kZoomStep);
   if (ctrl && Pressed('0')) Zoom(state, 1.0f / state.shell.zoom);
   if (ctrl) {
-    for (std::size_t i = 0; i < kAllViews.size(); ++i) {
+    for (std::size_t i = 0; i < kAllViews.size() && i < 9; ++i) {
       if (Pressed('1' + static_cast<int>(i))) state.view = kAllViews[i];
     }
   }
@@ -1075,7 +1075,7 @@ bool OpenDialogByName(AppState& state, std::string_view name) {
 }
 
 std::string ViewShortcut(View view) {
-  for (std::size_t i = 0; i < kAllViews.size(); ++i) {
+  for (std::size_t i = 0; i < kAllViews.size() && i < 9; ++i) {  // Ctrl+0 resets the zoom
     if (kAllViews[i] == view) return "Ctrl+" + std::to_string(i + 1);
   }
   return "";

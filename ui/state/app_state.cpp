@@ -19,7 +19,7 @@ struct ViewInfo {
   std::string_view name;
   std::string_view title;
 };
-constexpr std::array<ViewInfo, 9> kViewInfo = {{
+constexpr std::array<ViewInfo, 10> kViewInfo = {{
     {View::kData, "data", "Data"},
     {View::kDiagram, "diagram", "Diagram"},
     {View::kEquations, "equations", "Equations"},
@@ -29,6 +29,7 @@ constexpr std::array<ViewInfo, 9> kViewInfo = {{
     {View::kParameters, "parameters", "Parameters"},
     {View::kOperatingPoints, "operating-points", "Operating points"},
     {View::kLive, "live", "Live"},
+    {View::kDesign, "design", "Experiment design"},
 }};
 
 const ViewInfo& Info(View view) {
@@ -269,6 +270,7 @@ void PollJobs(AppState& state) {
   }
   PollSweep(state);
   PollLive(state);
+  PollDesign(state);
 
   std::optional<ProjectLoad> load = state.load_job.TakeIfReady();
   if (!load) {
@@ -303,7 +305,7 @@ namespace {
 // The jobs that end by themselves (not the live run).
 bool FiniteJobActive(const AppState& state) {
   return state.load_job.active() || state.estimation.job.active() || state.sweep.job.active() ||
-         state.analysis.job.active();
+         state.analysis.job.active() || state.design.job.active() || state.design.fit_job.active();
 }
 
 }  // namespace
@@ -318,6 +320,9 @@ void WaitForJobs(AppState& state) {
     state.sweep.job.Wait();
     PollJobs(state);
     state.analysis.job.Wait();
+    PollJobs(state);
+    state.design.job.Wait();
+    state.design.fit_job.Wait();
     PollJobs(state);
   } while (FiniteJobActive(state));
 }

@@ -23,6 +23,7 @@
 #include "core/project/project.h"
 #include "ui/edits/model_edit.h"
 #include "ui/jobs/analysis.h"
+#include "ui/jobs/design.h"
 #include "ui/jobs/estimation.h"
 #include "ui/jobs/job.h"
 #include "ui/jobs/live.h"
@@ -47,11 +48,13 @@ enum class View {
   kParameters,
   kOperatingPoints,
   kLive,
+  kDesign,
 };
-inline constexpr std::array<View, 9> kAllViews = {
-    View::kData,       View::kDiagram,         View::kEquations,
-    View::kEstimate,   View::kPredictions,     View::kResiduals,
-    View::kParameters, View::kOperatingPoints, View::kLive};
+// In the sidebar's and the View menu's order; the first nine have Ctrl+1..9.
+inline constexpr std::array<View, 10> kAllViews = {
+    View::kData,        View::kDiagram,   View::kEquations,  View::kEstimate,
+    View::kPredictions, View::kResiduals, View::kParameters, View::kOperatingPoints,
+    View::kLive,        View::kDesign};
 
 std::string_view ViewName(View view);   // the command-line name: "operating-points"
 std::string_view ViewTitle(View view);  // the title in the UI: "Operating points"
@@ -333,6 +336,32 @@ struct SliderScale {
 };
 SliderScale SliderRange(const model::Parameter& p, double value, const project::SliderSpec& spec);
 
+// The experiment-design view (user guide §6b): two input designs for the model at the values
+// the views show, their expected standard errors side by side, and each design tried (records
+// simulated with it and fitted). Seeded from the project's data when the view is first shown.
+struct DesignSlot {
+  design::InputDesign design;
+  // The last try of this design (FitDesign) and the request key it answered.
+  std::optional<DesignFitRun> tried;
+};
+struct DesignViewState {
+  std::array<DesignSlot, 2> slots;
+  bool compare = true;              // the second design is shown and evaluated
+  int input = 0;                    // the input the designs drive
+  std::vector<double> hold;         // every input's level while another is driven
+  int records = 50;                 // records a try simulates and fits
+  int seeded_generation = -1;       // project_generation the designs were seeded for
+  std::optional<DesignRun> result;  // the last evaluation that finished
+  Job<DesignRun> job;
+  std::string running_key;  // the request of the evaluation under way
+  Job<DesignFitRun> fit_job;
+  int fit_slot = -1;  // the design being tried
+  std::chrono::steady_clock::time_point fit_started;
+  // The inputs' plot: a window on the records' start (a few of B's periods or 40 of A's bits),
+  // panned and zoomed as any time plot; set when the designs are seeded.
+  plot::LinkedRange time_x;
+};
+
 struct AppState {
   // The open project and its data, replaced as a whole when a loading job succeeds.
   std::optional<project::Project> project;
@@ -359,6 +388,7 @@ struct AppState {
   AnalysisState analysis;
   LiveState live;
   SlidersState sliders;
+  DesignViewState design;
 
   View view = View::kData;
   std::vector<Message> messages;
@@ -471,6 +501,18 @@ void UseSliderValuesAsStart(AppState& state);
 void ApplySliders(const AppState& state, std::vector<double>* theta);
 // The project's list read on opening it (parameters the model lacks are left out, with a warning).
 void InstallSliders(AppState& state);
+
+// The experiment-design view. SeedDesigns fills the designs from the project's first dataset
+// (the driven input's mean and spread, its sample interval and span) and the model's time
+// constants (design A a PRBS whose bit suits them, B slow steps); PollDesign, every frame while
+// the view is shown, starts the evaluation when the request changed and installs what finished.
+// DesignRequestNow: the request for the values the views show (nullopt without a valid model).
+std::optional<DesignRequest> DesignRequestNow(const AppState& state);
+void SeedDesigns(AppState& state);
+void PollDesign(AppState& state);
+// Tries design `slot`: simulates DesignViewState::records records and fits them, in fit_job.
+// Refused (false, *why) while a try runs or without a valid linear model.
+bool StartDesignFit(AppState& state, int slot, std::string* why);
 
 // The operating-point sweep (ui/state/sweep_state.cpp), run like the estimation.
 // Reads the project's "operating_points" key into state.sweep and drops the last sweep (a new
