@@ -1,10 +1,14 @@
 // greybench: the workbench in a GLFW window (user guide §6).
-//   greybench [PROJECT.json] [--width W --height H] [--screenshot OUT.png [--frames N]]
+//   greybench [PROJECT.json] [--width W --height H] [--screenshot OUT.png [--frames N]
+//             [--view-image WxH]]
 // Without a project it opens the bundled case study. --screenshot draws N frames once the
-// project has loaded, writes the window's pixels to OUT.png and exits (for scripts under Xvfb).
+// project has loaded, writes the window's pixels to OUT.png and exits (for scripts under Xvfb);
+// with --view-image, the picture File › Export › Image of the view draws instead (the view at
+// W x H, offscreen, whatever the window's size).
 // The framebuffer functions of OpenGL 3 (libGL exports them; the window's context is 3.3 core).
 #define GL_GLEXT_PROTOTYPES
 #include <algorithm>
+#include <cfloat>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -36,8 +40,9 @@
 #endif
 
 // The shell's shortcuts name GLFW key codes without including GLFW.
-static_assert(gb::ui::kKeyF5 == GLFW_KEY_F5 && gb::ui::kKeyEqual == GLFW_KEY_EQUAL &&
-              gb::ui::kKeyMinus == GLFW_KEY_MINUS && GLFW_KEY_O == 'O' && GLFW_KEY_1 == '1');
+static_assert(gb::ui::kKeyF5 == GLFW_KEY_F5 && gb::ui::kKeyF1 == GLFW_KEY_F1 &&
+              gb::ui::kKeyEqual == GLFW_KEY_EQUAL && gb::ui::kKeyMinus == GLFW_KEY_MINUS &&
+              GLFW_KEY_O == 'O' && GLFW_KEY_1 == '1');
 
 namespace {
 
@@ -54,12 +59,14 @@ struct Options {
   std::string project;
   std::string screenshot;
   int frames = 3;
+  int image_w = 0, image_h = 0;  // --view-image WxH
   int width = kDefaultWidth;
   int height = kDefaultHeight;
 };
 
 constexpr const char* kUsage =
-    "usage: greybench [PROJECT.json] [--width W --height H] [--screenshot OUT.png [--frames N]]\n";
+    "usage: greybench [PROJECT.json] [--width W --height H] [--screenshot OUT.png [--frames N]\n"
+    "                 [--view-image WxH]]\n";
 
 int Fail(int status, const std::string& message) {
   std::fprintf(stderr, "greybench: error: %s\n", message.c_str());
@@ -94,6 +101,12 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       if (!ParseInt(value, 64, 16384, &o->width)) return "--width: expected pixels";
     } else if (arg == "--height") {
       if (!ParseInt(value, 64, 16384, &o->height)) return "--height: expected pixels";
+    } else if (arg == "--view-image") {
+      const std::string v = value;
+      const auto x = v.find('x');
+      if (x == std::string::npos || !ParseInt(v.substr(0, x).c_str(), 64, 16384, &o->image_w) ||
+          !ParseInt(v.substr(x + 1).c_str(), 64, 16384, &o->image_h))
+        return "--view-image: expected WxH in pixels (1024x768)";
     } else {
       return "unknown option '" + std::string(arg) + "'";
     }
@@ -135,16 +148,18 @@ bool WriteScreenshot(GLFWwindow* window, const std::string& path) {
   return true;
 }
 
-// Draws one plot alone at the PNG's size in an ImGui frame of its own into an offscreen
-// framebuffer, reads it back and writes the file (ui/export/export.h). Runs after the window's
-// frame was rendered; the window's back buffer is not touched.
-void DrawPngOffscreen(gb::ui::AppState& state, const gb::ui::PendingPng& png) {
-  namespace ui = gb::ui;
+// Draws an ImGui frame of its own (`draw`) at width x height pixels into an offscreen
+// framebuffer and reads it back (RGBA, rows from the bottom); empty when no framebuffer could be
+// made. Runs after the window's frame was rendered; the window's back buffer is not touched.
+// `frames` frames are drawn and the last one kept (a view drawn twice forgets the window's last
+// hover, which plots sharing a time axis show for a frame).
+template <class Draw>
+std::vector<unsigned char> DrawOffscreen(int width, int height, const ImVec4& clear, Draw draw,
+                                         int frames = 1) {
   GLuint texture = 0, framebuffer = 0;
   glGenTextures(1, &texture);
   glBindTexture(GL_TEXTURE_2D, texture);
-  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, png.width, png.height, 0, GL_RGBA, GL_UNSIGNED_BYTE,
-               nullptr);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, width, height, 0, GL_RGBA, GL_UNSIGNED_BYTE, nullptr);
   glBindTexture(GL_TEXTURE_2D, 0);
   glGenFramebuffers(1, &framebuffer);
   glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
@@ -153,25 +168,47 @@ void DrawPngOffscreen(gb::ui::AppState& state, const gb::ui::PendingPng& png) {
   if (glCheckFramebufferStatus(GL_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE) {
     ImGuiIO& io = ImGui::GetIO();
     const ImVec2 display = io.DisplaySize, scale = io.DisplayFramebufferScale;
-    io.DisplaySize = ImVec2(static_cast<float>(png.width), static_cast<float>(png.height));
+    const ImVec2 mouse = io.MousePos;
+    io.DisplaySize = ImVec2(static_cast<float>(width), static_cast<float>(height));
     io.DisplayFramebufferScale = ImVec2(1.0f, 1.0f);
-    ImGui::NewFrame();
-    ui::plot::DrawFigureFrame(state.plots, png.figure);
-    ImGui::Render();
-    glViewport(0, 0, png.width, png.height);
-    glClearColor(1.0f, 1.0f, 1.0f, 1.0f);
+    io.MousePos = ImVec2(-FLT_MAX, -FLT_MAX);  // no crosshair, no tooltip, nothing hovered
+    for (int f = 0; f < frames; ++f) {
+      ImGui::NewFrame();
+      draw();
+      ImGui::Render();
+    }
+    glViewport(0, 0, width, height);
+    glClearColor(clear.x, clear.y, clear.z, 1.0f);
     glClear(GL_COLOR_BUFFER_BIT);
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
-    rgba.resize(static_cast<std::size_t>(png.width) * png.height * 4);
+    rgba.resize(static_cast<std::size_t>(width) * height * 4);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    glReadPixels(0, 0, png.width, png.height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+    glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
     io.DisplaySize = display;
     io.DisplayFramebufferScale = scale;
+    io.MousePos = mouse;
   }
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   glDeleteFramebuffers(1, &framebuffer);
   glDeleteTextures(1, &texture);
-  ui::FinishPendingPng(state, png, rgba.empty() ? nullptr : &rgba);
+  return rgba;
+}
+
+// A plot's "Save image as PNG": the plot alone at the PNG's size (ui/export/export.h).
+void DrawPngOffscreen(gb::ui::AppState& state, const gb::ui::PendingPng& png) {
+  const std::vector<unsigned char> rgba =
+      DrawOffscreen(png.width, png.height, ImVec4(1, 1, 1, 1),
+                    [&] { gb::ui::plot::DrawFigureFrame(state.plots, png.figure); });
+  gb::ui::FinishPendingPng(state, png, rgba.empty() ? nullptr : &rgba);
+}
+
+// File › Export › Image of the view: the workbench drawn whole at the image's size, one frame
+// (the mouse and keys of this frame were the window's; a frame draws nothing they would repeat).
+void DrawViewImageOffscreen(gb::ui::AppState& state, const gb::ui::PendingViewImage& image) {
+  const std::vector<unsigned char> rgba = DrawOffscreen(
+      image.width, image.height, ImGui::GetStyle().Colors[ImGuiCol_WindowBg],
+      [&] { gb::ui::DrawWorkbench(state); }, 2);
+  gb::ui::FinishPendingViewImage(state, image, rgba.empty() ? nullptr : &rgba);
 }
 
 int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
@@ -208,6 +245,7 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
   int busy_frames = kFramesAfterInput;
   std::string title;
   float zoom = 1.0f;
+  ui::ThemeKind theme = ui::ThemeKind::kLight;  // what SetUpWorkbench applied above
   while (!state.quit_requested) {
     // Closing the window is File > Quit: it asks to save changes first.
     if (glfwWindowShouldClose(window)) {
@@ -232,9 +270,10 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
     // View > Zoom, or another monitor's DPI: fonts and style rebuilt at the new scale.
     // And the node editor's zoom: its text gets a font baked for it (within limits).
     if (const float now = content_scale();
-        state.shell.zoom != zoom || now != scale ||
+        state.shell.zoom != zoom || now != scale || state.shell.theme != theme ||
         state.fonts.wanted_canvas_zoom != state.fonts.canvas_zoom) {
       zoom = state.shell.zoom;
+      theme = state.shell.theme;
       scale = now;
       ImGui::GetIO().Fonts->Clear();
       ui::SetUpWorkbench(state, scale * zoom);
@@ -262,10 +301,24 @@ int Run(GLFWwindow* window, const char* glsl_version, const Options& options) {
     if (const std::optional<ui::PendingPng> png = ui::TakePendingPng(state)) {
       DrawPngOffscreen(state, *png);
     }
+    if (const std::optional<ui::PendingViewImage> image = ui::TakePendingViewImage(state)) {
+      DrawViewImageOffscreen(state, *image);
+    }
 
     if (!options.screenshot.empty() && !state.load_job.active() &&
         ++frames_drawn_loaded >= options.frames) {
-      status = WriteScreenshot(window, options.screenshot) ? 0 : kExitFailed;
+      if (options.image_w > 0) {
+        const ui::PendingViewImage image{options.image_w, options.image_h, options.screenshot};
+        DrawViewImageOffscreen(state, image);
+        const bool written =
+            !state.messages.empty() && state.messages.back().severity == ui::Severity::kInfo &&
+            state.messages.back().text.find(options.screenshot) != std::string::npos;
+        if (!written && !state.messages.empty())
+          std::fprintf(stderr, "greybench: error: %s\n", state.messages.back().text.c_str());
+        status = written ? 0 : kExitFailed;
+      } else {
+        status = WriteScreenshot(window, options.screenshot) ? 0 : kExitFailed;
+      }
       break;
     }
     glfwSwapBuffers(window);

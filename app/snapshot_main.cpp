@@ -53,6 +53,9 @@
 // --design-try SLOT[:N]: the Experiment design view's Try of design SLOT (A or B) with N records
 // (default 1), as its button would start it, waited for.
 //
+// --theme light|dark|projector: View › Theme's colours (default light). --hide-sidebar: View ›
+// Sidebar off, the view across the whole width.
+//
 // --dialog opens one of the shell's dialogs over the view, as its menu item does (the file
 // browser lists a real folder, so its dates make that picture depend on the machine).
 //
@@ -135,9 +138,11 @@ struct Options {
   // --slider NAME[=VALUE]: the parameter's slider shown (and moved to VALUE, mid-drag).
   std::vector<std::pair<std::string, std::optional<double>>> sliders;
   int step = 0;  // --step J: the Predictions view's Step mode at state index J (from 1; 0: off)
-  int design_try = -1;       // --design-try SLOT[:N]: the slot (0 A, 1 B; -1: none) ...
-  int design_records = 1;    // ... and N
-  std::string pending_plot;  // a --plot waiting for its --out
+  int design_try = -1;     // --design-try SLOT[:N]: the slot (0 A, 1 B; -1: none) ...
+  int design_records = 1;  // ... and N
+  gb::ui::ThemeKind theme = gb::ui::ThemeKind::kLight;  // --theme NAME
+  bool hide_sidebar = false;                            // --hide-sidebar (View › Sidebar off)
+  std::string pending_plot;                             // a --plot waiting for its --out
 };
 
 constexpr const char* kUsage =
@@ -148,6 +153,7 @@ constexpr const char* kUsage =
     "                          [--time T0:T1] [--profile PARAMETER]\n"
     "                          [--overlays ahead,simulation,smoothed,compare] [--dataset N]\n"
     "                          [--slider PARAMETER[=VALUE] ...] [--step J] [--design-try A|B[:N]]\n"
+    "                          [--theme light|dark|projector] [--hide-sidebar]\n"
     "                          [--live-until T [--live-fault TIME:PARAMETER*FACTOR[/RAMP] ...]\n"
     "                           [--live-point NAME] [--live-seed N] [--live-forgetting L]\n"
     "                           [--live-csv FILE] [--live-reference RESULT.json]]\n"
@@ -185,6 +191,10 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       o->quick_sweep = true;
       continue;
     }
+    if (arg == "--hide-sidebar") {
+      o->hide_sidebar = true;
+      continue;
+    }
     if (arg == "--help" || arg == "-h") return "help";
     const bool takes_value =
         arg == "--project" || arg == "--view" || arg == "--out" || arg == "--width" ||
@@ -192,7 +202,7 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
         arg == "--overlays" || arg == "--live-until" || arg == "--live-fault" ||
         arg == "--live-point" || arg == "--live-seed" || arg == "--live-forgetting" ||
         arg == "--live-csv" || arg == "--live-reference" || arg == "--dataset" || arg == "--plot" ||
-        arg == "--slider" || arg == "--step" || arg == "--design-try";
+        arg == "--slider" || arg == "--step" || arg == "--design-try" || arg == "--theme";
     if (!takes_value) return "unknown option '" + std::string(arg) + "'";
     if (i + 1 >= argc) return std::string(arg) + " needs a value";
     const std::string value = argv[++i];
@@ -283,6 +293,10 @@ std::string ParseArgs(int argc, char** argv, Options* o) {
       if (value.empty() || *end != '\0' || j < 1 || j > 100000000)
         return "--step '" + value + "': expected the state index to show, from 1";
       o->step = static_cast<int>(j);
+    } else if (arg == "--theme") {
+      const auto theme = gb::ui::ParseTheme(value);
+      if (!theme) return "--theme '" + value + "': expected light, dark or projector";
+      o->theme = *theme;
     } else if (arg == "--design-try") {
       const std::string slot = value.substr(0, value.find(':'));
       if (slot != "A" && slot != "B")
@@ -622,6 +636,8 @@ int RenderView(const Options& options, const Shot& shot, gb::ui::AppState& state
 int Render(const Options& options, std::vector<unsigned char>* pixels) {
   namespace ui = gb::ui;
   ui::AppState state;
+  state.shell.theme = options.theme;
+  state.shell.show_sidebar = !options.hide_sidebar;
   ImGui::CreateContext();
   ui::SetUpWorkbench(state, 1.0f);
   bool fatal = false;

@@ -19,6 +19,7 @@
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
 #include "ui/shell/shell.h"
+#include "ui/theme.h"
 
 #ifndef GREYBENCH_VERSION
 #define GREYBENCH_VERSION "unknown"
@@ -27,7 +28,9 @@
 namespace gb::ui {
 namespace {
 
-constexpr float kSidebarWidth = 220.0f;  // pixels at scale 1
+constexpr float kSidebarWidth = 220.0f;        // pixels at scale 1
+constexpr float kNarrowSidebarWidth = 176.0f;  // ... in a window narrower than kNarrowWindow
+constexpr float kNarrowWindow = 1200.0f;
 constexpr float kSlidersWidth = 250.0f;  // the sliders beside a view, pixels at scale 1
 constexpr const char* kAboutPopup = "About greybench";
 
@@ -60,10 +63,19 @@ void DrawMenuBar(AppState& state) {
           "Parameters as sliders beside the Data, Predictions, Residuals and "
           "Parameters views");
     ImGui::Separator();
+    if (ImGui::MenuItem("Sidebar", "Ctrl+B", state.shell.show_sidebar))
+      state.shell.show_sidebar = !state.shell.show_sidebar;
+    if (ImGui::BeginMenu("Theme")) {
+      for (ThemeKind t : kThemes)
+        if (ImGui::MenuItem(ThemeTitle(t), nullptr, state.shell.theme == t)) SetTheme(state, t);
+      ImGui::EndMenu();
+    }
     DrawZoomMenuItems(state);
     ImGui::EndMenu();
   }
   if (ImGui::BeginMenu("Help")) {
+    if (ImGui::MenuItem("User guide", "F1", state.shell.show_help))
+      state.shell.show_help = !state.shell.show_help;
     if (ImGui::MenuItem("Keyboard shortcuts", nullptr, state.shell.show_shortcuts))
       state.shell.show_shortcuts = !state.shell.show_shortcuts;
     if (ImGui::MenuItem("About greybench")) state.show_about = true;
@@ -330,24 +342,28 @@ void DrawWorkbench(AppState& state) {
 
   const float status_h = std::round(ImGui::GetFrameHeight() + 6.0f * s);
   const float body_h = std::max(1.0f, ImGui::GetContentRegionAvail().y - status_h);
-  const float sidebar_w = std::round(kSidebarWidth * s);
+  // Narrower in a narrow window (1024 x 768: a projector), hidden by View › Sidebar.
+  const bool narrow = vp->WorkSize.x < kNarrowWindow * s;
+  const float sidebar_w = std::round((narrow ? kNarrowSidebarWidth : kSidebarWidth) * s);
 
   // Sidebar.
-  ImGui::PushStyleColor(ImGuiCol_ChildBg, IM_COL32(242, 243, 246, 255));
-  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(12.0f * s, 8.0f * s));
-  ImGui::BeginChild("##sidebar", ImVec2(sidebar_w, body_h), false,
-                    ImGuiWindowFlags_AlwaysUseWindowPadding);
-  DrawSidebar(state);
-  ImGui::EndChild();
-  ImGui::PopStyleVar();
-  ImGui::PopStyleColor();
-  {
-    const ImVec2 a = ImGui::GetItemRectMin();
-    const ImVec2 b = ImGui::GetItemRectMax();
-    ImGui::GetWindowDrawList()->AddLine(ImVec2(b.x - 0.5f, a.y), ImVec2(b.x - 0.5f, b.y),
-                                        ImGui::GetColorU32(ImGuiCol_Border));
+  if (state.shell.show_sidebar) {
+    ImGui::PushStyleColor(ImGuiCol_ChildBg, Colors(state.shell.theme).sidebar_bg);
+    ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2((narrow ? 8.0f : 12.0f) * s, 8.0f * s));
+    ImGui::BeginChild("##sidebar", ImVec2(sidebar_w, body_h), false,
+                      ImGuiWindowFlags_AlwaysUseWindowPadding);
+    DrawSidebar(state);
+    ImGui::EndChild();
+    ImGui::PopStyleVar();
+    ImGui::PopStyleColor();
+    {
+      const ImVec2 a = ImGui::GetItemRectMin();
+      const ImVec2 b = ImGui::GetItemRectMax();
+      ImGui::GetWindowDrawList()->AddLine(ImVec2(b.x - 0.5f, a.y), ImVec2(b.x - 0.5f, b.y),
+                                          ImGui::GetColorU32(ImGuiCol_Border));
+    }
+    ImGui::SameLine(0, 0);
   }
-  ImGui::SameLine(0, 0);
 
   // The current view.
   ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(16.0f * s, 10.0f * s));
@@ -372,7 +388,7 @@ void DrawWorkbench(AppState& state) {
     ImGui::EndChild();
     ImGui::SameLine(0, gap);
     ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(10.0f * s, 8.0f * s));
-    ImGui::PushStyleColor(ImGuiCol_ChildBg, IM_COL32(247, 248, 250, 255));
+    ImGui::PushStyleColor(ImGuiCol_ChildBg, Colors(state.shell.theme).side_panel_bg);
     ImGui::BeginChild("##sliders", ImVec2(0, 0), true, ImGuiWindowFlags_AlwaysUseWindowPadding);
     DrawSlidersPanel(state);
     ImGui::EndChild();

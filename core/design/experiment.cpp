@@ -88,8 +88,8 @@ bool InputDesign::IsValid(std::string* why) const {
 
 std::string InputDesign::Describe() const {
   const auto samples = static_cast<long>(std::ceil(duration / sample_time - 1e-9));
-  const std::string common = fmt::format("{:.4g} ± {:.4g}, {} samples every {:.4g} over {:.4g}",
-                                         level, amplitude, samples, sample_time, duration);
+  std::string common = fmt::format("{:.4g} ± {:.4g}, {} samples every {:.4g} over {:.4g}", level,
+                                   amplitude, samples, sample_time, duration);
   switch (shape) {
     case InputShape::kPrbs:
       return fmt::format("PRBS n = {}, bit {:.4g}, {}", order, bit_period, common);
@@ -314,9 +314,10 @@ std::optional<double> Bandwidth(const model::StateSpace& ss, int input, int outp
   // points a decade, then bisect the first crossing on log f.
   const double f_lo = 1e-3 / (2 * std::numbers::pi * tau.back());
   const double f_hi = 1e3 / (2 * std::numbers::pi * tau.front());
-  const double ratio = std::pow(10.0, 1.0 / 20);
+  const int points = static_cast<int>(std::ceil(20 * std::log10(f_hi / f_lo)));
   double prev = f_lo;
-  for (double f = f_lo * ratio; f <= f_hi; f *= ratio) {
+  for (int i = 1; i <= points; ++i) {
+    const double f = f_lo * std::pow(10.0, i / 20.0);
     if (GainSquared(ss, input, output, std::array{f})[0] > 0.5 * dc) {
       prev = f;
       continue;

@@ -215,7 +215,8 @@ Result<ExpectedInformation> ExpectedFisherInformation(const model::LinearModel& 
   z.mean.col(0) = ss->x0;
   z.mean.col(1) = ss->x0;
   for (int i = 0; i < k; ++i) z.mean.col(2 + i) = (*dss)[i].x0;
-  z.cov = Eigen::MatrixXd::Zero(n * (k + 2), n * (k + 2));
+  const Eigen::Index nz = static_cast<Eigen::Index>(n) * (k + 2);
+  z.cov = Eigen::MatrixXd::Zero(nz, nz);
   z.cov.topLeftCorner(n, n) = *P0;
 
   ExpectedInformation out;

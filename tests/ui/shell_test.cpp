@@ -25,7 +25,9 @@
 #include "core/model/model.h"
 #include "core/project/project.h"
 #include "core/util/file.h"
+#include "core/util/json.h"
 #include "tests/ui/workbench_driver.h"
+#include "ui/shell/help.h"
 #include "ui/widgets/file_browser.h"
 
 #ifndef GREYBENCH_SOURCE_DIR
@@ -644,6 +646,76 @@ TEST(FileBrowser, ListsFoldersFirstFiltersAndReportsUnreadableFolders) {
   EXPECT_NE(b.error.find((dir / "missing").string()), std::string::npos) << b.error;
   EXPECT_EQ(b.directory, dir.string());  // stays where it was
   fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace gb::ui
+
+namespace gb::ui {
+namespace {
+
+// View › Theme is remembered for the next start (beside the recent projects); a theme the file
+// does not know keeps the light one and says so.
+TEST_F(ShellTest, TheThemeIsKeptForTheNextStart) {
+  WorkbenchDriver& d = Start();
+  EXPECT_EQ(d.state.shell.theme, ThemeKind::kLight);
+  SetTheme(d.state, ThemeKind::kProjector);
+  d.Frame();
+  WorkbenchDriver& again = Start();
+  EXPECT_EQ(again.state.shell.theme, ThemeKind::kProjector);
+  // Another program (or a hand) wrote a theme greybench does not have.
+  Json j = *ReadJsonFile(again.state.shell.recent_file);
+  j["theme"] = "neon";
+  ASSERT_TRUE(WriteFileAtomic(again.state.shell.recent_file, j.dump()).ok());
+  WorkbenchDriver& third = Start();
+  EXPECT_EQ(third.state.shell.theme, ThemeKind::kLight);
+  bool said = false;
+  for (const Message& m : third.state.messages)
+    said = said ||
+           m.text.find("theme: expected \"light\", \"dark\" or \"projector\"") != std::string::npos;
+  EXPECT_TRUE(said);
+}
+
+// F1 opens the user guide at the workbench's section; Esc closes it; Ctrl+B hides the sidebar.
+TEST_F(ShellTest, F1ShowsTheUserGuideAndCtrlBHidesTheSidebar) {
+  WorkbenchDriver& d = Start();
+  d.Open(project());
+  Key(kKeyF1);
+  ASSERT_TRUE(d.state.shell.show_help);
+  d.Frame();
+  ASSERT_TRUE(d.state.shell.guide_error.empty()) << d.state.shell.guide_error;
+  ASSERT_FALSE(d.state.shell.guide.empty());
+  const GuideSection& shown =
+      d.state.shell.guide[static_cast<std::size_t>(d.state.shell.guide_section)];
+  EXPECT_EQ(shown.title.rfind("6. The workbench", 0), 0u) << shown.title;
+  const ImGuiWindow* guide = WorkbenchDriver::FindWindow("User guide");
+  ASSERT_NE(guide, nullptr);
+  EXPECT_TRUE(guide->WasActive);
+  Key(kKeyEscape);
+  EXPECT_FALSE(d.state.shell.show_help);
+  d.Frame();
+  EXPECT_FALSE(guide->WasActive);
+  // The sidebar, and the view beside it; Ctrl+B gives the view the whole width.
+  EXPECT_TRUE(d.state.shell.show_sidebar);
+  const float beside = WorkbenchDriver::ViewWindow()->Size.x;
+  Key('B', /*ctrl=*/true);
+  EXPECT_FALSE(d.state.shell.show_sidebar);
+  d.Frame();
+  EXPECT_GT(WorkbenchDriver::ViewWindow()->Size.x, beside + 150);
+}
+
+TEST(ParseGuide, SplitsAtTheHeadingsOutsideCodeFences) {
+  const auto g = ParseGuide(
+      "# Title\nintro\n## 1. One\ntext\n```\n## not a heading\n```\n### 1a. Sub\n- item\n## 2. "
+      "Two");
+  ASSERT_EQ(g.size(), 3u);
+  EXPECT_EQ(g[0].title, "1. One");
+  EXPECT_EQ(g[0].level, 2);
+  EXPECT_EQ(g[0].lines.size(), 4u);  // text, the fence, the line in it, the fence
+  EXPECT_EQ(g[1].title, "1a. Sub");
+  EXPECT_EQ(g[1].level, 3);
+  EXPECT_EQ(g[2].title, "2. Two");
+  EXPECT_TRUE(g[2].lines.empty());
 }
 
 }  // namespace

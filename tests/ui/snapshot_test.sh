@@ -290,6 +290,11 @@ case "$case_name" in
     "$source_dir/scripts/run-window-xvfb.sh" --exe "$greybench" --size 1280x800 \
       "$out/window.png" "$project" || fail "run-window-xvfb.sh failed"
     "$png_check" "$out/window.png" 1280 800 || fail "window.png"
+    # File › Export › Image of the view: the view drawn offscreen at a projector's size.
+    rm -f "$out/view-1024.png"
+    "$source_dir/scripts/run-window-xvfb.sh" --exe "$greybench" --size 1280x800 \
+      --view-image 1024x768 "$out/view-1024.png" "$project" || fail "the image of the view failed"
+    "$png_check" "$out/view-1024.png" 1024 768 || fail "view-1024.png"
     ;;
   *)
     fail "unknown case '$case_name'"

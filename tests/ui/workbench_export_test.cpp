@@ -181,6 +181,31 @@ TEST_F(WorkbenchExport, APlotsSvgAndPngGoThroughTheBrowserAndNeverOntoTheProject
   EXPECT_TRUE(LastMessageIsError("no offscreen framebuffer"));
 }
 
+// File › Export › Image of the view: the browser proposes the view's name and size; a chosen
+// file is due once, at the size the menu asked for; the project's files are refused.
+TEST_F(WorkbenchExport, AnImageOfTheViewIsDueAtTheSizeAskedForAndNeverOntoTheProject) {
+  d_.state.view = View::kResiduals;
+  BrowseViewImage(d_.state, 1024, 768);
+  EXPECT_EQ(d_.state.shell.browser.request.purpose, static_cast<int>(BrowsePurpose::kViewImage));
+  EXPECT_EQ(d_.state.shell.browser.request.file_name, "residuals-1024x768.png");
+  const std::string model_before = Read(dir_ / "fuel_film.json");
+  FinishExport(d_.state, BrowsePurpose::kViewImage, (dir_ / "fuel_film.json").string());
+  EXPECT_FALSE(TakePendingViewImage(d_.state).has_value());
+  EXPECT_TRUE(LastMessageIsError("fuel_film.json"));
+  FinishExport(d_.state, BrowsePurpose::kViewImage, (dir_ / "slide.png").string());
+  const std::optional<PendingViewImage> image = TakePendingViewImage(d_.state);
+  ASSERT_TRUE(image.has_value());
+  EXPECT_FALSE(TakePendingViewImage(d_.state).has_value());  // taken once
+  EXPECT_EQ(image->width, 1024);
+  EXPECT_EQ(image->height, 768);
+  const std::vector<unsigned char> grey(1024u * 768u * 4u, 200);
+  FinishPendingViewImage(d_.state, *image, &grey);
+  EXPECT_EQ(Read(dir_ / "slide.png").substr(1, 3), "PNG");
+  EXPECT_EQ(Read(dir_ / "fuel_film.json"), model_before);
+  FinishPendingViewImage(d_.state, *image, nullptr);
+  EXPECT_TRUE(LastMessageIsError("no offscreen framebuffer"));
+}
+
 TEST_F(WorkbenchExport, ExportModelWritesTheModelTheViewsShow) {
   BrowseExportModel(d_.state);
   EXPECT_EQ(d_.state.shell.browser.request.purpose, static_cast<int>(BrowsePurpose::kExportModel));

@@ -289,8 +289,37 @@ void BrowseExportModel(AppState& state) {
   OpenFileBrowser(state.shell.browser, std::move(r));
 }
 
+void BrowseViewImage(AppState& state, int width, int height) {
+  state.shell.view_image_width = width;
+  state.shell.view_image_height = height;
+  FileBrowserRequest r;
+  r.title =
+      "Save an image of the view (" + std::to_string(width) + " x " + std::to_string(height) + ")";
+  r.confirm = "Save";
+  r.mode = FileBrowserMode::kSave;
+  r.filters = {{"PNG images (*.png)", {".png"}}};
+  r.start = StartDirectory(state);
+  r.file_name = std::string(ViewName(state.view)) + "-" + std::to_string(width) + "x" +
+                std::to_string(height) + ".png";
+  r.purpose = static_cast<int>(BrowsePurpose::kViewImage);
+  OpenFileBrowser(state.shell.browser, std::move(r));
+}
+
 void DrawExportMenu(AppState& state) {
   if (!ImGui::BeginMenu("Export", state.project.has_value())) return;
+  if (ImGui::BeginMenu("Image of the view")) {
+    static constexpr struct {
+      const char* label;
+      int width, height;
+    } kSizes[] = {{"1024 x 768 (projector)\xE2\x80\xA6", 1024, 768},
+                  {"1280 x 800\xE2\x80\xA6", 1280, 800},
+                  {"1920 x 1080 (full HD)\xE2\x80\xA6", 1920, 1080}};
+    for (const auto& size : kSizes)
+      if (ImGui::MenuItem(size.label)) BrowseViewImage(state, size.width, size.height);
+    ImGui::EndMenu();
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("The current view drawn whole at that size, as a PNG (for slides)");
   if (ImGui::MenuItem("Export model\xE2\x80\xA6", nullptr, false, state.model.has_value()))
     BrowseExportModel(state);
   const bool building = state.shell.fmu_job.active();
@@ -330,6 +359,12 @@ void FinishExport(AppState& state, BrowsePurpose purpose, const std::string& pat
     case BrowsePurpose::kExportFmu:
       StartFmuExport(state, path);
       break;
+    case BrowsePurpose::kViewImage: {
+      if (Status st = CheckOutput(state, path); !st) return Report(state, st, "the image", path);
+      state.shell.view_image =
+          PendingViewImage{state.shell.view_image_width, state.shell.view_image_height, path};
+      break;
+    }
     case BrowsePurpose::kExportModel: {
       if (!state.model) break;
       Status st = CheckOutput(state, path);
@@ -339,6 +374,30 @@ void FinishExport(AppState& state, BrowsePurpose purpose, const std::string& pat
     }
     default:
       break;
+  }
+}
+
+std::optional<PendingViewImage> TakePendingViewImage(AppState& state) {
+  std::optional<PendingViewImage> image = std::move(state.shell.view_image);
+  state.shell.view_image.reset();
+  return image;
+}
+
+void FinishPendingViewImage(AppState& state, const PendingViewImage& image,
+                            const std::vector<unsigned char>* rgba) {
+  const std::string size = std::to_string(image.width) + " x " + std::to_string(image.height);
+  if (!rgba) {
+    AddMessage(state, Severity::kError,
+               "Could not write the image of the view: no offscreen framebuffer of " + size +
+                   " pixels (" + image.path + ")");
+    return;
+  }
+  std::string error;
+  if (WritePngFromGl(image.path, image.width, image.height, rgba->data(), &error)) {
+    AddMessage(state, Severity::kInfo,
+               "The image of the view (" + size + ") written to " + image.path);
+  } else {
+    AddMessage(state, Severity::kError, "Could not write the image of the view: " + error);
   }
 }
 

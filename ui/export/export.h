@@ -50,6 +50,15 @@ bool PollFmuExport(AppState& state);
 // The File menu's Export submenu.
 void DrawExportMenu(AppState& state);
 
+// File › Export › Image of the view: the browser for a PNG of the current view drawn whole at
+// width x height pixels (1024 x 768 for a projector), as greybench-snapshot --width --height
+// draws it; greybench draws it offscreen after the window's frame (TakePendingViewImage).
+void BrowseViewImage(AppState& state, int width, int height);
+std::optional<PendingViewImage> TakePendingViewImage(AppState& state);
+// Writes the pixels drawn (as FinishPendingPng) and says so in the Messages window.
+void FinishPendingViewImage(AppState& state, const PendingViewImage& image,
+                            const std::vector<unsigned char>* rgba);
+
 // The PNG a plot's menu asked for, once its file is chosen: taken (and cleared) by the
 // application, which draws it offscreen after the window's frame. nullopt when none is due.
 std::optional<PendingPng> TakePendingPng(AppState& state);

@@ -32,7 +32,6 @@ const char* VerdictWord(const diagnose::ResidualDiagnostics& st);
 ImU32 VerdictColor(const diagnose::ResidualDiagnostics& st);
 
 // Colours shared by both views.
-inline constexpr ImU32 kMeasuredColor = IM_COL32(60, 64, 72, 255);
 inline constexpr ImU32 kPredictionColor = IM_COL32(31, 119, 180, 255);
 inline constexpr ImU32 kAheadColor = IM_COL32(255, 127, 14, 255);
 inline constexpr ImU32 kSimulationColor = IM_COL32(44, 160, 44, 255);

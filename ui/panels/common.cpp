@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "core/util/json.h"
+#include "ui/theme.h"
 
 namespace gb::ui {
 
@@ -54,7 +55,7 @@ void DrawNotice(AppState& state, const char* title, const std::string& text, Sev
   dl->ChannelsSetCurrent(0);
   const ImVec2 min(ImGui::GetWindowPos().x + x - ImGui::GetScrollX(), top.y);
   const ImVec2 max(min.x + width, bottom);
-  dl->AddRectFilled(min, max, IM_COL32(255, 255, 255, 255), 6.0f * s);
+  dl->AddRectFilled(min, max, Colors(state.shell.theme).card_bg, 6.0f * s);
   dl->AddRect(min, max, ImGui::GetColorU32(ImGuiCol_Border), 6.0f * s);
   if (severity != Severity::kInfo) {
     dl->AddRectFilled(min, ImVec2(min.x + 4.0f * s, max.y),

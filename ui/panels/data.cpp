@@ -19,7 +19,6 @@ namespace {
 
 constexpr float kMinPlotHeight = 150.0f;  // pixels at scale 1; below it the plots scroll
 constexpr int kMaxTableRows = 8;          // more columns than this scroll inside the table
-constexpr ImU32 kPreviewColor = IM_COL32(20, 24, 30, 255);  // apart from every palette colour
 
 // The names listed under `key` ("inputs", "outputs") in the model JSON; tolerant of a model
 // that core/model would reject (the data view shows the data even then).
@@ -235,12 +234,12 @@ void DrawColumnPlots(AppState& state, std::size_t index) {
                      n_time, style);
       if (const std::vector<double>* before = GhostPreview(state, index, column.name)) {
         plot::ItemStyle ghost;
-        ghost.color = GhostColor(kPreviewColor);
+        ghost.color = GhostColor(state.plots.style.strong_ink);
         plot::PlotLine(state.plots, kGhostLabel, data.time.data(), before->data(), n_time, ghost);
       }
       if (preview) {
         plot::ItemStyle sim;
-        sim.color = kPreviewColor;
+        sim.color = state.plots.style.strong_ink;
         plot::PlotLine(state.plots, "simulated", data.time.data(), preview->data(), n_time, sim);
       }
       plot::EndPlot(state.plots);

@@ -18,6 +18,7 @@
 #include "ui/format.h"
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
+#include "ui/theme.h"
 
 namespace gb::ui {
 namespace {
@@ -560,7 +561,7 @@ void DrawReport(AppState& state, const FitResult& r, bool previous) {
   ImGui::SameLine();
   ImGui::TextDisabled("the text greybench-cli estimate prints");
   const float height = std::max(kMinReportHeight * s, ImGui::GetContentRegionAvail().y);
-  ImGui::PushStyleColor(ImGuiCol_ChildBg, IM_COL32(250, 250, 251, 255));
+  ImGui::PushStyleColor(ImGuiCol_ChildBg, Colors(state.shell.theme).pane_bg);
   ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(10.0f * s, 8.0f * s));
   ImGui::BeginChild("##report", ImVec2(0, height), true,
                     ImGuiWindowFlags_HorizontalScrollbar | ImGuiWindowFlags_AlwaysUseWindowPadding);

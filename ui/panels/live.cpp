@@ -28,6 +28,7 @@
 #include "ui/format.h"
 #include "ui/panels/common.h"
 #include "ui/panels/panels.h"
+#include "ui/theme.h"
 
 namespace gb::ui {
 namespace {
@@ -654,7 +655,7 @@ void DrawParameterPlot(AppState& state, const LiveSetup& setup, std::size_t k, c
 void DrawEvents(AppState& state, ImVec2 size) {
   const LiveState& l = state.live;
   const float s = state.fonts.scale;
-  ImGui::PushStyleColor(ImGuiCol_ChildBg, IM_COL32(250, 250, 251, 255));
+  ImGui::PushStyleColor(ImGuiCol_ChildBg, Colors(state.shell.theme).pane_bg);
   ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(8.0f * s, 6.0f * s));
   ImGui::PushStyleVar(ImGuiStyleVar_ItemSpacing, ImVec2(6.0f * s, 3.0f * s));
   ImGui::BeginChild("##events", size, true, ImGuiWindowFlags_AlwaysUseWindowPadding);

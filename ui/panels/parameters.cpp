@@ -33,6 +33,7 @@ namespace {
 
 constexpr float kInputWidth = 80.0f;        // the start value and bound cells, pixels at scale 1
 constexpr float kNarrowInputWidth = 64.0f;  // ... beside the profile intervals
+constexpr float kNarrowTable = 940.0f;      // narrower than this, the narrow inputs
 constexpr double kZ95 = 1.96;               // two-sided 95 % normal quantile
 constexpr int kEstimateDigits = 5;
 constexpr int kErrorDigits = 3;
@@ -308,19 +309,25 @@ void DrawTable(AppState& state, const FitResult* result) {
       wald_w = std::max(wald_w, ImGui::CalcTextSize(WaldText(e).c_str()).x);
       profile_w = std::max(profile_w, ImGui::CalcTextSize(ProfileText(e).c_str()).x);
     }
+  }
+  // A narrow window (1024 x 768) gets the narrow inputs, and a fitted table scrolls sideways
+  // there too rather than cutting its last columns.
+  const bool narrow = ImGui::GetContentRegionAvail().x < kNarrowTable * s;
+  const bool scroll = with_profiles || (with_fit && narrow);
+  if (scroll) {
     const std::size_t rows = std::max(m.parameters.size(), result->summary.parameters.size());
     outer.y = row_h * static_cast<float>(rows) + ImGui::GetTextLineHeight() +
               2.0f * ImGui::GetStyle().CellPadding.y + ImGui::GetStyle().ScrollbarSize;
   }
-  if (!ImGui::BeginTable("##parameters", columns,
-                         with_profiles ? flags | ImGuiTableFlags_ScrollX : flags, outer)) {
+  if (!ImGui::BeginTable("##parameters", columns, scroll ? flags | ImGuiTableFlags_ScrollX : flags,
+                         outer)) {
     ImGui::PopStyleVar();
     return;
   }
   ImGui::TableSetupColumn("Parameter");
   ImGui::TableSetupColumn("Unit");
   // Narrower inputs when the profile intervals need the room.
-  const float input_w = (with_profiles ? kNarrowInputWidth : kInputWidth) * s;
+  const float input_w = (with_profiles || narrow ? kNarrowInputWidth : kInputWidth) * s;
   ImGui::TableSetupColumn("Start", ImGuiTableColumnFlags_WidthFixed, input_w);
   ImGui::TableSetupColumn("Lower", ImGuiTableColumnFlags_WidthFixed, input_w);
   ImGui::TableSetupColumn("Upper", ImGuiTableColumnFlags_WidthFixed, input_w);

@@ -174,7 +174,7 @@ void DrawStepMarkers(AppState& state, const DatasetAnalysis& d, const OutputAnal
   plot::PlotErrorBars(state.plots, "before: prediction \xC2\xB1 2 sd", &at->t, &at->prior,
                       &at->half, 1, prior_style);
   plot::ItemStyle measured;
-  measured.color = kMeasuredColor;
+  measured.color = state.plots.style.ink;
   measured.marker_radius = 5.0f;
   plot::PlotMarkers(state.plots, "the measurement", &at->t, &o.measured[i], 1, measured);
   const auto r = static_cast<Eigen::Index>(&o - d.outputs.data());
@@ -367,7 +367,7 @@ void DrawOutputPlot(AppState& state, const DatasetAnalysis& d, const OutputAnaly
   band.fill_alpha = 0.18f;
   plot::PlotBand(state.plots, "\xC2\xB1 2 sd", t, o.lower.data(), o.upper.data(), n, band);
   plot::ItemStyle measured;
-  measured.color = kMeasuredColor;
+  measured.color = state.plots.style.ink;
   measured.marker_radius = 1.5f;
   plot::PlotMarkers(state.plots, "measured", t, o.measured.data(), n, measured);
   if (const OutputAnalysis* g =
@@ -424,7 +424,7 @@ void DrawComparePlot(AppState& state, const DatasetAnalysis& d, const OutputAnal
   if (!plot::BeginPlot(state.plots, "##compare", size, options)) return;
   const int n = static_cast<int>(d.time.size());
   plot::ItemStyle measured;
-  measured.color = kMeasuredColor;
+  measured.color = state.plots.style.ink;
   measured.marker_radius = 1.5f;
   plot::PlotMarkers(state.plots, "measured", d.time.data(), o.measured.data(), n, measured);
   if (o.simulated.size() == d.time.size()) {

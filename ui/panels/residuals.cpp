@@ -146,7 +146,7 @@ void DrawTimePlot(AppState& state, const DatasetAnalysis& d, const OutputAnalysi
     plot::PlotLine(state.plots, kGhostLabel, d.time.data(), g->residual.data(), n,
                    Style(GhostColor(kReferenceColor)));
   plot::PlotLine(state.plots, "residual", d.time.data(), o.residual.data(), n,
-                 Style(kMeasuredColor));
+                 Style(state.plots.style.ink));
   plot::EndPlot(state.plots);
 }
 

@@ -29,7 +29,9 @@
 #include "core/util/file.h"
 #include "ui/export/export.h"
 #include "ui/panels/common.h"
+#include "ui/shell/help.h"
 #include "ui/shell/import_dialog.h"
+#include "ui/theme.h"
 
 namespace gb::ui {
 namespace fs = std::filesystem;
@@ -56,11 +58,13 @@ constexpr ShortcutInfo kShortcuts[] = {
     {"Ctrl+S", "Save the project"},
     {"Ctrl+Shift+S", "Save the project under another name"},
     {"Ctrl+Q", "Quit (asks to save changes)"},
+    {"F1", "The user guide"},
     {"F5", "Run the estimation"},
     {"Esc", "Cancel the estimation under way; close this window or Messages"},
     {"Ctrl+1 \xE2\x80\xA6 Ctrl+9", "Show a view (Data \xE2\x80\xA6 Live)"},
     {"Ctrl+= / Ctrl+-", "Zoom in / out"},
     {"Ctrl+0", "Actual size"},
+    {"Ctrl+B", "Show or hide the sidebar"},
     {"", ""},
     {"In the file browser", ""},
     {"Up / Down", "Move the selection"},
@@ -92,7 +96,7 @@ void WriteRecent(AppState& state) {
   if (!sh.session_files) return;
   std::error_code ec;
   fs::create_directories(fs::path(sh.recent_file).parent_path(), ec);
-  Json j = {{"greybench_recent", 1}, {"projects", sh.recent}};
+  Json j = {{"greybench_recent", 1}, {"projects", sh.recent}, {"theme", ThemeName(sh.theme)}};
   if (Status st = WriteFileAtomic(sh.recent_file, j.dump(1) + "\n"); !st) {
     AddMessage(state, Severity::kWarning,
                "The recent projects could not be saved: " + st.error().ToString());
@@ -116,6 +120,18 @@ void ReadRecent(AppState& state) {
     if (!p.is_string()) return ignore("projects: expected file names (strings)");
     if (sh.recent.size() < static_cast<std::size_t>(kMaxRecent))
       sh.recent.push_back(p.get<std::string>());
+  }
+  // The theme chosen last (View > Theme); an unknown one keeps the light theme.
+  if (j->contains("theme")) {
+    const Json& t = (*j)["theme"];
+    const auto theme = t.is_string() ? ParseTheme(t.get<std::string>()) : std::nullopt;
+    if (theme)
+      sh.theme = *theme;
+    else
+      AddMessage(state, Severity::kWarning,
+                 sh.recent_file +
+                     ": theme: expected \"light\", \"dark\" or \"projector\"; the light "
+                     "theme is used");
   }
 }
 
@@ -343,6 +359,7 @@ void HandleShortcuts(AppState& state) {
   if (ctrl && !io.KeyShift && Pressed('S')) SaveWithMessage(state);
   if (ctrl && io.KeyShift && Pressed('S')) BrowseSaveAs(state);
   if (ctrl && Pressed('Q')) RequestQuit(state);
+  if (ctrl && Pressed('B')) state.shell.show_sidebar = !state.shell.show_sidebar;
   if (ctrl && Pressed(kKeyEqual)) Zoom(state, kZoomStep);
   if (ctrl && Pressed(kKeyMinus)) Zoom(state, 1.0f / kZoomStep);
   if (ctrl && Pressed('0')) Zoom(state, 1.0f / state.shell.zoom);
@@ -351,6 +368,7 @@ void HandleShortcuts(AppState& state) {
       if (Pressed('1' + static_cast<int>(i))) state.view = kAllViews[i];
     }
   }
+  if (!io.KeyCtrl && Pressed(kKeyF1)) state.shell.show_help = !state.shell.show_help;
   if (!io.KeyCtrl && Pressed(kKeyF5) && !EstimationRunning(state)) {
     std::string why;
     if (!StartEstimation(state, &why))
@@ -405,6 +423,7 @@ void UseBrowsedFile(AppState& state, BrowsePurpose purpose, const std::string& p
     case BrowsePurpose::kSaveReport:
     case BrowsePurpose::kExportModel:
     case BrowsePurpose::kExportFmu:
+    case BrowsePurpose::kViewImage:
       FinishExport(state, purpose, path);
       break;
   }
@@ -1060,6 +1079,12 @@ bool OpenDialogByName(AppState& state, std::string_view name) {
     state.shell.new_dialog_requested = true;
   } else if (name == "keyboard-shortcuts") {
     state.shell.show_shortcuts = true;
+  } else if (name.rfind("user-guide", 0) == 0) {
+    // "user-guide" at the workbench's section, "user-guide:6b" at the section numbered 6b.
+    state.shell.show_help = true;
+    if (name.size() > 11 && name[10] == ':') {
+      state.shell.guide_section_wanted = std::string(name.substr(11)) + ".";
+    }
   } else if (name == "import-dataset") {
     // On the project's last dataset's file, as File > Add dataset… would open it.
     if (state.datasets.empty()) return false;
@@ -1079,6 +1104,12 @@ std::string ViewShortcut(View view) {
     if (kAllViews[i] == view) return "Ctrl+" + std::to_string(i + 1);
   }
   return "";
+}
+
+void SetTheme(AppState& state, ThemeKind theme) {
+  if (state.shell.theme == theme) return;
+  state.shell.theme = theme;
+  WriteRecent(state);
 }
 
 void Zoom(AppState& state, float factor) {
@@ -1165,6 +1196,7 @@ void DrawShellDialogs(AppState& state) {
   DrawNewProjectDialog(state);
   DrawImportDialog(state);
   DrawShortcutsWindow(state);
+  DrawHelpWindow(state);
 }
 
 }  // namespace gb::ui

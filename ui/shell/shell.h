@@ -37,6 +37,7 @@ inline constexpr int kMaxRecent = 10;
 // Key codes as the GLFW backend fills ImGuiIO::KeysDown (GLFW_KEY_*: letters and digits are
 // their ASCII codes); greybench_main.cpp checks them against glfw3.h.
 inline constexpr int kKeyF5 = 294;
+inline constexpr int kKeyF1 = 290;
 inline constexpr int kKeyEqual = 61;
 inline constexpr int kKeyMinus = 45;
 inline constexpr float kMinZoom = 0.75f;
@@ -82,11 +83,13 @@ void RemoveRecent(AppState& state, const std::string& path);
 
 // Opens a dialog by name, as its menu item does: "open-project", "save-project-as",
 // "new-project", "keyboard-shortcuts", "unsaved-changes", "import-dataset" (on the project's
-// last dataset's file) (greybench-snapshot --dialog). False for an unknown name (kDialogNames
+// last dataset's file), "user-guide" (Help › User guide; "user-guide:6b" at section 6b)
+// (greybench-snapshot --dialog). False for an unknown name (kDialogNames
 // lists them), and for import-dataset in a project without datasets.
 bool OpenDialogByName(AppState& state, std::string_view name);
 inline constexpr const char* kDialogNames =
-    "open-project save-project-as new-project keyboard-shortcuts unsaved-changes import-dataset";
+    "open-project save-project-as new-project keyboard-shortcuts unsaved-changes import-dataset "
+    "user-guide[:SECTION]";
 
 void UpdateShell(AppState& state);
 void DrawFileMenu(AppState& state);
@@ -97,5 +100,8 @@ std::string ViewShortcut(View view);
 void DrawZoomMenuItems(AppState& state);
 // Multiplies state.shell.zoom by `factor`, within [kMinZoom, kMaxZoom] (1: back to 100 %).
 void Zoom(AppState& state, float factor);
+// View > Theme: the colours greybench applies before the next frame, remembered for the next
+// start (in the recent-projects file).
+void SetTheme(AppState& state, ThemeKind theme);
 
 }  // namespace gb::ui

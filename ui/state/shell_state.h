@@ -37,6 +37,7 @@ enum class BrowsePurpose {
   kSaveReport,
   kExportModel,
   kExportFmu,
+  kViewImage,  // File › Export › Image of the view
 };
 
 // An action that replaces or closes the open project: it waits for "save changes?" when the
@@ -50,6 +51,13 @@ struct PendingAction {
 // A plot to draw alone at width x height pixels and write to `path` as PNG (ui/export/export.h).
 struct PendingPng {
   report::Figure figure;
+  int width = 0, height = 0;
+  std::string path;
+};
+
+// The current view drawn whole (the workbench as the window shows it) at width x height pixels,
+// written to `path` as PNG: File › Export › Image of the view (ui/export/export.h).
+struct PendingViewImage {
   int width = 0, height = 0;
   std::string path;
 };
@@ -136,6 +144,17 @@ struct NewProjectForm {
   std::string columns_error;       // why the columns could not be read
 };
 
+// A section of the user guide as the Help window shows it: its heading and its Markdown lines.
+struct GuideSection {
+  std::string title;  // "6b. Experiment design: ..."
+  int level = 2;      // 2 for "##", 3 for "###"
+  std::vector<std::string> lines;
+};
+
+// The workbench's colours: the light theme; a dark one; and a high-contrast light one for
+// projectors (black text, darker rules, thicker lines). ui/theme.h applies them.
+enum class ThemeKind { kLight, kDark, kProjector };
+
 struct ShellState {
   // The Keyboard shortcuts or Messages window had the focus in the last frame: Esc closes it and
   // does not cancel the estimation.
@@ -146,6 +165,8 @@ struct ShellState {
   std::optional<plot::ExportRequest> plot_export;
   std::optional<report::ReportInput> report_export;
   std::optional<PendingPng> png_export;
+  std::optional<PendingViewImage> view_image;            // chosen, to be drawn after the frame
+  int view_image_width = 1024, view_image_height = 768;  // the size the menu asked for
   // File > Export > FMU: the interfaces chosen in the menu, and the build under way (the C
   // compiler runs off the UI thread).
   fmu::Interface fmu_interface = fmu::Interface::kBoth;
@@ -193,6 +214,18 @@ struct ShellState {
   int dataset_generation = 0;    // AppState::project_generation it was started for
 
   bool show_shortcuts = false;  // Help > Keyboard shortcuts
+  // Help > User guide (F1): docs/user-guide.md of the source tree, read when first shown.
+  bool show_help = false;
+  std::string guide_file;  // empty: the build's own docs/user-guide.md
+  std::vector<GuideSection> guide;
+  std::string guide_error;           // why the guide could not be read
+  int guide_section = -1;            // shown; -1: the first on the workbench (section 6)
+  std::string guide_section_wanted;  // "6b.": show the section so numbered once read
+
+  // View > Theme (kept in the recent-projects file beside the list). greybench applies it with
+  // the fonts and the style before the next frame; greybench-snapshot --theme.
+  ThemeKind theme = ThemeKind::kLight;
+  bool show_sidebar = true;  // View › Sidebar (Ctrl+B): hidden, the view has the whole width
 
   // View > Zoom: a factor on the monitor's content scale. greybench rebuilds the fonts and
   // the style at the new scale before the next frame (the snapshot renderer ignores it).

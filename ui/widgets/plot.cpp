@@ -388,8 +388,7 @@ void DrawAxes(PlotContext& ctx, ImDrawList* dl, const Layout& l, const Transform
         std::to_string(e);
     const ImVec2 ts = ImGui::CalcTextSize(text.c_str());
     if (right_align) pos.x -= ts.x;
-    dl->AddRectFilled(ImVec2(pos.x - 2, pos.y), ImVec2(pos.x + ts.x + 2, pos.y + ts.y),
-                      IM_COL32(255, 255, 255, 210));
+    dl->AddRectFilled(ImVec2(pos.x - 2, pos.y), ImVec2(pos.x + ts.x + 2, pos.y + ts.y), s.label_bg);
     dl->AddText(pos, s.tick_text, text.c_str());
   };
   if (l.y_ticks.exponent != 0)
@@ -401,7 +400,23 @@ void DrawAxes(PlotContext& ctx, ImDrawList* dl, const Layout& l, const Transform
   if (o.title) {
     ImFont* font = s.title_font ? s.title_font : ImGui::GetFont();
     const float y = ctx.frame_min.y + 0.5f * (l.title_h - font->FontSize) - 0.1f * l.pad;
-    dl->AddText(font, font->FontSize, ImVec2(t.min.x, y), s.title_text, o.title);
+    // A title longer than the plot is wide ends in "…" at the frame's right edge.
+    const float room = ctx.frame_max.x - t.min.x;
+    std::string title = o.title;
+    if (font->CalcTextSizeA(font->FontSize, FLT_MAX, 0.0f, title.c_str()).x > room) {
+      const char* kEllipsis = "\xE2\x80\xA6";
+      while (!title.empty() &&
+             font->CalcTextSizeA(font->FontSize, FLT_MAX, 0.0f, (title + kEllipsis).c_str()).x >
+                 room) {
+        unsigned char c = 0;
+        do {  // a whole UTF-8 character: its continuation bytes, then its first
+          c = static_cast<unsigned char>(title.back());
+          title.pop_back();
+        } while (!title.empty() && (c & 0xC0) == 0x80);
+      }
+      title += kEllipsis;
+    }
+    dl->AddText(font, font->FontSize, ImVec2(t.min.x, y), s.title_text, title.c_str());
     // Drawn, not an item: the title goes into ImGui's log as a line of its own (a view copied
     // as text, the interaction tests' Text()).
     ImGui::LogText("%s%s", IM_NEWLINE, o.title);
@@ -467,7 +482,7 @@ void DrawLegend(PlotContext& ctx, PlotState& st, ImDrawList* dl, const Layout& l
   const ImVec2 min(right ? t.max.x - pad - size.x : t.min.x + pad,
                    top ? t.min.y + pad : t.max.y - pad - size.y);
   const ImVec2 max(min.x + size.x, min.y + size.y);
-  dl->AddRectFilled(min, max, IM_COL32(255, 255, 255, 225), 3.0f * ctx.style.scale);
+  dl->AddRectFilled(min, max, ctx.style.label_bg, 3.0f * ctx.style.scale);
   dl->AddRect(min, max, ctx.style.border, 3.0f * ctx.style.scale);
   for (std::size_t k = 0; k < entries.size(); ++k) {
     const Item& item = *entries[k];
@@ -514,7 +529,7 @@ void DrawHover(PlotContext& ctx, PlotState& st, LinkedRange& xr, ImDrawList* dl,
     const int i = internal::NearestIndex(item, hx);
     if (i < 0 || !std::isfinite(item.y[i])) continue;
     const ImVec2 p = t.ToPixel(item.x[i], item.y[i]);
-    dl->AddCircleFilled(p, 3.5f * ctx.style.scale, IM_COL32(255, 255, 255, 255), 12);
+    dl->AddCircleFilled(p, 3.5f * ctx.style.scale, ctx.style.plot_bg, 12);
     dl->AddCircle(p, 3.5f * ctx.style.scale, item.color, 12, 1.5f * ctx.style.scale);
   }
   if (!here) return;

@@ -111,6 +111,12 @@ struct PlotStyle {
   ImU32 title_text = IM_COL32(30, 34, 40, 255);
   ImU32 crosshair = IM_COL32(120, 126, 136, 150);
   ImU32 box_zoom = IM_COL32(47, 111, 219, 255);
+  // Behind text drawn over the data (the legend, an axis' exponent, a vertical line's tag) and
+  // the ring of a hover marker: the plot's background, mostly opaque.
+  ImU32 label_bg = IM_COL32(255, 255, 255, 220);
+  // Neutral marks that are not a palette colour: measured data, a model's simulated response.
+  ImU32 ink = IM_COL32(60, 64, 72, 255);
+  ImU32 strong_ink = IM_COL32(20, 24, 30, 255);
   ImFont* title_font = nullptr;  // nullptr: the current font
   std::vector<ImU32> palette = {IM_COL32(31, 119, 180, 255),  IM_COL32(255, 127, 14, 255),
                                 IM_COL32(44, 160, 44, 255),   IM_COL32(214, 39, 40, 255),

@@ -218,7 +218,7 @@ void DrawVLines(PlotContext& ctx, ImDrawList* dl, const Item& item, const Transf
     const ImVec2 at(px + thickness + pad, t.min.y + pad);
     if (at.x < tag_end) continue;
     dl->AddRectFilled(ImVec2(at.x - pad, at.y), ImVec2(at.x + size.x + pad, at.y + size.y),
-                      IM_COL32(255, 255, 255, 220));
+                      ctx.style.label_bg);
     dl->AddText(at, item.color, item.tags[i]);
     tag_end = at.x + size.x + 2.0f * pad;
   }
