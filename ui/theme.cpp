@@ -259,50 +259,44 @@ void SetUpWorkbench(AppState& state, float scale) {
   ps.title_font = state.fonts.bold;
 }
 
-const ThemeColors& Colors(ThemeKind theme) {
-  static constexpr ThemeColors kLight = {IM_COL32(242, 243, 246, 255), IM_COL32(247, 248, 250, 255),
-                                         IM_COL32(255, 255, 255, 255), IM_COL32(250, 250, 251, 255),
-                                         IM_COL32(255, 255, 255, 255)};
-  static constexpr ThemeColors kDark = {IM_COL32(40, 43, 48, 255), IM_COL32(38, 41, 46, 255),
-                                        IM_COL32(44, 47, 53, 255), IM_COL32(28, 30, 34, 255),
-                                        IM_COL32(255, 255, 255, 255)};
-  static constexpr ThemeColors kProjector = {
-      IM_COL32(232, 235, 240, 255), IM_COL32(240, 242, 246, 255), IM_COL32(255, 255, 255, 255),
-      IM_COL32(255, 255, 255, 255), IM_COL32(255, 255, 255, 255)};
-  switch (theme) {
-    case ThemeKind::kDark:
-      return kDark;
-    case ThemeKind::kProjector:
-      return kProjector;
-    case ThemeKind::kLight:
-      break;
-  }
-  return kLight;
+namespace {
+
+// Each theme's names and the colours the frame and the panels draw themselves, in kThemes' order.
+struct ThemeInfo {
+  ThemeKind kind;
+  const char* name;
+  const char* title;
+  ThemeColors colors;  // sidebar, side panel, card, pane
+};
+constexpr ThemeInfo kThemeInfo[] = {
+    {ThemeKind::kLight,
+     "light",
+     "Light",
+     {IM_COL32(242, 243, 246, 255), IM_COL32(247, 248, 250, 255), IM_COL32(255, 255, 255, 255),
+      IM_COL32(250, 250, 251, 255)}},
+    {ThemeKind::kDark,
+     "dark",
+     "Dark",
+     {IM_COL32(40, 43, 48, 255), IM_COL32(38, 41, 46, 255), IM_COL32(44, 47, 53, 255),
+      IM_COL32(28, 30, 34, 255)}},
+    {ThemeKind::kProjector,
+     "projector",
+     "High contrast (projector)",
+     {IM_COL32(232, 235, 240, 255), IM_COL32(240, 242, 246, 255), IM_COL32(255, 255, 255, 255),
+      IM_COL32(255, 255, 255, 255)}},
+};
+
+const ThemeInfo& Info(ThemeKind theme) {
+  for (const ThemeInfo& t : kThemeInfo)
+    if (t.kind == theme) return t;
+  return kThemeInfo[0];
 }
 
-const char* ThemeTitle(ThemeKind theme) {
-  switch (theme) {
-    case ThemeKind::kDark:
-      return "Dark";
-    case ThemeKind::kProjector:
-      return "High contrast (projector)";
-    case ThemeKind::kLight:
-      break;
-  }
-  return "Light";
-}
+}  // namespace
 
-const char* ThemeName(ThemeKind theme) {
-  switch (theme) {
-    case ThemeKind::kDark:
-      return "dark";
-    case ThemeKind::kProjector:
-      return "projector";
-    case ThemeKind::kLight:
-      break;
-  }
-  return "light";
-}
+const ThemeColors& Colors(ThemeKind theme) { return Info(theme).colors; }
+const char* ThemeTitle(ThemeKind theme) { return Info(theme).title; }
+const char* ThemeName(ThemeKind theme) { return Info(theme).name; }
 
 std::optional<ThemeKind> ParseTheme(std::string_view name) {
   for (ThemeKind t : kThemes)

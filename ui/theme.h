@@ -27,7 +27,6 @@ struct ThemeColors {
   ImU32 side_panel_bg;  // the sliders' panel beside a view
   ImU32 card_bg;        // a notice's card
   ImU32 pane_bg;        // a view's inner pane (the Estimate view's report, the Live view's alarms)
-  ImU32 primary_text;   // text on the accent colour (the primary button)
 };
 const ThemeColors& Colors(ThemeKind theme);
 

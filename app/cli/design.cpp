@@ -108,8 +108,11 @@ int RunDesign(const DesignArgs& args) {
   if (!args.result.empty()) {
     std::set<std::string> set_names;
     for (const auto& s : args.sets) set_names.insert(s.substr(0, s.find('=')));
-    if (auto d = project::ApplyResultFile(args.result, set_names, &*spec); !d)
-      return Fail(d.error());
+    auto delays = project::ApplyResultFile(args.result, set_names, &*spec);
+    if (!delays) return Fail(delays.error());
+    // The result's delays: the design's records are observed (and its tries fitted) with them.
+    for (std::size_t o = 0; o < delays->size() && o < spec->output_delay.size(); ++o)
+      if ((*delays)[o] >= 0) spec->output_delay[o] = {(*delays)[o], (*delays)[o]};
   }
   auto lm = model::LinearModel::Compile(*spec);
   if (!lm) {

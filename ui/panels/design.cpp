@@ -419,6 +419,10 @@ void DrawDesignPanel(AppState& state) {
     return;
   }
   DesignViewState& v = state.design;
+  // The model may have lost an input since the designs were seeded (an edit in the Equations
+  // view): the driven input and the levels follow it.
+  v.input = std::clamp(v.input, 0, static_cast<int>(state.model->inputs.size()) - 1);
+  v.hold.resize(state.model->inputs.size(), 0.0);
   const DesignRun* run = v.result ? &*v.result : nullptr;
   if (run && !run->model_error.empty()) {
     DrawNotice(state, "Linear models only", run->model_error, Severity::kWarning);
