@@ -9,6 +9,7 @@
 #include "core/design/experiment.h"
 #include "core/model/model.h"
 #include "core/project/result_file.h"
+#include "core/util/sanitizers.h"
 
 namespace gb::project {
 namespace {
@@ -47,9 +48,12 @@ TEST(DesignFits, ExpectedStandardErrorsMatchTheSpreadOfFitsOnSimulatedRecords) {
   ASSERT_TRUE(expected.ok()) << expected.error().ToString();
   // 200 records: the sample standard deviation of 200 estimates scatters by 1/sqrt(2 · 199) = 5 %
   // around the true spread, so 15 % is three of its standard deviations (with 50 records it
-  // would be 1.5, and one of eight parameters would miss by chance more often than not).
+  // would be 1.5, and one of eight parameters would miss by chance more often than not). Under
+  // the sanitizers (200 fits, 3.5 minutes there) the point is the code path: 12 records, whose
+  // spread is only checked to within a factor of two (it scatters by 21 %).
+  const int records = kSanitized ? 12 : 200;
   DesignFitOptions options;
-  options.records = 200;
+  options.records = records;
   options.seed = 1;
   auto fits = FitDesignRecords(lm, design, 0, hold, options);
   ASSERT_TRUE(fits.ok()) << fits.error().ToString();
@@ -59,12 +63,17 @@ TEST(DesignFits, ExpectedStandardErrorsMatchTheSpreadOfFitsOnSimulatedRecords) {
     const auto& name = lm.spec().parameters[static_cast<std::size_t>(expected->free[i])].name;
     ASSERT_TRUE(expected->info.std_error[i].has_value()) << name;
     const double se = *expected->info.std_error[i];
+    if (kSanitized) {
+      EXPECT_GT(fits->spread[i] / se, 0.5) << name;
+      EXPECT_LT(fits->spread[i] / se, 2.0) << name;
+      continue;
+    }
     EXPECT_NEAR(fits->spread[i] / se, 1.0, 0.15)
         << name << ": spread " << fits->spread[i] << ", expected " << se;
     // The estimates are unbiased to within their spread over 200 records (4 standard errors of
     // the mean).
     EXPECT_NEAR(fits->mean[i], theta[static_cast<std::size_t>(expected->free[i])],
-                4 * se / std::sqrt(200.0))
+                4 * se / std::sqrt(static_cast<double>(records)))
         << name;
   }
 }
