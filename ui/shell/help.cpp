@@ -66,7 +66,7 @@ std::vector<std::string> Cells(std::string_view row) {
 
 bool IsRule(const std::string& row) { return row.find_first_not_of("|-: ") == std::string::npos; }
 
-void DrawTable(AppState& state, const std::vector<std::string>& rows, int id) {
+void DrawTable(const std::vector<std::string>& rows, int id) {
   const std::vector<std::string> header = Cells(rows[0]);
   const int columns = std::clamp(static_cast<int>(header.size()), 1, 32);
   ImGui::PushID(id);
@@ -87,7 +87,6 @@ void DrawTable(AppState& state, const std::vector<std::string>& rows, int id) {
     ImGui::EndTable();
   }
   ImGui::PopID();
-  (void)state;
 }
 
 // One section's Markdown.
@@ -121,7 +120,7 @@ void DrawSection(AppState& state, const GuideSection& section) {
       std::vector<std::string> rows;
       for (; i < lines.size() && lines[i].rfind("|", 0) == 0; ++i) rows.push_back(lines[i]);
       --i;
-      DrawTable(state, rows, tables++);
+      DrawTable(rows, tables++);
       ImGui::Spacing();
       continue;
     }
