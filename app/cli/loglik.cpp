@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <string>
 
 #include "app/cli/cli.h"
 #include "core/expr/native.h"
@@ -74,24 +75,46 @@ int RunBench(const BenchArgs& args) {
   if (!in) return Fail(in.error());
   auto loaded = LoadLikelihood(*in, args.sets);
   if (!loaded) return Fail(loaded.error());
+  // The filter a fit would time: native code for a nonlinear model where it can be built.
+  std::string code = "interpreter";
+  if (loaded->likelihood.nonlinear() && expr::NativeCode::Enabled()) {
+    if (auto native = loaded->likelihood.WithNativeCode()) {
+      loaded->likelihood = std::move(*native);
+      code = "native";
+    }
+  }
   const filter::Likelihood* lik = &loaded->likelihood;
   const std::vector<double>& theta = loaded->theta;
   if (args.repeat < 1) return Fail(InputError("--repeat must be at least 1"));
 
   std::vector<double> seconds;
   long n_obs = 0;
+  ode::OdeCounts per_evaluation;  // the ODE solver's work in one evaluation (a nonlinear model)
   for (int r = 0; r < args.repeat + 1; ++r) {  // the first run warms caches and is not counted
+    const ode::OdeCounts before = lik->ode_counts();
     const auto start = std::chrono::steady_clock::now();
     auto l = lik->Evaluate(theta);
     const auto stop = std::chrono::steady_clock::now();
     if (!l) return Fail(l.error());
     n_obs = l->n_obs;
     if (r > 0) seconds.push_back(std::chrono::duration<double>(stop - start).count());
+    const ode::OdeCounts after = lik->ode_counts();
+    per_evaluation = {after.intervals - before.intervals,
+                      after.stiff_intervals - before.stiff_intervals, after.steps - before.steps,
+                      after.rejected - before.rejected, after.rhs - before.rhs};
   }
   std::nth_element(seconds.begin(), seconds.begin() + seconds.size() / 2, seconds.end());
   Json out;
   out["loglik_eval_s"] = seconds[seconds.size() / 2];
   out["n_obs"] = n_obs;
+  if (lik->nonlinear()) {
+    out["code"] = code;
+    out["ode"] = {{"intervals", per_evaluation.intervals},
+                  {"stiff_intervals", per_evaluation.stiff_intervals},
+                  {"steps", per_evaluation.steps},
+                  {"rejected", per_evaluation.rejected},
+                  {"rhs", per_evaluation.rhs}};
+  }
   std::printf("%s\n", out.dump().c_str());
   return 0;
 }

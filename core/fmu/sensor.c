@@ -70,7 +70,8 @@ typedef struct {
 /* Dormand-Prince 5(4) on the packed moments, with the step proposal it carries. */
 typedef struct {
   double x[GB_NZ], dxdt[GB_NZ], x_new[GB_NZ], dxdt_new[GB_NZ], stages[6 * GB_NZ];
-  double dt_hint;
+  double magnitude[GB_NZ]; /* the error test's scale at x (gb_magnitudes) */
+  double first_step;       /* the step the last interval's first step proposed (0: none) */
 } gbOde;
 
 /* The inputs over [t0, t0 + dt]: u0, or from u0 to u1 (u1 null: held). */
@@ -195,8 +196,26 @@ static int gb_moments(const gbInstance* c, const gbInterval* iv, double t, const
   return finite;
 }
 
+/* The error test's scale m at the packed moments z, as core/filter/moments.cpp's Magnitudes:
+   sqrt(x_i^2 + P_ii) for a mean, |P_aa| for a variance, sqrt(|P_aa P_bb|) for a covariance. */
+static void gb_magnitudes(const double* z, double* m) {
+  int a, b, k = GB_N_STATES, diagonal[GB_N_STATES];
+  for (b = 0; b < GB_N_STATES; ++b) { /* P_bb's place in the packed columns */
+    diagonal[b] = k;
+    k += GB_N_STATES - b;
+  }
+  for (a = 0; a < GB_N_STATES; ++a) m[a] = sqrt(z[a] * z[a] + fabs(z[diagonal[a]]));
+  k = GB_N_STATES;
+  for (b = 0; b < GB_N_STATES; ++b) {
+    const double var_b = fabs(z[diagonal[b]]);
+    m[k++] = var_b;
+    for (a = b + 1; a < GB_N_STATES; ++a) m[k++] = sqrt(fabs(z[diagonal[a]]) * var_b);
+  }
+}
+
 /* One trial step from (t, x) with k1 = F(t, x): x_new, k7 = F(t + h, x_new), and the scaled
-   error max_i |err_i| / (atol + rtol (|x_i| + h |k1_i|)), NaN where a stage is not finite. */
+   error max_i |err_i| / (atol + rtol (m_i + h |k1_i|)), m = gb_magnitudes(x), NaN where a stage
+   is not finite. */
 static double gb_trial(const gbInstance* c, const gbInterval* iv, gbOde* e, double t, double h) {
   double* k2 = e->stages;
   double* k3 = k2 + GB_NZ;
@@ -237,7 +256,7 @@ static double gb_trial(const gbInstance* c, const gbInterval* iv, gbOde* e, doub
   for (i = 0; i < GB_NZ; ++i) {
     const double err =
         e1 * k1[i] + e3 * k3[i] + e4 * k4[i] + e5 * k5[i] + e6 * k6[i] + e7 * e->dxdt_new[i];
-    const double scale = GB_ATOL + GB_RTOL * (fabs(x[i]) + fabs(h) * fabs(k1[i]));
+    const double scale = GB_ATOL + GB_RTOL * (e->magnitude[i] + fabs(h) * fabs(k1[i]));
     const double r = fabs(err) / scale;
     if (r > worst) worst = r;
   }
@@ -246,21 +265,23 @@ static double gb_trial(const gbInstance* c, const gbInterval* iv, gbOde* e, doub
 
 /* z from t0 to t1 under error control, with core/ode/ode.cpp's rules: a step that leaves the
    model's domain is quartered, a rejected one shrunk by max(0.9 err^(-1/3), 1/5), an accepted
-   one grown by 0.9 max(err, 5^-5)^(-1/5) when err < 1/2; the proposal carries to the next
-   interval (kept when the last step was cut short to land on t1). 0 with a message on failure. */
+   one grown by 0.9 max(err, 5^-5)^(-1/5) when err < 1/2; the first step's proposal carries to
+   the next interval (not when that step was cut short to land on t1). 0 with a message on
+   failure. */
 static int gb_advance(gbInstance* c, gbOde* e, const gbInterval* iv, double t0, double t1,
                       double* z) {
   const double length = t1 - t0;
   double t = t0, dt;
   long attempt;
-  int i;
+  int i, first = 1;
   for (i = 0; i < GB_NZ; ++i) e->x[i] = z[i];
+  gb_magnitudes(e->x, e->magnitude);
   if (!gb_moments(c, iv, t, e->x, e->dxdt)) {
     gb_log(c, fmi2Error, "logStatusError",
            "fmi2DoStep: the moment equations are not finite at t = %g", t);
     return 0;
   }
-  dt = e->dt_hint > 0.0 ? (e->dt_hint < length ? e->dt_hint : length) : length;
+  dt = e->first_step > 0.0 ? (e->first_step < length ? e->first_step : length) : length;
   for (attempt = 0;; ++attempt) {
     const double left = t1 - t;
     const int last = dt >= left;
@@ -283,12 +304,13 @@ static int gb_advance(gbInstance* c, gbOde* e, const gbInterval* iv, double t0, 
       dt = error < 0.5
                ? dt_tried * (0.9 * pow(error > pow(5.0, -5.0) ? error : pow(5.0, -5.0), -1.0 / 5))
                : dt_tried;
-      if (last) {
-        if (dt_tried >= 0.5 * e->dt_hint || e->dt_hint == 0.0) e->dt_hint = dt;
-        break;
+      if (first) {
+        if (!last || dt_tried >= 0.5 * e->first_step || e->first_step == 0.0) e->first_step = dt;
+        first = 0;
       }
+      if (last) break;
       t += dt_tried;
-      e->dt_hint = dt;
+      gb_magnitudes(e->x, e->magnitude);
     } else {
       const double shrink = 0.9 * pow(error, -1.0 / 3);
       dt = dt_tried * (shrink > 1.0 / 5 ? shrink : 1.0 / 5);
@@ -582,7 +604,7 @@ static int gb_predict_now(gbInstance* c, double h) {
   int o, a;
   gbInterval iv;
   for (a = 0; a < GB_NZ; ++a) z[a] = s->z[a];
-  s->scratch.dt_hint = s->ode.dt_hint;
+  s->scratch.first_step = s->ode.first_step;
   if (s->updated) { /* a posterior: to the next state's prior first */
     gb_interval(c, state, h, u_end, &iv, &t1);
     if (!gb_advance(c, &s->scratch, &iv, iv.t0, t1, z)) return 0;

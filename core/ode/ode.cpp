@@ -48,6 +48,10 @@ constexpr double kE1 = kB[0] - 5179.0 / 57600, kE3 = kB[2] - 7571.0 / 16695,
 
 }  // namespace
 
+void OdeSystem::Magnitudes(std::span<const double> z, std::span<double> m) const {
+  for (std::size_t i = 0; i < m.size(); ++i) m[i] = std::abs(z[i]);
+}
+
 // ---- explicit: Dormand-Prince 5(4) ------------------------------------------------------------
 
 // The method's own loops, for a size fixed at compile time (N > 0: the moment equations of 1 to
@@ -63,23 +67,26 @@ struct OdeSolver::Explicit {
         dxdt(size),
         x_new(size),
         dxdt_new(size),
-        stages(static_cast<std::size_t>(size) * 6) {}
+        stages(static_cast<std::size_t>(size) * 6),
+        magnitudes(controlled) {}
   int controlled;  // the system's controlled_size()
   std::vector<double> x, dxdt, x_new, dxdt_new;
-  std::vector<double> stages;  // k2..k6 and the trial point, size each
-  double dt_hint = 0.0;        // the step size the last interval ended with (0: none yet)
+  std::vector<double> stages;      // k2..k6 and the trial point, size each
+  std::vector<double> magnitudes;  // OdeSystem::Magnitudes at x
+  double first_step = 0.0;         // the step the last interval's first step proposed (0: none)
 };
 
 namespace {
 
 // One trial step from (t, x) with k1 = F(t, x): x_new, k7 = F(t + h, x_new) and the scaled error
-// max_i |err_i| / (atol + rtol (|x_i| + h |k1_i|)) over the first `controlled` components
-// (returned). `rhs(t, y, k)` evaluates F and returns false where it is not finite; the step then
-// returns a NaN error after its last stage. `stages`: 6 size.
+// max_i |err_i| / (atol + rtol (m_i + h |k1_i|)) over the first `controlled` components
+// (returned), m the system's magnitudes at x (|x_i| by default). `rhs(t, y, k)` evaluates F and
+// returns false where it is not finite; the step then returns a NaN error after its last stage.
+// `stages`: 6 size.
 template <std::ptrdiff_t N, class Rhs>
 double TrialStep(Rhs& rhs, std::ptrdiff_t size, std::ptrdiff_t controlled, double atol, double rtol,
-                 double t, double h, const double* x, const double* k1, double* x_new, double* k7,
-                 double* stages) {
+                 double t, double h, const double* x, const double* magnitude, const double* k1,
+                 double* x_new, double* k7, double* stages) {
   const std::ptrdiff_t n = N > 0 ? N : size;
   double* k2 = stages;
   double* k3 = k2 + n;
@@ -115,7 +122,7 @@ double TrialStep(Rhs& rhs, std::ptrdiff_t size, std::ptrdiff_t controlled, doubl
   double worst = 0.0;
   for (std::ptrdiff_t i = 0; i < controlled; ++i) {
     const double err = e1 * k1[i] + e3 * k3[i] + e4 * k4[i] + e5 * k5[i] + e6 * k6[i] + e7 * k7[i];
-    const double scale = atol + rtol * (std::abs(x[i]) + std::abs(h) * std::abs(k1[i]));
+    const double scale = atol + rtol * (magnitude[i] + std::abs(h) * std::abs(k1[i]));
     worst = std::max(worst, std::abs(err) / scale);
   }
   return worst;
@@ -145,11 +152,14 @@ Status OdeSolver::AdvanceExplicitSized(OdeSystem& system, double t0, double t1,
                       {dxdt, static_cast<std::size_t>(size)});
   };
   std::copy(z.begin(), z.end(), e.x.begin());
+  const std::span<double> magnitudes(e.magnitudes);
+  system.Magnitudes(e.x, magnitudes);
   const double length = t1 - t0;
   double t = t0;
   if (!rhs(t, e.x.data(), e.dxdt.data()))
     return NumericalError("the moment equations are not finite at the interval's start");
-  double dt = e.dt_hint > 0.0 ? std::min(e.dt_hint, length) : length;
+  double dt = e.first_step > 0.0 ? std::min(e.first_step, length) : length;
+  bool first = true;
   for (long attempt = 0;; ++attempt) {
     if (attempt > kMaxSteps)
       return NumericalError(fmt::format("more than {} steps in one sample interval", kMaxSteps));
@@ -157,9 +167,9 @@ Status OdeSolver::AdvanceExplicitSized(OdeSystem& system, double t0, double t1,
     const bool last = dt >= left;
     if (last) dt = left;
     const double dt_tried = dt;
-    const double error =
-        TrialStep<N>(rhs, size, e.controlled, options_.atol, options_.rtol, t, dt, e.x.data(),
-                     e.dxdt.data(), e.x_new.data(), e.dxdt_new.data(), e.stages.data());
+    const double error = TrialStep<N>(rhs, size, e.controlled, options_.atol, options_.rtol, t, dt,
+                                      e.x.data(), e.magnitudes.data(), e.dxdt.data(),
+                                      e.x_new.data(), e.dxdt_new.data(), e.stages.data());
     if (std::isnan(error)) {  // the trial step left the domain of the model (a sqrt of a
                               // negative level)
       ++counts_.rejected;
@@ -173,13 +183,16 @@ Status OdeSolver::AdvanceExplicitSized(OdeSystem& system, double t0, double t1,
       std::swap(e.x, e.x_new);
       std::swap(e.dxdt, e.dxdt_new);
       dt = NextStep(dt_tried, error);
-      if (last) {
-        // Keep the proposal unless the last step was cut short to land on t1.
-        if (dt_tried >= 0.5 * e.dt_hint || e.dt_hint == 0.0) e.dt_hint = dt;
-        break;
+      if (first) {
+        // The next interval begins as this one did (after the filter's update, whose transient
+        // sets the first steps): with the step this first step proposes, unless it was cut short
+        // to land on t1.
+        if (!last || dt_tried >= 0.5 * e.first_step || e.first_step == 0.0) e.first_step = dt;
+        first = false;
       }
+      if (last) break;
       t += dt_tried;
-      e.dt_hint = dt;
+      system.Magnitudes(e.x, magnitudes);
     } else {
       ++counts_.rejected;
       dt = ShorterStep(dt_tried, error);
@@ -281,6 +294,7 @@ struct OdeSolver::Bdf {
   bool initialised = false;
   OdeSystem* system = nullptr;  // during Advance
   long rhs = 0;
+  double rtol = 0.0, atol = 0.0;
 
   ~Bdf() {
     if (memory) CVodeFree(&memory);
@@ -302,6 +316,24 @@ struct OdeSolver::Bdf {
     Bdf& b = *static_cast<Bdf*>(user);
     const auto n = static_cast<std::size_t>(N_VGetLength(y));
     b.system->Jacobian(t, {N_VGetArrayPointer(y), n}, {SUNDenseMatrix_Data(jac), n * n});
+    return 0;
+  }
+  // The error weights 1 / (rtol m_i + atol), m the system's magnitudes (OdeSystem::Magnitudes)
+  // for its controlled components and |y_i| for the rest: CVODE's own scalar tolerances
+  // (CVodeSStolerances) where the magnitudes are |y_i|.
+  static int Weights(N_Vector y, N_Vector weights, void* user) {
+    Bdf& b = *static_cast<Bdf*>(user);
+    const auto n = static_cast<std::size_t>(N_VGetLength(y));
+    const double* z = N_VGetArrayPointer(y);
+    double* w = N_VGetArrayPointer(weights);
+    const auto controlled = static_cast<std::size_t>(b.system->controlled_size());
+    b.system->Magnitudes({z, n}, {w, controlled});
+    for (std::size_t i = controlled; i < n; ++i) w[i] = std::abs(z[i]);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double tolerance = b.rtol * w[i] + b.atol;
+      if (!(tolerance > 0.0)) return -1;
+      w[i] = 1.0 / tolerance;
+    }
     return 0;
   }
   // CVODE reports failures through its return flags, which Advance turns into messages.
@@ -330,7 +362,9 @@ Status OdeSolver::AdvanceBdf(OdeSystem& system, double t0, double t1, std::span<
     flag = CVodeInit(b.memory, &Bdf::Rhs, t0, b.y);
     if (flag >= 0) flag = CVodeSetUserData(b.memory, &b);
     if (flag >= 0) flag = CVodeSetErrHandlerFn(b.memory, &Bdf::Silent, nullptr);
-    if (flag >= 0) flag = CVodeSStolerances(b.memory, options_.rtol, options_.atol);
+    b.rtol = options_.rtol;
+    b.atol = options_.atol;
+    if (flag >= 0) flag = CVodeWFtolerances(b.memory, &Bdf::Weights);
     if (flag >= 0) flag = CVodeSetLinearSolver(b.memory, b.solver, b.matrix);
     if (flag >= 0) flag = CVodeSetJacFn(b.memory, &Bdf::Jacobian);
     if (flag >= 0) flag = CVodeSetMaxNumSteps(b.memory, kMaxSteps);

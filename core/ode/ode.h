@@ -7,10 +7,12 @@
 // The filter integrates over every sample interval from a new start (each measurement update
 // moves the state), so what counts is the cost of one short integration from a cold start, not
 // of one long one. Two methods, both with error control on every component
-// (|err_i| <= atol + rtol |z_i|):
+// (|err_i| <= atol + rtol m_i, m_i the component's magnitude: |z_i| unless the system gives its
+// own, OdeSystem::Magnitudes):
 //   explicit  Dormand-Prince 5(4) (ode.cpp's own loops, taking Boost.Odeint's runge_kutta_dopri5
 //             steps bit for bit), a one-step method: no start-up cost, and each interval begins
-//             with the step size the last one ended with.
+//             with the step size the last one's first step proposed (each interval starts after
+//             an update of the filter, whose transient sets its first steps).
 //   bdf       variable-order BDF (SUNDIALS CVODE) with a dense Newton solver, for stiff models.
 //             Its Newton matrix comes from OdeSystem::Jacobian (an approximation is enough: it
 //             only steers the Newton iteration, never the solution).
@@ -38,6 +40,12 @@ class OdeSystem {
   // The first components that the explicit method's error test covers (the others, such as
   // sensitivities, follow on the steps those need); BDF tests them all.
   virtual int controlled_size() const { return size(); }
+  // The magnitudes m (controlled_size() of them) that the error test scales each controlled
+  // component's tolerance by at the point z: |err_i| <= atol + rtol (m_i + h |F_i|) for the
+  // explicit method, atol + rtol m_i for BDF. By default |z_i|. A system whose component is
+  // small for a structural reason while its error is not (a covariance between two states that
+  // happen to be uncorrelated) gives the scale the component's errors are measured on instead.
+  virtual void Magnitudes(std::span<const double> z, std::span<double> m) const;
   // dz = F(t, z). Returns false when F is not finite there: the solver then shortens the step.
   virtual bool Rhs(double t, std::span<const double> z, std::span<double> dz) = 0;
   // An approximation of ∂F/∂z, column-major size x size, for the implicit method's Newton matrix.

@@ -519,7 +519,11 @@ TEST(EngineCase, WithTheModelExactTheJointFitRecoversEveryParameter) {
   auto l_estimate = lik->Evaluate(at_estimate);
   auto l_truth = lik->Evaluate(at_truth);
   ASSERT_TRUE(l_estimate.ok() && l_truth.ok());
-  EXPECT_NEAR(l_estimate->loglik, (*json)["loglik"].get<double>(), 1e-6);
+  // The same records give the stored log L to the moment equations' tolerance (rtol 1e-6 per
+  // step; the fit's filter and this one may take other steps, as after a change of the
+  // solver's step-size rules).
+  EXPECT_NEAR(l_estimate->loglik, (*json)["loglik"].get<double>(),
+              1e-8 * std::abs(l_estimate->loglik));
   EXPECT_EQ(l_estimate->n_obs, 43200);
   EXPECT_GT(l_estimate->loglik, l_truth->loglik);
 }

@@ -45,16 +45,16 @@ model::EkfOptions Explicit(double rtol, double atol) {
 }
 
 // Odeint's controlled Dormand-Prince over [t0, t1] as OdeSolver drives its explicit method: the
-// first step the last interval's proposal (else the whole interval), the last step cut to land
-// on t1, whose proposal is kept only if that step was not cut below half of it. Appends (t, Δt)
-// per accepted step to *log.
+// first step the proposal of the last interval's first step (else the whole interval), the last
+// step cut to land on t1; the first step's proposal is kept for the next interval unless that
+// step was cut below half of it to land on t1. Appends (t, Δt) per accepted step to *log.
 struct OdeintRun {
   using State = std::vector<double>;
   using Dopri5 = boost::numeric::odeint::runge_kutta_dopri5<State>;
   using Checker = boost::numeric::odeint::default_error_checker<double, Dopri5::algebra_type,
                                                                 Dopri5::operations_type>;
   boost::numeric::odeint::controlled_runge_kutta<Dopri5, Checker> stepper;
-  double dt_hint = 0.0;
+  double first_step = 0.0;
 
   OdeintRun(double rtol, double atol) : stepper(Checker(atol, rtol)) {}
 
@@ -62,7 +62,8 @@ struct OdeintRun {
     auto rhs = [&](const State& z, State& dz, double t) { system.Rhs(t, z, dz); };
     State dxdt(x.size()), x_new(x.size()), dxdt_new(x.size());
     rhs(x, dxdt, t0);
-    double t = t0, dt = dt_hint > 0.0 ? std::min(dt_hint, t1 - t0) : t1 - t0;
+    double t = t0, dt = first_step > 0.0 ? std::min(first_step, t1 - t0) : t1 - t0;
+    bool first = true;
     for (;;) {
       const double left = t1 - t;
       const bool last = dt >= left;
@@ -75,12 +76,12 @@ struct OdeintRun {
         log->push_back(dt_tried);
         std::swap(x, x_new);
         std::swap(dxdt, dxdt_new);
-        if (last) {
-          if (dt_tried >= 0.5 * dt_hint || dt_hint == 0.0) dt_hint = dt;
-          return;
+        if (first) {
+          if (!last || dt_tried >= 0.5 * first_step || first_step == 0.0) first_step = dt;
+          first = false;
         }
+        if (last) return;
         t = t_step;
-        dt_hint = dt;
       }
     }
   }
