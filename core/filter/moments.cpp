@@ -117,6 +117,22 @@ void MultiplyByJt(const double* P, const double* J, const int* columns, const in
   }
 }
 
+// M = A J for J's structural nonzeros: A column-major n x n, J row-major, column c's nonzero rows
+// rows[begin[c]] .. rows[begin[c + 1] - 1] in increasing order; each entry summed over those k in
+// order.
+void MultiplyByJ(const double* A, const double* J, const int* rows, const int* begin, double* M,
+                 std::ptrdiff_t n) {
+  for (std::ptrdiff_t c = 0; c < n; ++c) {
+    double* column = M + c * n;
+    for (std::ptrdiff_t i = 0; i < n; ++i) column[i] = 0.0;
+    for (int r = begin[c]; r < begin[c + 1]; ++r) {
+      const double* A_k = A + static_cast<std::ptrdiff_t>(rows[r]) * n;
+      const double J_kc = J[static_cast<std::ptrdiff_t>(rows[r]) * n + c];
+      for (std::ptrdiff_t i = 0; i < n; ++i) column[i] += A_k[i] * J_kc;
+    }
+  }
+}
+
 }  // namespace
 
 // The moment equations over one sample interval: z = [x̂; lower triangle of P, column by column],
@@ -153,6 +169,15 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
       }
       j_begin_.push_back(static_cast<int>(j_columns_.size()));
     }
+    // The same by column, for Vjp's Λ J.
+    j_column_begin_.assign(Z(n_) + 1, 0);
+    for (const int c : j_columns_) ++j_column_begin_[Z(c) + 1];
+    for (int c = 0; c < n_; ++c) j_column_begin_[Z(c) + 1] += j_column_begin_[Z(c)];
+    j_rows_.resize(j_columns_.size());
+    std::vector<int> next(j_column_begin_.begin(), j_column_begin_.end() - 1);
+    for (int j = 0; j < n_; ++j)
+      for (int r = j_begin_[Z(j)]; r < j_begin_[Z(j) + 1]; ++r)
+        j_rows_[Z(next[Z(j_columns_[Z(r)])]++)] = j;
     // The sparse product pays an indirection per term: worth it below about 3/4 full.
     sparse_j_ = 4 * j_columns_.size() <= 3 * Z(n_) * Z(n_);
     if (sens_) {
@@ -378,6 +403,9 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   // The derivative program at the slots EvaluateAt filled; false (failure() set) if not finite.
   bool EvaluateDerivatives() {
     sens_->dynamics().Eval(slots_, dense_, scratch_);
+    FiniteTest finite;  // the entries are named only after a failure
+    for (const std::size_t position : sens_->dynamics().positions()) finite.Add(dense_[position]);
+    if (finite.Passed()) return true;
     if (auto bad = sens_->NotFinite(sens_->dynamics(), dense_, slots_)) {
       failure_ = std::move(*bad);
       return false;
@@ -433,17 +461,19 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   // λx and Λ given; adds the packed ∂/∂P into z_bar's P part only when it has one.
   bool VjpAt(std::span<const double> lambda_x, const Eigen::MatrixXd& Lambda,
              std::span<double> z_bar, std::span<double> theta_bar) {
-    const model::NonlinearSensitivity& sens = *sens_;
     for (int m = 0; m < n_; ++m) {  // J' λx
       double v = 0.0;
       for (int i = 0; i < n_; ++i) v += J_(i, m) * lambda_x[Z(i)];
       z_bar[Z(m)] += v;
     }
     if (static_cast<int>(z_bar.size()) >= moments_size()) {
-      MultiplySquare(JRowMajor(), Lambda.data(), M_.data(), n_);  // J' Λ
+      // Λ J by J's nonzeros: (Λ J)_ba = (J' Λ)_ab term by term (Λ is symmetric), so the packed
+      // ∂/∂P, (J' Λ + Λ J)_ab, is the same sum either way.
+      MultiplyByJ(Lambda.data(), JRowMajor(), j_rows_.data(), j_column_begin_.data(), M_.data(),
+                  n_);
       for (int b = 0; b < n_; ++b)
         for (int a = b; a < n_; ++a)
-          z_bar[packed_(a, b)] += a == b ? 2.0 * M_(a, a) : 2.0 * (M_(a, b) + M_(b, a));
+          z_bar[packed_(a, b)] += a == b ? 2.0 * M_(a, a) : 2.0 * (M_(b, a) + M_(a, b));
     }
     // The terms of the derivative program's nonzero entries (ClassifyNonzeros): each adds its
     // value times a coefficient, [λx | 2 W (column-major) | 2 Λ_aa σ_a], to its target,
@@ -454,10 +484,14 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
     for (int i = 0; i < n_; ++i) coefficients_[Z(i)] = lambda_x[Z(i)];
     for (std::size_t r = 0; r < nn; ++r) coefficients_[Z(n_) + r] = 2.0 * M_.data()[r];
     for (int a = 0; a < n_; ++a) coefficients_[Z(n_) + nn + Z(a)] = 2.0 * Lambda(a, a) * s[a];
-    std::fill(targets_.begin(), targets_.end(), 0.0);
-    const std::span<const std::size_t> positions = sens.dynamics().positions();
-    for (std::size_t k = 0; k < positions.size(); ++k)
-      targets_[target_of_[k]] += dense_[positions[k]] * coefficients_[coefficient_of_[k]];
+    // Target by target, each summed in the positions' order (as a loop over the positions adding
+    // into the targets would sum it, to the bit), in a register rather than through memory.
+    for (std::size_t target = 0; target + 1 < target_begin_.size(); ++target) {
+      double sum = 0.0;
+      for (std::size_t r = target_begin_[target]; r < target_begin_[target + 1]; ++r)
+        sum += dense_[term_position_[r]] * coefficients_[term_coefficient_[r]];
+      targets_[target] = sum;
+    }
     for (int m = 0; m < n_; ++m) z_bar[m] += targets_[Z(m)];
     for (std::size_t l = 0; l < theta_bar.size(); ++l) theta_bar[l] += targets_[Z(n_) + l];
     return true;
@@ -473,8 +507,7 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
     const std::size_t n = Z(n_), nn = n * n;
     const std::size_t np = Z(model_.n_parameters());
     const std::span<const std::size_t> positions = sens.dynamics().positions();
-    target_of_.resize(positions.size());
-    coefficient_of_.resize(positions.size());
+    std::vector<std::size_t> target_of(positions.size()), coefficient_of(positions.size());
     for (std::size_t k = 0; k < positions.size(); ++k) {
       const std::size_t pos = positions[k];
       std::size_t target = 0, coefficient = 0;
@@ -494,8 +527,20 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
         target = n + (pos - sens.DynSigmaTheta()) / n;
         coefficient = n + nn + (pos - sens.DynSigmaTheta()) % n;
       }
-      target_of_[k] = target;
-      coefficient_of_[k] = coefficient;
+      target_of[k] = target;
+      coefficient_of[k] = coefficient;
+    }
+    // The terms grouped by target, in the positions' order within each (a stable counting sort).
+    target_begin_.assign(n + np + 1, 0);
+    for (const std::size_t t : target_of) ++target_begin_[t + 1];
+    for (std::size_t t = 0; t < n + np; ++t) target_begin_[t + 1] += target_begin_[t];
+    term_position_.resize(positions.size());
+    term_coefficient_.resize(positions.size());
+    std::vector<std::size_t> next(target_begin_.begin(), target_begin_.end() - 1);
+    for (std::size_t k = 0; k < positions.size(); ++k) {
+      const std::size_t r = next[target_of[k]]++;
+      term_position_[r] = positions[k];
+      term_coefficient_[r] = coefficient_of[k];
     }
     coefficients_.resize(n + nn + n);
     targets_.resize(n + np);
@@ -633,17 +678,21 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   const std::vector<int> free_;
   const int m_;
   const int time_slot_;
-  std::vector<double> dense_, scratch_;                  // the sensitivity program's output
-  std::vector<std::size_t> target_of_, coefficient_of_;  // per nonzero (ClassifyNonzeros)
-  std::vector<double> coefficients_, targets_;           // Vjp's workspace
-  int retrace_stages_ = 0, retrace_next_ = 0;            // Retrace
-  std::vector<double> retrace_out_;                      // the dynamics at each retraced stage
+  std::vector<double> dense_, scratch_;  // the sensitivity program's output
+  // The derivative program's nonzero terms grouped by their target (ClassifyNonzeros): target t's
+  // terms are r in [target_begin_[t], target_begin_[t + 1]), each the value at term_position_[r]
+  // times coefficient term_coefficient_[r].
+  std::vector<std::size_t> target_begin_, term_position_, term_coefficient_;
+  std::vector<double> coefficients_, targets_;  // Vjp's workspace
+  int retrace_stages_ = 0, retrace_next_ = 0;   // Retrace
+  std::vector<double> retrace_out_;             // the dynamics at each retraced stage
   Eigen::MatrixXd dJ_, SP_;
   Eigen::VectorXd dsigma_;
   std::vector<double> slots_;
   std::vector<double> out_;
   Eigen::MatrixXi packed_;
-  std::vector<int> j_columns_, j_begin_;  // J's structural nonzeros (MultiplyByJt)
+  std::vector<int> j_columns_, j_begin_;      // J's structural nonzeros by row (MultiplyByJt)
+  std::vector<int> j_rows_, j_column_begin_;  // and by column (MultiplyByJ)
   bool sparse_j_ = false;
   Eigen::MatrixXd balanced_;  // Stiffness's scratch
   Eigen::MatrixXd J_, P_, M_, M2_;
