@@ -715,7 +715,9 @@ void DrawEkfOptions(AppState& state, bool editable) {
     ImGui::EndCombo();
   }
   ImGui::EndDisabled();
-  label("Relative tolerance", "rtol of the moment equations (default 1e-8)");
+  label("Relative tolerance",
+        "rtol of the moment equations (default 1e-8), each error against the moment's own size: "
+        "sqrt(mean² + variance) for a state, the variance, sqrt(P_ii P_jj) for a covariance");
   FormulaField(state, editable, "ekf.rtol", fmt::format("{:g}", o.rtol), 160.0f * s);
   DrawDraftError(state, "ekf.rtol", 0.0f);
   label("Absolute tolerance",
