@@ -135,6 +135,32 @@ void MultiplyByJ(const double* A, const double* J, const int* rows, const int* b
 
 }  // namespace
 
+double SpectralRadiusBound(Eigen::MatrixXd* scaled) {
+  Eigen::MatrixXd& A = *scaled;
+  const Eigen::Index n = A.rows();
+  for (int sweep = 0; sweep < 4; ++sweep) {
+    for (Eigen::Index i = 0; i < n; ++i) {
+      double row = 0.0, column = 0.0;
+      for (Eigen::Index j = 0; j < n; ++j) {
+        if (j == i) continue;
+        row += std::abs(A(i, j));
+        column += std::abs(A(j, i));
+      }
+      if (!(row > 0.0 && column > 0.0)) continue;
+      // Row i divided by f = 2^e and column i multiplied by it: both sums come near
+      // sqrt(row column). At most 2^±32 a step, so that no entry overflows or underflows.
+      const double half_log = 0.5 * (std::log2(row) - std::log2(column));
+      const int e = static_cast<int>(std::lround(std::clamp(half_log, -32.0, 32.0)));
+      if (e == 0) continue;
+      A.row(i) *= std::ldexp(1.0, -e);
+      A.col(i) *= std::ldexp(1.0, e);
+    }
+  }
+  const double rows = A.cwiseAbs().rowwise().sum().maxCoeff();
+  const double columns = A.cwiseAbs().colwise().sum().maxCoeff();
+  return std::min(rows, columns);
+}
+
 // The moment equations over one sample interval: z = [x̂; lower triangle of P, column by column],
 // and with `transition` also Φ (column-major), dΦ/dt = J Φ from Φ = I.
 class MomentPropagator::Moments final : public ode::AdjointSystem {
@@ -587,49 +613,21 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
     }
   }
 
-  // An upper bound of ρ(A): the smaller of the largest row and column sums of |D⁻¹ A D|, with
-  // the diagonal D from four sweeps of Osborne's balancing (LAPACK's dgebal) in powers of two, so
-  // that the scaled entries are A's own to the bit. O(n²) a sweep, and within a small factor of
-  // ρ where A's entries span the states' units (the engine's Padé chain, whose ∂ż3/∂z1 is
-  // 10⁶ s⁻³ at a fastest mode of 150/s). A is scaled in place.
-  static double SpectralRadiusBound(Eigen::MatrixXd& A) {
-    const Eigen::Index n = A.rows();
-    for (int sweep = 0; sweep < 4; ++sweep) {
-      for (Eigen::Index i = 0; i < n; ++i) {
-        double row = 0.0, column = 0.0;
-        for (Eigen::Index j = 0; j < n; ++j) {
-          if (j == i) continue;
-          row += std::abs(A(i, j));
-          column += std::abs(A(j, i));
-        }
-        if (!(row > 0.0 && column > 0.0)) continue;
-        // Row i divided by f and column i multiplied by it: both sums become sqrt(row column).
-        const int e = static_cast<int>(std::lround(0.5 * std::log2(row / column)));
-        if (e == 0) continue;
-        A.row(i) *= std::ldexp(1.0, -e);
-        A.col(i) *= std::ldexp(1.0, e);
-      }
-    }
-    const double rows = A.cwiseAbs().rowwise().sum().maxCoeff();
-    const double columns = A.cwiseAbs().colwise().sum().maxCoeff();
-    return std::min(rows, columns);
-  }
-
-  // An upper bound of ρ(∂F/∂z) times dt at (x, t0): the covariance part has the eigenvalues
-  // λ_i + λ_j of J, so 2 max_i Σ_j |J_ij| (Gershgorin) bounds it. Infinite if not finite.
-  // 2 ρ(J) Δt: the moment equations' linear part has the eigenvalues λ_i + λ_j of J's. The
-  // spectral radius itself, not a norm: a norm grows with the states' units (a row-sum bound
+  // ρ(∂F/∂z) dt at (x, t0) for the solver's choice of method: 2 ρ(J) dt, since the moment
+  // equations' linear part has the eigenvalues λ_i + λ_j of J's (infinite if J is not finite).
+  // The spectral radius itself, not a norm: a norm grows with the states' units (a row-sum bound
   // counted the mean-value engine's ∂(dz2)/∂mfv = 3200 as a mode of 3200/s, and sent an interval
-  // whose fastest mode is 61/s to BDF).
-  // The eigenvalues are computed only where a cheap bound of ρ(J) does not already settle that
-  // the interval is not stiff (the solver only compares the figure with its limit): a full
-  // eigenvalue solver at every interval was a fifth of the engine model's log L.
+  // whose fastest mode is 61/s to BDF). The eigenvalues are computed only where the balanced
+  // bound (SpectralRadiusBound) does not already settle that the interval is not stiff, and the
+  // bound is returned where it does: the solver only compares the figure with its limit, so the
+  // choice is the same, and an eigenvalue solver at every interval was a fifth of the engine
+  // model's log L.
   double Stiffness(const double* x) {
     if (!EvaluateAt(t0_, x)) return std::numeric_limits<double>::infinity();
     if (!J_.allFinite()) return std::numeric_limits<double>::infinity();
     if (n_ == 1) return 2.0 * std::abs(J_(0, 0)) * dt_;
     balanced_ = J_;
-    const double bound = 2.0 * SpectralRadiusBound(balanced_) * dt_;
+    const double bound = 2.0 * SpectralRadiusBound(&balanced_) * dt_;
     if (bound <= ode::OdeSolver::kStiffLimit) return bound;
     const Eigen::EigenSolver<Eigen::MatrixXd> eig(J_, /*computeEigenvectors=*/false);
     if (eig.info() != Eigen::Success) return 2.0 * J_.cwiseAbs().rowwise().sum().maxCoeff() * dt_;
@@ -694,7 +692,7 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   std::vector<int> j_columns_, j_begin_;      // J's structural nonzeros by row (MultiplyByJt)
   std::vector<int> j_rows_, j_column_begin_;  // and by column (MultiplyByJ)
   bool sparse_j_ = false;
-  Eigen::MatrixXd balanced_;  // Stiffness's scratch
+  Eigen::MatrixXd balanced_;  // Stiffness's scratch (SpectralRadiusBound scales it)
   Eigen::MatrixXd J_, P_, M_, M2_;
   const double* u0_ = nullptr;
   const double* u1_ = nullptr;

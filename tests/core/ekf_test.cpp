@@ -15,10 +15,12 @@
 #include <random>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
 #include "core/expr/expr.h"
 #include "core/filter/kalman.h"
+#include "core/filter/moments.h"
 #include "core/model/linear_model.h"
 #include "core/model/nonlinear_model.h"
 #include "core/util/json.h"
@@ -104,6 +106,46 @@ TEST(Ekf, LinearModelEqualsTheExactFilterToTheTolerance) {
       previous_error = error;
     }
   }
+}
+
+// The stiffness test's bound of the spectral radius against Eigen's eigenvalues: never below ρ,
+// on random matrices whose rows and columns are in units 10⁻⁴ to 10⁴ apart (D A D⁻¹), and within
+// a small factor of it on the engine model's Padé chain at 5 000 rpm, whose plain row-sum norm
+// is 2·10⁴ times ρ. (On a general matrix no norm is near ρ: a nilpotent one has ρ = 0.)
+TEST(Ekf, SpectralRadiusBoundIsAboveTheRadiusAndNearIt) {
+  auto radius = [](const Eigen::MatrixXd& A) {
+    return Eigen::EigenSolver<Eigen::MatrixXd>(A, false).eigenvalues().cwiseAbs().maxCoeff();
+  };
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int trial = 0; trial < 300; ++trial) {
+    const int n = 2 + trial % 7;
+    Eigen::MatrixXd A(n, n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) A(i, j) = trial % 3 == 0 && unit(rng) < 0 ? 0.0 : unit(rng);
+    Eigen::VectorXd d(n);
+    for (int i = 0; i < n; ++i) d(i) = std::pow(10.0, 4.0 * unit(rng));
+    A = d.asDiagonal() * A * d.cwiseInverse().asDiagonal();
+    Eigen::MatrixXd scaled = A;
+    const double bound = SpectralRadiusBound(&scaled);
+    // D⁻¹ A D has A's eigenvalues; computed from it they are the more accurate (Eigen's solver
+    // does not balance, and A's spread of units costs it up to 10⁻³ relative here).
+    const double rho = radius(scaled);
+    EXPECT_NEAR(radius(A), rho, 1e-2 * rho);
+    EXPECT_GE(bound, rho - 1e-9 * (rho + bound)) << A;
+  }
+  // z1' = z2, z2' = z3, z3' = 120 / T³ (u - z1 - T z2 / 2 - T² z3 / 10), T = c_d / n.
+  const double T = 171.84 / 5000.0;
+  Eigen::MatrixXd pade = Eigen::MatrixXd::Zero(3, 3);
+  pade(0, 1) = pade(1, 2) = 1.0;
+  pade(2, 0) = -120.0 / (T * T * T);
+  pade(2, 1) = -60.0 / (T * T);
+  pade(2, 2) = -12.0 / T;
+  Eigen::MatrixXd scaled = pade;
+  const double rho = radius(pade);
+  EXPECT_NEAR(rho * T, 5.1, 0.2);  // the [3/3] Padé's poles, |s| T = 4.6 and 5.1
+  EXPECT_GT(pade.cwiseAbs().rowwise().sum().maxCoeff(), 1e4 * rho);
+  EXPECT_LT(SpectralRadiusBound(&scaled), 5.0 * rho);  // 4.1 ρ
 }
 
 // A lightly damped oscillator observed in its position. Its velocity's mean crosses zero, and the
