@@ -37,8 +37,8 @@ struct MomentSensitivities {
 // powers of two, so that the scaled entries are A's own to the bit; *scaled (A on entry) ends as
 // D⁻¹ A D. O(n²) a sweep. Where A's entries span the states' units it stays near ρ when a plain
 // norm does not: on the engine's Padé chain at 5 000 rpm (∂ż3/∂z1 = 3·10⁶ s⁻³, fastest mode
-// 148/s) it is 4.1 ρ, the row-sum norm 2·10⁴ ρ. The filter's stiffness test (`ode: auto`) computes J's
-// eigenvalues only where this bound does not settle that an interval is not stiff.
+// 148/s) it is 4.1 ρ, the row-sum norm 2·10⁴ ρ. The filter's stiffness test (`ode: auto`) computes
+// J's eigenvalues only where this bound does not settle that an interval is not stiff.
 double SpectralRadiusBound(Eigen::MatrixXd* scaled);
 
 class MomentPropagator {
