@@ -102,6 +102,11 @@ Result<LoadedLikelihood> LoadLikelihood(const CommandInputs& in,
                                         const std::vector<std::string>& sets,
                                         const std::string& start_result = "");
 
+// A nonlinear model's filter (and smoother) on native code where it can be built, as a fit's
+// (the same values bit for bit, from the library a fit of the model left in the cache), else on
+// the interpreter. True if native code now runs.
+bool UseNativeCode(filter::Likelihood* likelihood);
+
 struct LoglikArgs {
   std::string initial_states;  // --initial-states ("" = the project's)
   std::string model;

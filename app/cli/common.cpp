@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "app/cli/cli.h"
+#include "core/expr/native.h"
 #include "core/project/problem.h"
 #include "core/project/project.h"
 #include "core/project/result_file.h"
@@ -219,6 +220,14 @@ std::vector<diagnose::InputSeries> DiagnoseInputs(const EvaluatedSeries& e,
   std::vector<diagnose::InputSeries> inputs;
   for (std::size_t i = 0; i < m.inputs.size(); ++i) inputs.push_back({m.inputs[i], (*values)[i]});
   return inputs;
+}
+
+bool UseNativeCode(filter::Likelihood* likelihood) {
+  if (!likelihood->nonlinear() || !expr::NativeCode::Enabled()) return false;
+  auto native = likelihood->WithNativeCode();
+  if (!native) return false;
+  *likelihood = std::move(*native);
+  return true;
 }
 
 }  // namespace gb::cli

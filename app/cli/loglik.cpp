@@ -1,10 +1,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <string>
 
 #include "app/cli/cli.h"
-#include "core/expr/native.h"
 #include "core/util/json.h"
 
 namespace gb::cli {
@@ -14,11 +12,7 @@ int RunLoglik(const LoglikArgs& args) {
   if (!in) return Fail(in.error());
   auto loaded = LoadLikelihood(*in, args.sets);
   if (!loaded) return Fail(loaded.error());
-  // A nonlinear model's filter runs on native code where it can be built, as a fit's does (the
-  // same values bit for bit, from the same cache), and on the interpreter where it cannot.
-  if (loaded->likelihood.nonlinear() && expr::NativeCode::Enabled()) {
-    if (auto native = loaded->likelihood.WithNativeCode()) loaded->likelihood = std::move(*native);
-  }
+  UseNativeCode(&loaded->likelihood);
   const filter::Likelihood* lik = &loaded->likelihood;
   const std::vector<double>& theta = loaded->theta;
 
@@ -75,14 +69,8 @@ int RunBench(const BenchArgs& args) {
   if (!in) return Fail(in.error());
   auto loaded = LoadLikelihood(*in, args.sets);
   if (!loaded) return Fail(loaded.error());
-  // The filter a fit would time: native code for a nonlinear model where it can be built.
-  std::string code = "interpreter";
-  if (loaded->likelihood.nonlinear() && expr::NativeCode::Enabled()) {
-    if (auto native = loaded->likelihood.WithNativeCode()) {
-      loaded->likelihood = std::move(*native);
-      code = "native";
-    }
-  }
+  // The filter a fit would time.
+  const bool native = UseNativeCode(&loaded->likelihood);
   const filter::Likelihood* lik = &loaded->likelihood;
   const std::vector<double>& theta = loaded->theta;
   if (args.repeat < 1) return Fail(InputError("--repeat must be at least 1"));
@@ -108,7 +96,7 @@ int RunBench(const BenchArgs& args) {
   out["loglik_eval_s"] = seconds[seconds.size() / 2];
   out["n_obs"] = n_obs;
   if (lik->nonlinear()) {
-    out["code"] = code;
+    out["code"] = native ? "native" : "interpreter";
     out["ode"] = {{"intervals", per_evaluation.intervals},
                   {"stiff_intervals", per_evaluation.stiff_intervals},
                   {"steps", per_evaluation.steps},

@@ -10,7 +10,6 @@
 
 #include "app/cli/cli.h"
 #include "core/data/write_csv.h"
-#include "core/expr/native.h"
 #include "core/filter/ekf_predict.h"
 #include "core/filter/initial_state.h"
 #include "core/project/problem.h"
@@ -102,12 +101,7 @@ Result<EvaluatedSeries> LoadEvaluatedSeries(const CommandInputs& in,
   if (!problem) return problem.error();
   auto lik = project::MakeLikelihood(*problem);
   if (!lik) return lik.error();
-  // A nonlinear model's filter and smoother run on native code where it can be built, as a
-  // fit's do (the same values bit for bit, the library a fit of the model left in the cache),
-  // and on the interpreter where it cannot.
-  if (lik->nonlinear() && expr::NativeCode::Enabled()) {
-    if (auto native = lik->WithNativeCode()) lik = std::move(*native);
-  }
+  UseNativeCode(&*lik);
   out.model = problem->model;
   out.nonlinear = lik->nonlinear_shared();
   out.series = problem->series.front();

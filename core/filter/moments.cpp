@@ -195,18 +195,18 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
       }
       j_begin_.push_back(static_cast<int>(j_columns_.size()));
     }
-    // The same by column, for Vjp's Λ J.
-    j_column_begin_.assign(Z(n_) + 1, 0);
-    for (const int c : j_columns_) ++j_column_begin_[Z(c) + 1];
-    for (int c = 0; c < n_; ++c) j_column_begin_[Z(c) + 1] += j_column_begin_[Z(c)];
-    j_rows_.resize(j_columns_.size());
-    std::vector<int> next(j_column_begin_.begin(), j_column_begin_.end() - 1);
-    for (int j = 0; j < n_; ++j)
-      for (int r = j_begin_[Z(j)]; r < j_begin_[Z(j) + 1]; ++r)
-        j_rows_[Z(next[Z(j_columns_[Z(r)])]++)] = j;
     // The sparse product pays an indirection per term: worth it below about 3/4 full.
     sparse_j_ = 4 * j_columns_.size() <= 3 * Z(n_) * Z(n_);
     if (sens_) {
+      // J's structural nonzeros by column, for Vjp's Λ J.
+      j_column_begin_.assign(Z(n_) + 1, 0);
+      for (const int c : j_columns_) ++j_column_begin_[Z(c) + 1];
+      for (int c = 0; c < n_; ++c) j_column_begin_[Z(c) + 1] += j_column_begin_[Z(c)];
+      j_rows_.resize(j_columns_.size());
+      std::vector<int> next(j_column_begin_.begin(), j_column_begin_.end() - 1);
+      for (int j = 0; j < n_; ++j)
+        for (int r = j_begin_[Z(j)]; r < j_begin_[Z(j) + 1]; ++r)
+          j_rows_[Z(next[Z(j_columns_[Z(r)])]++)] = j;
       ClassifyNonzeros();
       dense_ = sens_->dynamics().Zeroed();
       scratch_.resize(sens_->dynamics().nonzeros());

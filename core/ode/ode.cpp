@@ -152,8 +152,7 @@ Status OdeSolver::AdvanceExplicitSized(OdeSystem& system, double t0, double t1,
                       {dxdt, static_cast<std::size_t>(size)});
   };
   std::copy(z.begin(), z.end(), e.x.begin());
-  const std::span<double> magnitudes(e.magnitudes);
-  system.Magnitudes(e.x, magnitudes);
+  system.Magnitudes(e.x, e.magnitudes);
   const double length = t1 - t0;
   double t = t0;
   if (!rhs(t, e.x.data(), e.dxdt.data()))
@@ -192,7 +191,7 @@ Status OdeSolver::AdvanceExplicitSized(OdeSystem& system, double t0, double t1,
       }
       if (last) break;
       t += dt_tried;
-      system.Magnitudes(e.x, magnitudes);
+      system.Magnitudes(e.x, e.magnitudes);
     } else {
       ++counts_.rejected;
       dt = ShorterStep(dt_tried, error);
