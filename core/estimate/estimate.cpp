@@ -120,9 +120,16 @@ bool AtBound(const Fitter& f, const std::vector<double>& z, int i) {
   return to_bound <= kAtBoundTol * std::max(range, std::abs(z[i]));
 }
 
-bool OnABound(const Fitter& f, const std::vector<double>& z) {
+// Whether fit r ended with free parameter i on the lower bound it crept onto (FitResult::crept).
+bool CreptOntoBound(const Fitter& f, const FitResult& r, int i) {
+  return std::binary_search(r.crept.begin(), r.crept.end(), i) && AtBound(f, r.z, i) &&
+         r.z[i] - f.lower(i) <= f.upper(i) - r.z[i];
+}
+
+// Whether fit r ended with a parameter on a bound, other than one it crept onto.
+bool OnABound(const Fitter& f, const FitResult& r) {
   for (int i = 0; i < f.k(); ++i)
-    if (AtBound(f, z, i)) return true;
+    if (AtBound(f, r.z, i) && !CreptOntoBound(f, r, i)) return true;
   return false;
 }
 
@@ -1184,7 +1191,8 @@ class EstimateRun {
                                : std::max({1.0, std::abs(z0), std::abs(z - z0)});
       const double se =
           u.std_error[i] ? *u.std_error[i] / fitter_->Slope(i, z) : HUGE_VAL;  // scaled units
-      const bool onto_bound = u.at_bound[i] && !AtBound(*fitter_, z_start_, i);
+      const bool onto_bound =
+          u.at_bound[i] && !AtBound(*fitter_, z_start_, i) && !CreptOntoBound(*fitter_, best_, i);
       // Far out on a scale without bounds: towards ±inf.
       const bool far = !std::isfinite(fitter_->lower(i)) && !std::isfinite(fitter_->upper(i)) &&
                        std::abs(z - z0) > kRunaway * std::max(1.0, std::abs(z0));
@@ -1205,7 +1213,7 @@ class EstimateRun {
     if (options_.multistart != 0 || options_.starts_on_bound == 0 || best_.cancelled ||
         fitter_->Cancelled() || !std::isfinite(best_.loglik))
       return;
-    bool wanted = OnABound(*fitter_, best_.z);
+    bool wanted = OnABound(*fitter_, best_);
     if (!runaways_.empty())
       wanted = !released_into_best_ && std::any_of(runaways_.begin(), runaways_.end(), [&](int i) {
         return !std::isfinite(fitter_->lower(i)) || !std::isfinite(fitter_->upper(i));

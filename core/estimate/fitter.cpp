@@ -377,17 +377,19 @@ Eigen::MatrixXd Fitter::SubMatrix(const Eigen::MatrixXd& B, const std::vector<in
 
 FitResult Fitter::FitBhhh(std::vector<double> z, const std::vector<int>& delay,
                           const std::string& stage, int max_iterations, bool bfgs_updates,
-                          const Eigen::MatrixXd* first_model, bool hand_over) {
+                          const Eigen::MatrixXd* first_model, bool hand_over,
+                          bool rescale_creepers) {
   Eigen::MatrixXd B;  // the curvature model of -objective (scaled units)
-  FitResult r =
-      BhhhLoop(std::move(z), delay, stage, max_iterations, bfgs_updates, first_model, hand_over, B);
+  FitResult r = BhhhLoop(std::move(z), delay, stage, max_iterations, bfgs_updates, first_model,
+                         hand_over, rescale_creepers, B);
   r.model = std::move(B);
   return r;
 }
 
 FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
                            const std::string& stage, int max_iterations, bool bfgs_updates,
-                           const Eigen::MatrixXd* first_model, bool hand_over, Eigen::MatrixXd& B) {
+                           const Eigen::MatrixXd* first_model, bool hand_over,
+                           bool rescale_creepers, Eigen::MatrixXd& B) {
   FitResult r;
   const int evaluations_before = evaluations();
   Eigen::VectorXd g_last;  // the gradient at the last accepted point
@@ -395,8 +397,10 @@ FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
   bool reset = true;  // take BHHH's information afresh
   if (StartInBox(&z, delay, &r)) return r;
   double last_expected = HUGE_VAL;
-  std::vector<double> recent_gains;  // of the accepted steps
-  bool scored_ahead = false;         // f_ahead, g_ahead (and info_ahead) are the scores at z
+  std::vector<double> recent_gains;                // of the accepted steps
+  std::vector<std::vector<double>> recent_points;  // the last kCrawlWindow + 1 accepted points
+  if (rescale_creepers) recent_points.push_back(z);
+  bool scored_ahead = false;  // f_ahead, g_ahead (and info_ahead) are the scores at z
   double f_ahead = 0;
   Eigen::VectorXd g_ahead;
   Eigen::MatrixXd info_ahead;
@@ -509,7 +513,15 @@ FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
     bool accepted = false;
     std::vector<double> z_new(z);
     double f_new = f;
-    for (int half = 0, alpha_exp = 0; half < kMaxHalvings; ++half, --alpha_exp) {
+    // On a log scale a unit step multiplies a parameter by e: the line search starts within
+    // kMaxLogStep there (a flow coefficient multiplied by e^5 turns a model's ODE stiff, and one
+    // evaluation there costs tens of ordinary ones).
+    int first_exp = 0;
+    for (int a = 0; a < m; ++a)
+      if (log_[F[a]])
+        while (std::ldexp(std::abs(d(a)), first_exp) > kMaxLogStep && first_exp > -kMaxHalvings)
+          --first_exp;
+    for (int half = 0, alpha_exp = first_exp; half < kMaxHalvings; ++half, --alpha_exp) {
       const double alpha = std::ldexp(1.0, alpha_exp);
       z_new = z;
       double predicted = 0;
@@ -565,7 +577,12 @@ FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
       return r;
     }
     recent_gains.push_back(gain);
-    if (hand_over && static_cast<int>(recent_gains.size()) >= kCrawlWindow) {
+    if (rescale_creepers) {
+      recent_points.push_back(z);
+      if (static_cast<int>(recent_points.size()) > kCrawlWindow + 1)
+        recent_points.erase(recent_points.begin());
+    }
+    if ((hand_over || rescale_creepers) && static_cast<int>(recent_gains.size()) >= kCrawlWindow) {
       // Crawling: small gains that shrink too slowly to be worth waiting for. At the rate ρ they
       // shrank by over the window (linear convergence), the gain falls below kNegligibleGain after
       // log(kNegligibleGain / gain) / log ρ more steps; where that is more than the k gradients
@@ -580,9 +597,14 @@ FitResult Fitter::BhhhLoop(std::vector<double> z, const std::vector<int>& delay,
                                     ? HUGE_VAL
                                     : std::log(kNegligibleGain / last) / std::log(rate);
       if (sum < kCrawlGain && steps_left > std::max(k(), kCrawlWindow)) {
-        r.crawling = true;
-        r.message = "gaining too slowly";
-        return r;
+        if (rescale_creepers) r.creeping = Creeping(recent_points);
+        if (hand_over || !r.creeping.empty()) {
+          r.crawling = true;
+          r.message = r.creeping.empty() ? "gaining too slowly"
+                                         : "gaining too slowly, positive parameters creeping "
+                                           "towards their lower bounds";
+          return r;
+        }
       }
     }
   }
@@ -650,6 +672,18 @@ void Fitter::SplitAtBounds(const std::vector<double>& z, const Eigen::VectorXd& 
     else
       held->emplace_back(i, at_lower ? lower_[i] : upper_[i]);
   }
+}
+
+std::vector<int> Fitter::Creeping(const std::vector<std::vector<double>>& points) const {
+  std::vector<int> creeping;
+  if (static_cast<int>(points.size()) != kCrawlWindow + 1) return creeping;
+  for (int i = 0; i < k(); ++i) {
+    if (!OnLogScaleThere(i)) continue;
+    bool fell = true;
+    for (std::size_t j = 1; j < points.size() && fell; ++j) fell = points[j][i] < points[j - 1][i];
+    if (fell && points.front()[i] >= (1 + kCreep) * points.back()[i]) creeping.push_back(i);
+  }
+  return creeping;
 }
 
 void Fitter::Overlay(const Eigen::MatrixXd* model, Eigen::MatrixXd* B) {
@@ -835,8 +869,21 @@ FitResult Fitter::Fit(std::vector<double> z, const std::vector<int>& delay,
   if (options_.algorithm == Algorithm::kAuto) {
     // BHHH with BFGS corrections from the start; where it cannot finish (flat or bound-limited
     // directions), L-BFGS to the full tolerance from its best point.
-    FitResult r =
-        FitBhhh(std::move(z), delay, stage, max_iterations, /*bfgs_updates=*/true, first_model);
+    FitResult r = FitBhhh(std::move(z), delay, stage, max_iterations, /*bfgs_updates=*/true,
+                          first_model, /*hand_over=*/false, /*rescale_creepers=*/true);
+    if (!r.creeping.empty() && !r.cancelled) {
+      // A crawl down a valley along which positive parameters fall towards their lower bounds
+      // (the Cascaded Tanks SDE's upper outflow coefficient, traded against its exponent and the
+      // overflow level over two decades): on their log scale the valley is straight.
+      FitResult on = FitOnLogScale(r.z, delay, stage, 0, &r.creeping);
+      if (on.cancelled || on.loglik >= r.loglik) {
+        on.crept.insert(on.crept.end(), r.creeping.begin(), r.creeping.end());
+        std::sort(on.crept.begin(), on.crept.end());
+        return on;
+      }
+      r.crawling = false;
+      r.creeping.clear();
+    }
     if (r.converged || r.cancelled || !std::isfinite(r.loglik)) return r;
     FitResult finished = FitNlopt(r.z, delay, stage, Algorithm::kLbfgs, options_.ftol_rel);
     return finished.loglik >= r.loglik ? finished : r;
@@ -994,11 +1041,14 @@ bool Fitter::AnyOnLogScale() const {
 }
 
 FitResult Fitter::FitOnLogScale(const std::vector<double>& z, const std::vector<int>& delay,
-                                const std::string& stage, int max_evaluations) {
+                                const std::string& stage, int max_evaluations,
+                                const std::vector<int>* which) {
   const std::vector<double> theta = Theta(z);
   FitResult r = Alongside(threads_, max_evaluations, true, [&](Fitter& f) {
     for (int i = 0; i < k(); ++i) {
-      if (!OnLogScaleThere(i)) continue;
+      if (!OnLogScaleThere(i) ||
+          (which && std::find(which->begin(), which->end(), i) == which->end()))
+        continue;
       f.log_[i] = 1;
       f.lower_[i] = std::log(lower_[i] * scale_[i]);
       f.upper_[i] = std::isfinite(upper_[i]) ? std::log(upper_[i] * scale_[i]) : HUGE_VAL;

@@ -64,6 +64,9 @@ inline constexpr double kRunaway = 10;
 // accepted steps (at least k) without it; the radius test's thresholds.
 inline constexpr int kExactEvery = 10;
 inline constexpr int kCrawlWindow = 5;
+// A positive parameter that fell at every step of a crawl's window, by this fraction of itself
+// over the window, creeps towards its lower bound (BhhhLoop's rescale_creepers).
+inline constexpr double kCreep = 0.01;
 inline constexpr double kCrawlGain = 1.0;
 inline constexpr double kNegligibleGain = 1e-6;
 inline constexpr double kAcceptRatio = 1e-4;
@@ -71,6 +74,7 @@ inline constexpr double kShrinkRatio = 0.25;
 inline constexpr double kGrowRatio = 0.75;
 inline constexpr double kArmijo = 1e-4;  // sufficient increase along the BHHH direction
 inline constexpr int kMaxHalvings = 40;
+inline constexpr double kMaxLogStep = 1.0;  // the line search's first step on a log scale, at most
 inline constexpr double kFirstDamping = 1e-10;  // Levenberg damping of a singular BHHH information,
 inline constexpr int kDampingSteps = 8;         // then x100 per step up to 1e4
 inline constexpr double kNearBound = 1e-6;      // scaled: a parameter this close is on its bound
@@ -113,7 +117,12 @@ struct FitResult {
   double loglik = -std::numeric_limits<double>::infinity();
   bool converged = false;
   bool cancelled = false;
-  bool crawling = false;  // BHHH's loop stopped for the end game: it was gaining too slowly
+  bool crawling = false;      // BHHH's loop stopped for the end game: it was gaining too slowly
+  std::vector<int> creeping;  // it stopped because these parameters crept (rescale_creepers)
+  // auto: the parameters the fit went on with on a log scale because they crept towards their
+  // lower bounds (in index order). One that ends on that bound reached it along a valley on
+  // which log L rose at every step, the others following it: it did not run off.
+  std::vector<int> crept;
   std::string message;
 };
 
@@ -239,14 +248,18 @@ class Fitter {
   // gained less than kCrawlGain together and shrink so slowly that reaching kNegligibleGain would
   // take more steps than an exact Hessian costs gradients: a trust-region end game on the exact
   // Hessian finishes in a few steps what its curvature model would take hundreds for.
+  // With `rescale_creepers`, it stops (crawling, with `creeping` set) where, on such a crawl,
+  // parameters with a positive lower bound on a linear scale fell at every step of the window,
+  // by kCreep of themselves or more: a crawl down a valley that a log scale straightens.
   FitResult FitBhhh(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
                     int max_iterations, bool bfgs_updates = false,
-                    const Eigen::MatrixXd* first_model = nullptr, bool hand_over = false);
+                    const Eigen::MatrixXd* first_model = nullptr, bool hand_over = false,
+                    bool rescale_creepers = false);
 
   // FitBhhh's iterations; B ends as the curvature model at the returned point.
   FitResult BhhhLoop(std::vector<double> z, const std::vector<int>& delay, const std::string& stage,
                      int max_iterations, bool bfgs_updates, const Eigen::MatrixXd* first_model,
-                     bool hand_over, Eigen::MatrixXd& B);
+                     bool hand_over, bool rescale_creepers, Eigen::MatrixXd& B);
 
   // The trust-region algorithm's end game: a trust-region Newton method on a curvature model B
   // of -objective (scaled units). B starts as BHHH's information (its finite entries replaced by
@@ -272,7 +285,9 @@ class Fitter {
   bool ExactHessian(const std::vector<double>& z, const std::vector<int>& delay,
                     const Eigen::VectorXd& g, const std::vector<int>& which, Eigen::MatrixXd* H);
 
-  // auto: BHHH with BFGS corrections, L-BFGS to finish where it cannot; trust-region: the same
+  // auto: BHHH with BFGS corrections, L-BFGS to finish where it cannot; where BHHH crawls with
+  // positive parameters creeping towards their lower bounds, the fit goes on with those on a log
+  // scale (FitOnLogScale); trust-region: the same
   // while it gains well, then (where it crawls or its line search fails) the trust-region end
   // game from the exact Hessian. `first_model` (auto and trust-region): a curvature model of
   // -objective in scaled units to start from (NaN entries: BHHH's).
@@ -284,9 +299,11 @@ class Fitter {
   // bound (z = log θ there, the other parameters as here): where a curved valley runs along
   // products and ratios of positive parameters it is straighter there. Its iterations and
   // evaluations are added to this fitter's; the result is in this fitter's scale (no model).
-  // `max_evaluations` > 0: its limit.
+  // `max_evaluations` > 0: its limit. With `which`, only those free parameters go on a log scale
+  // (each one that OnLogScaleThere).
   FitResult FitOnLogScale(const std::vector<double>& z, const std::vector<int>& delay,
-                          const std::string& stage, int max_evaluations);
+                          const std::string& stage, int max_evaluations,
+                          const std::vector<int>* which = nullptr);
 
   // Whether FitOnLogScale would fit any parameter on another scale than this fitter does.
   bool AnyOnLogScale() const;
@@ -311,6 +328,10 @@ class Fitter {
   // within kNearBound of it) whose gradient points out into *held, with that bound.
   void SplitAtBounds(const std::vector<double>& z, const Eigen::VectorXd& g,
                      std::vector<int>* free_set, std::vector<std::pair<int, double>>* held) const;
+
+  // Of the accepted points of a crawl's window (kCrawlWindow + 1, oldest first), the free
+  // parameters that OnLogScaleThere and fell at every step, by kCreep of themselves or more.
+  std::vector<int> Creeping(const std::vector<std::vector<double>>& points) const;
 
   // The finite entries of `model` (if any) replace B's: a better first curvature model.
   static void Overlay(const Eigen::MatrixXd* model, Eigen::MatrixXd* B);
