@@ -859,6 +859,18 @@ class EstimateRun {
     delay_of_start_ = delay_;
   }
 
+  // r becomes the estimate. At the estimate's own optimum (within SameLevel: a fit on from its
+  // point, or a start that came back to it) the parameters that crept onto their bounds on the
+  // way there still did (FitResult::crept).
+  void Replace(FitResult r) {
+    if (std::isfinite(best_.loglik) && r.loglik <= best_.loglik + SameLevel(best_.loglik)) {
+      r.crept.insert(r.crept.end(), best_.crept.begin(), best_.crept.end());
+      std::sort(r.crept.begin(), r.crept.end());
+      r.crept.erase(std::unique(r.crept.begin(), r.crept.end()), r.crept.end());
+    }
+    best_ = std::move(r);
+  }
+
   // θ and the delay in turn until the delay settles (each delay's fit warm-started from the last).
   void Settle() {
     for (int round = 0; scanning_ && !best_.cancelled && !fitter_->Cancelled() && round < 10;
@@ -869,7 +881,7 @@ class EstimateRun {
       if (next == delay_) break;
       delay_ = next;
       FitResult r = fitter_->Fit(best_.z, delay_, "fitting");
-      if (r.cancelled || r.loglik >= best_.loglik) best_ = r;
+      if (r.cancelled || r.loglik >= best_.loglik) Replace(std::move(r));
     }
   }
 
@@ -940,7 +952,7 @@ class EstimateRun {
       reached_.push_back({fits[i].loglik, fits[i].z, fits[i].converged, delay_});
       if (fits[i].loglik > (better < 0 ? best_.loglik : fits[better].loglik)) better = i;
     }
-    if (better >= 0) best_ = std::move(fits[better]);
+    if (better >= 0) Replace(std::move(fits[better]));
     landed_in_best_ = std::all_of(fits.begin(), fits.end(), [&](const FitResult& r) {
       return r.loglik >= best_.loglik - SameLevel(best_.loglik);
     });
@@ -1261,7 +1273,7 @@ class EstimateRun {
     for (Reached& reached : reached_)
       if (reached.delay == delay_ && reached.loglik >= best_.loglik - same)
         reached.loglik = r.loglik, reached.z = r.z, reached.converged = r.converged;
-    best_ = std::move(r);
+    Replace(std::move(r));
   }
 
   // 9. Uncertainty at the estimate. Where the Hessian shows negative curvature the fit stopped at
@@ -1284,7 +1296,7 @@ class EstimateRun {
         if (r.cancelled || r.loglik > best_.loglik) higher = std::move(r);
       }
       if (!higher || higher->cancelled) break;
-      best_ = std::move(*higher);
+      Replace(std::move(*higher));
       fitter_->Report("standard errors", best_.z, best_.loglik, delay_);
       u = AtBest();
     }
@@ -1302,6 +1314,7 @@ class EstimateRun {
     s_.converged = best_.converged;
     s_.message = best_.message;
     s_.theta = fitter_->Theta(best_.z);
+    for (int i : best_.crept) s_.log_scale.push_back(spec_.parameters[fitter_->free()[i]].name);
     s_.optima = DistinctOptima(*fitter_, reached_, best_, delay_);
     s_.starts_at_best = s_.optima.empty() ? 1 : s_.optima.front().starts;
     long n_obs = 0;

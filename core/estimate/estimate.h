@@ -242,6 +242,9 @@ struct EstimateSummary {
   // in `starts`), and whether one reached a better optimum.
   int relaxed_starts = 0;
   bool relaxed_better = false;
+  // The free parameters the fit that reached the estimate went on with on a log scale, because
+  // it crawled while they crept towards their lower bounds (Fitter::Fit), in model order.
+  std::vector<std::string> log_scale;
   // The distinct optima the starts reached, best first (the estimate's is the first): more than
   // one is a second basin the user should know of.
   std::vector<Optimum> optima;

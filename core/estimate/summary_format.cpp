@@ -102,6 +102,19 @@ std::string EstimateSummary::Report() const {
                           "diffusion relaxed first, which reached a better optimum"
                         : "A variance of the diffusion ended on a bound: fitted again with the "
                           "diffusion relaxed first, which reached no better optimum");
+  if (!log_scale.empty()) {
+    // Which of them ended on the lower bound they crept towards (not released: they did not run
+    // off).
+    std::string names;
+    for (const std::string& name : log_scale) {
+      const auto p = std::find_if(parameters.begin(), parameters.end(),
+                                  [&](const ParameterEstimate& e) { return e.name == name; });
+      names += fmt::format("{}{}{}", names.empty() ? "" : ", ", name,
+                           p != parameters.end() && p->at_bound ? " (ended on it)" : "");
+    }
+    line("Crept towards their lower bounds along a valley, so fitted on a log scale from there: " +
+         names);
+  }
   if (releases > 0)
     line(
         fmt::format("Parameters that ran off, put back to their start values: a better optimum "
@@ -261,6 +274,7 @@ Json EstimateSummary::ToJson() const {
                  {"released", released_starts},
                  {"relaxed", relaxed_starts},
                  {"relaxed_better", relaxed_better}};
+  j["log_scale"] = log_scale;
   Json optima_json = Json::array();
   for (const Optimum& opt : optima) {
     Json values = Json::object();

@@ -346,6 +346,7 @@ Result<EstimateSummary> EstimateSummary::FromJson(const Json& j, const std::stri
     GB_TRY(st.Whole("relaxed", &s.relaxed_starts, false));
     GB_TRY(st.Bool("relaxed_better", &s.relaxed_better, false));
   }
+  GB_TRY(r.Strings("log_scale", &s.log_scale));
   GB_TRY(ReadParameters(r, &s));
   GB_TRY(ReadOptima(r, &s));
   GB_TRY(ReadSteadyStart(r, &s));

@@ -1,5 +1,6 @@
 #include "core/estimate/estimate.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -432,6 +433,21 @@ TEST(Estimate, FromEveryGenericStartTheOrnsteinPairReachesTheBestOptimumThatMany
   EXPECT_GE(plain_short, 3);
 }
 
+// The model file's starts fitted to the records with the default options on `threads` threads,
+// as a user runs `greybench-cli estimate MODEL DATA...`.
+Result<EstimateSummary> FitWithDefaults(const std::string& model_file,
+                                        const std::vector<std::string>& data_files, int threads) {
+  auto spec = model::LoadModelFile(model_file);
+  if (!spec) return spec.error();
+  auto problem = project::LoadProblem(std::move(*spec), data_files);
+  if (!problem) return problem.error();
+  auto lik = project::MakeLikelihood(*problem);
+  if (!lik) return lik.error();
+  EstimateOptions options;
+  options.threads = threads;
+  return Estimate(*lik, options);
+}
+
 TEST(Estimate, TwoRecordsGivenInEitherOrderReachTheSameOptimum) {
   // Issue 33: the outcome may not turn on the order the datasets are given in (the sum of their
   // log-likelihoods rounds differently). The fuel film from generic starts on f1 and f7, where
@@ -445,16 +461,8 @@ TEST(Estimate, TwoRecordsGivenInEitherOrderReachTheSameOptimum) {
                                           assets + "assets/data/fuel_f7.csv"};
   std::vector<EstimateSummary> fits;
   for (const bool reversed : {false, true}) {
-    auto spec = model::LoadModelFile(assets + "bench/models/fuel_film_generic.json");
-    ASSERT_TRUE(spec.ok()) << spec.error().ToString();
-    auto problem = project::LoadProblem(
-        std::move(*spec), reversed ? std::vector<std::string>{files[1], files[0]} : files);
-    ASSERT_TRUE(problem.ok()) << problem.error().ToString();
-    auto lik = project::MakeLikelihood(*problem);
-    ASSERT_TRUE(lik.ok());
-    EstimateOptions options;
-    options.threads = 1;
-    auto s = Estimate(*lik, options);
+    auto s = FitWithDefaults(assets + "bench/models/fuel_film_generic.json",
+                             reversed ? std::vector<std::string>{files[1], files[0]} : files, 1);
     ASSERT_TRUE(s.ok()) << s.error().ToString();
     fits.push_back(std::move(*s));
   }
@@ -586,15 +594,7 @@ TEST(Estimate, AVariancePinnedOnItsBoundLeadsToAFitWithTheDiffusionRelaxed) {
   if (kSanitized) GTEST_SKIP() << "the release suite's: two fits of a few seconds each";
   const std::string dir = std::string(GREYBENCH_SOURCE_DIR) + "/tests/data/thermal/";
   for (const int threads : {1, 2}) {
-    auto spec = model::LoadModelFile(dir + "model_generic.json");
-    ASSERT_TRUE(spec.ok()) << spec.error().ToString();
-    auto problem = project::LoadProblem(std::move(*spec), {dir + "data.csv"});
-    ASSERT_TRUE(problem.ok()) << problem.error().ToString();
-    auto lik = project::MakeLikelihood(*problem);
-    ASSERT_TRUE(lik.ok());
-    EstimateOptions options;
-    options.threads = threads;
-    auto s = Estimate(*lik, options);
+    auto s = FitWithDefaults(dir + "model_generic.json", {dir + "data.csv"}, threads);
     ASSERT_TRUE(s.ok()) << s.error().ToString();
     EXPECT_GE(s->loglik, 3851.262 - 0.01) << threads << " thread(s)";
     EXPECT_EQ(s->relaxed_starts, 1);
@@ -615,21 +615,15 @@ TEST(Estimate, APositiveParameterCreepingDownAValleyToItsBoundGoesOnOnALogScale)
   // variance r, which did run off, is.
   if (kSanitized) GTEST_SKIP() << "the release suite's: a fit of a few seconds";
   const std::string root = std::string(GREYBENCH_SOURCE_DIR);
-  auto spec = model::LoadModelFile(root + "/assets/models/cascaded_tanks_sde.json");
-  ASSERT_TRUE(spec.ok()) << spec.error().ToString();
-  auto problem =
-      project::LoadProblem(std::move(*spec), {root + "/assets/data/tanks_estimation.csv"});
-  ASSERT_TRUE(problem.ok()) << problem.error().ToString();
-  auto lik = project::MakeLikelihood(*problem);
-  ASSERT_TRUE(lik.ok());
-  EstimateOptions options;
-  options.threads = 1;
-  auto s = Estimate(*lik, options);
+  auto s = FitWithDefaults(root + "/assets/models/cascaded_tanks_sde.json",
+                           {root + "/assets/data/tanks_estimation.csv"}, 1);
   ASSERT_TRUE(s.ok()) << s.error().ToString();
   EXPECT_TRUE(s->converged) << s->message;
   EXPECT_NEAR(s->loglik, 2193.043379, 2e-6);
   EXPECT_LT(s->iterations, 600);
   EXPECT_EQ(s->released_starts, 1);
+  EXPECT_NE(std::find(s->log_scale.begin(), s->log_scale.end(), "k1"), s->log_scale.end());
+  EXPECT_NE(s->Report().find("k1 (ended on it)"), std::string::npos) << s->Report();
   for (const auto& p : s->parameters) {
     if (p.name == "k1") {
       EXPECT_TRUE(p.at_bound);

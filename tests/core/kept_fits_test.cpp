@@ -80,6 +80,8 @@ TEST(ResultFile, AMalformedResultIsRefusedNamingTheFileAndTheJsonPath) {
       {"an optimum without a parameter", [](Json& j) { j["optima"][0]["parameters"].erase("X"); },
        "optima[0].parameters.X"},
       {"an unknown filter", [](Json& j) { j["filter"]["kind"] = "particle"; }, "filter.kind"},
+      {"a log-scale name a number", [](Json& j) { j["log_scale"] = Json::array({1}); },
+       "log_scale[0]"},
       {"a delay not whole", [](Json& j) { j["output_delay"]["ilambda"]["estimate"] = 1.5; },
        "output_delay.ilambda.estimate"},
   };
