@@ -863,11 +863,8 @@ class EstimateRun {
   // point, or a start that came back to it) the parameters that crept onto their bounds on the
   // way there still did (FitResult::crept).
   void Replace(FitResult r) {
-    if (std::isfinite(best_.loglik) && r.loglik <= best_.loglik + SameLevel(best_.loglik)) {
-      r.crept.insert(r.crept.end(), best_.crept.begin(), best_.crept.end());
-      std::sort(r.crept.begin(), r.crept.end());
-      r.crept.erase(std::unique(r.crept.begin(), r.crept.end()), r.crept.end());
-    }
+    if (std::isfinite(best_.loglik) && r.loglik <= best_.loglik + SameLevel(best_.loglik))
+      AddCrept(best_.crept, &r);
     best_ = std::move(r);
   }
 

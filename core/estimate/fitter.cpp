@@ -143,6 +143,12 @@ Eigen::VectorXd TrustRegionStep(const Eigen::MatrixXd& B, const Eigen::VectorXd&
   return Q * coefficients(hi);
 }
 
+void AddCrept(const std::vector<int>& more, FitResult* r) {
+  r->crept.insert(r->crept.end(), more.begin(), more.end());
+  std::sort(r->crept.begin(), r->crept.end());
+  r->crept.erase(std::unique(r->crept.begin(), r->crept.end()), r->crept.end());
+}
+
 Fitter::Fitter(const filter::Likelihood& lik, const EstimateOptions& options,
                std::span<const double> theta_base, std::span<const int> held)
     : lik_(lik), options_(options) {
@@ -877,8 +883,7 @@ FitResult Fitter::Fit(std::vector<double> z, const std::vector<int>& delay,
       // overflow level over two decades): on their log scale the valley is straight.
       FitResult on = FitOnLogScale(r.z, delay, stage, 0, &r.creeping);
       if (on.cancelled || on.loglik >= r.loglik) {
-        on.crept.insert(on.crept.end(), r.creeping.begin(), r.creeping.end());
-        std::sort(on.crept.begin(), on.crept.end());
+        AddCrept(r.creeping, &on);
         return on;
       }
       r.crawling = false;

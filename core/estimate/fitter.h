@@ -126,6 +126,9 @@ struct FitResult {
   std::string message;
 };
 
+// Adds `more` to r's crept parameters (FitResult::crept), keeping them sorted, each once.
+void AddCrept(const std::vector<int>& more, FitResult* r);
+
 class Fitter {
  public:
   // Over the model's free parameters, from its start values; or, with `theta_base`, from those
