@@ -29,13 +29,15 @@
 //
 // Steady state: with a constant sample interval and no missing entry the Riccati recursion
 // converges, and in floating point it reaches a fixed point: a step after which P is, bit for
-// bit, what it was before the step (the fuel film: after ~250 rows). From there every step with
-// the same observed outputs and the same interval repeats that step's P c', R and P, so they are
-// replayed from a record and only the mean is updated; a step that differs (a missing entry,
-// another interval) ends the replay and the full recursion resumes from the same P. The result
-// is identical, bit for bit, to the full recursion (tests/core/score_test.cpp), not an
-// approximation. The score (score.h) does the same once P and every dP_i are fixed points. For
-// the fixed-size loops (1..8 states); the trace (RunFilter) always runs the full recursion.
+// bit, what it was before the step (the fuel film: after ~250 rows), or a cycle of a few steps
+// after which it is (the last bits alternating: the fuel film with its measurement variance at
+// 1e-9). From there every step with the same observed outputs and the same interval repeats the
+// recorded step's P c', R and P, so they are replayed from a record and only the mean is
+// updated; a step that differs (a missing entry, another interval) ends the replay and the full
+// recursion resumes from the P that step starts from. The result is identical, bit for bit, to
+// the full recursion (tests/core/score_test.cpp), not an approximation. The score (score.h) does
+// the same once P and every dP_i repeat. For the fixed-size loops (1..8 states); the trace
+// (RunFilter) always runs the full recursion.
 #pragma once
 
 #include <atomic>
@@ -65,6 +67,9 @@ struct FilterSettings {
   // (core/sim); not by the scores (score.h, ekf_score.h), which differentiate the model's.
   Eigen::VectorXd x0;
   Eigen::MatrixXd P0;
+  // The steady state's replay (above); false: the full recursion at every step, which the tests
+  // compare it with.
+  bool steady_replay = true;
 
   // Hold, P0 and Huber from the model; each output's delay at its `min`.
   static FilterSettings FromModel(const model::ModelSpec& spec);
@@ -77,7 +82,8 @@ struct FilterSettings {
 
 struct Loglik {
   double loglik = 0.0;
-  long n_obs = 0;  // scalar observations used
+  long n_obs = 0;     // scalar observations used
+  long replayed = 0;  // state indices whose covariances the linear filter replayed (steady state)
 };
 
 // Everything the filter computed, for predictions, residuals and the smoother.

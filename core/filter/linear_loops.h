@@ -77,7 +77,7 @@ template <int NX, bool kScores>
     bits = rule.Mask(j);
   else
     ObservedAt(j, rule, observed);
-  replay->Begin(bits, group, s->P, s->dP);
+  replay->Begin(bits, group, &s->P, &s->dP);
   for (int next = 0;; ++next) {
     int o;
     if (by_mask) {
@@ -130,7 +130,7 @@ template <int NX, bool kTrace>
   LinearState<NX> state;
   state.x = ctx.settings.x0.size() > 0 ? ctx.settings.x0 : ss.x0;
   state.P = ctx.P0;
-  SteadyReplay<NX> replay(!kTrace, n, p, 0);
+  SteadyReplay<NX> replay(!kTrace && ctx.settings.steady_replay, n, p, 0);
   // Without per-step terms, Σ log R is accumulated as a product (one log per series).
   const bool per_step_log = kTrace || ctx.terms != nullptr;
   TermSums sums;
@@ -144,7 +144,7 @@ template <int NX, bool kTrace>
   const bool has_D = m > 0 && ss.D.cwiseAbs().maxCoeff() != 0.0;
 
   double loglik = 0.0;
-  long n_obs = 0;
+  long n_obs = 0, replayed = 0;
   const int j_end = kTrace ? N - 1 : ctx.window.last_j;
   for (int j = 0; j <= j_end; ++j) {
     if (CancelledAt(ctx.settings.cancel, j)) return NumericalError("cancelled");
@@ -164,6 +164,7 @@ template <int NX, bool kTrace>
     if (!MeasurementUpdates<NX, false>(j, series, rule, step, &state, &replay, &sums, nullptr,
                                        &observed, &error))
       return error;
+    replayed += replay.replaying() ? 1 : 0;
     AddTerm(j, sums, robust, huber, &loglik, &n_obs, ctx.terms);
     if constexpr (kTrace) {
       trace->x_filt.col(j) = state.x;
@@ -186,6 +187,7 @@ template <int NX, bool kTrace>
         std::uint64_t bits = rule.Mask(j + 1);
         if (!replay.Holds(bits, group)) break;
         ++j;
+        ++replayed;
         const double* u_j = series.U.data() + static_cast<std::size_t>(j) * m;
         sums.Begin();
         for (int q = 0; bits != 0; ++q, bits &= bits - 1) {
@@ -200,7 +202,7 @@ template <int NX, bool kTrace>
   }
   if (!per_step_log) loglik -= 0.5 * sums.product.Log();
   if (!std::isfinite(loglik)) return NotFiniteLoglik(series);
-  return Loglik{loglik, n_obs};
+  return Loglik{loglik, n_obs, replayed};
 }
 
 // log L with its gradient (k) and, when J is given, the derivatives of every term (N x k).
@@ -231,7 +233,7 @@ Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eig
     state.dx[i] = ctx.dss[i].x0;
     state.dP[i] = ctx.dP0[i];
   }
-  SteadyReplay<NX> replay(true, n, p, k);
+  SteadyReplay<NX> replay(ctx.settings.steady_replay, n, p, k);
   TermSums sums;
   TermScores scores(k, false);
   Eigen::VectorXd d_term(k);
@@ -242,12 +244,13 @@ Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eig
   if (J) J->setZero(N, k);
 
   double loglik = 0.0;
-  long n_obs = 0;
+  long n_obs = 0, replayed = 0;
   for (int j = 0; j <= ctx.window.last_j; ++j) {
     if (CancelledAt(ctx.settings.cancel, j)) return NumericalError("cancelled");
     if (!MeasurementUpdates<NX, true>(j, series, rule, step, &state, &replay, &sums, &scores,
                                       &observed, &error))
       return error;
+    replayed += replay.replaying() ? 1 : 0;
     if (sums.p_j > 0) {
       double d_rho = 0.5;
       loglik += LoglikTerm(sums.logdet, sums.p_j, sums.r2, ctx.settings.huber, &d_rho);
@@ -265,7 +268,7 @@ Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eig
     replay.End(state.P, state.dP);
   }
   if (!std::isfinite(loglik) || !gradient->allFinite()) return NotFiniteLoglik(series);
-  return Loglik{loglik, n_obs};
+  return Loglik{loglik, n_obs, replayed};
 }
 
 // The instantiations of one state dimension (`extern` here, defined in generated/). EXTERN is

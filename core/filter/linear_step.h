@@ -44,6 +44,7 @@
 // docs/benchmarks.md).
 #pragma once
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -292,69 +293,134 @@ class LinearStep {
 
 // The steady-state replay (above) of a loop over state indices. Per index: Begin (before its
 // measurement updates, which record or replay), then End after its time update.
+//
+// In floating point the recursion does not always settle on one step: the fuel film with its
+// measurement variance at 1e-9 ends, for P and the dP_i, in a cycle of 2, 4, 6 or 12 steps whose
+// values differ in their last bits (docs/benchmarks.md), where the score's replay never began. So
+// the last kMaxPeriod steps are kept, and a step after which P and every dP_i are what they were
+// at the start of the step L - 1 before it (L = 1: of itself) starts a cycle of period L: the
+// next steps repeat those L, in order, while each observes the same outputs over the same
+// interval. Identical to the full recursion, as the one-step case is: each recorded step is a
+// function of P, the dP_i, the outputs it observes and its interval alone. A step that does not
+// fit the cycle takes P and the dP_i from the record it would have replayed (their values at its
+// start, which the replay does not update) and the full recursion resumes there.
 template <int NX>
 class SteadyReplay {
  public:
   using Mat = typename LinearState<NX>::Mat;
   using Vec = typename LinearState<NX>::Vec;
 
+  // The longest cycle looked for (fewer where a step's record is large: kRecordBudget doubles in
+  // all).
+  static constexpr int kMaxPeriod = 16;
+  static constexpr std::size_t kRecordBudget = std::size_t{1} << 18;
+
+  // One step's record: its outputs and interval, P and the dP_i at its start, and of its q-th
+  // scalar update k = P c' and R, and dk_i, dR_i at [q * k + i].
+  struct Record {
+    std::uint64_t mask = 0;
+    int group = -1;
+    Mat P_start;
+    std::vector<Mat> dP_start;
+    std::vector<Vec> PCt;
+    std::vector<double> R;
+    std::vector<Vec> dPCt;
+    std::vector<double> dR;
+  };
+
   // Disabled (never replays) unless `enabled`, the size is fixed and p <= 64; k sensitivities.
   SteadyReplay(bool enabled, int n, int p, int k)
       : enabled_(enabled && NX != Eigen::Dynamic && p <= 64), k_(k) {
     if (!enabled_) return;
-    P_start_ = Mat::Zero(n, n);
-    dP_start_.resize(k);
-    PCt_.resize(p);
-    R_.resize(p);
-    dPCt_.resize(static_cast<std::size_t>(p) * k);
-    dR_.resize(static_cast<std::size_t>(p) * k);
+    const std::size_t size = static_cast<std::size_t>(n) * n * (1 + k) + (n + 1) * p * (1 + k);
+    const auto fit = static_cast<int>(kRecordBudget / std::max<std::size_t>(size, 1));
+    ring_.resize(std::clamp(fit, 1, kMaxPeriod));
+    for (Record& r : ring_) {
+      r.P_start = Mat::Zero(n, n);
+      r.dP_start.assign(k, Mat::Zero(n, n));
+      r.PCt.resize(p);
+      r.R.resize(p);
+      r.dPCt.resize(static_cast<std::size_t>(p) * k);
+      r.dR.resize(static_cast<std::size_t>(p) * k);
+    }
   }
 
   bool enabled() const { return enabled_; }
-  bool replaying() const { return steady_; }
-  // Whether an index observing `mask` over interval `group` repeats the recorded step.
-  [[gnu::always_inline]] bool Holds(std::uint64_t mask, int group) const {
-    return steady_ && mask == mask_ && group == group_;
+  bool replaying() const { return period_ > 0; }
+  // Whether an index observing `mask` over interval `group` repeats the next recorded step of
+  // the cycle; if so, that step becomes the current one (Gain, R).
+  [[gnu::always_inline]] bool Holds(std::uint64_t mask, int group) {
+    if (period_ == 0) return false;
+    const Record& next = ring_[Slot(cycle_start_ + phase_)];
+    if (mask != next.mask || group != next.group) return false;
+    Advance();
+    return true;
   }
-  // The recorded step's q-th scalar update: its gain P c' and R.
-  const Vec& Gain(int q) const { return PCt_[q]; }
-  double R(int q) const { return R_[q]; }
-  // This index observes `mask` and its time update uses the interval `group` (-1: none); P, dP
-  // at its start. It replays when the last step ended at a fixed point and the same outputs and
-  // interval follow; otherwise it is recorded from here.
-  [[gnu::always_inline]] void Begin(std::uint64_t mask, int group, const Mat& P,
-                                    const std::vector<Mat>& dP) {
+  // The current step's q-th scalar update: its gain P c' and R.
+  const Vec& Gain(int q) const { return current_->PCt[q]; }
+  double R(int q) const { return current_->R[q]; }
+  // This index observes `mask` and its time update uses the interval `group` (-1: none); *P,
+  // *dP at its start. It replays the cycle's next step when one is replaying and that step has
+  // the same outputs and interval; otherwise *P and *dP are set to their values at the start of
+  // this index (the replay leaves them at the cycle's start) and the step is recorded from here.
+  [[gnu::always_inline]] void Begin(std::uint64_t mask, int group, Mat* P, std::vector<Mat>* dP) {
     if (!enabled_) return;
-    steady_ = steady_ && mask == mask_ && group == group_;
-    if (steady_) return;
-    mask_ = mask;
-    group_ = group;
-    P_start_ = P;
-    for (int i = 0; i < k_; ++i) dP_start_[i] = dP[i];
+    if (period_ > 0) {
+      const Record& next = ring_[Slot(cycle_start_ + phase_)];
+      if (mask == next.mask && group == next.group) {
+        Advance();
+        return;
+      }
+      if (period_ > 1) {
+        *P = next.P_start;
+        for (int i = 0; i < k_; ++i) (*dP)[i] = next.dP_start[i];
+      }
+      period_ = 0;
+    }
+    Record& r = ring_[Slot(recorded_)];
+    r.mask = mask;
+    r.group = group;
+    r.P_start = *P;
+    for (int i = 0; i < k_; ++i) r.dP_start[i] = (*dP)[i];
+    current_ = &r;
   }
-  // After the index's time update: whether P and every dP_i are back at their start values.
+  // After the index's time update: whether P and every dP_i are back at their values at the
+  // start of this step or of one of the kMaxPeriod - 1 recorded before it; if so, the steps from
+  // there to this one are replayed from the next index on.
   [[gnu::always_inline]] void End(const Mat& P, const std::vector<Mat>& dP) {
-    if (!enabled_ || steady_) return;
-    steady_ = P == P_start_;
-    for (int i = 0; i < k_ && steady_; ++i) steady_ = dP[i] == dP_start_[i];
+    if (!enabled_ || period_ > 0) return;
+    const long kept = std::min<long>(recorded_ + 1, static_cast<long>(ring_.size()));
+    for (long L = 1; L <= kept; ++L) {
+      const Record& r = ring_[Slot(recorded_ - L + 1)];
+      if (P != r.P_start) continue;
+      bool same = true;
+      for (int i = 0; i < k_ && same; ++i) same = dP[i] == r.dP_start[i];
+      if (!same) continue;
+      period_ = static_cast<int>(L);
+      cycle_start_ = recorded_ - L + 1;
+      phase_ = 0;
+      break;
+    }
+    ++recorded_;
   }
 
  private:
   friend class LinearStep<NX>;
   std::size_t At(int q, int i) const { return static_cast<std::size_t>(q) * k_ + i; }
+  std::size_t Slot(long step) const { return static_cast<std::size_t>(step) % ring_.size(); }
+  [[gnu::always_inline]] void Advance() {
+    current_ = &ring_[Slot(cycle_start_ + phase_)];
+    if (++phase_ == period_) phase_ = 0;
+  }
 
   bool enabled_;
   int k_;
-  bool steady_ = false;
-  std::uint64_t mask_ = 0;
-  int group_ = -1;
-  Mat P_start_;
-  std::vector<Mat> dP_start_;
-  // Of the q-th scalar update of the recorded step: k, R, and dk_i, dR_i at [q * k + i].
-  std::vector<Vec> PCt_;
-  std::vector<double> R_;
-  std::vector<Vec> dPCt_;
-  std::vector<double> dR_;
+  std::vector<Record> ring_;   // the last ring_.size() steps recorded, step s at s % size
+  long recorded_ = 0;          // steps recorded
+  int period_ = 0;             // > 0: replaying a cycle of this many steps
+  long cycle_start_ = 0;       // the cycle's first recorded step
+  int phase_ = 0;              // the next step to replay: cycle_start_ + phase_
+  Record* current_ = nullptr;  // the step being recorded or replayed
 };
 
 template <int NX>
@@ -373,15 +439,15 @@ template <bool kScores>
   const int q = sums->p_j;
   double R;
   if (replaying) {  // this step's P c' and R are those recorded
-    PCt = replay->PCt_[q];
-    R = replay->R_[q];
+    PCt = replay->current_->PCt[q];
+    R = replay->current_->R[q];
   } else {
     PCt.noalias() = P * c.transpose();
     R = c.dot(PCt) + S_(o);
   }
   *R_out = R;
   if (!(R > 0.0)) return false;
-  if (recording) replay->PCt_[q] = PCt, replay->R_[q] = R;
+  if (recording) replay->current_->PCt[q] = PCt, replay->current_->R[q] = R;
   const double eps = Innovation(o, y, u, x);
   if (eps_out) *eps_out = eps;
   if constexpr (kScores) {
@@ -391,14 +457,16 @@ template <bool kScores>
       for (int l = 0; l < m_; ++l) dyhat += dD_[i](o, l) * u[l];
       double dR;
       if (replaying) {
-        dPCt = replay->dPCt_[replay->At(q, i)];
-        dR = replay->dR_[replay->At(q, i)];
+        dPCt = replay->current_->dPCt[replay->At(q, i)];
+        dR = replay->current_->dR[replay->At(q, i)];
       } else {
         Mat& dP = s->dP[i];
         dPCt.noalias() = dP * c.transpose();
         dPCt.noalias() += P * dc.transpose();
         dR = dc.dot(PCt) + c.dot(dPCt) + dS_(o, i);
-        if (recording) replay->dPCt_[replay->At(q, i)] = dPCt, replay->dR_[replay->At(q, i)] = dR;
+        if (recording)
+          replay->current_->dPCt[replay->At(q, i)] = dPCt,
+                                               replay->current_->dR[replay->At(q, i)] = dR;
         dP.noalias() -= (dPCt * PCt.transpose() + PCt * dPCt.transpose()) / R;
         dP.noalias() += PCt * PCt.transpose() * (dR / (R * R));
       }
