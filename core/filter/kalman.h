@@ -36,8 +36,8 @@
 // updated; a step that differs (a missing entry, another interval) ends the replay and the full
 // recursion resumes from the P that step starts from. The result is identical, bit for bit, to
 // the full recursion (tests/core/score_test.cpp), not an approximation. The score (score.h) does
-// the same once P and every dP_i repeat. For the fixed-size loops (1..8 states); the trace
-// (RunFilter) always runs the full recursion.
+// the same once P and every dP_i repeat, each in a cycle of its own (linear_step.h). For the
+// fixed-size loops (1..8 states); the trace (RunFilter) always runs the full recursion.
 #pragma once
 
 #include <atomic>

@@ -48,6 +48,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
 #include <span>
 #include <type_traits>
 #include <vector>
@@ -294,38 +295,44 @@ class LinearStep {
 // The steady-state replay (above) of a loop over state indices. Per index: Begin (before its
 // measurement updates, which record or replay), then End after its time update.
 //
-// In floating point the recursion does not always settle on one step: the fuel film with its
-// measurement variance at 1e-9 ends, for P and the dP_i, in a cycle of 2, 4, 6 or 12 steps whose
-// values differ in their last bits (docs/benchmarks.md), where the score's replay never began. So
-// the last kMaxPeriod steps are kept, and a step after which P and every dP_i are what they were
-// at the start of the step L - 1 before it (L = 1: of itself) starts a cycle of period L: the
-// next steps repeat those L, in order, while each observes the same outputs over the same
-// interval. Identical to the full recursion, as the one-step case is: each recorded step is a
-// function of P, the dP_i, the outputs it observes and its interval alone. A step that does not
-// fit the cycle takes P and the dP_i from the record it would have replayed (their values at its
-// start, which the replay does not update) and the full recursion resumes there.
+// In floating point the recursion does not always settle on one step. Each of its parts repeats
+// on its own: P (its recursion reads nothing else), and each dP_i with P (its recursion reads P
+// and itself only), and they end in cycles of a few steps whose values differ in their last bits
+// (the fuel film with its measurement variance at 1e-9: 2 to 12 steps; building 3 at CTSM-R's
+// estimates: P in 2, its dP_i in 2 to 12 and one in more than 16, so that P and all its dP_i
+// together repeat only after 120 steps; docs/benchmarks.md). So the last kMaxPeriod steps are
+// kept, and each part's period is found
+// on its own: the L after which it is back at what it was at the start of the step L - 1 before
+// (L = 1: of itself; for a dP_i, with P, so L is a multiple of P's). Once every part has one, the
+// next steps are replayed, each part from its own cycle, while they observe the outputs and use
+// the interval the cycles were recorded with (one for all: periods are looked for only over a
+// run of steps that all had them). Identical to the full recursion, as the one-step case is:
+// each part's recorded values are a function of its own state and of P's, which repeat. A step
+// that differs takes P and the dP_i from the records its parts would have replayed (their values
+// at its start, which the replay does not update), and the full recursion resumes there.
 template <int NX>
 class SteadyReplay {
  public:
   using Mat = typename LinearState<NX>::Mat;
   using Vec = typename LinearState<NX>::Vec;
 
-  // The longest cycle looked for (fewer where a step's record is large: kRecordBudget doubles in
-  // all).
-  static constexpr int kMaxPeriod = 16;
-  static constexpr std::size_t kRecordBudget = std::size_t{1} << 18;
+  // The longest period looked for (fewer where a step's record is large: kRecordBudget doubles
+  // in all); a power of two, as the ring's size is.
+  static constexpr int kMaxPeriod = 64;
+  static constexpr std::size_t kRecordBudget = std::size_t{1} << 16;
 
   // One step's record: its outputs and interval, P and the dP_i at its start, and of its q-th
-  // scalar update k = P c' and R, and dk_i, dR_i at [q * k + i].
+  // scalar update k = P c' and R, and dk_i, dR_i at [q * k + i] (in the replay's own arrays,
+  // allocated once for the whole ring).
   struct Record {
     std::uint64_t mask = 0;
     int group = -1;
     Mat P_start;
-    std::vector<Mat> dP_start;
-    std::vector<Vec> PCt;
-    std::vector<double> R;
-    std::vector<Vec> dPCt;
-    std::vector<double> dR;
+    Mat* dP_start = nullptr;  // k
+    Vec* PCt = nullptr;       // p
+    double* R = nullptr;      // p
+    Vec* dPCt = nullptr;      // p k
+    double* dR = nullptr;     // p k
   };
 
   // Disabled (never replays) unless `enabled`, the size is fixed and p <= 64; k sensitivities.
@@ -334,93 +341,181 @@ class SteadyReplay {
     if (!enabled_) return;
     const std::size_t size = static_cast<std::size_t>(n) * n * (1 + k) + (n + 1) * p * (1 + k);
     const auto fit = static_cast<int>(kRecordBudget / std::max<std::size_t>(size, 1));
-    ring_.resize(std::clamp(fit, 1, kMaxPeriod));
-    for (Record& r : ring_) {
+    ring_.resize(std::bit_floor(static_cast<unsigned>(std::clamp(fit, 1, kMaxPeriod))));
+    const std::size_t steps = ring_.size(), pk = static_cast<std::size_t>(p) * k;
+    dP_store_.assign(steps * k, Mat::Zero(n, n));
+    PCt_store_.assign(steps * p, Vec::Zero(n));
+    R_store_.assign(steps * p, 0.0);
+    dPCt_store_.assign(steps * pk, Vec::Zero(n));
+    dR_store_.assign(steps * pk, 0.0);
+    for (std::size_t t = 0; t < steps; ++t) {
+      Record& r = ring_[t];
       r.P_start = Mat::Zero(n, n);
-      r.dP_start.assign(k, Mat::Zero(n, n));
-      r.PCt.resize(p);
-      r.R.resize(p);
-      r.dPCt.resize(static_cast<std::size_t>(p) * k);
-      r.dR.resize(static_cast<std::size_t>(p) * k);
+      r.dP_start = dP_store_.data() + t * k;
+      r.PCt = PCt_store_.data() + t * p;
+      r.R = R_store_.data() + t * p;
+      r.dPCt = dPCt_store_.data() + t * pk;
+      r.dR = dR_store_.data() + t * pk;
     }
+    keys_.assign(steps * (k + 1), 0.0);
+    period_.assign(k + 1, 0);
+    phase_.assign(k + 1, 0);
+    source_.assign(k + 1, nullptr);
   }
+  // The records point into the replay's own arrays.
+  SteadyReplay(const SteadyReplay&) = delete;
+  SteadyReplay& operator=(const SteadyReplay&) = delete;
 
   bool enabled() const { return enabled_; }
-  bool replaying() const { return period_ > 0; }
-  // Whether an index observing `mask` over interval `group` repeats the next recorded step of
-  // the cycle; if so, that step becomes the current one (Gain, R).
+  bool replaying() const { return replaying_; }
+  // Whether an index observing `mask` over interval `group` repeats the cycles' next step; if
+  // so, it becomes the current one (Gain, R).
   [[gnu::always_inline]] bool Holds(std::uint64_t mask, int group) {
-    if (period_ == 0) return false;
-    const Record& next = ring_[Slot(cycle_start_ + phase_)];
-    if (mask != next.mask || group != next.group) return false;
+    if (!replaying_ || mask != mask_ || group != group_) return false;
     Advance();
     return true;
   }
   // The current step's q-th scalar update: its gain P c' and R.
-  const Vec& Gain(int q) const { return current_->PCt[q]; }
-  double R(int q) const { return current_->R[q]; }
+  const Vec& Gain(int q) const { return p_source_->PCt[q]; }
+  double R(int q) const { return p_source_->R[q]; }
   // This index observes `mask` and its time update uses the interval `group` (-1: none); *P,
-  // *dP at its start. It replays the cycle's next step when one is replaying and that step has
-  // the same outputs and interval; otherwise *P and *dP are set to their values at the start of
-  // this index (the replay leaves them at the cycle's start) and the step is recorded from here.
+  // *dP at its start. It replays the cycles' next step when they are replaying and it has their
+  // outputs and interval; otherwise *P and *dP are set to their values at the start of this index
+  // (the replay leaves them behind) and the step is recorded from here.
   [[gnu::always_inline]] void Begin(std::uint64_t mask, int group, Mat* P, std::vector<Mat>* dP) {
     if (!enabled_) return;
-    if (period_ > 0) {
-      const Record& next = ring_[Slot(cycle_start_ + phase_)];
-      if (mask == next.mask && group == next.group) {
+    if (replaying_) {
+      if (mask == mask_ && group == group_) {
         Advance();
         return;
       }
-      if (period_ > 1) {
-        *P = next.P_start;
-        for (int i = 0; i < k_; ++i) (*dP)[i] = next.dP_start[i];
-      }
-      period_ = 0;
+      *P = ring_[Slot(SourceStep(0))].P_start;
+      for (int i = 0; i < k_; ++i)
+        (*dP)[i] = ring_[Slot(SourceStep(joint_ ? 0 : i + 1))].dP_start[i];
+      replaying_ = false;
+    }
+    if (mask != mask_ || group != group_ || run_ == 0) {  // a new run: the periods anew
+      mask_ = mask;
+      group_ = group;
+      run_ = 0;
+      std::fill(period_.begin(), period_.end(), 0);
+      found_ = 0;
     }
     Record& r = ring_[Slot(recorded_)];
     r.mask = mask;
     r.group = group;
     r.P_start = *P;
     for (int i = 0; i < k_; ++i) r.dP_start[i] = (*dP)[i];
+    double* key = Keys(recorded_);
+    key[0] = (*P)(0, 0);
+    for (int i = 0; i < k_; ++i) key[i + 1] = (*dP)[i](0, 0);
     current_ = &r;
   }
-  // After the index's time update: whether P and every dP_i are back at their values at the
-  // start of this step or of one of the kMaxPeriod - 1 recorded before it; if so, the steps from
-  // there to this one are replayed from the next index on.
+  // After the index's time update: each part without a period yet is compared with its values
+  // at the start of this step and of the steps before it in the run, up to kMaxPeriod; once
+  // every part has a period, the next index replays.
   [[gnu::always_inline]] void End(const Mat& P, const std::vector<Mat>& dP) {
-    if (!enabled_ || period_ > 0) return;
-    const long kept = std::min<long>(recorded_ + 1, static_cast<long>(ring_.size()));
-    for (long L = 1; L <= kept; ++L) {
-      const Record& r = ring_[Slot(recorded_ - L + 1)];
-      if (P != r.P_start) continue;
-      bool same = true;
-      for (int i = 0; i < k_ && same; ++i) same = dP[i] == r.dP_start[i];
-      if (!same) continue;
-      period_ = static_cast<int>(L);
-      cycle_start_ = recorded_ - L + 1;
-      phase_ = 0;
-      break;
+    if (!enabled_ || replaying_) return;
+    const long s = recorded_++;
+    run_ = std::min<long>(run_ + 1, static_cast<long>(ring_.size()));
+    if (period_[0] == 0) {
+      for (long L = 1; L <= run_; ++L) {
+        // Mostly decided by the first entry, kept beside the others' (Keys).
+        if (P(0, 0) != Keys(s - L + 1)[0] || P != ring_[Slot(s - L + 1)].P_start) continue;
+        period_[0] = static_cast<int>(L);
+        ++found_;
+        break;
+      }
+      if (period_[0] == 0) return;
     }
-    ++recorded_;
+    for (int i = 0; i < k_; ++i) {
+      if (period_[i + 1] != 0) continue;
+      for (long L = period_[0]; L <= run_; L += period_[0]) {
+        if (dP[i](0, 0) != Keys(s - L + 1)[i + 1]) continue;
+        const Record& r = ring_[Slot(s - L + 1)];
+        if (dP[i] == r.dP_start[i] && P == r.P_start) {
+          period_[i + 1] = static_cast<int>(L);
+          ++found_;
+          break;
+        }
+      }
+    }
+    if (found_ < k_ + 1) return;
+    // Every part repeats. Where their common period fits in the ring, the steps are replayed
+    // as one cycle once the whole state is back where it was that period before (within that
+    // period's steps after the last part's cycle began), read from one record per step;
+    // otherwise each part from its own.
+    long common = 1;
+    for (int c = 0; c <= k_ && common <= static_cast<long>(ring_.size()); ++c)
+      common = std::lcm(common, long{period_[c]});  // < ring size * kMaxPeriod: no overflow
+    joint_ = common <= static_cast<long>(ring_.size());
+    if (joint_) {
+      if (common > run_) return;
+      const Record& r = ring_[Slot(s - common + 1)];
+      if (P != r.P_start) return;
+      for (int i = 0; i < k_; ++i)
+        if (dP[i] != r.dP_start[i]) return;
+      std::fill(period_.begin(), period_.end(), static_cast<int>(common));
+    }
+    replaying_ = true;
+    base_ = recorded_;
+    std::fill(phase_.begin(), phase_.end(), 0);
+    fixed_ = false;
   }
 
  private:
   friend class LinearStep<NX>;
   std::size_t At(int q, int i) const { return static_cast<std::size_t>(q) * k_ + i; }
-  std::size_t Slot(long step) const { return static_cast<std::size_t>(step) % ring_.size(); }
+  std::size_t Slot(long step) const {
+    return static_cast<std::size_t>(step) & (ring_.size() - 1);  // the size is a power of two
+  }
+  // The first entries of P and of every dP_i at the start of a recorded step, side by side.
+  double* Keys(long step) { return keys_.data() + Slot(step) * (k_ + 1); }
+  // The recorded step that part c (0: P, 1 + i: dP_i) repeats next: the step `period` before the
+  // first replayed one, on by its phase.
+  long SourceStep(int c) const { return base_ - period_[c] + phase_[c]; }
+  // The record every part is replayed from (null: each from its own), and dP_i's own.
+  const Record* JointSource() const { return joint_ ? p_source_ : nullptr; }
+  const Record* PartSource(int i) const { return source_[i + 1]; }
+  // The next replayed step: each part's record, then its phase on by one.
   [[gnu::always_inline]] void Advance() {
-    current_ = &ring_[Slot(cycle_start_ + phase_)];
-    if (++phase_ == period_) phase_ = 0;
+    if (fixed_) return;  // one record for every part and every step
+    if (joint_) {        // one record for every part
+      p_source_ = &ring_[Slot(SourceStep(0))];
+      if (++phase_[0] == period_[0]) phase_[0] = 0;
+      fixed_ = period_[0] == 1;
+      return;
+    }
+    for (int c = 0; c <= k_; ++c) {
+      source_[c] = &ring_[Slot(SourceStep(c))];
+      if (++phase_[c] == period_[c]) phase_[c] = 0;
+    }
+    p_source_ = source_[0];
   }
 
   bool enabled_;
   int k_;
   std::vector<Record> ring_;   // the last ring_.size() steps recorded, step s at s % size
-  long recorded_ = 0;          // steps recorded
-  int period_ = 0;             // > 0: replaying a cycle of this many steps
-  long cycle_start_ = 0;       // the cycle's first recorded step
-  int phase_ = 0;              // the next step to replay: cycle_start_ + phase_
-  Record* current_ = nullptr;  // the step being recorded or replayed
+  std::vector<double> keys_;   // (Keys)
+  std::vector<Mat> dP_store_;  // the records' arrays (Record)
+  std::vector<Vec> PCt_store_, dPCt_store_;
+  std::vector<double> R_store_, dR_store_;
+  long recorded_ = 0;  // steps recorded
+  // The run: steps observing mask_ over group_ one after the other (up to the ring's size).
+  std::uint64_t mask_ = 0;
+  int group_ = -1;
+  long run_ = 0;
+  // Per part (0: P, 1 + i: dP_i): its period (0: none found yet), and while replaying its
+  // phase and the record of the current step.
+  std::vector<int> period_, phase_;
+  std::vector<const Record*> source_;
+  int found_ = 0;  // parts with a period
+  bool replaying_ = false;
+  bool joint_ = false;                // replaying one cycle for all parts (period_[0] steps)
+  bool fixed_ = false;                // and that of one step
+  const Record* p_source_ = nullptr;  // the record P's values are replayed from
+  long base_ = 0;                     // the first replayed step
+  Record* current_ = nullptr;         // the step being recorded
 };
 
 template <int NX>
@@ -439,8 +534,8 @@ template <bool kScores>
   const int q = sums->p_j;
   double R;
   if (replaying) {  // this step's P c' and R are those recorded
-    PCt = replay->current_->PCt[q];
-    R = replay->current_->R[q];
+    PCt = replay->Gain(q);
+    R = replay->R(q);
   } else {
     PCt.noalias() = P * c.transpose();
     R = c.dot(PCt) + S_(o);
@@ -451,14 +546,17 @@ template <bool kScores>
   const double eps = Innovation(o, y, u, x);
   if (eps_out) *eps_out = eps;
   if constexpr (kScores) {
+    // Replaying one cycle for every part: one record for all i.
+    const auto* joint = replaying ? replay->JointSource() : nullptr;
     for (int i = 0; i < k_; ++i) {
       const Row& dc = dC_[static_cast<std::size_t>(o) * k_ + i];
       double dyhat = dc.dot(x) + c.dot(s->dx[i]) + dd_(o, i);
       for (int l = 0; l < m_; ++l) dyhat += dD_[i](o, l) * u[l];
       double dR;
       if (replaying) {
-        dPCt = replay->current_->dPCt[replay->At(q, i)];
-        dR = replay->current_->dR[replay->At(q, i)];
+        const auto* source = joint != nullptr ? joint : replay->PartSource(i);
+        dPCt = source->dPCt[replay->At(q, i)];
+        dR = source->dR[replay->At(q, i)];
       } else {
         Mat& dP = s->dP[i];
         dPCt.noalias() = dP * c.transpose();

@@ -210,6 +210,41 @@ TEST(Score, ACovarianceThatEndsInACycleOfStepsIsReplayedBitForBit) {
   EXPECT_TRUE(terms_replayed == terms_full);
 }
 
+TEST(Score, CovariancesWhoseSensitivitiesCycleEachOnItsOwnAreReplayedBitForBit) {
+  // Building 3 (4 states, 19 parameters) at CTSM-R's estimates: P and each dP_i end in cycles of
+  // their own (1 to 8 steps), so that the whole state repeats only after hundreds of steps; each
+  // is replayed from its own cycle (linear_step.h, SteadyReplay), and the result is the full
+  // recursion to the last bit.
+  auto spec = model::LoadModelFile(kRoot + "/tests/data/building3/model.json");
+  ASSERT_TRUE(spec.ok()) << spec.error().ToString();
+  auto data = data::ReadCsvFile(kRoot + "/tests/data/building3/data.csv");
+  ASSERT_TRUE(data.ok()) << data.error().ToString();
+  auto series = data::Bind(**data, spec->inputs, spec->outputs);
+  ASSERT_TRUE(series.ok()) << series.error().ToString();
+  const auto m = std::make_shared<const model::LinearModel>(*model::LinearModel::Compile(*spec));
+  const std::vector<double> theta = m->spec().Values();
+  std::vector<int> free;
+  for (std::size_t i = 0; i < theta.size(); ++i)
+    if (!m->spec().parameters[i].fixed) free.push_back(static_cast<int>(i));
+  const FilterSettings settings = FilterSettings::FromModel(m->spec());
+  FilterSettings full = settings;
+  full.steady_replay = false;
+  const auto ss = *m->Evaluate(theta);
+  const auto dss = *m->EvaluateJacobian(theta, free);
+
+  Eigen::VectorXd g_replayed, g_full;
+  Eigen::MatrixXd J_replayed, J_full;
+  const auto replayed = LogLikelihoodScore(ss, dss, **series, settings, &g_replayed, &J_replayed);
+  const auto recursed = LogLikelihoodScore(ss, dss, **series, full, &g_full, &J_full);
+  ASSERT_TRUE(replayed.ok() && recursed.ok());
+  EXPECT_GT(replayed->replayed, 4000);  // of 6905
+  EXPECT_EQ(recursed->replayed, 0);
+  EXPECT_EQ(replayed->loglik, recursed->loglik);
+  EXPECT_NEAR(replayed->loglik, 5930.09335342, 1e-6 * 5930.09335342);  // CTSM-R's
+  EXPECT_TRUE(g_replayed == g_full) << (g_replayed - g_full).transpose();
+  EXPECT_TRUE(J_replayed == J_full) << (J_replayed - J_full).cwiseAbs().maxCoeff();
+}
+
 TEST(Score, CrankshaftWithTwoOutputsFohAndStationaryP0MatchesCentralDifferences) {
   const auto m = AssetModel("crankshaft.json");
   const auto lik = *Likelihood::Create(m, {AssetSeries(m->spec(), "crankshaft.csv", 800)});
