@@ -339,7 +339,8 @@ class SteadyReplay {
   SteadyReplay(bool enabled, int n, int p, int k)
       : enabled_(enabled && NX != Eigen::Dynamic && p <= 64), k_(k) {
     if (!enabled_) return;
-    const std::size_t size = static_cast<std::size_t>(n) * n * (1 + k) + (n + 1) * p * (1 + k);
+    const std::size_t size =
+        static_cast<std::size_t>(n) * n * (1 + k) + static_cast<std::size_t>(n + 1) * p * (1 + k);
     const auto fit = static_cast<int>(kRecordBudget / std::max<std::size_t>(size, 1));
     ring_.resize(std::bit_floor(static_cast<unsigned>(std::clamp(fit, 1, kMaxPeriod))));
     const std::size_t steps = ring_.size(), pk = static_cast<std::size_t>(p) * k;

@@ -58,13 +58,13 @@ Eigen::MatrixXd OutputMean(const model::StateSpace& ss, const data::Series& seri
 
 OneStepPredictions OneStepFromTrace(const model::StateSpace& ss, const data::Series& series,
                                     const FilterSettings& settings, const FilterTrace& trace,
-                                    Loglik loglik) {
+                                    const Loglik& loglik) {
   CheckTrace(ss, series, trace);
   return OneStepFromTrace(series, settings, trace, loglik);
 }
 
 OneStepPredictions OneStepFromTrace(const data::Series& series, const FilterSettings& settings,
-                                    const FilterTrace& trace, Loglik loglik) {
+                                    const FilterTrace& trace, const Loglik& loglik) {
   const int p = static_cast<int>(trace.y_pred.rows());
   const int N = static_cast<int>(series.size());
   const std::vector<int> first = EffectiveFirstObservation(settings, p);

@@ -91,10 +91,10 @@ Result<OneStepPredictions> PredictOneStep(const model::StateSpace& ss, const dat
 // The same from a trace already computed (`loglik` is left as given).
 OneStepPredictions OneStepFromTrace(const model::StateSpace& ss, const data::Series& series,
                                     const FilterSettings& settings, const FilterTrace& trace,
-                                    Loglik loglik = {});
+                                    const Loglik& loglik = {});
 // The same from any filter's trace (the extended Kalman filter's too, ekf.h).
 OneStepPredictions OneStepFromTrace(const data::Series& series, const FilterSettings& settings,
-                                    const FilterTrace& trace, Loglik loglik = {});
+                                    const FilterTrace& trace, const Loglik& loglik = {});
 
 // h-step predictions, h >= 0 (asserted). Runs the filter.
 Result<HorizonPredictions> PredictAhead(const model::StateSpace& ss, const data::Series& series,
