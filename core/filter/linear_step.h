@@ -301,9 +301,9 @@ class LinearStep {
 // (the fuel film with its measurement variance at 1e-9: 2 to 12 steps; building 3 at CTSM-R's
 // estimates: P in 2, its dP_i in 2 to 12 and one in more than 16, so that P and all its dP_i
 // together repeat only after 120 steps; docs/benchmarks.md). So the last kMaxPeriod steps are
-// kept, and each part's period is found
-// on its own: the L after which it is back at what it was at the start of the step L - 1 before
-// (L = 1: of itself; for a dP_i, with P, so L is a multiple of P's). Once every part has one, the
+// kept, and each part's period is found on its own: the L after which it is back at what it was
+// at the start of the step L - 1 before (L = 1: of itself; for a dP_i, with P, so L is a
+// multiple of P's). Once every part has one, the
 // next steps are replayed, each part from its own cycle, while they observe the outputs and use
 // the interval the cycles were recorded with (one for all: periods are looked for only over a
 // run of steps that all had them). Identical to the full recursion, as the one-step case is:
@@ -321,12 +321,10 @@ class SteadyReplay {
   static constexpr int kMaxPeriod = 64;
   static constexpr std::size_t kRecordBudget = std::size_t{1} << 16;
 
-  // One step's record: its outputs and interval, P and the dP_i at its start, and of its q-th
-  // scalar update k = P c' and R, and dk_i, dR_i at [q * k + i] (in the replay's own arrays,
-  // allocated once for the whole ring).
+  // One step's record: P and the dP_i at its start, and of its q-th scalar update k = P c' and
+  // R, and dk_i, dR_i at [q * k + i] (in the replay's own arrays, allocated once for the whole
+  // ring). Its outputs and interval are the run's (mask_, group_).
   struct Record {
-    std::uint64_t mask = 0;
-    int group = -1;
     Mat P_start;
     Mat* dP_start = nullptr;  // k
     Vec* PCt = nullptr;       // p
@@ -403,8 +401,6 @@ class SteadyReplay {
       found_ = 0;
     }
     Record& r = ring_[Slot(recorded_)];
-    r.mask = mask;
-    r.group = group;
     r.P_start = *P;
     for (int i = 0; i < k_; ++i) r.dP_start[i] = (*dP)[i];
     double* key = Keys(recorded_);
@@ -563,9 +559,10 @@ template <bool kScores>
         dPCt.noalias() = dP * c.transpose();
         dPCt.noalias() += P * dc.transpose();
         dR = dc.dot(PCt) + c.dot(dPCt) + dS_(o, i);
-        if (recording)
-          replay->current_->dPCt[replay->At(q, i)] = dPCt,
-                                               replay->current_->dR[replay->At(q, i)] = dR;
+        if (recording) {
+          replay->current_->dPCt[replay->At(q, i)] = dPCt;
+          replay->current_->dR[replay->At(q, i)] = dR;
+        }
         dP.noalias() -= (dPCt * PCt.transpose() + PCt * dPCt.transpose()) / R;
         dP.noalias() += PCt * PCt.transpose() * (dR / (R * R));
       }
