@@ -841,9 +841,11 @@ class EstimateRun {
     {
       const std::vector<std::vector<int>> first_delays = {delay_, second_delay_};
       const int jobs = static_cast<int>(first.size());
+      ThreadShare share(threads_, jobs);
       ParallelFor(jobs, threads_, [&](int j) {
         first[j] = fitter_->FitAlongside(z_start_, first_delays[j], "fitting",
-                                         std::max(1, threads_ / jobs));
+                                         std::max(1, threads_ / jobs), 0, nullptr, &share);
+        share.Done();
       });
     }
     plain_evaluations_ =  // what a fit from a start costs here
@@ -911,9 +913,11 @@ class EstimateRun {
     // threads).
     const int budget = std::max(kMinExtraEvaluations, 2 * plain_evaluations_);
     if (explore > 0) {
+      ThreadShare explore_share(threads_, n);
       ParallelFor(n, threads_, [&](int i) {
         fits[i] = fitter_->ExploreAlongside(starts[i], delay_, explore, std::max(1, threads_ / n),
-                                            nullptr, best_.loglik);
+                                            nullptr, best_.loglik, &explore_share);
+        explore_share.Done();
       });
       std::vector<int> order;
       for (int i = 0; i < n; ++i) {
@@ -931,11 +935,13 @@ class EstimateRun {
             !fits[i].crawling)
           fits[i].loglik = -HUGE_VAL;
       const int lanes = static_cast<int>(order.size());
+      ThreadShare share(threads_, lanes);
       ParallelFor(lanes, threads_, [&](int c) {
         const int i = order[c];
         const Eigen::MatrixXd model = fits[i].model;
         fits[i] = fitter_->FitAlongside(fits[i].z, delay_, stage, std::max(1, threads_ / lanes),
-                                        budget, model.size() > 0 ? &model : nullptr);
+                                        budget, model.size() > 0 ? &model : nullptr, &share);
+        share.Done();
       });
     } else {
       for (int i = 0; i < n; ++i) fits[i] = fitter_->Fit(starts[i], delay_, stage);
@@ -1023,16 +1029,19 @@ class EstimateRun {
       }
       std::vector<FitResult> results[2];
       const int lanes = sides[0].empty() || sides[1].empty() ? 1 : 2;
+      // The walker of the longer side goes on with every thread once the other is done.
+      ThreadShare share(threads_, lanes);
       auto walk = [&](int side, int lane_threads) {
         std::vector<Fitted> own;
         for (const auto& candidate : sides[side]) {
           if (fitter_->Cancelled()) break;
           const Fitted* start = nearest_of(candidate, fitted, own);
           FitResult r = fitter_->FitAlongside(start->z, candidate, "delay profile", lane_threads, 0,
-                                              model_of(start));
+                                              model_of(start), &share);
           if (std::isfinite(r.loglik)) own.push_back({candidate, r.z, r.model});
           results[side].push_back(std::move(r));
         }
+        if (!sides[side].empty()) share.Done();
       };
       ParallelFor(2, lanes == 1 ? 1 : threads_,
                   [&](int side) { walk(side, std::max(1, threads_ / lanes)); });
@@ -1066,9 +1075,12 @@ class EstimateRun {
       std::vector<const Fitted*> starts(n);
       for (int w = 0; w < n; ++w) starts[w] = nearest_of(wave[w], fitted, {});
       std::vector<FitResult> results(n);
+      ThreadShare share(threads_, n);
       ParallelFor(n, threads_, [&](int w) {
-        results[w] = fitter_->FitAlongside(starts[w]->z, wave[w], "delay profile",
-                                           std::max(1, threads_ / n), 0, model_of(starts[w]));
+        results[w] =
+            fitter_->FitAlongside(starts[w]->z, wave[w], "delay profile", std::max(1, threads_ / n),
+                                  0, model_of(starts[w]), &share);
+        share.Done();
       });
       for (int w = 0; w < n && !best_.cancelled; ++w) record(wave[w], results[w]);
     }

@@ -181,41 +181,45 @@ Fitter::Fitter(const filter::Likelihood& lik, const EstimateOptions& options,
 
 FitResult Fitter::FitAlongside(std::vector<double> z, const std::vector<int>& delay,
                                const std::string& stage, int threads, int max_evaluations,
-                               const Eigen::MatrixXd* first_model) {
-  return Alongside(threads, max_evaluations, /*report=*/true, [&](Fitter& f) {
-    return f.Fit(std::move(z), delay, stage, kMaxBhhhIterations, first_model);
-  });
+                               const Eigen::MatrixXd* first_model, const ThreadShare* share) {
+  return Alongside(
+      threads, max_evaluations, /*report=*/true,
+      [&](Fitter& f) { return f.Fit(std::move(z), delay, stage, kMaxBhhhIterations, first_model); },
+      share);
 }
 
 FitResult Fitter::ExploreAlongside(std::vector<double> z, const std::vector<int>& delay,
                                    int iterations, int threads, const Eigen::MatrixXd* first_model,
-                                   double level) {
-  return Alongside(threads, kExploreEvaluations * iterations, /*report=*/false, [&](Fitter& f) {
-    const bool watch = std::isfinite(level);
-    FitResult r = f.FitBhhh(std::move(z), delay, "fitting", iterations, /*bfgs_updates=*/true,
-                            first_model, /*hand_over=*/watch);
-    if (r.crawling) {
-      // Crawling at the level: back at the estimate's optimum, or on its valley. (Below it, a fit
-      // may still be on its way to a better basin: building 3's p22 released from 5929.72 crawls
-      // below that before it climbs to 5930.12.)
-      if (std::abs(r.loglik - level) <= SameLevel(level)) return r;
-      const Eigen::MatrixXd model = r.model;
-      FitResult on = f.FitBhhh(r.z, delay, "fitting", iterations - f.iterations(),
-                               /*bfgs_updates=*/true, &model);
-      if (on.cancelled || on.loglik >= r.loglik) r = std::move(on);
-      r.crawling = false;
-    }
-    // Stalled before its iterations were up (flat or bound-limited directions, where auto goes on
-    // with L-BFGS): L-BFGS, within the same evaluation limit again.
-    if (r.converged || r.cancelled || !std::isfinite(r.loglik) || f.iterations() >= iterations)
-      return r;
-    FitResult on = f.FitNlopt(r.z, delay, "fitting", Algorithm::kLbfgs, options_.ftol_rel);
-    if (on.cancelled || on.loglik >= r.loglik) {
-      on.model = std::move(r.model);  // BHHH's, for the next round
-      return on;
-    }
-    return r;
-  });
+                                   double level, const ThreadShare* share) {
+  return Alongside(
+      threads, kExploreEvaluations * iterations, /*report=*/false,
+      [&](Fitter& f) {
+        const bool watch = std::isfinite(level);
+        FitResult r = f.FitBhhh(std::move(z), delay, "fitting", iterations, /*bfgs_updates=*/true,
+                                first_model, /*hand_over=*/watch);
+        if (r.crawling) {
+          // Crawling at the level: back at the estimate's optimum, or on its valley. (Below it, a
+          // fit may still be on its way to a better basin: building 3's p22 released from 5929.72
+          // crawls below that before it climbs to 5930.12.)
+          if (std::abs(r.loglik - level) <= SameLevel(level)) return r;
+          const Eigen::MatrixXd model = r.model;
+          FitResult on = f.FitBhhh(r.z, delay, "fitting", iterations - f.iterations(),
+                                   /*bfgs_updates=*/true, &model);
+          if (on.cancelled || on.loglik >= r.loglik) r = std::move(on);
+          r.crawling = false;
+        }
+        // Stalled before its iterations were up (flat or bound-limited directions, where auto goes
+        // on with L-BFGS): L-BFGS, within the same evaluation limit again.
+        if (r.converged || r.cancelled || !std::isfinite(r.loglik) || f.iterations() >= iterations)
+          return r;
+        FitResult on = f.FitNlopt(r.z, delay, "fitting", Algorithm::kLbfgs, options_.ftol_rel);
+        if (on.cancelled || on.loglik >= r.loglik) {
+          on.model = std::move(r.model);  // BHHH's, for the next round
+          return on;
+        }
+        return r;
+      },
+      share);
 }
 
 Fitter::Fitter(const Fitter& base, const EstimateOptions& options)
@@ -227,14 +231,15 @@ Fitter::Fitter(const Fitter& base, const EstimateOptions& options)
       lower_(base.lower_),
       upper_(base.upper_),
       log_(base.log_),
-      priors_(base.priors_) {
+      priors_(base.priors_),
+      share_(base.share_) {
   threads_ = options.threads > 0 ? options.threads : HardwareThreads();
 }
 
 double Fitter::LogLik(const std::vector<double>& z, const std::vector<int>& delay, long* n_obs,
                       int threads) {
   evaluations_.fetch_add(1);
-  auto l = lik_.Evaluate(Theta(z), delay, nullptr, threads > 0 ? threads : threads_);
+  auto l = lik_.Evaluate(Theta(z), delay, nullptr, threads > 0 ? threads : Threads());
   if (!l) return -std::numeric_limits<double>::infinity();
   if (n_obs) *n_obs = l->n_obs;
   return l->loglik;
@@ -268,8 +273,9 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   // EKF's adjoint costs the same for any chunk: one chunk, with the records (the series of a
   // joint fit) on the threads instead.
   const bool adjoint = !info && lik_.UsesAdjoint(static_cast<std::size_t>(k()));
+  const int threads = Threads();
   const int chunks =
-      split && !adjoint && k() > 1 ? std::clamp(std::min(threads_, k() / 2), 1, k()) : 1;
+      split && !adjoint && k() > 1 ? std::clamp(std::min(threads, k() / 2), 1, k()) : 1;
   std::vector<std::vector<int>> which(chunks);
   for (int i = 0; i < k(); ++i) which[i * chunks / k()].push_back(free_[i]);
   std::vector<Eigen::VectorXd> g_part(chunks);
@@ -279,7 +285,7 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   evaluations_.fetch_add(1);
   ParallelFor(chunks, chunks, [&](int c) {
     auto l = lik_.EvaluateWithScore(theta, delay, which[c], &g_part[c], info ? &J_part[c] : nullptr,
-                                    split ? std::max(1, threads_ / chunks) : 1);
+                                    split ? std::max(1, threads / chunks) : 1);
     ok[c] = l.ok();
     if (l) value[c] = l->loglik;
   });
@@ -324,7 +330,7 @@ bool Fitter::ScoresByDifferences(const std::vector<double>& z, const std::vector
   }
   std::vector<std::vector<double>> terms(points.size());
   std::vector<char> ok(points.size(), 0);
-  ParallelFor(static_cast<int>(points.size()), threads_, [&](int p) {
+  ParallelFor(static_cast<int>(points.size()), Threads(), [&](int p) {
     if (Cancelled()) return;
     std::vector<double> zp = z;
     zp[points[p].i] += points[p].step;
@@ -627,7 +633,7 @@ bool Fitter::ExactHessian(const std::vector<double>& z, const std::vector<int>& 
   const int m = static_cast<int>(which.size());
   std::vector<Eigen::VectorXd> column(m);
   std::vector<double> step(m, 0.0);
-  ParallelFor(m, threads_, [&](int a) {
+  ParallelFor(m, Threads(), [&](int a) {
     const int i = which[a];
     const double h = kGradientHessianStep * std::max(std::abs(z[i]), 1.0);
     for (const double signed_h : {h, -h}) {
@@ -1030,10 +1036,12 @@ EstimateOptions Fitter::SubOptions(int threads, int max_evaluations) {
 }
 
 FitResult Fitter::Alongside(int threads, int max_evaluations, bool report,
-                            const std::function<FitResult(Fitter&)>& fit) {
+                            const std::function<FitResult(Fitter&)>& fit,
+                            const ThreadShare* share) {
   EstimateOptions sub = SubOptions(threads, max_evaluations);
   if (!report) sub.progress = nullptr;
   Fitter f(*this, sub);
+  if (share) f.share_ = share;
   FitResult r = fit(f);
   AddWork(f);
   return r;
@@ -1049,7 +1057,7 @@ FitResult Fitter::FitOnLogScale(const std::vector<double>& z, const std::vector<
                                 const std::string& stage, int max_evaluations,
                                 const std::vector<int>* which) {
   const std::vector<double> theta = Theta(z);
-  FitResult r = Alongside(threads_, max_evaluations, true, [&](Fitter& f) {
+  FitResult r = Alongside(Threads(), max_evaluations, true, [&](Fitter& f) {
     for (int i = 0; i < k(); ++i) {
       if (!OnLogScaleThere(i) ||
           (which && std::find(which->begin(), which->end(), i) == which->end()))

@@ -129,6 +129,21 @@ struct FitResult {
 // Adds `more` to r's crept parameters (FitResult::crept), keeping them sorted, each once.
 void AddCrept(const std::vector<int>& more, FitResult* r);
 
+// The threads of fits that run side by side (lanes): each unfinished lane's share of `total`, so
+// that a fit whose partners are done goes on with all of them (a delay profile's walker up a long
+// side, an extra start that takes longer than the others). Any number of threads gives the same
+// result (the score's chunks are the same sums), so the share changes only the time.
+class ThreadShare {
+ public:
+  ThreadShare(int total, int lanes) : total_(total), unfinished_(lanes) {}
+  int Threads() const { return std::max(1, total_ / std::max(1, unfinished_.load())); }
+  void Done() { unfinished_.fetch_sub(1); }
+
+ private:
+  int total_;
+  std::atomic<int> unfinished_;
+};
+
 class Fitter {
  public:
   // Over the model's free parameters, from its start values; or, with `theta_base`, from those
@@ -140,13 +155,14 @@ class Fitter {
   // progress): for fits that run beside each other.
   Fitter(const Fitter& base, const EstimateOptions& options);
 
-  // Fit(z, delay, stage) on a fitter of its own with `threads` threads (and, if > 0, its own
-  // evaluation limit), safe to call from several threads at once: its progress reports are passed
-  // on one at a time, and its iterations and evaluations are added to this fitter's when it
-  // returns.
+  // Fit(z, delay, stage) on a fitter of its own with `threads` threads, or with `share`'s share of
+  // them (and, if > 0, its own evaluation limit), safe to call from several threads at once: its
+  // progress reports are passed on one at a time, and its iterations and evaluations are added to
+  // this fitter's when it returns.
   FitResult FitAlongside(std::vector<double> z, const std::vector<int>& delay,
                          const std::string& stage, int threads, int max_evaluations = 0,
-                         const Eigen::MatrixXd* first_model = nullptr);
+                         const Eigen::MatrixXd* first_model = nullptr,
+                         const ThreadShare* share = nullptr);
 
   // `iterations` iterations of auto's BHHH with BFGS corrections from z (`first_model`: as Fit's),
   // where it stalls before they are up L-BFGS, within kExploreEvaluations x `iterations`
@@ -156,7 +172,7 @@ class Fitter {
   // back to the estimate's optimum or its valley.
   FitResult ExploreAlongside(std::vector<double> z, const std::vector<int>& delay, int iterations,
                              int threads, const Eigen::MatrixXd* first_model = nullptr,
-                             double level = HUGE_VAL);
+                             double level = HUGE_VAL, const ThreadShare* share = nullptr);
 
   int k() const { return static_cast<int>(free_.size()); }
   const std::vector<int>& free() const { return free_; }
@@ -348,9 +364,13 @@ class Fitter {
   bool OverEvaluationLimit(int evaluations_before, std::string* message) const;
 
   // Runs fit(sub) on a fitter over the same parameters with its own options (threads, evaluation
-  // limit, progress passed on under a lock or none), and adds its counts to this one's.
+  // limit, progress passed on under a lock or none) and `share` (if given; else this one's), and
+  // adds its counts to this one's.
   FitResult Alongside(int threads, int max_evaluations, bool report,
-                      const std::function<FitResult(Fitter&)>& fit);
+                      const std::function<FitResult(Fitter&)>& fit,
+                      const ThreadShare* share = nullptr);
+  // The threads an evaluation may use now: the share's, or threads_.
+  int Threads() const { return share_ ? share_->Threads() : threads_; }
 
   const filter::Likelihood& lik_;
   const EstimateOptions& options_;
@@ -364,6 +384,7 @@ class Fitter {
   };
   std::vector<FreePrior> priors_;
   int threads_ = 1;
+  const ThreadShare* share_ = nullptr;
   std::atomic<int> evaluations_{0};
   std::atomic<int> iterations_{0};
   std::mutex progress_mutex_;

@@ -342,6 +342,7 @@ Result<Loglik> Likelihood::ScoreOverSeries(std::span<const int> delay, std::span
     if (!*each[s]) return each[s]->error();
     total.loglik += (*each[s])->loglik;
     total.n_obs += (*each[s])->n_obs;
+    total.replayed += (*each[s])->replayed;
     const std::vector<Eigen::Index>& columns = free_per_series[s].columns;
     for (std::size_t c = 0; c < columns.size(); ++c)
       (*gradient)(columns[c]) += gradient_per_series[s](static_cast<Eigen::Index>(c));
