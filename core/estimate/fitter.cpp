@@ -273,9 +273,17 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   // EKF's adjoint costs the same for any chunk: one chunk, with the records (the series of a
   // joint fit) on the threads instead.
   const bool adjoint = !info && lik_.UsesAdjoint(static_cast<std::size_t>(k()));
+  // A linear model's gradient alone: from the steady state's adjoint, in one piece (its last bits
+  // would turn on the chunks), until one that it gave less than half the rows of; from then on
+  // (a fit far from its optimum, where the covariances settle late: the fuel film's profile at
+  // delays far from the estimate) the forward sensitivities', in chunks on the threads. Which
+  // of them a gradient is turns on the fit's own evaluations only, never on the threads.
+  const bool one_piece = !info && split && lik_.GradientInOnePiece() && steady_adjoint_;
   const int threads = Threads();
-  const int chunks =
-      split && !adjoint && k() > 1 ? std::clamp(std::min(threads, k() / 2), 1, k()) : 1;
+  const int chunks = split && !adjoint && k() > 1 && !one_piece
+                         ? std::clamp(std::min(threads, k() / 2), 1, k())
+                         : 1;
+  const bool steady_adjoint = !split || one_piece;
   std::vector<std::vector<int>> which(chunks);
   for (int i = 0; i < k(); ++i) which[i * chunks / k()].push_back(free_[i]);
   std::vector<Eigen::VectorXd> g_part(chunks);
@@ -285,9 +293,11 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   evaluations_.fetch_add(1);
   ParallelFor(chunks, chunks, [&](int c) {
     auto l = lik_.EvaluateWithScore(theta, delay, which[c], &g_part[c], info ? &J_part[c] : nullptr,
-                                    split ? std::max(1, threads / chunks) : 1);
+                                    split ? std::max(1, threads / chunks) : 1, steady_adjoint);
     ok[c] = l.ok();
     if (l) value[c] = l->loglik;
+    if (l && one_piece && 2 * l->adjoint * static_cast<long>(lik_.spec().outputs.size()) < l->n_obs)
+      steady_adjoint_ = false;
   });
   if (Cancelled()) return false;
   if (std::find(ok.begin(), ok.end(), 0) != ok.end()) {  // e.g. d sqrt(s)/ds at s = 0

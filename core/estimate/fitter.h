@@ -385,6 +385,9 @@ class Fitter {
   std::vector<FreePrior> priors_;
   int threads_ = 1;
   const ThreadShare* share_ = nullptr;
+  // Scores: a linear model's gradient alone from the steady state's adjoint (until it covered
+  // less than half the rows: then forward sensitivities, in chunks).
+  bool steady_adjoint_ = true;
   std::atomic<int> evaluations_{0};
   std::atomic<int> iterations_{0};
   std::mutex progress_mutex_;

@@ -70,6 +70,10 @@ struct FilterSettings {
   // The steady state's replay (above); false: the full recursion at every step, which the tests
   // compare it with.
   bool steady_replay = true;
+  // The score's gradient alone (no row's score) over a replayed steady state that lasts to the
+  // end of the series by its adjoint (linear_loops.h: AdjointOfTheSteadyState); false: by the
+  // forward sensitivities there too, which the tests compare it with.
+  bool adjoint_steady_state = true;
 
   // Hold, P0 and Huber from the model; each output's delay at its `min`.
   static FilterSettings FromModel(const model::ModelSpec& spec);
@@ -84,6 +88,7 @@ struct Loglik {
   double loglik = 0.0;
   long n_obs = 0;     // scalar observations used
   long replayed = 0;  // state indices whose covariances the linear filter replayed (steady state)
+  long adjoint = 0;  // of those, the indices whose gradient the steady state's adjoint gave (score)
 };
 
 // Everything the filter computed, for predictions, residuals and the smoother.

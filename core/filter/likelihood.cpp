@@ -8,6 +8,7 @@
 
 #include "core/filter/ekf_adjoint.h"
 #include "core/filter/ekf_score.h"
+#include "core/filter/internal.h"
 #include "core/filter/score.h"
 #include "core/util/parallel.h"
 
@@ -320,9 +321,10 @@ Result<Loglik> Likelihood::Evaluate(std::span<const double> theta, std::span<con
 template <class One>
 Result<Loglik> Likelihood::ScoreOverSeries(std::span<const int> delay, std::span<const int> free,
                                            Eigen::VectorXd* gradient,
-                                           Eigen::MatrixXd* J_terms_theta, int threads,
-                                           One&& one) const {
+                                           Eigen::MatrixXd* J_terms_theta, int threads, One&& one,
+                                           bool steady_adjoint) const {
   FilterSettings settings = settings_;
+  settings.adjoint_steady_state = steady_adjoint;
   if (!delay.empty()) settings.delay.assign(delay.begin(), delay.end());
   const Eigen::Index k = static_cast<Eigen::Index>(free.size());
   const int n = static_cast<int>(series_.size());
@@ -343,6 +345,7 @@ Result<Loglik> Likelihood::ScoreOverSeries(std::span<const int> delay, std::span
     total.loglik += (*each[s])->loglik;
     total.n_obs += (*each[s])->n_obs;
     total.replayed += (*each[s])->replayed;
+    total.adjoint += (*each[s])->adjoint;
     const std::vector<Eigen::Index>& columns = free_per_series[s].columns;
     for (std::size_t c = 0; c < columns.size(); ++c)
       (*gradient)(columns[c]) += gradient_per_series[s](static_cast<Eigen::Index>(c));
@@ -366,7 +369,8 @@ Result<Loglik> Likelihood::ScoreOverSeries(std::span<const int> delay, std::span
 Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
                                              std::span<const int> delay, std::span<const int> free,
                                              Eigen::VectorXd* gradient,
-                                             Eigen::MatrixXd* J_terms_theta, int threads) const {
+                                             Eigen::MatrixXd* J_terms_theta, int threads,
+                                             bool steady_adjoint) const {
   assert(gradient != nullptr);
   if (nonlinear_ && !exact_scores()) return EkfScore(theta, delay, free, gradient, J_terms_theta);
   if (nonlinear_) {
@@ -394,11 +398,12 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
     if (!ss) return ss.error();
     auto dss = linear_->EvaluateJacobian(theta, free);
     if (!dss) return dss.error();
-    return ScoreOverSeries(delay, free, gradient, J_terms_theta, threads,
-                           [&](std::size_t, const data::Series& s, const FilterSettings& settings,
-                               std::span<const int>, Eigen::VectorXd* g, Eigen::MatrixXd* J) {
-                             return LogLikelihoodScore(*ss, *dss, s, settings, g, J);
-                           });
+    return ScoreOverSeries(
+        delay, free, gradient, J_terms_theta, threads,
+        [&](std::size_t, const data::Series& s, const FilterSettings& settings,
+            std::span<const int>, Eigen::VectorXd* g,
+            Eigen::MatrixXd* J) { return LogLikelihoodScore(*ss, *dss, s, settings, g, J); },
+        steady_adjoint);
   }
   return ScoreOverSeries(
       delay, free, gradient, J_terms_theta, threads,
@@ -410,7 +415,14 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
         auto dss = linear_->EvaluateJacobian(own, params);
         if (!dss) return dss.error();
         return LogLikelihoodScore(*ss, *dss, s, settings, g, J);
-      });
+      },
+      steady_adjoint);
+}
+
+bool Likelihood::GradientInOnePiece() const {
+  // The steady-state replay runs at fixed sizes with up to 64 outputs (SteadyReplay).
+  return linear_ && static_cast<int>(spec().states.size()) <= internal::kMaxFixedStates &&
+         spec().outputs.size() <= 64;
 }
 
 bool Likelihood::UsesAdjoint(std::size_t free_count) const {

@@ -8,6 +8,7 @@
 // compile in parallel; kalman.cpp and score.cpp choose one with WithStateDimension.
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <bit>
 #include <cstdint>
@@ -205,9 +206,172 @@ template <int NX, bool kTrace>
   return Loglik{loglik, n_obs, replayed};
 }
 
+// Whether every state index from j0 to the loop's last repeats the cycle *replay replays (one for
+// every part): the same outputs observed, and but after the last the same interval.
+template <int NX>
+[[gnu::noinline]] bool RepeatsToTheEnd(const ScoreContext& ctx, const ObservationRule& rule,
+                                       const SteadyReplay<NX>& replay, int j0) {
+  const int last = ctx.window.last_j;
+  for (int j = j0; j <= last; ++j)
+    if (rule.Mask(j) != replay.mask() ||
+        (j < last && ctx.series.intervals.group[j] != replay.group()))
+      return false;
+  return true;
+}
+
+// The gradient of the steady state's terms by its adjoint (the gradient alone, no row's score):
+// where the replay began at index j0 and its cycles repeat to the loop's last index
+// (RepeatsToTheEnd), those indices move x̂ only, with the recorded gains, and the gradient of
+// their terms is
+//   λ_j0' dx̂_i(j0) + Σ over the cycle's steps and updates of ∂/∂k · dk_i + ∂/∂R · dR_i
+//   + ∂/∂c_o · dc_o,i + ∂/∂d_o dd_o,i + ∂/∂D_o · dD_o,i + <∂/∂Φ, dΦ_i> + ∂/∂g · dg_i + <∂/∂Γ,
+//   dΓ_i>,
+// the ∂ summed over the indices by one backward pass of the adjoint λ of x̂ (n numbers per index),
+// instead of k sensitivities of x̂ carried forward (k n per index). Adds the indices' log L (the
+// forward recursion's, to the bit: the same updates in the same order), observations and gradient
+// (the forward one's to rounding); *s: the state at j0. False when cancelled.
+template <int NX>
+[[gnu::noinline]] bool AdjointOfTheSteadyState(const ScoreContext& ctx, const ObservationRule& rule,
+                                               LinearStep<NX>& step, const SteadyReplay<NX>& replay,
+                                               const std::vector<FixedDiscrete<NX>>& disc,
+                                               const std::vector<FixedDiscrete<NX>>& ddisc, int j0,
+                                               const LinearState<NX>& s, double* loglik,
+                                               long* n_obs, Eigen::VectorXd* gradient) {
+  using Vec = typename LinearState<NX>::Vec;
+  using Mat = typename LinearState<NX>::Mat;
+  const data::Series& series = ctx.series;
+  const int n = ctx.ss.n_states();
+  const int m = ctx.ss.n_inputs();
+  const int k = static_cast<int>(ctx.dss.size());
+  const int N = static_cast<int>(series.size());
+  const bool foh = ctx.settings.hold == model::InputHold::kFoh;
+  const int last = ctx.window.last_j;
+  const int rows = last - j0 + 1;
+  std::vector<int> outputs;  // the observed outputs, in the order of their updates
+  for (std::uint64_t bits = replay.mask(); bits != 0; bits &= bits - 1)
+    outputs.push_back(std::countr_zero(bits));
+  const int p = static_cast<int>(outputs.size());
+  const FixedDiscrete<NX>& d = disc[replay.group()];
+  // The dP_i's periods, each once: the derivatives' sums are kept per step of each cycle.
+  std::vector<int> periods, period_of(k);
+  for (int i = 0; i < k; ++i) {
+    const int L = replay.Period(i + 1);
+    auto at = std::find(periods.begin(), periods.end(), L);
+    period_of[i] = static_cast<int>(at - periods.begin());
+    if (at == periods.end()) periods.push_back(L);
+  }
+
+  // Forward: x̂ at each index's start, the innovations and ρ'(r²), and the terms.
+  std::vector<Vec> x_start(rows, Vec::Zero(n));
+  std::vector<double> eps(static_cast<std::size_t>(rows) * p), d_rho(rows, 0.5);
+  Vec x = s.x;
+  TermSums sums;
+  for (int r = 0; r < rows; ++r) {
+    const int j = j0 + r;
+    if (CancelledAt(ctx.settings.cancel, j)) return false;
+    x_start[r] = x;
+    const auto& record = replay.PartStep(0, r);
+    const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
+    sums.Begin();
+    for (int q = 0; q < p; ++q) {
+      const int o = outputs[q];
+      const double e = step.Innovation(o, rule.Y(rule.Row(j, o), o), u, x);
+      eps[static_cast<std::size_t>(r) * p + q] = e;
+      step.Correct(e, record.PCt[q], record.R[q], &x, &sums);
+    }
+    if (sums.p_j > 0) {
+      *loglik += LoglikTerm(sums.logdet, sums.p_j, sums.r2, ctx.settings.huber, &d_rho[r]);
+      *n_obs += sums.p_j;
+    }
+    if (j == last || j == N - 1) break;
+    step.AdvanceMean(d, u, u + m, foh, &x);
+  }
+
+  // Backward: λ = ∂(the terms from here on)/∂x̂, and the sums the derivatives are contracted with.
+  Vec lambda = Vec::Zero(n);
+  Mat dPhi_sum = Mat::Zero(n, n);  // Σ λ_{j+1} x̂_j' (x̂ after the updates)
+  Vec dg_sum = Vec::Zero(n);
+  using Inputs = Eigen::Matrix<double, NX, Eigen::Dynamic>;  // n x m, as Γ0 and Γ1
+  Inputs dGamma0_sum = Inputs::Zero(n, m), dGamma1_sum = Inputs::Zero(n, m);
+  // Per period v: the sums of the cycle's steps' updates, [phase * p + q].
+  std::vector<std::vector<Vec>> dk_sum;
+  std::vector<std::vector<double>> dR_sum;
+  for (const int L : periods) {
+    const std::size_t updates = static_cast<std::size_t>(std::min(L, rows)) * p;
+    dk_sum.emplace_back(updates, Vec::Zero(n));
+    dR_sum.emplace_back(updates, 0.0);
+  }
+  std::vector<Vec> dc_sum(p, Vec::Zero(n));
+  std::vector<double> dd_sum(p, 0.0);
+  Eigen::MatrixXd dD_sum = Eigen::MatrixXd::Zero(p, m);
+  std::vector<Vec> x_q(p + 1, Vec::Zero(n));  // x̂ before each update of an index, and after all
+  for (int r = rows - 1; r >= 0; --r) {
+    const int j = j0 + r;
+    const auto& record = replay.PartStep(0, r);
+    const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
+    x_q[0] = x_start[r];
+    for (int q = 0; q < p; ++q) {
+      x_q[q + 1] = x_q[q];
+      x_q[q + 1].noalias() +=
+          record.PCt[q] * (eps[static_cast<std::size_t>(r) * p + q] / record.R[q]);
+    }
+    if (j < last && j < N - 1) {  // x̂_{j+1} = Φ x̂_j + g + Γ0 u_j (+ Γ1 u_{j+1})
+      dPhi_sum.noalias() += lambda * x_q[p].transpose();
+      dg_sum += lambda;
+      for (int l = 0; l < m; ++l) {
+        dGamma0_sum.col(l) += lambda * u[l];
+        if (foh) dGamma1_sum.col(l) += lambda * u[m + l];
+      }
+      lambda = (d.Phi.transpose() * lambda).eval();
+    }
+    for (int q = p - 1; q >= 0; --q) {  // x̂ += k ε/R, ε = y - c_o x̂ - d_o - D_o u
+      const double e = eps[static_cast<std::size_t>(r) * p + q];
+      const double R = record.R[q];
+      const Vec& gain = record.PCt[q];
+      const double lk = lambda.dot(gain);
+      const double w = (lk - 2.0 * d_rho[r] * e) / R;                             // ∂/∂ε
+      const double dR_adjoint = (d_rho[r] * e * e - lk * e) / (R * R) - 0.5 / R;  // ∂/∂R
+      for (std::size_t v = 0; v < periods.size(); ++v) {
+        const std::size_t at = static_cast<std::size_t>(r % periods[v]) * p + q;
+        dk_sum[v][at].noalias() += lambda * (e / R);
+        dR_sum[v][at] += dR_adjoint;
+      }
+      dc_sum[q].noalias() -= w * x_q[q];
+      dd_sum[q] -= w;
+      for (int l = 0; l < m; ++l) dD_sum(q, l) -= w * u[l];
+      lambda.noalias() -= w * step.c(outputs[q]).transpose();
+    }
+  }
+
+  const int group = replay.group();
+  for (int i = 0; i < k; ++i) {
+    double g = lambda.dot(s.dx[i]);
+    const int v = period_of[i];
+    for (std::size_t a = 0; a < dR_sum[v].size(); ++a) {
+      const auto& record = replay.PartStep(i + 1, static_cast<long>(a) / p);
+      const std::size_t at = replay.At(static_cast<int>(a % p), i);
+      g += dk_sum[v][a].dot(record.dPCt[at]) + dR_sum[v][a] * record.dR[at];
+    }
+    for (int q = 0; q < p; ++q) {
+      const int o = outputs[q];
+      g += dc_sum[q].dot(step.dc(o, i).transpose()) + dd_sum[q] * step.dd(o, i);
+      if (m > 0) g += dD_sum.row(q).dot(step.dD(i).row(o));
+    }
+    const FixedDiscrete<NX>& di = ddisc[static_cast<std::size_t>(group) * k + i];
+    g += di.Phi.cwiseProduct(dPhi_sum).sum() + di.g.dot(dg_sum);
+    if (m > 0) {
+      g += (di.Gamma0.cwiseProduct(dGamma0_sum)).sum();
+      if (foh) g += (di.Gamma1.cwiseProduct(dGamma1_sum)).sum();
+    }
+    (*gradient)(i) += g;
+  }
+  return true;
+}
+
 // log L with its gradient (k) and, when J is given, the derivatives of every term (N x k).
 template <int NX>
-Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eigen::MatrixXd* J) {
+[[gnu::flatten]] Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient,
+                                          Eigen::MatrixXd* J) {
   const model::StateSpace& ss = ctx.ss;
   const data::Series& series = ctx.series;
   const int n = ss.n_states();
@@ -244,7 +408,7 @@ Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eig
   if (J) J->setZero(N, k);
 
   double loglik = 0.0;
-  long n_obs = 0, replayed = 0;
+  long n_obs = 0, replayed = 0, adjoint = 0;
   for (int j = 0; j <= ctx.window.last_j; ++j) {
     if (CancelledAt(ctx.settings.cancel, j)) return NumericalError("cancelled");
     if (!MeasurementUpdates<NX, true>(j, series, rule, step, &state, &replay, &sums, &scores,
@@ -265,10 +429,23 @@ Result<Loglik> ScoreLoop(const ScoreContext& ctx, Eigen::VectorXd* gradient, Eig
     const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
     step.template TimeUpdate<true>(disc[g], ddisc.data() + static_cast<std::size_t>(g) * k, u,
                                    u + m, foh, replay.replaying(), &state);
+    const bool was_replaying = replay.replaying();
     replay.End(state.P, state.dP);
+    // The steady state to the end: by its adjoint where no row's score is asked for.
+    if (!J && !was_replaying && replay.replaying() && j < ctx.window.last_j &&
+        ctx.settings.adjoint_steady_state && RepeatsToTheEnd(ctx, rule, replay, j + 1)) {
+      if (!AdjointOfTheSteadyState(ctx, rule, step, replay, disc, ddisc, j + 1, state, &loglik,
+                                   &n_obs, gradient))
+        return NumericalError("cancelled");
+      // (As replayed rows, the forward loop counts the series' last index out: with no interval
+      // after it, it ends the replay, with the values the replay would have given.)
+      adjoint = ctx.window.last_j - j;
+      replayed += adjoint - (ctx.window.last_j == N - 1 ? 1 : 0);
+      break;
+    }
   }
   if (!std::isfinite(loglik) || !gradient->allFinite()) return NotFiniteLoglik(series);
-  return Loglik{loglik, n_obs, replayed};
+  return Loglik{loglik, n_obs, replayed, adjoint};
 }
 
 // The instantiations of one state dimension (`extern` here, defined in generated/). EXTERN is

@@ -253,6 +253,10 @@ class LinearStep {
   }
 
   const Row& c(int o) const { return C_[o]; }
+  // The model's derivatives along θ_i: of row o of C, of d_o, of D (p x m).
+  const Row& dc(int o, int i) const { return dC_[static_cast<std::size_t>(o) * k_ + i]; }
+  double dd(int o, int i) const { return dd_(o, i); }
+  const Eigen::MatrixXd& dD(int i) const { return dD_[i]; }
 
  private:
   // Γ0 u0 + Γ1 u1 (the latter only with first-order hold), added to *out.
@@ -374,6 +378,17 @@ class SteadyReplay {
     Advance();
     return true;
   }
+  // Replaying, from the step after End began it (before the first Begin that replays): the
+  // outputs and interval the cycles were recorded with, each part's period (c = 0: P, 1 + i:
+  // dP_i), and the record part c's values of the t-th replayed step are in (t = 0: the first;
+  // P's: PCt, R; dP_i's: its dk_i and dR_i of the q-th update, at At(q, i)).
+  std::uint64_t mask() const { return mask_; }
+  int group() const { return group_; }
+  int Period(int c) const { return period_[c]; }
+  const Record& PartStep(int c, long t) const {
+    return ring_[Slot(base_ - period_[c] + t % period_[c])];
+  }
+  std::size_t At(int q, int i) const { return static_cast<std::size_t>(q) * k_ + i; }
   // The current step's q-th scalar update: its gain P c' and R.
   const Vec& Gain(int q) const { return p_source_->PCt[q]; }
   double R(int q) const { return p_source_->R[q]; }
@@ -462,7 +477,6 @@ class SteadyReplay {
 
  private:
   friend class LinearStep<NX>;
-  std::size_t At(int q, int i) const { return static_cast<std::size_t>(q) * k_ + i; }
   std::size_t Slot(long step) const {
     return static_cast<std::size_t>(step) & (ring_.size() - 1);  // the size is a power of two
   }

@@ -168,6 +168,31 @@ TEST(Score, TheSteadyStateInterruptedByMissingValuesMatchesCentralDifferences) {
 // The score and the value filter with the steady state's replay against the full recursion
 // (FilterSettings::steady_replay = false), to the last bit; the replay must cover more than
 // `min_replayed` rows (-1: any number).
+// The gradient alone (no row's score) over a replayed steady state that lasts to the end is its
+// adjoint's (linear_loops.h, AdjointOfTheSteadyState): log L to the bit and every component to
+// rounding, relative to the sum of the rows' |scores| (J) it adds up, against the forward
+// sensitivities'. Returns the rows the adjoint gave.
+long ExpectTheSteadyStatesAdjointIsTheForwardGradient(const model::StateSpace& ss,
+                                                      std::span<const model::StateSpace> dss,
+                                                      const data::Series& series,
+                                                      const FilterSettings& settings,
+                                                      const Eigen::MatrixXd& J) {
+  FilterSettings forward = settings;
+  forward.adjoint_steady_state = false;
+  Eigen::VectorXd g_adjoint, g_forward;
+  const auto adjoint = LogLikelihoodScore(ss, dss, series, settings, &g_adjoint);
+  const auto sensitivities = LogLikelihoodScore(ss, dss, series, forward, &g_forward);
+  EXPECT_TRUE(adjoint.ok() && sensitivities.ok());
+  if (!adjoint.ok() || !sensitivities.ok()) return 0;
+  EXPECT_EQ(adjoint->loglik, sensitivities->loglik);
+  EXPECT_EQ(adjoint->n_obs, sensitivities->n_obs);
+  EXPECT_EQ(adjoint->replayed, sensitivities->replayed);
+  EXPECT_EQ(sensitivities->adjoint, 0);
+  for (Eigen::Index i = 0; i < g_forward.size(); ++i)
+    EXPECT_NEAR(g_adjoint(i), g_forward(i), 1e-12 * J.col(i).cwiseAbs().sum()) << "θ_" << i;
+  return adjoint->adjoint;
+}
+
 void ExpectReplayIsTheFullRecursion(const model::StateSpace& ss,
                                     std::span<const model::StateSpace> dss,
                                     const data::Series& series, const FilterSettings& settings,
@@ -184,6 +209,7 @@ void ExpectReplayIsTheFullRecursion(const model::StateSpace& ss,
   EXPECT_EQ(replayed->loglik, recursed->loglik);
   EXPECT_TRUE(g_replayed == g_full) << (g_replayed - g_full).transpose();
   EXPECT_TRUE(J_replayed == J_full) << (J_replayed - J_full).cwiseAbs().maxCoeff();
+  ExpectTheSteadyStatesAdjointIsTheForwardGradient(ss, dss, series, settings, J_full);
 
   // The value filter alone: its P is replayed too, and equal to the full recursion's.
   std::vector<double> terms_replayed, terms_full;
@@ -261,6 +287,55 @@ TEST(Score, CovariancesWhoseSensitivitiesCycleEachOnItsOwnAreReplayedBitForBit) 
   const auto l = LogLikelihoodScore(ss, dss, **series, settings, &gradient);
   ASSERT_TRUE(l.ok());
   EXPECT_NEAR(l->loglik, 5930.09335342, 1e-6 * 5930.09335342);  // CTSM-R's
+}
+
+TEST(Score, TheSteadyStatesAdjointGradientIsTheForwardOneToRoundingAndMatchesDifferences) {
+  // Two outputs, an input in the observation, parameters in A, B, the drift's constant, σ, C, d,
+  // D, R and x̂0, regularly sampled and never missing, so that the replay lasts to the end; with
+  // zero- and first-order hold, Gaussian and Huber's loss.
+  for (const char* hold : {"zoh", "foh"}) {
+    for (const bool huber : {false, true}) {
+      SCOPED_TRACE(std::string(hold) + (huber ? ", Huber" : ", Gaussian"));
+      Json j = Json::parse(fixtures::kTwoOutputModel);
+      j["observation"] = {{"y1", "c1*x1 + 0.5*x2 + e*u2 + f"}, {"y2", "2*x2 - c1*x1"}};
+      j["parameters"]["c1"] = 0.8;
+      j["parameters"]["e"] = 0.3;
+      j["parameters"]["f"] = 1.0;
+      j["input_hold"] = hold;
+      if (huber) j["robust_huber"] = 1.5;
+      const auto m = JsonModel(j);
+      data::Series s = fixtures::RandomSeries(600, 2, 0.0, 23);
+      for (std::size_t r = 0; r < s.time.size(); ++r) s.time[r] = 0.1 * static_cast<double>(r);
+      s.intervals = data::GroupIntervals(s.time);
+      const std::vector<double> theta = m->spec().Values();
+      const std::vector<int> all = AllParameters(*m);
+      const FilterSettings settings = FilterSettings::FromModel(m->spec());
+      const auto ss = *m->Evaluate(theta);
+      const auto dss = *m->EvaluateJacobian(theta, all);
+      Eigen::VectorXd g;
+      Eigen::MatrixXd J;
+      ASSERT_TRUE(LogLikelihoodScore(ss, dss, s, settings, &g, &J).ok());
+      EXPECT_GT(ExpectTheSteadyStatesAdjointIsTheForwardGradient(ss, dss, s, settings, J), 400);
+      // And against central differences, with the gradient alone.
+      const auto lik = *Likelihood::Create(m, {std::make_shared<const data::Series>(std::move(s))});
+      Eigen::VectorXd gradient;
+      ASSERT_TRUE(lik.EvaluateWithScore(theta, {}, all, &gradient).ok());
+      for (std::size_t i = 0; i < all.size(); ++i) {
+        double best = INFINITY;
+        for (double rel : kRelativeSteps) {
+          const double h = rel * std::max(std::abs(theta[i]), 1e-3);
+          std::vector<double> up = theta, down = theta;
+          up[i] += h;
+          down[i] -= h;
+          const double difference =
+              (lik.Evaluate(up)->loglik - lik.Evaluate(down)->loglik) / (2 * h);
+          best = std::min(best, std::abs(difference - gradient(i)));
+        }
+        EXPECT_LE(best, kAgreement * std::max(std::abs(gradient(i)), 1.0))
+            << m->spec().parameters[i].name;
+      }
+    }
+  }
 }
 
 TEST(Score, CrankshaftWithTwoOutputsFohAndStationaryP0MatchesCentralDifferences) {
