@@ -224,7 +224,8 @@ void ExpectReplayIsTheFullRecursion(const model::StateSpace& ss,
 
 // s with its outputs missing at `rows`: each breaks the replay where it stands in its cycles,
 // and the full recursion resumes from the values the replay left behind.
-std::shared_ptr<const data::Series> WithMissing(const data::Series& s, std::vector<int> rows) {
+std::shared_ptr<const data::Series> WithMissing(const data::Series& s,
+                                                const std::vector<int>& rows) {
   data::Series out = s;
   for (int row : rows) out.Y.col(row).setConstant(std::numeric_limits<double>::quiet_NaN());
   return std::make_shared<const data::Series>(std::move(out));
