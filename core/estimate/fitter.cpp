@@ -273,11 +273,11 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   // EKF's adjoint costs the same for any chunk: one chunk, with the records (the series of a
   // joint fit) on the threads instead.
   const bool adjoint = !info && lik_.UsesAdjoint(static_cast<std::size_t>(k()));
-  // A linear model's gradient alone: from the steady state's adjoint, in one piece (its last bits
-  // would turn on the chunks), until one that it gave less than half the rows of; from then on
-  // (a fit far from its optimum, where the covariances settle late: the fuel film's profile at
-  // delays far from the estimate) the forward sensitivities', in chunks on the threads. Which
-  // of them a gradient is turns on the fit's own evaluations only, never on the threads.
+  // A linear model's gradient alone comes from the steady state's adjoint, in one piece (in
+  // chunks its last bits would turn on them), until a gradient where the adjoint covered fewer
+  // than half the rows. From then on (a fit whose covariances settle late: the fuel film's
+  // profile at delays far from the estimate) it is the forward sensitivities', in chunks on the
+  // threads. Which one a gradient is turns on the fit's own evaluations, never on the threads.
   const bool one_piece = !info && split && lik_.GradientInOnePiece() && steady_adjoint_;
   const int threads = Threads();
   const int chunks = split && !adjoint && k() > 1 && !one_piece
