@@ -777,6 +777,17 @@ class EstimateRun {
 
   bool Cancelled() const { return fitter_ && fitter_->Cancelled(); }
 
+  // fit(i, share) for i in [0, n), side by side on the threads: each fit takes its share of them
+  // among those still running (ThreadShare), so the last ones go on with all of them.
+  template <class Fit>
+  void SideBySide(int n, Fit&& fit) {
+    ThreadShare share(threads_, n);
+    ParallelFor(n, threads_, [&](int i) {
+      fit(i, &share);
+      share.Done();
+    });
+  }
+
   // What there is to estimate, the start (with the steady-state start, if asked), the summary's
   // header and the delay to start from: the best of the grid at the start values, and the
   // runner-up.
@@ -841,11 +852,9 @@ class EstimateRun {
     {
       const std::vector<std::vector<int>> first_delays = {delay_, second_delay_};
       const int jobs = static_cast<int>(first.size());
-      ThreadShare share(threads_, jobs);
-      ParallelFor(jobs, threads_, [&](int j) {
+      SideBySide(jobs, [&](int j, const ThreadShare* share) {
         first[j] = fitter_->FitAlongside(z_start_, first_delays[j], "fitting",
-                                         std::max(1, threads_ / jobs), 0, nullptr, &share);
-        share.Done();
+                                         std::max(1, threads_ / jobs), 0, nullptr, share);
       });
     }
     plain_evaluations_ =  // what a fit from a start costs here
@@ -913,11 +922,9 @@ class EstimateRun {
     // threads).
     const int budget = std::max(kMinExtraEvaluations, 2 * plain_evaluations_);
     if (explore > 0) {
-      ThreadShare explore_share(threads_, n);
-      ParallelFor(n, threads_, [&](int i) {
+      SideBySide(n, [&](int i, const ThreadShare* share) {
         fits[i] = fitter_->ExploreAlongside(starts[i], delay_, explore, std::max(1, threads_ / n),
-                                            nullptr, best_.loglik, &explore_share);
-        explore_share.Done();
+                                            nullptr, best_.loglik, share);
       });
       std::vector<int> order;
       for (int i = 0; i < n; ++i) {
@@ -935,13 +942,11 @@ class EstimateRun {
             !fits[i].crawling)
           fits[i].loglik = -HUGE_VAL;
       const int lanes = static_cast<int>(order.size());
-      ThreadShare share(threads_, lanes);
-      ParallelFor(lanes, threads_, [&](int c) {
+      SideBySide(lanes, [&](int c, const ThreadShare* share) {
         const int i = order[c];
         const Eigen::MatrixXd model = fits[i].model;
         fits[i] = fitter_->FitAlongside(fits[i].z, delay_, stage, std::max(1, threads_ / lanes),
-                                        budget, model.size() > 0 ? &model : nullptr, &share);
-        share.Done();
+                                        budget, model.size() > 0 ? &model : nullptr, share);
       });
     } else {
       for (int i = 0; i < n; ++i) fits[i] = fitter_->Fit(starts[i], delay_, stage);
@@ -1030,21 +1035,18 @@ class EstimateRun {
       std::vector<FitResult> results[2];
       const int lanes = sides[0].empty() || sides[1].empty() ? 1 : 2;
       // The walker of the longer side goes on with every thread once the other is done.
-      ThreadShare share(threads_, lanes);
-      auto walk = [&](int side, int lane_threads) {
+      SideBySide(2, [&](int side, const ThreadShare* share) {
         std::vector<Fitted> own;
         for (const auto& candidate : sides[side]) {
           if (fitter_->Cancelled()) break;
           const Fitted* start = nearest_of(candidate, fitted, own);
-          FitResult r = fitter_->FitAlongside(start->z, candidate, "delay profile", lane_threads, 0,
-                                              model_of(start), &share);
+          FitResult r =
+              fitter_->FitAlongside(start->z, candidate, "delay profile",
+                                    std::max(1, threads_ / lanes), 0, model_of(start), share);
           if (std::isfinite(r.loglik)) own.push_back({candidate, r.z, r.model});
           results[side].push_back(std::move(r));
         }
-        if (!sides[side].empty()) share.Done();
-      };
-      ParallelFor(2, lanes == 1 ? 1 : threads_,
-                  [&](int side) { walk(side, std::max(1, threads_ / lanes)); });
+      });
       for (int side = 0; side < 2; ++side)
         for (std::size_t c = 0; c < results[side].size() && !best_.cancelled; ++c)
           record(sides[side][c], results[side][c]);
@@ -1075,12 +1077,10 @@ class EstimateRun {
       std::vector<const Fitted*> starts(n);
       for (int w = 0; w < n; ++w) starts[w] = nearest_of(wave[w], fitted, {});
       std::vector<FitResult> results(n);
-      ThreadShare share(threads_, n);
-      ParallelFor(n, threads_, [&](int w) {
+      SideBySide(n, [&](int w, const ThreadShare* share) {
         results[w] =
             fitter_->FitAlongside(starts[w]->z, wave[w], "delay profile", std::max(1, threads_ / n),
-                                  0, model_of(starts[w]), &share);
-        share.Done();
+                                  0, model_of(starts[w]), share);
       });
       for (int w = 0; w < n && !best_.cancelled; ++w) record(wave[w], results[w]);
     }

@@ -244,7 +244,6 @@ template <int NX>
   const int n = ctx.ss.n_states();
   const int m = ctx.ss.n_inputs();
   const int k = static_cast<int>(ctx.dss.size());
-  const int N = static_cast<int>(series.size());
   const bool foh = ctx.settings.hold == model::InputHold::kFoh;
   const int last = ctx.window.last_j;
   const int rows = last - j0 + 1;
@@ -284,7 +283,7 @@ template <int NX>
       *loglik += LoglikTerm(sums.logdet, sums.p_j, sums.r2, ctx.settings.huber, &d_rho[r]);
       *n_obs += sums.p_j;
     }
-    if (j == last || j == N - 1) break;
+    if (j == last) break;  // (no later term reads x̂ past the loop's last index)
     step.AdvanceMean(d, u, u + m, foh, &x);
   }
 
@@ -316,7 +315,7 @@ template <int NX>
       x_q[q + 1].noalias() +=
           record.PCt[q] * (eps[static_cast<std::size_t>(r) * p + q] / record.R[q]);
     }
-    if (j < last && j < N - 1) {  // x̂_{j+1} = Φ x̂_j + g + Γ0 u_j (+ Γ1 u_{j+1})
+    if (j < last) {  // x̂_{j+1} = Φ x̂_j + g + Γ0 u_j (+ Γ1 u_{j+1})
       dPhi_sum.noalias() += lambda * x_q[p].transpose();
       dg_sum += lambda;
       for (int l = 0; l < m; ++l) {
