@@ -273,17 +273,19 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   // EKF's adjoint costs the same for any chunk: one chunk, with the records (the series of a
   // joint fit) on the threads instead.
   const bool adjoint = !info && lik_.UsesAdjoint(static_cast<std::size_t>(k()));
-  // A linear model's gradient alone comes from the steady state's adjoint, in one piece (in
-  // chunks its last bits would turn on them), until a gradient where the adjoint covered fewer
-  // than half the rows. From then on (a fit whose covariances settle late: the fuel film's
-  // profile at delays far from the estimate) it is the forward sensitivities', in chunks on the
-  // threads. Which one a gradient is turns on the fit's own evaluations, never on the threads.
-  const bool one_piece = !info && split && lik_.GradientInOnePiece() && steady_adjoint_;
+  // A linear model's gradient alone comes from an adjoint, in one piece (in chunks its last
+  // bits would turn on them): the steady state's (forward sensitivities up to it), until a
+  // gradient where it covered fewer than half the rows; from then on (a fit whose covariances
+  // settle late: the fuel film's profile at delays far from the estimate) the whole
+  // recursion's. Which one a gradient is turns on the fit's own evaluations, never on the
+  // threads.
+  const bool one_piece = !info && split && lik_.GradientInOnePiece();
   const int threads = Threads();
   const int chunks = split && !adjoint && k() > 1 && !one_piece
                          ? std::clamp(std::min(threads, k() / 2), 1, k())
                          : 1;
-  const bool steady_adjoint = !split || one_piece;
+  const filter::LinearGradient linear_gradient =
+      !split || one_piece ? linear_gradient_ : filter::LinearGradient::kForward;
   std::vector<std::vector<int>> which(chunks);
   for (int i = 0; i < k(); ++i) which[i * chunks / k()].push_back(free_[i]);
   std::vector<Eigen::VectorXd> g_part(chunks);
@@ -293,11 +295,12 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   evaluations_.fetch_add(1);
   ParallelFor(chunks, chunks, [&](int c) {
     auto l = lik_.EvaluateWithScore(theta, delay, which[c], &g_part[c], info ? &J_part[c] : nullptr,
-                                    split ? std::max(1, threads / chunks) : 1, steady_adjoint);
+                                    split ? std::max(1, threads / chunks) : 1, linear_gradient);
     ok[c] = l.ok();
     if (l) value[c] = l->loglik;
-    if (l && one_piece && 2 * l->adjoint * static_cast<long>(lik_.spec().outputs.size()) < l->n_obs)
-      steady_adjoint_ = false;
+    if (l && one_piece && linear_gradient_ == filter::LinearGradient::kSteadyState &&
+        2 * l->adjoint * static_cast<long>(lik_.spec().outputs.size()) < l->n_obs)
+      linear_gradient_ = filter::LinearGradient::kAdjoint;
   });
   if (Cancelled()) return false;
   if (std::find(ok.begin(), ok.end(), 0) != ok.end()) {  // e.g. d sqrt(s)/ds at s = 0

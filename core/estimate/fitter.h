@@ -385,9 +385,9 @@ class Fitter {
   std::vector<FreePrior> priors_;
   int threads_ = 1;
   const ThreadShare* share_ = nullptr;
-  // Scores: a linear model's gradient alone from the steady state's adjoint (until it covered
-  // less than half the rows: then forward sensitivities, in chunks).
-  bool steady_adjoint_ = true;
+  // Scores: how a linear model's gradient alone is differentiated (the steady state's adjoint
+  // until it covered less than half the rows, then the whole recursion's).
+  filter::LinearGradient linear_gradient_ = filter::LinearGradient::kSteadyState;
   std::atomic<int> evaluations_{0};
   std::atomic<int> iterations_{0};
   std::mutex progress_mutex_;

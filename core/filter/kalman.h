@@ -52,6 +52,15 @@
 
 namespace gb::filter {
 
+// How the linear filter's score (score.h) differentiates where only the gradient is asked for
+// (no row's score).
+enum class LinearGradient {
+  kForward,      // forward sensitivities over every index
+  kSteadyState,  // and a replayed steady state that lasts to the end by its adjoint
+                 // (linear_loops.h: AdjointOfTheSteadyState)
+  kAdjoint,      // the whole recursion by its adjoint (linear_loops.h: AdjointOfTheSeries)
+};
+
 struct FilterSettings {
   model::InputHold hold = model::InputHold::kZoh;
   model::InitialCovariance initial_covariance = model::InitialCovariance::kCtsm;
@@ -70,10 +79,8 @@ struct FilterSettings {
   // The steady state's replay (above); false: the full recursion at every step, which the tests
   // compare it with.
   bool steady_replay = true;
-  // The score's gradient alone (no row's score) over a replayed steady state that lasts to the
-  // end of the series by its adjoint (linear_loops.h: AdjointOfTheSteadyState); false: by the
-  // forward sensitivities there too, which the tests compare it with.
-  bool adjoint_steady_state = true;
+  // How the score's gradient alone is differentiated (the tests compare each with kForward).
+  LinearGradient linear_gradient = LinearGradient::kSteadyState;
 
   // Hold, P0 and Huber from the model; each output's delay at its `min`.
   static FilterSettings FromModel(const model::ModelSpec& spec);
@@ -88,7 +95,7 @@ struct Loglik {
   double loglik = 0.0;
   long n_obs = 0;     // scalar observations used
   long replayed = 0;  // state indices whose covariances the linear filter replayed (steady state)
-  long adjoint = 0;  // of those, the indices whose gradient the steady state's adjoint gave (score)
+  long adjoint = 0;   // the indices whose gradient an adjoint gave (score; LinearGradient)
 };
 
 // Everything the filter computed, for predictions, residuals and the smoother.

@@ -322,9 +322,9 @@ template <class One>
 Result<Loglik> Likelihood::ScoreOverSeries(std::span<const int> delay, std::span<const int> free,
                                            Eigen::VectorXd* gradient,
                                            Eigen::MatrixXd* J_terms_theta, int threads, One&& one,
-                                           bool steady_adjoint) const {
+                                           LinearGradient linear_gradient) const {
   FilterSettings settings = settings_;
-  settings.adjoint_steady_state = steady_adjoint;
+  settings.linear_gradient = linear_gradient;
   if (!delay.empty()) settings.delay.assign(delay.begin(), delay.end());
   const Eigen::Index k = static_cast<Eigen::Index>(free.size());
   const int n = static_cast<int>(series_.size());
@@ -370,7 +370,7 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
                                              std::span<const int> delay, std::span<const int> free,
                                              Eigen::VectorXd* gradient,
                                              Eigen::MatrixXd* J_terms_theta, int threads,
-                                             bool steady_adjoint) const {
+                                             LinearGradient linear_gradient) const {
   assert(gradient != nullptr);
   if (nonlinear_ && !exact_scores()) return EkfScore(theta, delay, free, gradient, J_terms_theta);
   if (nonlinear_) {
@@ -403,7 +403,7 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
         [&](std::size_t, const data::Series& s, const FilterSettings& settings,
             std::span<const int>, Eigen::VectorXd* g,
             Eigen::MatrixXd* J) { return LogLikelihoodScore(*ss, *dss, s, settings, g, J); },
-        steady_adjoint);
+        linear_gradient);
   }
   return ScoreOverSeries(
       delay, free, gradient, J_terms_theta, threads,
@@ -416,7 +416,7 @@ Result<Loglik> Likelihood::EvaluateWithScore(std::span<const double> theta,
         if (!dss) return dss.error();
         return LogLikelihoodScore(*ss, *dss, s, settings, g, J);
       },
-      steady_adjoint);
+      linear_gradient);
 }
 
 bool Likelihood::GradientInOnePiece() const {

@@ -80,13 +80,12 @@ class Likelihood {
   // then central differences of the terms with the step h_i = kDifferenceStep max(|θ_i|,
   // 1e-3 s_i), s_i the width of θ_i's bounds or 1 when unbounded (one-sided where a step would
   // leave the bounds), as accurate as the ODE tolerance allows (about rtol / kDifferenceStep).
-  // `threads` as Evaluate's. A linear model's gradient alone takes a steady state that lasts to
-  // the end from its adjoint unless `steady_adjoint` is false (FilterSettings::
-  // adjoint_steady_state; GradientInOnePiece).
-  Result<Loglik> EvaluateWithScore(std::span<const double> theta, std::span<const int> delay,
-                                   std::span<const int> free, Eigen::VectorXd* gradient,
-                                   Eigen::MatrixXd* J_terms_theta = nullptr, int threads = 1,
-                                   bool steady_adjoint = true) const;
+  // `threads` as Evaluate's. A linear model's gradient alone is differentiated as
+  // `linear_gradient` says (GradientInOnePiece).
+  Result<Loglik> EvaluateWithScore(
+      std::span<const double> theta, std::span<const int> delay, std::span<const int> free,
+      Eigen::VectorXd* gradient, Eigen::MatrixXd* J_terms_theta = nullptr, int threads = 1,
+      LinearGradient linear_gradient = LinearGradient::kSteadyState) const;
 
   // Every delay candidate at θ. The model is evaluated once.
   Result<DelayProfile> Profile(std::span<const double> theta) const;
@@ -116,11 +115,11 @@ class Likelihood {
     return method != model::OdeMethod::kBdf && free_count >= kAdjointFrom;
   }
 
-  // Whether a gradient alone (no per-term scores) may take its steady state from the linear
-  // filter's adjoint (linear_loops.h: AdjointOfTheSteadyState). Where that state begins turns
-  // on which parameters are differentiated together, so such a gradient is asked for all the
-  // free parameters at once: in chunks (on threads) its last bits would turn on the chunks.
-  // Without it (steady_adjoint false) the gradient is the forward sensitivities', the same in
+  // Whether a gradient alone (no per-term scores) may come from the linear filter's adjoints
+  // (LinearGradient::kSteadyState, kAdjoint). Where the steady state begins turns on which
+  // parameters are differentiated together, and the adjoint of the whole recursion is one
+  // pass, so such a gradient is asked for all the free parameters at once: in chunks (on
+  // threads) its last bits would turn on the chunks. With kForward the gradient is the same in
   // any chunks.
   bool GradientInOnePiece() const;
 
@@ -171,9 +170,10 @@ class Likelihood {
   // The linear model at each series' parameters: one entry when every series uses θ itself.
   Result<std::vector<model::StateSpace>> LinearAt(std::span<const double> theta) const;
   template <class One>
-  Result<Loglik> ScoreOverSeries(std::span<const int> delay, std::span<const int> free,
-                                 Eigen::VectorXd* gradient, Eigen::MatrixXd* J_terms_theta,
-                                 int threads, One&& one, bool steady_adjoint = true) const;
+  Result<Loglik> ScoreOverSeries(
+      std::span<const int> delay, std::span<const int> free, Eigen::VectorXd* gradient,
+      Eigen::MatrixXd* J_terms_theta, int threads, One&& one,
+      LinearGradient linear_gradient = LinearGradient::kSteadyState) const;
   template <class One>
   Result<Loglik> SumOverSeries(std::span<const int> delay, std::vector<double>* terms, int threads,
                                One&& one) const;

@@ -54,18 +54,17 @@ struct ScoreContext {
 
 // The measurement updates of state index j: the outputs observed there, one scalar at a time
 // (kScores: with the sensitivities, into *scores), recorded or replayed by *replay, added up in
-// *sums. False, with *error set, for an R that is not positive. Up to 64 outputs, the bits of
+// *sums. False, with *error set, for an R that is not positive. *P_start (when given): P at the
+// index's start (the replayed step's record while replaying). Up to 64 outputs, the bits of
 // their mask give them (no list to fill and walk: ObservationRule::Mask); *observed is the list
 // for more (where SteadyReplay is off, so no mask is needed).
 // Inlined, as are the step's updates: in the steady state a step is a few dozen flops, and the
 // calls cost as much (bench/loglik_bench, docs/benchmarks.md).
 template <int NX, bool kScores>
-[[gnu::always_inline]] inline bool MeasurementUpdates(int j, const data::Series& series,
-                                                      const ObservationRule& rule,
-                                                      LinearStep<NX>& step, LinearState<NX>* s,
-                                                      SteadyReplay<NX>* replay, TermSums* sums,
-                                                      TermScores* scores, ObservedOutputs* observed,
-                                                      Error* error) {
+[[gnu::always_inline]] inline bool MeasurementUpdates(
+    int j, const data::Series& series, const ObservationRule& rule, LinearStep<NX>& step,
+    LinearState<NX>* s, SteadyReplay<NX>* replay, TermSums* sums, TermScores* scores,
+    ObservedOutputs* observed, Error* error, typename LinearState<NX>::Mat* P_start = nullptr) {
   const int m = static_cast<int>(series.U.rows());
   const int N = static_cast<int>(series.size());
   const int group = j == N - 1 ? -1 : series.intervals.group[j];
@@ -79,6 +78,7 @@ template <int NX, bool kScores>
   else
     ObservedAt(j, rule, observed);
   replay->Begin(bits, group, &s->P, &s->dP);
+  if (P_start) *P_start = replay->replaying() ? replay->PStart() : s->P;
   for (int next = 0;; ++next) {
     int o;
     if (by_mask) {
@@ -232,12 +232,11 @@ template <int NX>
 // forward recursion's to the bit: the same updates in the same order), their observations and
 // gradient (the forward one's to rounding). s: the state at j0. False when cancelled.
 template <int NX>
-[[gnu::noinline]] bool AdjointOfTheSteadyState(const ScoreContext& ctx, const ObservationRule& rule,
-                                               LinearStep<NX>& step, const SteadyReplay<NX>& replay,
-                                               const std::vector<FixedDiscrete<NX>>& disc,
-                                               const std::vector<FixedDiscrete<NX>>& ddisc, int j0,
-                                               const LinearState<NX>& s, double* loglik,
-                                               long* n_obs, Eigen::VectorXd* gradient) {
+[[gnu::noinline, gnu::flatten]] bool AdjointOfTheSteadyState(
+    const ScoreContext& ctx, const ObservationRule& rule, LinearStep<NX>& step,
+    const SteadyReplay<NX>& replay, const std::vector<FixedDiscrete<NX>>& disc,
+    const std::vector<FixedDiscrete<NX>>& ddisc, int j0, const LinearState<NX>& s, double* loglik,
+    long* n_obs, Eigen::VectorXd* gradient) {
   using Vec = typename LinearState<NX>::Vec;
   using Mat = typename LinearState<NX>::Mat;
   const data::Series& series = ctx.series;
@@ -261,24 +260,43 @@ template <int NX>
     if (at == periods.end()) periods.push_back(L);
   }
 
-  // Forward: x̂ at each index's start, the innovations and ρ'(r²), and the terms.
-  std::vector<Vec> x_start(rows, Vec::Zero(n));
+  // P's cycle: the record of each of its steps (the t-th replayed index is at t mod its period,
+  // which the loops count instead of dividing).
+  const int L0 = replay.Period(0);
+  std::vector<const typename SteadyReplay<NX>::Record*> cycle(L0);
+  for (int t = 0; t < L0; ++t) cycle[t] = &replay.PartStep(0, t);
+  // And log R of each of their updates, the value Correct would take each time.
+  std::vector<double> log_R(static_cast<std::size_t>(L0) * p);
+  for (int t = 0; t < L0; ++t)
+    for (int q = 0; q < p; ++q)
+      log_R[static_cast<std::size_t>(t) * p + q] = std::log(cycle[t]->R[q]);
+
+  // Forward: x̂ before each index's updates and after them ([r * (p + 1) + q]), the innovations
+  // and ρ'(r²), and the terms.
+  std::vector<Vec> x_at(static_cast<std::size_t>(rows) * (p + 1), Vec::Zero(n));
   std::vector<double> eps(static_cast<std::size_t>(rows) * p), d_rho(rows, 0.5);
   Vec x = s.x;
   TermSums sums;
-  for (int r = 0; r < rows; ++r) {
+  for (int r = 0, phase = 0; r < rows; ++r, phase = phase + 1 == L0 ? 0 : phase + 1) {
     const int j = j0 + r;
     if (CancelledAt(ctx.settings.cancel, j)) return false;
-    x_start[r] = x;
-    const auto& record = replay.PartStep(0, r);
+    const auto& record = *cycle[phase];
     const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
+    Vec* x_r = x_at.data() + static_cast<std::size_t>(r) * (p + 1);
     sums.Begin();
     for (int q = 0; q < p; ++q) {
       const int o = outputs[q];
+      x_r[q] = x;
       const double e = step.Innovation(o, rule.Y(rule.Row(j, o), o), u, x);
       eps[static_cast<std::size_t>(r) * p + q] = e;
-      step.Correct(e, record.PCt[q], record.R[q], &x, &sums);
+      // Correct's update, with its log R from the cycle's.
+      const double R = record.R[q];
+      x.noalias() += record.PCt[q] * (e / R);
+      sums.logdet += log_R[static_cast<std::size_t>(phase) * p + q];
+      sums.r2 += e * e / R;
+      ++sums.p_j;
     }
+    x_r[p] = x;
     if (sums.p_j > 0) {
       *loglik += LoglikTerm(sums.logdet, sums.p_j, sums.r2, ctx.settings.huber, &d_rho[r]);
       *n_obs += sums.p_j;
@@ -304,17 +322,18 @@ template <int NX>
   std::vector<Vec> dc_sum(p, Vec::Zero(n));
   std::vector<double> dd_sum(p, 0.0);
   Eigen::MatrixXd dD_sum = Eigen::MatrixXd::Zero(p, m);
-  std::vector<Vec> x_q(p + 1, Vec::Zero(n));  // x̂ before each update of an index, and after all
+  // Φ' as a matrix of its own: Φ' λ by columns, without the sums across a vector's lanes that
+  // put λ through memory on its chain.
+  const Mat PhiT = d.Phi.transpose();
+  // P's and each period's phase at the index r (r mod the period), counted down.
+  int phase0 = (rows - 1) % L0;
+  std::vector<int> phase(periods.size());
+  for (std::size_t v = 0; v < periods.size(); ++v) phase[v] = (rows - 1) % periods[v];
   for (int r = rows - 1; r >= 0; --r) {
     const int j = j0 + r;
-    const auto& record = replay.PartStep(0, r);
+    const auto& record = *cycle[phase0];
     const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
-    x_q[0] = x_start[r];
-    for (int q = 0; q < p; ++q) {
-      x_q[q + 1] = x_q[q];
-      x_q[q + 1].noalias() +=
-          record.PCt[q] * (eps[static_cast<std::size_t>(r) * p + q] / record.R[q]);
-    }
+    const Vec* x_q = x_at.data() + static_cast<std::size_t>(r) * (p + 1);
     if (j < last) {  // x̂_{j+1} = Φ x̂_j + g + Γ0 u_j (+ Γ1 u_{j+1})
       dPhi_sum.noalias() += lambda * x_q[p].transpose();
       dg_sum += lambda;
@@ -322,18 +341,19 @@ template <int NX>
         dGamma0_sum.col(l) += lambda * u[l];
         if (foh) dGamma1_sum.col(l) += lambda * u[m + l];
       }
-      lambda = (d.Phi.transpose() * lambda).eval();
+      lambda = PhiT * lambda;
     }
     for (int q = p - 1; q >= 0; --q) {  // x̂ += k ε/R, ε = y - c_o x̂ - d_o - D_o u
       const double e = eps[static_cast<std::size_t>(r) * p + q];
       const double R = record.R[q];
       const Vec& gain = record.PCt[q];
       const double lk = lambda.dot(gain);
-      const double w = (lk - 2.0 * d_rho[r] * e) / R;                             // ∂/∂ε
-      const double dR_adjoint = (d_rho[r] * e * e - lk * e) / (R * R) - 0.5 / R;  // ∂/∂R
+      const double inv_R = 1.0 / R;                        // (off λ's chain)
+      const double w = (lk - 2.0 * d_rho[r] * e) * inv_R;  // ∂/∂ε
+      const double dR_adjoint = ((d_rho[r] * e * e - lk * e) * inv_R - 0.5) * inv_R;  // ∂/∂R
       for (std::size_t v = 0; v < periods.size(); ++v) {
-        const std::size_t at = static_cast<std::size_t>(r % periods[v]) * p + q;
-        dk_sum[v][at].noalias() += lambda * (e / R);
+        const std::size_t at = static_cast<std::size_t>(phase[v]) * p + q;
+        dk_sum[v][at].noalias() += lambda * (e * inv_R);
         dR_sum[v][at] += dR_adjoint;
       }
       dc_sum[q].noalias() -= w * x_q[q];
@@ -341,6 +361,9 @@ template <int NX>
       for (int l = 0; l < m; ++l) dD_sum(q, l) -= w * u[l];
       lambda.noalias() -= w * step.c(outputs[q]).transpose();
     }
+    phase0 = (phase0 == 0 ? L0 : phase0) - 1;
+    for (std::size_t v = 0; v < periods.size(); ++v)
+      phase[v] = (phase[v] == 0 ? periods[v] : phase[v]) - 1;
   }
 
   const int group = replay.group();
@@ -368,6 +391,171 @@ template <int NX>
   return true;
 }
 
+// log L and its gradient (k) by the adjoint of the whole recursion (the gradient alone, no row's
+// score). One pass forward, the filter's own (the steady state replayed), keeps x̂ and P at each
+// index's start; one pass backward recomputes each index's scalar updates from them and carries
+// λ = ∂(the terms from here on)/∂x̂ and Λ = ∂/∂P (symmetric) back through them:
+//   update (k = P c', R = c k + S_o, ε = y - c x̂ - d_o - D_o u, x̂ += k ε/R, P -= k k'/R):
+//     w = ∂/∂ε = (λ'k - 2 ρ' ε)/R,   R̄ = (ρ' ε² - λ'k ε + k'Λk)/R² - ½/R,
+//     k̄ = λ ε/R - 2 Λ k/R + R̄ c',   c̄_o += R̄ k + P k̄ - w x̂,   S̄_o += R̄,   d̄_o -= w,
+//     D̄_o -= w u',   Λ += ½ (k̄ c + c' k̄'),   λ -= w c'
+//   time update (x̂' = Φ x̂ + g + Γ0 u_j (+ Γ1 u_{j+1}), P' = Φ P Φ' + Q):
+//     Φ̄ += λ x̂' + 2 Λ Φ P,   Q̄ += Λ,   ḡ += λ,   Γ̄0 += λ u_j',   λ <- Φ'λ,   Λ <- Φ'ΛΦ
+// and at the first index λ'dx̂0_i + <Λ, dP0_i>; the sums (per interval for Φ, Q, g, Γ; per
+// output for c, S, d, D) are contracted with the model's derivatives once. Its cost does not grow
+// with the parameters: about n³ per index, against the forward sensitivities' k n³ where the
+// covariances have not settled. log L is the forward recursion's to the bit (the same updates in
+// the same order as ScoreLoop's); the gradient is the forward one's to rounding. Fixed sizes and
+// at most 64 outputs (the caller checks).
+template <int NX>
+[[gnu::noinline, gnu::flatten]] Result<Loglik> AdjointOfTheSeries(const ScoreContext& ctx,
+                                                                  Eigen::VectorXd* gradient) {
+  using Vec = typename LinearState<NX>::Vec;
+  using Mat = typename LinearState<NX>::Mat;
+  using Row = typename LinearStep<NX>::Row;
+  using Inputs = Eigen::Matrix<double, NX, Eigen::Dynamic>;  // n x m, as Γ0 and Γ1
+  const model::StateSpace& ss = ctx.ss;
+  const data::Series& series = ctx.series;
+  const int n = ss.n_states();
+  const int p = ss.n_outputs();
+  const int m = ss.n_inputs();
+  const int k = static_cast<int>(ctx.dss.size());
+  const int N = static_cast<int>(series.size());
+  const int last = ctx.window.last_j;
+  const bool foh = ctx.settings.hold == model::InputHold::kFoh;
+  const int groups = static_cast<int>(ctx.disc.size());
+  std::vector<FixedDiscrete<NX>> disc(ctx.disc.begin(), ctx.disc.end());
+
+  // Forward: the filter, keeping x̂ and P at each index's start and ρ'(r²) of its term.
+  LinearStep<NX> step(ss, ctx.dss);
+  LinearState<NX> state;
+  state.x = ss.x0;
+  state.P = ctx.P0;
+  SteadyReplay<NX> replay(ctx.settings.steady_replay, n, p, 0);
+  const ObservationRule rule(series, ctx.window);
+  ObservedOutputs observed(rule.p());
+  TermSums sums;
+  Error error;
+  const int rows = last + 1;
+  std::vector<Vec> x_start(rows, Vec::Zero(n));
+  std::vector<Mat> P_start(rows, Mat::Zero(n, n));
+  std::vector<double> d_rho(rows, 0.5);
+  double loglik = 0.0;
+  long n_obs = 0, replayed = 0;
+  for (int j = 0; j <= last; ++j) {
+    if (CancelledAt(ctx.settings.cancel, j)) return NumericalError("cancelled");
+    x_start[j] = state.x;
+    if (!MeasurementUpdates<NX, false>(j, series, rule, step, &state, &replay, &sums, nullptr,
+                                       &observed, &error, &P_start[j]))
+      return error;
+    replayed += replay.replaying() ? 1 : 0;
+    if (sums.p_j > 0) {
+      loglik += LoglikTerm(sums.logdet, sums.p_j, sums.r2, ctx.settings.huber, &d_rho[j]);
+      n_obs += sums.p_j;
+    }
+    if (j == N - 1) break;
+    const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
+    step.template TimeUpdate<false>(disc[series.intervals.group[j]],
+                                    static_cast<const FixedDiscrete<NX>*>(nullptr), u, u + m, foh,
+                                    replay.replaying(), &state);
+    replay.End(state.P, state.dP);
+  }
+
+  // Backward.
+  Vec lambda = Vec::Zero(n);
+  Mat Lambda = Mat::Zero(n, n);
+  std::vector<Mat> Phi_bar(groups, Mat::Zero(n, n)), Q_bar(groups, Mat::Zero(n, n));
+  std::vector<Vec> g_bar(groups, Vec::Zero(n));
+  std::vector<Inputs> Gamma0_bar(groups, Inputs::Zero(n, m)),
+      Gamma1_bar(groups, Inputs::Zero(n, m));
+  std::vector<Vec> c_bar(p, Vec::Zero(n));
+  Eigen::VectorXd S_bar = Eigen::VectorXd::Zero(p), d_bar = Eigen::VectorXd::Zero(p);
+  Eigen::MatrixXd D_bar = Eigen::MatrixXd::Zero(p, m);
+  // One index's updates recomputed: x̂ and P before each, its output, k, R and ε.
+  std::vector<Vec> x_q(p + 1, Vec::Zero(n)), PCt(p, Vec::Zero(n));
+  std::vector<Mat> P_q(p + 1, Mat::Zero(n, n));
+  std::vector<int> o_q(p);
+  std::vector<double> R_q(p), e_q(p);
+  std::vector<Mat> PhiT;  // Φ' per interval, as AdjointOfTheSteadyState keeps it
+  for (const FixedDiscrete<NX>& d : disc) PhiT.emplace_back(d.Phi.transpose());
+  for (int j = last; j >= 0; --j) {
+    if (CancelledAt(ctx.settings.cancel, j)) return NumericalError("cancelled");
+    const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
+    x_q[0] = x_start[j];
+    P_q[0] = P_start[j];
+    int updates = 0;
+    for (std::uint64_t bits = rule.Mask(j); bits != 0; bits &= bits - 1, ++updates) {
+      const int o = std::countr_zero(bits);
+      const int q = updates;
+      const Row& c = step.c(o);
+      o_q[q] = o;
+      PCt[q].noalias() = P_q[q] * c.transpose();
+      R_q[q] = c.dot(PCt[q]) + step.S(o);
+      e_q[q] = step.Innovation(o, rule.Y(rule.Row(j, o), o), u, x_q[q]);
+      x_q[q + 1] = x_q[q];
+      x_q[q + 1].noalias() += PCt[q] * (e_q[q] / R_q[q]);
+      P_q[q + 1] = P_q[q];
+      P_q[q + 1].noalias() -= (1.0 / R_q[q]) * PCt[q] * PCt[q].transpose();
+    }
+    if (j < last && j < N - 1) {  // the time update to j + 1
+      const int g = series.intervals.group[j];
+      const Mat LPhi = Lambda * disc[g].Phi;
+      Phi_bar[g].noalias() += lambda * x_q[updates].transpose();
+      Phi_bar[g].noalias() += 2.0 * LPhi * P_q[updates];
+      Q_bar[g] += Lambda;
+      g_bar[g] += lambda;
+      for (int l = 0; l < m; ++l) {
+        Gamma0_bar[g].col(l) += lambda * u[l];
+        if (foh) Gamma1_bar[g].col(l) += lambda * u[m + l];
+      }
+      lambda = PhiT[g] * lambda;
+      Lambda.noalias() = PhiT[g] * LPhi;
+    }
+    for (int q = updates - 1; q >= 0; --q) {
+      const int o = o_q[q];
+      const Row& c = step.c(o);
+      const Vec& gain = PCt[q];
+      const double R = R_q[q], e = e_q[q], rho = d_rho[j];
+      const Vec Lk = Lambda * gain;
+      const double lk = lambda.dot(gain);
+      const double inv_R = 1.0 / R;  // (off the chain of λ and Λ)
+      const double w = (lk - 2.0 * rho * e) * inv_R;
+      const double R_bar = ((rho * e * e - lk * e + gain.dot(Lk)) * inv_R - 0.5) * inv_R;
+      Vec k_bar = lambda * (e * inv_R) - Lk * (2.0 * inv_R);
+      k_bar += R_bar * c.transpose();
+      c_bar[o] += R_bar * gain + P_q[q] * k_bar - w * x_q[q];
+      S_bar(o) += R_bar;
+      d_bar(o) -= w;
+      for (int l = 0; l < m; ++l) D_bar(o, l) -= w * u[l];
+      const Mat kc = k_bar * c;
+      Lambda += 0.5 * (kc + kc.transpose());
+      lambda.noalias() -= w * c.transpose();
+    }
+  }
+
+  gradient->setZero(k);
+  for (int i = 0; i < k; ++i) {
+    double gi = lambda.dot(ctx.dss[i].x0) + (Lambda.cwiseProduct(ctx.dP0[i])).sum();
+    for (int g = 0; g < groups; ++g) {
+      const Discrete& di = ctx.ddisc[g][i];
+      gi += (di.Phi.cwiseProduct(Phi_bar[g])).sum() + (di.Q.cwiseProduct(Q_bar[g])).sum() +
+            di.g.dot(g_bar[g]);
+      if (m > 0) {
+        gi += (di.Gamma0.cwiseProduct(Gamma0_bar[g])).sum();
+        if (foh) gi += (di.Gamma1.cwiseProduct(Gamma1_bar[g])).sum();
+      }
+    }
+    for (int o = 0; o < p; ++o) {
+      gi += step.dc(o, i).dot(c_bar[o].transpose()) + step.dS(o, i) * S_bar(o) +
+            step.dd(o, i) * d_bar(o);
+      if (m > 0) gi += D_bar.row(o).dot(step.dD(i).row(o));
+    }
+    (*gradient)(i) = gi;
+  }
+  if (!std::isfinite(loglik) || !gradient->allFinite()) return NotFiniteLoglik(series);
+  return Loglik{loglik, n_obs, replayed, rows};
+}
+
 // log L with its gradient (k) and, when J is given, the derivatives of every term (N x k).
 // Flattened as FilterLoop is: when AdjointOfTheSteadyState's own Φ x̂ products came in, GCC left
 // the loop's as calls, and the score of the 4-state chain took 22 % longer.
@@ -383,6 +571,9 @@ template <int NX>
   const int N = static_cast<int>(series.size());
   const bool foh = ctx.settings.hold == model::InputHold::kFoh;
 
+  if constexpr (NX != Eigen::Dynamic)
+    if (!J && ctx.settings.linear_gradient == LinearGradient::kAdjoint && p <= 64)
+      return AdjointOfTheSeries<NX>(ctx, gradient);
   std::vector<FixedDiscrete<NX>> disc;
   std::vector<FixedDiscrete<NX>> ddisc;  // [group * k + i]
   for (std::size_t g = 0; g < ctx.disc.size(); ++g) {
@@ -435,7 +626,8 @@ template <int NX>
     replay.End(state.P, state.dP);
     // The steady state to the end: by its adjoint where no row's score is asked for.
     if (!J && !was_replaying && replay.replaying() && j < ctx.window.last_j &&
-        ctx.settings.adjoint_steady_state && RepeatsToTheEnd(ctx, rule, replay, j + 1)) {
+        ctx.settings.linear_gradient == LinearGradient::kSteadyState &&
+        RepeatsToTheEnd(ctx, rule, replay, j + 1)) {
       if (!AdjointOfTheSteadyState(ctx, rule, step, replay, disc, ddisc, j + 1, state, &loglik,
                                    &n_obs, gradient))
         return NumericalError("cancelled");

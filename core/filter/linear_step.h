@@ -256,7 +256,9 @@ class LinearStep {
   // The model's derivatives along θ_i: of row o of C, of d_o, of D (p x m).
   const Row& dc(int o, int i) const { return dC_[static_cast<std::size_t>(o) * k_ + i]; }
   double dd(int o, int i) const { return dd_(o, i); }
+  double dS(int o, int i) const { return dS_(o, i); }
   const Eigen::MatrixXd& dD(int i) const { return dD_[i]; }
+  double S(int o) const { return S_(o); }
 
  private:
   // Γ0 u0 + Γ1 u1 (the latter only with first-order hold), added to *out.
@@ -389,8 +391,9 @@ class SteadyReplay {
     return ring_[Slot(base_ - period_[c] + t % period_[c])];
   }
   std::size_t At(int q, int i) const { return static_cast<std::size_t>(q) * k_ + i; }
-  // The current step's q-th scalar update: its gain P c' and R.
+  // The current step's q-th scalar update: its gain P c' and R; and P at its start.
   const Vec& Gain(int q) const { return p_source_->PCt[q]; }
+  const Mat& PStart() const { return p_source_->P_start; }
   double R(int q) const { return p_source_->R[q]; }
   // This index observes `mask` and its time update uses the interval `group` (-1: none); *P,
   // *dP at its start. It replays the cycles' next step when they are replaying and it has their

@@ -168,29 +168,44 @@ TEST(Score, TheSteadyStateInterruptedByMissingValuesMatchesCentralDifferences) {
 // The score and the value filter with the steady state's replay against the full recursion
 // (FilterSettings::steady_replay = false), to the last bit; the replay must cover more than
 // `min_replayed` rows (-1: any number).
-// The gradient alone (no row's score) over a replayed steady state that lasts to the end is its
-// adjoint's (linear_loops.h, AdjointOfTheSteadyState): log L to the bit and every component to
-// rounding, relative to the sum of the rows' |scores| (J) it adds up, against the forward
-// sensitivities'. Returns the rows the adjoint gave.
+// The gradient alone (no row's score) by the adjoints (linear_loops.h): of a replayed steady
+// state that lasts to the end (AdjointOfTheSteadyState), and of the whole recursion
+// (AdjointOfTheSeries). log L to the bit and every component to rounding, relative to the sum
+// of the rows' |scores| (J) it adds up, against the forward sensitivities'. Returns the rows the
+// steady state's adjoint gave.
 long ExpectTheSteadyStatesAdjointIsTheForwardGradient(const model::StateSpace& ss,
                                                       std::span<const model::StateSpace> dss,
                                                       const data::Series& series,
                                                       const FilterSettings& settings,
                                                       const Eigen::MatrixXd& J) {
   FilterSettings forward = settings;
-  forward.adjoint_steady_state = false;
-  Eigen::VectorXd g_adjoint, g_forward;
-  const auto adjoint = LogLikelihoodScore(ss, dss, series, settings, &g_adjoint);
+  forward.linear_gradient = LinearGradient::kForward;
+  Eigen::VectorXd g_forward;
   const auto sensitivities = LogLikelihoodScore(ss, dss, series, forward, &g_forward);
-  EXPECT_TRUE(adjoint.ok() && sensitivities.ok());
-  if (!adjoint.ok() || !sensitivities.ok()) return 0;
-  EXPECT_EQ(adjoint->loglik, sensitivities->loglik);
-  EXPECT_EQ(adjoint->n_obs, sensitivities->n_obs);
-  EXPECT_EQ(adjoint->replayed, sensitivities->replayed);
+  // The whole recursion's adjoint runs the value filter forward (its replay needs only P).
+  const auto value = LogLikelihood(ss, series, settings);
+  EXPECT_TRUE(sensitivities.ok() && value.ok());
+  if (!sensitivities.ok() || !value.ok()) return 0;
   EXPECT_EQ(sensitivities->adjoint, 0);
-  for (Eigen::Index i = 0; i < g_forward.size(); ++i)
-    EXPECT_NEAR(g_adjoint(i), g_forward(i), 1e-12 * J.col(i).cwiseAbs().sum()) << "θ_" << i;
-  return adjoint->adjoint;
+  long steady_rows = 0;
+  for (const LinearGradient method : {LinearGradient::kSteadyState, LinearGradient::kAdjoint}) {
+    SCOPED_TRACE(method == LinearGradient::kAdjoint ? "the whole recursion's adjoint"
+                                                    : "the steady state's adjoint");
+    FilterSettings adjoint_settings = settings;
+    adjoint_settings.linear_gradient = method;
+    Eigen::VectorXd g_adjoint;
+    const auto adjoint = LogLikelihoodScore(ss, dss, series, adjoint_settings, &g_adjoint);
+    EXPECT_TRUE(adjoint.ok());
+    if (!adjoint.ok()) return 0;
+    EXPECT_EQ(adjoint->loglik, sensitivities->loglik);
+    EXPECT_EQ(adjoint->n_obs, sensitivities->n_obs);
+    EXPECT_EQ(adjoint->replayed,
+              method == LinearGradient::kAdjoint ? value->replayed : sensitivities->replayed);
+    for (Eigen::Index i = 0; i < g_forward.size(); ++i)
+      EXPECT_NEAR(g_adjoint(i), g_forward(i), 1e-12 * J.col(i).cwiseAbs().sum()) << "θ_" << i;
+    if (method == LinearGradient::kSteadyState) steady_rows = adjoint->adjoint;
+  }
+  return steady_rows;
 }
 
 void ExpectReplayIsTheFullRecursion(const model::StateSpace& ss,
@@ -288,6 +303,41 @@ TEST(Score, CovariancesWhoseSensitivitiesCycleEachOnItsOwnAreReplayedBitForBit) 
   const auto l = LogLikelihoodScore(ss, dss, **series, settings, &gradient);
   ASSERT_TRUE(l.ok());
   EXPECT_NEAR(l->loglik, 5930.09335342, 1e-6 * 5930.09335342);  // CTSM-R's
+}
+
+TEST(Score, TheWholeRecursionsAdjointIsTheForwardGradientOnIrregularTimesWithMissingValues) {
+  // Irregular intervals (each its own discretisation), a fifth of the outputs missing (a
+  // varying set of updates per index), parameters in every matrix and in x̂0, and the initial
+  // covariance CTSM's or the stationary one's (P0 a function of θ): no steady state lasts, so
+  // the adjoint of the whole recursion (linear_loops.h, AdjointOfTheSeries) covers every index.
+  for (const char* p0 : {"ctsm", "stationary"}) {
+    for (const char* hold : {"zoh", "foh"}) {
+      SCOPED_TRACE(std::string(p0) + ", " + hold);
+      Json j = Json::parse(fixtures::kTwoOutputModel);
+      j["observation"] = {{"y1", "c1*x1 + 0.5*x2 + e*u2 + f"}, {"y2", "2*x2 - c1*x1"}};
+      j["parameters"]["c1"] = 0.8;
+      j["parameters"]["e"] = 0.3;
+      j["parameters"]["f"] = 1.0;
+      j["input_hold"] = hold;
+      j["initial_covariance"] = p0;
+      const auto m = JsonModel(j);
+      const data::Series s = fixtures::RandomSeries(300, 2, 0.2, 29);
+      const std::vector<double> theta = m->spec().Values();
+      const std::vector<int> all = AllParameters(*m);
+      const FilterSettings settings = FilterSettings::FromModel(m->spec());
+      const auto ss = *m->Evaluate(theta);
+      const auto dss = *m->EvaluateJacobian(theta, all);
+      Eigen::VectorXd g, g_adjoint;
+      Eigen::MatrixXd J;
+      ASSERT_TRUE(LogLikelihoodScore(ss, dss, s, settings, &g, &J).ok());
+      ExpectTheSteadyStatesAdjointIsTheForwardGradient(ss, dss, s, settings, J);
+      FilterSettings adjoint = settings;
+      adjoint.linear_gradient = LinearGradient::kAdjoint;
+      const auto l = LogLikelihoodScore(ss, dss, s, adjoint, &g_adjoint);
+      ASSERT_TRUE(l.ok());
+      EXPECT_EQ(l->adjoint, static_cast<long>(s.size()));
+    }
+  }
 }
 
 TEST(Score, TheSteadyStatesAdjointGradientIsTheForwardOneToRoundingAndMatchesDifferences) {
