@@ -275,9 +275,10 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   const bool adjoint = !info && lik_.UsesAdjoint(static_cast<std::size_t>(k()));
   // A linear model's gradient alone comes from an adjoint, in one piece (in chunks its last
   // bits would turn on them): the steady state's (forward sensitivities up to it), until a
-  // gradient where it covered fewer than half the rows; from then on (a fit whose covariances
-  // settle late: the fuel film's profile at delays far from the estimate) the whole
-  // recursion's. Which one a gradient is turns on the fit's own evaluations, never on the
+  // gradient where it covered fewer than nine rows in ten; from then on (a fit whose
+  // covariances settle late: the fuel film's profile at delays far from the estimate) the
+  // whole recursion's, which costs about what the steady state's does with a tenth of the rows
+  // forward (docs/benchmarks.md). Which one a gradient is turns on the fit's own evaluations, never on the
   // threads.
   const bool one_piece = !info && split && lik_.GradientInOnePiece();
   const int threads = Threads();
@@ -299,7 +300,7 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
     ok[c] = l.ok();
     if (l) value[c] = l->loglik;
     if (l && one_piece && linear_gradient_ == filter::LinearGradient::kSteadyState &&
-        2 * l->adjoint * static_cast<long>(lik_.spec().outputs.size()) < l->n_obs)
+        10 * l->adjoint * static_cast<long>(lik_.spec().outputs.size()) < 9 * l->n_obs)
       linear_gradient_ = filter::LinearGradient::kAdjoint;
   });
   if (Cancelled()) return false;

@@ -386,7 +386,7 @@ class Fitter {
   int threads_ = 1;
   const ThreadShare* share_ = nullptr;
   // Scores: how a linear model's gradient alone is differentiated (the steady state's adjoint
-  // until it covered less than half the rows, then the whole recursion's).
+  // until it covered fewer than nine rows in ten, then the whole recursion's).
   filter::LinearGradient linear_gradient_ = filter::LinearGradient::kSteadyState;
   std::atomic<int> evaluations_{0};
   std::atomic<int> iterations_{0};
