@@ -476,8 +476,8 @@ template <int NX>
   std::vector<Mat> P_q(p + 1, Mat::Zero(n, n));
   std::vector<int> o_q(p);
   std::vector<double> R_q(p), e_q(p);
-  std::vector<Mat> PhiT;  // Φ' per interval, as AdjointOfTheSteadyState keeps it
-  for (const FixedDiscrete<NX>& d : disc) PhiT.emplace_back(d.Phi.transpose());
+  std::vector<Mat> PhiT(disc.size());  // Φ' per interval, as AdjointOfTheSteadyState keeps it
+  for (std::size_t g = 0; g < disc.size(); ++g) PhiT[g] = disc[g].Phi.transpose();
   for (int j = last; j >= 0; --j) {
     if (CancelledAt(ctx.settings.cancel, j)) return NumericalError("cancelled");
     const double* u = series.U.data() + static_cast<std::size_t>(j) * m;
