@@ -982,18 +982,21 @@ class EstimateRun {
       return distance(a, delay_best) < distance(b, delay_best);
     });
     // Each fit starts from the nearest fitted delay's estimate and curvature model.
+    // A fitted delay: where a neighbour's fit starts, with its curvature model and the way it
+    // took its gradients (the far delays' covariances settle late: FitResult::linear_gradient).
     struct Fitted {
       std::vector<int> delay;
       std::vector<double> z;
       Eigen::MatrixXd model;
+      filter::LinearGradient gradient;
     };
-    std::vector<Fitted> fitted = {{delay_best, best_.z, best_.model}};
+    std::vector<Fitted> fitted = {{delay_best, best_.z, best_.model, best_.linear_gradient}};
     profile_points_.push_back({delay_best, best_.loglik, best_.converged});
     // The plain start's fit at the runner-up delay is that delay's profile point.
     const bool have_runner_up = std::isfinite(runner_up_.loglik) && second_delay_ != delay_best &&
                                 options_.full_delay_profile;
     if (have_runner_up) {
-      fitted.push_back({second_delay_, runner_up_.z, runner_up_.model});
+      fitted.push_back({second_delay_, runner_up_.z, runner_up_.model, runner_up_.linear_gradient});
       profile_points_.push_back({second_delay_, runner_up_.loglik, runner_up_.converged});
     }
     auto model_of = [](const Fitted* f) { return f->model.size() > 0 ? &f->model : nullptr; };
@@ -1013,7 +1016,7 @@ class EstimateRun {
         best_.message = "cancelled";
         return;
       }
-      if (std::isfinite(r.loglik)) fitted.push_back({candidate, r.z, r.model});
+      if (std::isfinite(r.loglik)) fitted.push_back({candidate, r.z, r.model, r.linear_gradient});
       profile_points_.push_back({candidate, r.loglik, r.converged});
       if (r.loglik > best_.loglik) {
         best_ = r;
@@ -1040,10 +1043,10 @@ class EstimateRun {
         for (const auto& candidate : sides[side]) {
           if (fitter_->Cancelled()) break;
           const Fitted* start = nearest_of(candidate, fitted, own);
-          FitResult r =
-              fitter_->FitAlongside(start->z, candidate, "delay profile",
-                                    std::max(1, threads_ / lanes), 0, model_of(start), share);
-          if (std::isfinite(r.loglik)) own.push_back({candidate, r.z, r.model});
+          FitResult r = fitter_->FitAlongside(start->z, candidate, "delay profile",
+                                              std::max(1, threads_ / lanes), 0, model_of(start),
+                                              share, start->gradient);
+          if (std::isfinite(r.loglik)) own.push_back({candidate, r.z, r.model, r.linear_gradient});
           results[side].push_back(std::move(r));
         }
       });
@@ -1080,7 +1083,7 @@ class EstimateRun {
       SideBySide(n, [&](int w, const ThreadShare* share) {
         results[w] =
             fitter_->FitAlongside(starts[w]->z, wave[w], "delay profile", std::max(1, threads_ / n),
-                                  0, model_of(starts[w]), share);
+                                  0, model_of(starts[w]), share, starts[w]->gradient);
       });
       for (int w = 0; w < n && !best_.cancelled; ++w) record(wave[w], results[w]);
     }

@@ -181,11 +181,12 @@ Fitter::Fitter(const filter::Likelihood& lik, const EstimateOptions& options,
 
 FitResult Fitter::FitAlongside(std::vector<double> z, const std::vector<int>& delay,
                                const std::string& stage, int threads, int max_evaluations,
-                               const Eigen::MatrixXd* first_model, const ThreadShare* share) {
+                               const Eigen::MatrixXd* first_model, const ThreadShare* share,
+                               filter::LinearGradient gradient) {
   return Alongside(
       threads, max_evaluations, /*report=*/true,
       [&](Fitter& f) { return f.Fit(std::move(z), delay, stage, kMaxBhhhIterations, first_model); },
-      share);
+      share, gradient);
 }
 
 FitResult Fitter::ExploreAlongside(std::vector<double> z, const std::vector<int>& delay,
@@ -1050,13 +1051,15 @@ EstimateOptions Fitter::SubOptions(int threads, int max_evaluations) {
 }
 
 FitResult Fitter::Alongside(int threads, int max_evaluations, bool report,
-                            const std::function<FitResult(Fitter&)>& fit,
-                            const ThreadShare* share) {
+                            const std::function<FitResult(Fitter&)>& fit, const ThreadShare* share,
+                            filter::LinearGradient gradient) {
   EstimateOptions sub = SubOptions(threads, max_evaluations);
   if (!report) sub.progress = nullptr;
   Fitter f(*this, sub);
   if (share) f.share_ = share;
+  f.linear_gradient_ = gradient;
   FitResult r = fit(f);
+  r.linear_gradient = f.linear_gradient_;
   AddWork(f);
   return r;
 }
@@ -1071,24 +1074,28 @@ FitResult Fitter::FitOnLogScale(const std::vector<double>& z, const std::vector<
                                 const std::string& stage, int max_evaluations,
                                 const std::vector<int>* which) {
   const std::vector<double> theta = Theta(z);
-  FitResult r = Alongside(Threads(), max_evaluations, true, [&](Fitter& f) {
-    for (int i = 0; i < k(); ++i) {
-      if (!OnLogScaleThere(i) ||
-          (which && std::find(which->begin(), which->end(), i) == which->end()))
-        continue;
-      f.log_[i] = 1;
-      f.lower_[i] = std::log(lower_[i] * scale_[i]);
-      f.upper_[i] = std::isfinite(upper_[i]) ? std::log(upper_[i] * scale_[i]) : HUGE_VAL;
-    }
-    std::vector<double> zl(k());
-    for (int i = 0; i < k(); ++i) zl[i] = f.ZOf(i, theta[free_[i]]);
-    FitResult fl = f.Fit(zl, delay, stage);
-    const std::vector<double> theta_end = f.Theta(fl.z);
-    for (int i = 0; i < k(); ++i)
-      fl.z[i] = std::clamp(ZOf(i, theta_end[free_[i]]), lower_[i], upper_[i]);
-    fl.model.resize(0, 0);
-    return fl;
-  });
+  // (Its gradients are taken as this fitter's were.)
+  FitResult r = Alongside(
+      Threads(), max_evaluations, true,
+      [&](Fitter& f) {
+        for (int i = 0; i < k(); ++i) {
+          if (!OnLogScaleThere(i) ||
+              (which && std::find(which->begin(), which->end(), i) == which->end()))
+            continue;
+          f.log_[i] = 1;
+          f.lower_[i] = std::log(lower_[i] * scale_[i]);
+          f.upper_[i] = std::isfinite(upper_[i]) ? std::log(upper_[i] * scale_[i]) : HUGE_VAL;
+        }
+        std::vector<double> zl(k());
+        for (int i = 0; i < k(); ++i) zl[i] = f.ZOf(i, theta[free_[i]]);
+        FitResult fl = f.Fit(zl, delay, stage);
+        const std::vector<double> theta_end = f.Theta(fl.z);
+        for (int i = 0; i < k(); ++i)
+          fl.z[i] = std::clamp(ZOf(i, theta_end[free_[i]]), lower_[i], upper_[i]);
+        fl.model.resize(0, 0);
+        return fl;
+      },
+      /*share=*/nullptr, linear_gradient_);
   return r;
 }
 

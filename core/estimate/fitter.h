@@ -124,6 +124,9 @@ struct FitResult {
   // which log L rose at every step, the others following it: it did not run off.
   std::vector<int> crept;
   std::string message;
+  // How a fit alongside (Fitter::Alongside) ended up taking a linear model's gradients
+  // (Fitter::Scores): a fit that starts from this one begins where it ended.
+  filter::LinearGradient linear_gradient = filter::LinearGradient::kSteadyState;
 };
 
 // Adds `more` to r's crept parameters (FitResult::crept), keeping them sorted, each once.
@@ -159,10 +162,12 @@ class Fitter {
   // them (and, if > 0, its own evaluation limit), safe to call from several threads at once: its
   // progress reports are passed on one at a time, and its iterations and evaluations are added to
   // this fitter's when it returns.
+  // `gradient`: how the fitter takes its first gradients (a neighbour's FitResult's).
   FitResult FitAlongside(std::vector<double> z, const std::vector<int>& delay,
                          const std::string& stage, int threads, int max_evaluations = 0,
                          const Eigen::MatrixXd* first_model = nullptr,
-                         const ThreadShare* share = nullptr);
+                         const ThreadShare* share = nullptr,
+                         filter::LinearGradient gradient = filter::LinearGradient::kSteadyState);
 
   // `iterations` iterations of auto's BHHH with BFGS corrections from z (`first_model`: as Fit's),
   // where it stalls before they are up L-BFGS, within kExploreEvaluations x `iterations`
@@ -368,7 +373,8 @@ class Fitter {
   // adds its counts to this one's.
   FitResult Alongside(int threads, int max_evaluations, bool report,
                       const std::function<FitResult(Fitter&)>& fit,
-                      const ThreadShare* share = nullptr);
+                      const ThreadShare* share = nullptr,
+                      filter::LinearGradient gradient = filter::LinearGradient::kSteadyState);
   // The threads an evaluation may use now: the share's, or threads_.
   int Threads() const { return share_ ? share_->Threads() : threads_; }
 

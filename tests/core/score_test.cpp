@@ -305,6 +305,18 @@ TEST(Score, CovariancesWhoseSensitivitiesCycleEachOnItsOwnAreReplayedBitForBit) 
   EXPECT_NEAR(l->loglik, 5930.09335342, 1e-6 * 5930.09335342);  // CTSM-R's
 }
 
+// The two-output model with parameters in A, B, the drift's constant, σ, C, d, D, R and x̂0, and
+// the given input hold.
+Json WithParametersInEveryMatrix(const char* hold) {
+  Json j = Json::parse(fixtures::kTwoOutputModel);
+  j["observation"] = {{"y1", "c1*x1 + 0.5*x2 + e*u2 + f"}, {"y2", "2*x2 - c1*x1"}};
+  j["parameters"]["c1"] = 0.8;
+  j["parameters"]["e"] = 0.3;
+  j["parameters"]["f"] = 1.0;
+  j["input_hold"] = hold;
+  return j;
+}
+
 TEST(Score, TheWholeRecursionsAdjointIsTheForwardGradientOnIrregularTimesWithMissingValues) {
   // Irregular intervals (each its own discretisation), a fifth of the outputs missing (a
   // varying set of updates per index), parameters in every matrix and in x̂0, and the initial
@@ -313,12 +325,7 @@ TEST(Score, TheWholeRecursionsAdjointIsTheForwardGradientOnIrregularTimesWithMis
   for (const char* p0 : {"ctsm", "stationary"}) {
     for (const char* hold : {"zoh", "foh"}) {
       SCOPED_TRACE(std::string(p0) + ", " + hold);
-      Json j = Json::parse(fixtures::kTwoOutputModel);
-      j["observation"] = {{"y1", "c1*x1 + 0.5*x2 + e*u2 + f"}, {"y2", "2*x2 - c1*x1"}};
-      j["parameters"]["c1"] = 0.8;
-      j["parameters"]["e"] = 0.3;
-      j["parameters"]["f"] = 1.0;
-      j["input_hold"] = hold;
+      Json j = WithParametersInEveryMatrix(hold);
       j["initial_covariance"] = p0;
       const auto m = JsonModel(j);
       const data::Series s = fixtures::RandomSeries(300, 2, 0.2, 29);
@@ -347,12 +354,7 @@ TEST(Score, TheSteadyStatesAdjointGradientIsTheForwardOneToRoundingAndMatchesDif
   for (const char* hold : {"zoh", "foh"}) {
     for (const bool huber : {false, true}) {
       SCOPED_TRACE(std::string(hold) + (huber ? ", Huber" : ", Gaussian"));
-      Json j = Json::parse(fixtures::kTwoOutputModel);
-      j["observation"] = {{"y1", "c1*x1 + 0.5*x2 + e*u2 + f"}, {"y2", "2*x2 - c1*x1"}};
-      j["parameters"]["c1"] = 0.8;
-      j["parameters"]["e"] = 0.3;
-      j["parameters"]["f"] = 1.0;
-      j["input_hold"] = hold;
+      Json j = WithParametersInEveryMatrix(hold);
       if (huber) j["robust_huber"] = 1.5;
       const auto m = JsonModel(j);
       data::Series s = fixtures::RandomSeries(600, 2, 0.0, 23);
