@@ -50,6 +50,21 @@ struct ScoreContext {
   const Eigen::MatrixXd& P0;
   const std::vector<Eigen::MatrixXd>& dP0;  // [i]
   const ObservationWindow& window;
+
+  // What the loops read off it: the states, outputs, inputs, parameters and rows, and whether
+  // the inputs are held first-order.
+  struct Sizes {
+    int n, p, m, k, N;
+    bool foh;
+  };
+  Sizes sizes() const {
+    return {ss.n_states(),
+            ss.n_outputs(),
+            ss.n_inputs(),
+            static_cast<int>(dss.size()),
+            static_cast<int>(series.size()),
+            settings.hold == model::InputHold::kFoh};
+  }
 };
 
 // The measurement updates of state index j: the outputs observed there, one scalar at a time
@@ -416,13 +431,8 @@ template <int NX>
   using Inputs = Eigen::Matrix<double, NX, Eigen::Dynamic>;  // n x m, as Γ0 and Γ1
   const model::StateSpace& ss = ctx.ss;
   const data::Series& series = ctx.series;
-  const int n = ss.n_states();
-  const int p = ss.n_outputs();
-  const int m = ss.n_inputs();
-  const int k = static_cast<int>(ctx.dss.size());
-  const int N = static_cast<int>(series.size());
+  const auto [n, p, m, k, N, foh] = ctx.sizes();
   const int last = ctx.window.last_j;
-  const bool foh = ctx.settings.hold == model::InputHold::kFoh;
   const int groups = static_cast<int>(ctx.disc.size());
   std::vector<FixedDiscrete<NX>> disc(ctx.disc.begin(), ctx.disc.end());
 
@@ -564,12 +574,7 @@ template <int NX>
                                           Eigen::MatrixXd* J) {
   const model::StateSpace& ss = ctx.ss;
   const data::Series& series = ctx.series;
-  const int n = ss.n_states();
-  const int p = ss.n_outputs();
-  const int m = ss.n_inputs();
-  const int k = static_cast<int>(ctx.dss.size());
-  const int N = static_cast<int>(series.size());
-  const bool foh = ctx.settings.hold == model::InputHold::kFoh;
+  const auto [n, p, m, k, N, foh] = ctx.sizes();
 
   if constexpr (NX != Eigen::Dynamic)
     if (!J && ctx.settings.linear_gradient == LinearGradient::kAdjoint && p <= 64)
