@@ -278,9 +278,9 @@ bool Fitter::Scores(const std::vector<double>& z, const std::vector<int>& delay,
   // bits would turn on them): the steady state's (forward sensitivities up to it), until a
   // gradient where it covered fewer than nine rows in ten; from then on (a fit whose
   // covariances settle late: the fuel film's profile at delays far from the estimate) the
-  // whole recursion's, which costs about what the steady state's does with a tenth of the rows
-  // forward (docs/benchmarks.md). Which one a gradient is turns on the fit's own evaluations, never
-  // on the threads.
+  // whole recursion's (the threshold measured on the fuel film's job against half and always,
+  // docs/benchmarks.md). Which one a gradient is turns on the fit's own evaluations, never on
+  // the threads.
   const bool one_piece = !info && split && lik_.GradientInOnePiece();
   const int threads = Threads();
   const int chunks = split && !adjoint && k() > 1 && !one_piece

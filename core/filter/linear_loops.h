@@ -485,7 +485,7 @@ template <int NX>
   std::vector<Vec> x_q(p + 1, Vec::Zero(n)), PCt(p, Vec::Zero(n));
   std::vector<Mat> P_q(p + 1, Mat::Zero(n, n));
   std::vector<int> o_q(p);
-  std::vector<double> R_q(p), e_q(p);
+  std::vector<double> R_q(p), inv_R_q(p), e_q(p);
   std::vector<Mat> PhiT(disc.size());  // Φ' per interval, as AdjointOfTheSteadyState keeps it
   for (std::size_t g = 0; g < disc.size(); ++g) PhiT[g] = disc[g].Phi.transpose();
   for (int j = last; j >= 0; --j) {
@@ -501,11 +501,12 @@ template <int NX>
       o_q[q] = o;
       PCt[q].noalias() = P_q[q] * c.transpose();
       R_q[q] = c.dot(PCt[q]) + step.S(o);
+      inv_R_q[q] = 1.0 / R_q[q];  // (for the update of P and the adjoint's, once)
       e_q[q] = step.Innovation(o, rule.Y(rule.Row(j, o), o), u, x_q[q]);
       x_q[q + 1] = x_q[q];
       x_q[q + 1].noalias() += PCt[q] * (e_q[q] / R_q[q]);
       P_q[q + 1] = P_q[q];
-      P_q[q + 1].noalias() -= (1.0 / R_q[q]) * PCt[q] * PCt[q].transpose();
+      P_q[q + 1].noalias() -= inv_R_q[q] * PCt[q] * PCt[q].transpose();
     }
     if (j < last && j < N - 1) {  // the time update to j + 1
       const int g = series.intervals.group[j];
@@ -525,10 +526,10 @@ template <int NX>
       const int o = o_q[q];
       const Row& c = step.c(o);
       const Vec& gain = PCt[q];
-      const double R = R_q[q], e = e_q[q], rho = d_rho[j];
+      const double e = e_q[q], rho = d_rho[j];
       const Vec Lk = Lambda * gain;
       const double lk = lambda.dot(gain);
-      const double inv_R = 1.0 / R;  // (off the chain of λ and Λ)
+      const double inv_R = inv_R_q[q];
       const double w = (lk - 2.0 * rho * e) * inv_R;
       const double R_bar = ((rho * e * e - lk * e + gain.dot(Lk)) * inv_R - 0.5) * inv_R;
       Vec k_bar = lambda * (e * inv_R) - Lk * (2.0 * inv_R);
