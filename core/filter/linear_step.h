@@ -362,7 +362,7 @@ class SteadyReplay {
       r.dPCt = dPCt_store_.data() + t * pk;
       r.dR = dR_store_.data() + t * pk;
     }
-    keys_.assign(steps * (k + 1), 0.0);
+    keys_.assign(steps * (k + 1), 0);
     period_.assign(k + 1, 0);
     phase_.assign(k + 1, 0);
     source_.assign(k + 1, nullptr);
@@ -421,9 +421,8 @@ class SteadyReplay {
     Record& r = ring_[Slot(recorded_)];
     r.P_start = *P;
     for (int i = 0; i < k_; ++i) r.dP_start[i] = (*dP)[i];
-    double* key = Keys(recorded_);
-    key[0] = (*P)(0, 0);
-    for (int i = 0; i < k_; ++i) key[i + 1] = (*dP)[i](0, 0);
+    Key(0, recorded_) = Fingerprint(*P);
+    for (int i = 0; i < k_; ++i) Key(i + 1, recorded_) = Fingerprint((*dP)[i]);
     current_ = &r;
   }
   // After the index's time update: each part without a period yet is compared with its values
@@ -434,9 +433,13 @@ class SteadyReplay {
     const long s = recorded_++;
     run_ = std::min<long>(run_ + 1, static_cast<long>(ring_.size()));
     if (period_[0] == 0) {
+      // Until P settles, its fingerprint matches none kept: one pass without an early exit (vector
+      // compares) says so, where the ordered search stopped at every step of the ring. (P's
+      // first entry, the key before, settles long before the others on a slow filter.)
+      const std::uint32_t key = Fingerprint(P);
+      if (!AnyKeyEquals(0, key)) return;
       for (long L = 1; L <= run_; ++L) {
-        // Mostly decided by the first entry, kept beside the others' (Keys).
-        if (P(0, 0) != Keys(s - L + 1)[0] || P != ring_[Slot(s - L + 1)].P_start) continue;
+        if (key != Key(0, s - L + 1) || P != ring_[Slot(s - L + 1)].P_start) continue;
         period_[0] = static_cast<int>(L);
         ++found_;
         break;
@@ -445,8 +448,10 @@ class SteadyReplay {
     }
     for (int i = 0; i < k_; ++i) {
       if (period_[i + 1] != 0) continue;
+      const std::uint32_t key = Fingerprint(dP[i]);
+      if (!AnyKeyEquals(i + 1, key)) continue;
       for (long L = period_[0]; L <= run_; L += period_[0]) {
-        if (dP[i](0, 0) != Keys(s - L + 1)[i + 1]) continue;
+        if (key != Key(i + 1, s - L + 1)) continue;
         const Record& r = ring_[Slot(s - L + 1)];
         if (dP[i] == r.dP_start[i] && P == r.P_start) {
           period_[i + 1] = static_cast<int>(L);
@@ -483,8 +488,26 @@ class SteadyReplay {
   std::size_t Slot(long step) const {
     return static_cast<std::size_t>(step) & (ring_.size() - 1);  // the size is a power of two
   }
-  // The first entries of P and of every dP_i at the start of a recorded step, side by side.
-  double* Keys(long step) { return keys_.data() + Slot(step) * (k_ + 1); }
+  // Part c's (0: P, 1 + i: dP_i) Fingerprint at the start of a recorded step; each part's in a
+  // ring of its own.
+  std::uint32_t& Key(int c, long step) { return keys_[c * ring_.size() + Slot(step)]; }
+  // 32 bits that equal matrices share (the same entries give the same bits; -0 is taken as 0,
+  // which == compares equal to it).
+  static std::uint32_t Fingerprint(const Mat& A) {
+    std::uint64_t h = 0;
+    for (Eigen::Index i = 0; i < A.size(); ++i)
+      h += std::bit_cast<std::uint64_t>(A.data()[i] + 0.0) *
+           (0x9E3779B97F4A7C15ull + 2 * static_cast<std::uint64_t>(i));
+    return static_cast<std::uint32_t>(h ^ (h >> 32));
+  }
+  // Whether `key` is part c's at the start of any step in the ring (also of steps before the
+  // run: a superset of the candidates, which the ordered search then checks).
+  bool AnyKeyEquals(int c, std::uint32_t key) const {
+    const std::uint32_t* kept = keys_.data() + c * ring_.size();
+    unsigned matches = 0;  // (a sum, which GCC vectorises; a bool's |= it does not)
+    for (std::size_t t = 0; t < ring_.size(); ++t) matches += kept[t] == key;
+    return matches != 0;
+  }
   // The recorded step that part c (0: P, 1 + i: dP_i) repeats next: the step `period` before the
   // first replayed one, on by its phase.
   long SourceStep(int c) const { return base_ - period_[c] + phase_[c]; }
@@ -509,9 +532,9 @@ class SteadyReplay {
 
   bool enabled_;
   int k_;
-  std::vector<Record> ring_;   // the last ring_.size() steps recorded, step s at s % size
-  std::vector<double> keys_;   // (Keys)
-  std::vector<Mat> dP_store_;  // the records' arrays (Record)
+  std::vector<Record> ring_;         // the last ring_.size() steps recorded, step s at s % size
+  std::vector<std::uint32_t> keys_;  // (Key)
+  std::vector<Mat> dP_store_;        // the records' arrays (Record)
   std::vector<Vec> PCt_store_, dPCt_store_;
   std::vector<double> R_store_, dR_store_;
   long recorded_ = 0;  // steps recorded

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "core/filter/likelihood.h"
+#include "core/filter/linear_step.h"
 #include "core/util/json.h"
 #include "filter_fixtures.h"
 
@@ -303,6 +304,31 @@ TEST(Score, CovariancesWhoseSensitivitiesCycleEachOnItsOwnAreReplayedBitForBit) 
   const auto l = LogLikelihoodScore(ss, dss, **series, settings, &gradient);
   ASSERT_TRUE(l.ok());
   EXPECT_NEAR(l->loglik, 5930.09335342, 1e-6 * 5930.09335342);  // CTSM-R's
+}
+
+TEST(Score, ACovarianceBackWithItsZerosSignFlippedRepeats) {
+  // SteadyReplay looks for a repeat of P (and of each dP_i) by a fingerprint of its bits first;
+  // == takes -0 for 0, and so must the fingerprint, or a period the comparison finds is missed.
+  using Replay = internal::SteadyReplay<2>;
+  using Mat = Replay::Mat;
+  for (const int k : {0, 1}) {
+    Replay replay(/*enabled=*/true, 2, 1, k);
+    Mat P{{2.0, 0.0}, {0.0, 3.0}};
+    std::vector<Mat> dP(k, Mat{{0.0, 1.0}, {1.0, 0.0}});
+    replay.Begin(1, 0, &P, &dP);
+    Mat P_end = P;
+    P_end(0, 1) = -0.0;  // (one: the sign bits of two would cancel in the fingerprint's sum)
+    std::vector<Mat> dP_end = dP;
+    for (Mat& d : dP_end) d(0, 0) = -0.0;
+    replay.End(P_end, dP_end);
+    EXPECT_TRUE(replay.replaying()) << "k = " << k;
+    // P one ulp off: no repeat.
+    Replay other(/*enabled=*/true, 2, 1, k);
+    other.Begin(1, 0, &P, &dP);
+    P_end(1, 1) = std::nextafter(3.0, 4.0);
+    other.End(P_end, dP_end);
+    EXPECT_FALSE(other.replaying()) << "k = " << k;
+  }
 }
 
 // The two-output model with parameters in A, B, the drift's constant, σ, C, d, D, R and x̂0, and
