@@ -469,6 +469,29 @@ template <int NX>
                                     static_cast<const FixedDiscrete<NX>*>(nullptr), u, u + m, foh,
                                     replay.replaying(), &state);
     replay.End(state.P, state.dP);
+    // The steady state as FilterLoop steps it (only x̂ moves, with the recorded gains); the index
+    // that breaks it, the last one and one where the cancel flag is set go back to the loop.
+    while (replay.replaying() && j < last && !CancelledAt(ctx.settings.cancel, j + 1)) {
+      const int group = j + 1 == N - 1 ? -1 : series.intervals.group[j + 1];
+      std::uint64_t bits = rule.Mask(j + 1);
+      if (!replay.Holds(bits, group)) break;
+      ++j;
+      ++replayed;
+      x_start[j] = state.x;
+      P_start[j] = replay.PStart();
+      const double* u_j = series.U.data() + static_cast<std::size_t>(j) * m;
+      sums.Begin();
+      for (int q = 0; bits != 0; ++q, bits &= bits - 1) {
+        const int o = std::countr_zero(bits);
+        const double eps = step.Innovation(o, rule.Y(rule.Row(j, o), o), u_j, state.x);
+        step.Correct(eps, replay.Gain(q), replay.R(q), &state.x, &sums);
+      }
+      if (sums.p_j > 0) {
+        loglik += LoglikTerm(sums.logdet, sums.p_j, sums.r2, ctx.settings.huber, &d_rho[j]);
+        n_obs += sums.p_j;
+      }
+      step.AdvanceMean(disc[group], u_j, u_j + m, foh, &state.x);
+    }
   }
 
   // Backward.
