@@ -115,6 +115,38 @@ template <int NX, bool kScores>
   return true;
 }
 
+// Whether index j + 1 (at most `last`; the series has N) replays the steady state's next step:
+// its outputs (*bits) and interval (*group) those the replay recorded, and no cancel found set
+// there. It is then the replay's current step (SteadyReplay::Holds).
+template <int NX>
+[[gnu::always_inline]] inline bool NextReplays(int j, int last, int N, const data::Series& series,
+                                               const ObservationRule& rule,
+                                               const std::atomic<bool>* cancel,
+                                               SteadyReplay<NX>* replay, std::uint64_t* bits,
+                                               int* group) {
+  if (!replay->replaying() || j >= last || CancelledAt(cancel, j + 1)) return false;
+  *group = j + 1 == N - 1 ? -1 : series.intervals.group[j + 1];
+  *bits = rule.Mask(j + 1);
+  return replay->Holds(*bits, *group);
+}
+
+// A replayed index j's scalar updates (outputs `bits`, inputs u): x̂ corrected with the recorded
+// gains, its term's sums in *sums.
+template <int NX>
+[[gnu::always_inline]] inline void ReplayedUpdates(int j, std::uint64_t bits,
+                                                   const ObservationRule& rule, const double* u,
+                                                   const LinearStep<NX>& step,
+                                                   const SteadyReplay<NX>& replay,
+                                                   typename LinearState<NX>::Vec* x,
+                                                   TermSums* sums) {
+  sums->Begin();
+  for (int q = 0; bits != 0; ++q, bits &= bits - 1) {
+    const int o = std::countr_zero(bits);
+    const double eps = step.Innovation(o, rule.Y(rule.Row(j, o), o), u, *x);
+    LinearStep<NX>::Correct(eps, replay.Gain(q), replay.R(q), x, sums);
+  }
+}
+
 // State index j's term from its sums, added to *loglik and *n_obs (and stored in (*terms)[j]).
 [[gnu::always_inline]] inline void AddTerm(int j, const TermSums& sums, bool robust, double huber,
                                            double* loglik, long* n_obs,
@@ -198,19 +230,13 @@ template <int NX, bool kTrace>
     // (the same updates as the general step's replay). The index that breaks it, the last one,
     // and one where the cancel flag is found set go back to the general loop.
     if constexpr (!kTrace) {
-      while (replay.replaying() && j < j_end && !CancelledAt(ctx.settings.cancel, j + 1)) {
-        const int group = j + 1 == N - 1 ? -1 : series.intervals.group[j + 1];
-        std::uint64_t bits = rule.Mask(j + 1);
-        if (!replay.Holds(bits, group)) break;
+      std::uint64_t bits = 0;
+      int group = -1;
+      while (NextReplays(j, j_end, N, series, rule, ctx.settings.cancel, &replay, &bits, &group)) {
         ++j;
         ++replayed;
         const double* u_j = series.U.data() + static_cast<std::size_t>(j) * m;
-        sums.Begin();
-        for (int q = 0; bits != 0; ++q, bits &= bits - 1) {
-          const int o = std::countr_zero(bits);
-          const double eps = step.Innovation(o, rule.Y(rule.Row(j, o), o), u_j, state.x);
-          step.Correct(eps, replay.Gain(q), replay.R(q), &state.x, &sums);
-        }
+        ReplayedUpdates(j, bits, rule, u_j, step, replay, &state.x, &sums);
         AddTerm(j, sums, robust, huber, &loglik, &n_obs, ctx.terms);
         step.AdvanceMean(disc[group], u_j, u_j + m, foh, &state.x);
       }
@@ -471,21 +497,15 @@ template <int NX>
     replay.End(state.P, state.dP);
     // The steady state as FilterLoop steps it (only x̂ moves, with the recorded gains); the index
     // that breaks it, the last one and one where the cancel flag is set go back to the loop.
-    while (replay.replaying() && j < last && !CancelledAt(ctx.settings.cancel, j + 1)) {
-      const int group = j + 1 == N - 1 ? -1 : series.intervals.group[j + 1];
-      std::uint64_t bits = rule.Mask(j + 1);
-      if (!replay.Holds(bits, group)) break;
+    std::uint64_t bits = 0;
+    int group = -1;
+    while (NextReplays(j, last, N, series, rule, ctx.settings.cancel, &replay, &bits, &group)) {
       ++j;
       ++replayed;
       x_start[j] = state.x;
       P_start[j] = replay.PStart();
       const double* u_j = series.U.data() + static_cast<std::size_t>(j) * m;
-      sums.Begin();
-      for (int q = 0; bits != 0; ++q, bits &= bits - 1) {
-        const int o = std::countr_zero(bits);
-        const double eps = step.Innovation(o, rule.Y(rule.Row(j, o), o), u_j, state.x);
-        step.Correct(eps, replay.Gain(q), replay.R(q), &state.x, &sums);
-      }
+      ReplayedUpdates(j, bits, rule, u_j, step, replay, &state.x, &sums);
       if (sums.p_j > 0) {
         loglik += LoglikTerm(sums.logdet, sums.p_j, sums.r2, ctx.settings.huber, &d_rho[j]);
         n_obs += sums.p_j;
