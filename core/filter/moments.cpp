@@ -119,9 +119,11 @@ void MultiplyByJt(const double* P, const double* J, const int* columns, const in
 
 // M = A J for J's structural nonzeros: A column-major n x n, J row-major, column c's nonzero rows
 // rows[begin[c]] .. rows[begin[c + 1] - 1] in increasing order; each entry summed over those k in
-// order.
+// order. N as MultiplyFixed's, 0: n at run time.
+template <std::ptrdiff_t N>
 void MultiplyByJ(const double* A, const double* J, const int* rows, const int* begin, double* M,
                  std::ptrdiff_t n) {
+  if constexpr (N > 0) n = N;
   for (std::ptrdiff_t c = 0; c < n; ++c) {
     double* column = M + c * n;
     for (std::ptrdiff_t i = 0; i < n; ++i) column[i] = 0.0;
@@ -130,6 +132,31 @@ void MultiplyByJ(const double* A, const double* J, const int* rows, const int* b
       const double J_kc = J[static_cast<std::ptrdiff_t>(rows[r]) * n + c];
       for (std::ptrdiff_t i = 0; i < n; ++i) column[i] += A_k[i] * J_kc;
     }
+  }
+}
+
+// MultiplyByJ at a size fixed at compile time where n is 1 to 8 (the columns' loops unrolled).
+void MultiplyByJSized(const double* A, const double* J, const int* rows, const int* begin,
+                      double* M, std::ptrdiff_t n) {
+  switch (n) {
+    case 1:
+      return MultiplyByJ<1>(A, J, rows, begin, M, n);
+    case 2:
+      return MultiplyByJ<2>(A, J, rows, begin, M, n);
+    case 3:
+      return MultiplyByJ<3>(A, J, rows, begin, M, n);
+    case 4:
+      return MultiplyByJ<4>(A, J, rows, begin, M, n);
+    case 5:
+      return MultiplyByJ<5>(A, J, rows, begin, M, n);
+    case 6:
+      return MultiplyByJ<6>(A, J, rows, begin, M, n);
+    case 7:
+      return MultiplyByJ<7>(A, J, rows, begin, M, n);
+    case 8:
+      return MultiplyByJ<8>(A, J, rows, begin, M, n);
+    default:
+      return MultiplyByJ<0>(A, J, rows, begin, M, n);
   }
 }
 
@@ -495,8 +522,8 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
     if (static_cast<int>(z_bar.size()) >= moments_size()) {
       // Λ J by J's nonzeros: (Λ J)_ba = (J' Λ)_ab term by term (Λ is symmetric), so the packed
       // ∂/∂P, (J' Λ + Λ J)_ab, is the same sum either way.
-      MultiplyByJ(Lambda.data(), JRowMajor(), j_rows_.data(), j_column_begin_.data(), M_.data(),
-                  n_);
+      MultiplyByJSized(Lambda.data(), JRowMajor(), j_rows_.data(), j_column_begin_.data(),
+                       M_.data(), n_);
       for (int b = 0; b < n_; ++b)
         for (int a = b; a < n_; ++a)
           z_bar[packed_(a, b)] += a == b ? 2.0 * M_(a, a) : 2.0 * (M_(b, a) + M_(a, b));
@@ -504,11 +531,20 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
     // The terms of the derivative program's nonzero entries (ClassifyNonzeros): each adds its
     // value times a coefficient, [λx | 2 W (column-major) | 2 Λ_aa σ_a], to its target,
     // [∂/∂x̂ | ∂/∂θ].
-    Multiply(Lambda, P_, &M_);  // W
     const double* s = sigma();
     const std::size_t nn = Z(n_) * Z(n_);
     for (int i = 0; i < n_; ++i) coefficients_[Z(i)] = lambda_x[Z(i)];
-    for (std::size_t r = 0; r < nn; ++r) coefficients_[Z(n_) + r] = 2.0 * M_.data()[r];
+    // W = Λ P at the entries a term reads (within J's pattern: a derivative of J is zero where J
+    // is), each summed over k in order as the whole product (MultiplySquare) sums it.
+    const double* L = Lambda.data();
+    const std::ptrdiff_t n = n_;
+    for (const std::size_t r : w_entries_) {
+      const auto a = static_cast<std::ptrdiff_t>(r) % n, b = static_cast<std::ptrdiff_t>(r) / n;
+      const double* P_b = P_.data() + b * n;
+      double w = L[a] * P_b[0];
+      for (std::ptrdiff_t k = 1; k < n; ++k) w += L[k * n + a] * P_b[k];
+      coefficients_[Z(n_) + r] = 2.0 * w;
+    }
     for (int a = 0; a < n_; ++a) coefficients_[Z(n_) + nn + Z(a)] = 2.0 * Lambda(a, a) * s[a];
     // Target by target, each summed in the positions' order (as a loop over the positions adding
     // into the targets would sum it, to the bit), in a register rather than through memory.
@@ -569,6 +605,12 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
       term_coefficient_[r] = coefficient_of[k];
     }
     coefficients_.resize(n + nn + n);
+    // The entries of W the terms read.
+    w_entries_.clear();
+    for (const std::size_t c : term_coefficient_)
+      if (c >= n && c < n + nn) w_entries_.push_back(c - n);
+    std::sort(w_entries_.begin(), w_entries_.end());
+    w_entries_.erase(std::unique(w_entries_.begin(), w_entries_.end()), w_entries_.end());
     targets_.resize(n + np);
   }
   static std::size_t Z(int i) { return static_cast<std::size_t>(i); }
@@ -682,6 +724,7 @@ class MomentPropagator::Moments final : public ode::AdjointSystem {
   // times coefficient term_coefficient_[r].
   std::vector<std::size_t> target_begin_, term_position_, term_coefficient_;
   std::vector<double> coefficients_, targets_;  // Vjp's workspace
+  std::vector<std::size_t> w_entries_;          // W's entries (column-major) a term reads
   int retrace_stages_ = 0, retrace_next_ = 0;   // Retrace
   std::vector<double> retrace_out_;             // the dynamics at each retraced stage
   Eigen::MatrixXd dJ_, SP_;
