@@ -58,36 +58,48 @@ bool AllFinite(std::span<const double> values) {
   return finite.Passed();
 }
 
-void MultiplySquare(const double* a, const double* b, double* m, int n) {
+// f.template operator()<N>() with N = n where n is 1 to 8 (the moment equations' sizes fixed at
+// compile time), else with N = 0.
+template <class F>
+void AtFixedSize(std::ptrdiff_t n, F&& f) {
   switch (n) {
     case 1:
-      return MultiplyFixed<1>(a, b, m);
+      return f.template operator()<1>();
     case 2:
-      return MultiplyFixed<2>(a, b, m);
+      return f.template operator()<2>();
     case 3:
-      return MultiplyFixed<3>(a, b, m);
+      return f.template operator()<3>();
     case 4:
-      return MultiplyFixed<4>(a, b, m);
+      return f.template operator()<4>();
     case 5:
-      return MultiplyFixed<5>(a, b, m);
+      return f.template operator()<5>();
     case 6:
-      return MultiplyFixed<6>(a, b, m);
+      return f.template operator()<6>();
     case 7:
-      return MultiplyFixed<7>(a, b, m);
+      return f.template operator()<7>();
     case 8:
-      return MultiplyFixed<8>(a, b, m);
+      return f.template operator()<8>();
     default:
-      break;
+      return f.template operator()<0>();
   }
-  for (int j = 0; j < n; ++j) {
-    double* column = m + static_cast<std::ptrdiff_t>(j) * n;
-    const double* b_j = b + static_cast<std::ptrdiff_t>(j) * n;
-    for (int i = 0; i < n; ++i) column[i] = a[i] * b_j[0];
-    for (int k = 1; k < n; ++k) {
-      const double* a_k = a + static_cast<std::ptrdiff_t>(k) * n;
-      for (int i = 0; i < n; ++i) column[i] += a_k[i] * b_j[k];
+}
+
+void MultiplySquare(const double* a, const double* b, double* m, int n) {
+  AtFixedSize(n, [&]<std::ptrdiff_t N>() {
+    if constexpr (N > 0) {
+      MultiplyFixed<N>(a, b, m);
+    } else {
+      for (int j = 0; j < n; ++j) {
+        double* column = m + static_cast<std::ptrdiff_t>(j) * n;
+        const double* b_j = b + static_cast<std::ptrdiff_t>(j) * n;
+        for (int i = 0; i < n; ++i) column[i] = a[i] * b_j[0];
+        for (int k = 1; k < n; ++k) {
+          const double* a_k = a + static_cast<std::ptrdiff_t>(k) * n;
+          for (int i = 0; i < n; ++i) column[i] += a_k[i] * b_j[k];
+        }
+      }
     }
-  }
+  });
 }
 
 // M = P J' for J's structural nonzeros: J row-major, row j's nonzero columns
@@ -138,26 +150,7 @@ void MultiplyByJ(const double* A, const double* J, const int* rows, const int* b
 // MultiplyByJ at a size fixed at compile time where n is 1 to 8 (the columns' loops unrolled).
 void MultiplyByJSized(const double* A, const double* J, const int* rows, const int* begin,
                       double* M, std::ptrdiff_t n) {
-  switch (n) {
-    case 1:
-      return MultiplyByJ<1>(A, J, rows, begin, M, n);
-    case 2:
-      return MultiplyByJ<2>(A, J, rows, begin, M, n);
-    case 3:
-      return MultiplyByJ<3>(A, J, rows, begin, M, n);
-    case 4:
-      return MultiplyByJ<4>(A, J, rows, begin, M, n);
-    case 5:
-      return MultiplyByJ<5>(A, J, rows, begin, M, n);
-    case 6:
-      return MultiplyByJ<6>(A, J, rows, begin, M, n);
-    case 7:
-      return MultiplyByJ<7>(A, J, rows, begin, M, n);
-    case 8:
-      return MultiplyByJ<8>(A, J, rows, begin, M, n);
-    default:
-      return MultiplyByJ<0>(A, J, rows, begin, M, n);
-  }
+  AtFixedSize(n, [&]<std::ptrdiff_t N>() { MultiplyByJ<N>(A, J, rows, begin, M, n); });
 }
 
 }  // namespace
