@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <type_traits>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
@@ -58,34 +59,36 @@ bool AllFinite(std::span<const double> values) {
   return finite.Passed();
 }
 
-// f.template operator()<N>() with N = n where n is 1 to 8 (the moment equations' sizes fixed at
-// compile time), else with N = 0.
+// f(std::integral_constant<std::ptrdiff_t, N>{}) with N = n where n is 1 to 8 (the moment
+// equations' sizes fixed at compile time), else with N = 0.
 template <class F>
 void AtFixedSize(std::ptrdiff_t n, F&& f) {
+  using std::integral_constant;
   switch (n) {
     case 1:
-      return f.template operator()<1>();
+      return f(integral_constant<std::ptrdiff_t, 1>{});
     case 2:
-      return f.template operator()<2>();
+      return f(integral_constant<std::ptrdiff_t, 2>{});
     case 3:
-      return f.template operator()<3>();
+      return f(integral_constant<std::ptrdiff_t, 3>{});
     case 4:
-      return f.template operator()<4>();
+      return f(integral_constant<std::ptrdiff_t, 4>{});
     case 5:
-      return f.template operator()<5>();
+      return f(integral_constant<std::ptrdiff_t, 5>{});
     case 6:
-      return f.template operator()<6>();
+      return f(integral_constant<std::ptrdiff_t, 6>{});
     case 7:
-      return f.template operator()<7>();
+      return f(integral_constant<std::ptrdiff_t, 7>{});
     case 8:
-      return f.template operator()<8>();
+      return f(integral_constant<std::ptrdiff_t, 8>{});
     default:
-      return f.template operator()<0>();
+      return f(integral_constant<std::ptrdiff_t, 0>{});
   }
 }
 
 void MultiplySquare(const double* a, const double* b, double* m, int n) {
-  AtFixedSize(n, [&]<std::ptrdiff_t N>() {
+  AtFixedSize(n, [&](auto size) {
+    constexpr std::ptrdiff_t N = decltype(size)::value;
     if constexpr (N > 0) {
       MultiplyFixed<N>(a, b, m);
     } else {
@@ -150,7 +153,7 @@ void MultiplyByJ(const double* A, const double* J, const int* rows, const int* b
 // MultiplyByJ at a size fixed at compile time where n is 1 to 8 (the columns' loops unrolled).
 void MultiplyByJSized(const double* A, const double* J, const int* rows, const int* begin,
                       double* M, std::ptrdiff_t n) {
-  AtFixedSize(n, [&]<std::ptrdiff_t N>() { MultiplyByJ<N>(A, J, rows, begin, M, n); });
+  AtFixedSize(n, [&](auto size) { MultiplyByJ<decltype(size)::value>(A, J, rows, begin, M, n); });
 }
 
 }  // namespace
