@@ -981,9 +981,9 @@ class EstimateRun {
     std::stable_sort(grid.begin(), grid.end(), [&](const auto& a, const auto& b) {
       return distance(a, delay_best) < distance(b, delay_best);
     });
-    // Each fit starts from the nearest fitted delay's estimate and curvature model.
-    // A fitted delay: where a neighbour's fit starts, with its curvature model and the way it
-    // took its gradients (the far delays' covariances settle late: FitResult::linear_gradient).
+    // Each fit starts from the nearest fitted delay: its estimate, its curvature model and the
+    // way it took its gradients (the far delays' covariances settle late:
+    // FitResult::linear_gradient).
     struct Fitted {
       std::vector<int> delay;
       std::vector<double> z;
